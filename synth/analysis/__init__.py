@@ -1,0 +1,42 @@
+"""Measurement tools (numpy only): spectra, pitch, modal energies, regimes.
+
+Used by the tests and by the reproduction scripts; never imports numba or
+other ``synth`` layers.
+"""
+
+from synth.analysis.modes import mode_energies, mode_levels_db, string_energy
+from synth.analysis.pitch import cents, estimate_f0, f0_track, fit_inharmonicity
+from synth.analysis.regimes import (
+    aperiodic_end,
+    count_episodes,
+    episode_times,
+    period_deviation,
+)
+from synth.analysis.spectrum import (
+    FLOOR_DB,
+    magnitude_spectrum_db,
+    partial_levels_db,
+    partial_peaks,
+    spectral_centroid_hz,
+    spectrogram,
+)
+
+__all__ = [
+    "FLOOR_DB",
+    "magnitude_spectrum_db",
+    "spectrogram",
+    "spectral_centroid_hz",
+    "partial_peaks",
+    "partial_levels_db",
+    "estimate_f0",
+    "cents",
+    "f0_track",
+    "fit_inharmonicity",
+    "mode_energies",
+    "string_energy",
+    "mode_levels_db",
+    "period_deviation",
+    "aperiodic_end",
+    "count_episodes",
+    "episode_times",
+]

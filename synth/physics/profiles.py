@@ -1,0 +1,121 @@
+"""Termination profiles U(x) (m) of the rigid obstacle near x = 0.
+
+A termination is data: a profile and a ``side``.  ``side = +1``: the
+obstacle is above the string (u <= U); ``side = -1``: below it (u >= U).
+Where the profile is ``+inf`` (side +1) or ``-inf`` (side -1) there is no
+contact.  Cases follow thesis eqs. 1.12, 1.14-1.16 and physics notes
+section 2 (Case 2 continuous: ``+ k x_b`` on the parabola).
+
+Every profile function takes ``x`` in metres (array) and returns U in metres.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+Profile = Callable[[np.ndarray], np.ndarray]
+
+
+def capo(radius_m: float) -> Profile:
+    """Capo d'astro bar: U = x^2 / (2R) (side +1)."""
+    R = float(radius_m)
+    return lambda x: np.asarray(x, float) ** 2 / (2.0 * R)
+
+
+def sawari(radius_m: float, extent_m: float) -> Profile:
+    """Biwa sawari, eq. 1.12: U = -x^2/(2R) for x <= s, else -inf (side -1)."""
+    R, s = float(radius_m), float(extent_m)
+
+    def U(x):
+        x = np.asarray(x, float)
+        return np.where(x <= s, -x * x / (2.0 * R), -np.inf)
+
+    return U
+
+
+def jawari_case1(slope: float, x_c_m: float) -> Profile:
+    """Jawari Case 1, eq. 1.14: U = k x for x <= x_c, else +inf (side +1)."""
+    k, xc = float(slope), float(x_c_m)
+
+    def U(x):
+        x = np.asarray(x, float)
+        return np.where(x <= xc, k * x, np.inf)
+
+    return U
+
+
+def jawari_case2(slope: float, x_b_m: float, radius_m: float) -> Profile:
+    """Jawari Case 2, eq. 1.15 made continuous (notes section 2):
+    U = k x (x <= x_b), else (x - x_b)^2/(2R) + k x_b (side +1)."""
+    k, xb, R = float(slope), float(x_b_m), float(radius_m)
+
+    def U(x):
+        x = np.asarray(x, float)
+        return np.where(x <= xb, k * x, (x - xb) ** 2 / (2.0 * R) + k * xb)
+
+    return U
+
+
+def jawari_case3(slope: float, x_a_m: float, x_b_m: float, radius_m: float,
+                 step_m: float) -> Profile:
+    """Jawari Case 3, eq. 1.16: k x (x <= x_a); k x + y (x_a < x <= x_b);
+    (x - x_b)^2/(2R) + K with K = k x_b + y (side +1)."""
+    k, xa, xb, R, y = map(float, (slope, x_a_m, x_b_m, radius_m, step_m))
+    K = k * xb + y
+
+    def U(x):
+        x = np.asarray(x, float)
+        return np.where(x <= xa, k * x, np.where(x <= xb, k * x + y, (x - xb) ** 2 / (2.0 * R) + K))
+
+    return U
+
+
+def table(points, side: int) -> Profile:
+    """User profile from (x_m, U_m) points, linearly interpolated; beyond the
+    last point there is no contact (+inf for side +1, -inf for side -1)."""
+    pts = np.asarray(points, float)
+    if pts.ndim != 2 or pts.shape[1] != 2 or pts.shape[0] < 2:
+        raise ValueError(f"points has shape {pts.shape}; expected (n >= 2, 2) pairs of (x_m, U_m)")
+    xs, us = pts[:, 0], pts[:, 1]
+    if np.any(np.diff(xs) <= 0) or xs[0] < 0:
+        raise ValueError("points: x_m must start at >= 0 and increase strictly")
+    none = np.inf if side > 0 else -np.inf
+
+    def U(x):
+        x = np.asarray(x, float)
+        return np.where((x >= xs[0]) & (x <= xs[-1]), np.interp(x, xs, us), none)
+
+    return U
+
+
+@dataclass(frozen=True)
+class Termination:
+    """A rigid obstacle at x = 0: a profile, the side, and how many grid
+    points (x = dx, 2 dx, ...) of the string it may touch."""
+
+    profile: Profile
+    side: int
+    region_points: int
+
+    def __post_init__(self) -> None:
+        if self.side not in (-1, 1):
+            raise ValueError(f"side = {self.side!r} is not allowed (choose -1 or +1)")
+        if not (1 <= int(self.region_points) <= 100000):
+            raise ValueError(f"region_points = {self.region_points!r} is out of range (1 <= value <= 100000)")
+
+    def sample(self, dx_m: float) -> np.ndarray:
+        """U at grid points n = 1..region_points (x = n dx), metres.
+
+        Returns an array of length ``region_points``; entries where the
+        obstacle cannot be touched are +inf (side +1) or -inf (side -1).
+        """
+        x = dx_m * np.arange(1, int(self.region_points) + 1, dtype=float)
+        U = np.asarray(self.profile(x), float).copy()
+        none = np.inf if self.side > 0 else -np.inf
+        U[np.isnan(U)] = none
+        # an obstacle on the wrong side of infinity never touches either
+        U[np.isinf(U)] = none
+        return U

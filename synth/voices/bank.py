@@ -1,0 +1,211 @@
+"""A bank of waveguide strings in preallocated arrays.
+
+The bank owns every array the string kernel touches (rings, parameter and
+state tables, profiles, scratch, probes).  Voices claim string slots, write
+their physics into the tables at note-on, and the engine renders all active
+slots with one call of :func:`synth.kernels.strings.render_bank` per
+segment.  Nothing is allocated per block.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..kernels import strings as K
+
+
+class StringBank:
+    """Preallocated storage for up to ``capacity`` strings.
+
+    Parameters
+    ----------
+    capacity : int
+        Number of string slots (1 .. 4096).
+    max_cells : int
+        Largest N any slot may hold (ring length 2N), 8 .. 10^6.
+    max_region : int
+        Largest termination region R (points), 0 .. 10^4.
+    max_block : int
+        Longest segment (internal samples) rendered in one call.
+    n_probes : int
+        Rows for per-sample diagnostics (u at the excitation point and
+        contact counts), used by study renders.
+    """
+
+    def __init__(self, capacity: int, max_cells: int, max_region: int = 64,
+                 max_block: int = 4096, n_probes: int = 0):
+        if not (1 <= capacity <= 4096):
+            raise ValueError(f"capacity = {capacity!r} is out of range (1 <= value <= 4096)")
+        if not (8 <= max_cells <= 1_000_000):
+            raise ValueError(f"max_cells = {max_cells!r} is out of range (8 <= value <= 1000000)")
+        self.capacity = int(capacity)
+        self.max_cells = int(max_cells)
+        self.max_region = int(max_region)
+        self.max_block = int(max_block)
+        self.ring = np.zeros(self.capacity * 2 * self.max_cells)
+        self.ipar = np.zeros((self.capacity, K.I_NI), dtype=np.int64)
+        self.fpar = np.zeros((self.capacity, K.F_NF))
+        self.fst = np.zeros((self.capacity, K.S_NS))
+        self.U = np.zeros(max(1, self.capacity * self.max_region))
+        # fast-path chunks never exceed max_block; scratch holds g, acc, window
+        self.scratch = np.zeros(3 * (self.max_block + self.max_region) + 8)
+        self.active = np.zeros(self.capacity, dtype=np.int64)
+        self.n_active = 0
+        self._is_active = np.zeros(self.capacity, dtype=bool)
+        self.probe_u = np.zeros((max(n_probes, 1), 0))
+        self.probe_c = np.zeros((max(n_probes, 1), 0))
+        self.n_probes = int(n_probes)
+        for s in range(self.capacity):
+            self.ipar[s, K.I_OFF] = s * 2 * self.max_cells
+            self.ipar[s, K.I_REG_OFF] = s * self.max_region
+            self.ipar[s, K.I_PROBE] = -1
+
+    # -- slot management ------------------------------------------------------
+    def free_slots(self) -> list[int]:
+        return [s for s in range(self.capacity) if not self._is_active[s]]
+
+    def activate(self, s: int) -> None:
+        if not self._is_active[s]:
+            self._is_active[s] = True
+            self.active[self.n_active] = s
+            self.n_active += 1
+
+    def deactivate(self, s: int) -> None:
+        """Stop rendering slot s and clear its state (no denormal residue)."""
+        if self._is_active[s]:
+            self._is_active[s] = False
+            idx = [int(x) for x in self.active[: self.n_active] if x != s]
+            self.n_active = len(idx)
+            self.active[: self.n_active] = idx
+        self.clear(s)
+
+    def clear(self, s: int) -> None:
+        off = self.ipar[s, K.I_OFF]
+        N = self.ipar[s, K.I_N]
+        self.ring[off: off + 2 * max(N, 0)] = 0.0
+        self.fst[s, :] = 0.0
+        self.ipar[s, K.I_POS] = 0
+        self.ipar[s, K.I_EXC] = 0
+        self.ipar[s, K.I_EXC_M] = 0
+
+    def is_active(self, s: int) -> bool:
+        return bool(self._is_active[s])
+
+    # -- configuration ----------------------------------------------------------
+    def configure(self, s: int, *, cells: int, k: int, dt_s: float,
+                  U: np.ndarray | None, side: int = 1,
+                  out_mode: int = 0, gain: float = 1.0, tension_over_dx: float = 0.0,
+                  b0: float = 1.0, a1: float = 0.0, eta: float = 0.0,
+                  extra_delay: int = 0, lossy: bool = False,
+                  probe_row: int = -1, force_per_sample: bool = False) -> None:
+        """Set up slot s as an idle string (zero state, no excitation).
+
+        cells : N, 8 .. max_cells.  k : excitation/pickup point, 1 .. N-1.
+        U : profile at points 1..R (m), +-inf where no contact, or None for
+        the ideal rigid end (the region code then does not run at all).
+        """
+        if not (8 <= cells <= self.max_cells):
+            raise ValueError(f"cells = {cells!r} is out of range (8 <= value <= {self.max_cells})")
+        if not (1 <= k <= cells - 1):
+            raise ValueError(f"k = {k!r} is out of range (1 <= value <= {cells - 1})")
+        R = 0 if U is None else len(U)
+        if R > self.max_region:
+            raise ValueError(f"region points = {R} is out of range (0 <= value <= {self.max_region})")
+        if R >= cells - 2:
+            raise ValueError(f"region points = {R} must be smaller than cells - 2 = {cells - 2}")
+        ip = self.ipar[s]
+        ip[K.I_N] = cells
+        self.clear(s)
+        ip[K.I_K] = k
+        ip[K.I_REG_N] = R
+        ip[K.I_SIDE] = side
+        if R:
+            self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = U
+        ip[K.I_FILT] = 1 if lossy else 0
+        ip[K.I_XDELAY] = int(extra_delay)
+        ip[K.I_OUT] = int(out_mode)
+        ip[K.I_PROBE] = int(probe_row)
+        chunk = 0 if force_per_sample else K.max_fast_chunk(cells, k, R, out_mode)
+        ip[K.I_CHUNK] = min(chunk, self.max_block)
+        fp = self.fpar[s]
+        fp[K.F_DT] = dt_s
+        fp[K.F_B0] = b0
+        fp[K.F_A1] = a1
+        fp[K.F_ETA] = eta
+        fp[K.F_GAIN] = gain
+        fp[K.F_TDX] = tension_over_dx
+
+    def start_pluck(self, s: int, model: int, amplitude_m: float, duration_s: float,
+                    alpha_per_s: float = 0.0) -> None:
+        """Begin a kinematic pluck (model 1 sitar eq. 1.13, 2 biwa eq. 1.11) on
+        slot s at its next sample.  A pluck on a sounding string adds to it."""
+        ip, fp, st = self.ipar[s], self.fpar[s], self.fst[s]
+        if ip[K.I_EXC] != 0:
+            self._end_excitation(s)
+        dt = float(fp[K.F_DT])
+        e_end = int(duration_s / dt)
+        while e_end * dt <= duration_s:     # same float test as the kernel's g
+            e_end += 1
+        while e_end > 0 and (e_end - 1) * dt > duration_s:
+            e_end -= 1
+        ip[K.I_EXC] = int(model)
+        ip[K.I_EXC_M] = 0
+        ip[K.I_EXC_END] = e_end
+        fp[K.F_A] = amplitude_m
+        fp[K.F_T0] = duration_s
+        fp[K.F_ALPHA] = alpha_per_s
+
+    def _end_excitation(self, s: int) -> None:
+        """Freeze a running excitation at its current g and cancel its offset
+        field (what the kernel does when a pluck ends), so that a new
+        excitation can start from g = 0."""
+        ip, st = self.ipar[s], self.fst[s]
+        G = st[K.S_G]
+        N = int(ip[K.I_N])
+        P = 2 * N
+        k = int(ip[K.I_K])
+        q = np.arange(k, P - k)
+        idx = ip[K.I_OFF] + (int(ip[K.I_POS]) - q) % P
+        self.ring[idx] -= G
+        st[K.S_G] = 0.0
+        ip[K.I_EXC] = 0
+
+    # -- probes ---------------------------------------------------------------
+    def ensure_probe_length(self, n: int) -> None:
+        if self.probe_u.shape[1] < n:
+            self.probe_u = np.zeros((self.probe_u.shape[0], n))
+            self.probe_c = np.zeros((self.probe_c.shape[0], n))
+
+    # -- rendering --------------------------------------------------------------
+    def render(self, mix: np.ndarray, o0: int, n: int) -> None:
+        """Render n internal samples of all active strings into mix[o0:o0+n]."""
+        if self.n_probes:
+            self.ensure_probe_length(o0 + n)
+        done = 0
+        while done < n:
+            c = min(n - done, self.max_block)
+            K.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
+                          self.active, self.n_active, c, o0 + done, mix,
+                          self.probe_u, self.probe_c, self.scratch)
+            done += c
+
+    # -- inspection (tests, analysis) ----------------------------------------
+    def rails(self, s: int):
+        """(u_r, u_l) at grid points 0..N at the last processed time."""
+        N = int(self.ipar[s, K.I_N])
+        P = 2 * N
+        off = int(self.ipar[s, K.I_OFF])
+        pm = int(self.ipar[s, K.I_POS])
+        ring = self.ring[off: off + P]
+        n = np.arange(N + 1)
+        ur = ring[(pm - n) % P]
+        vl = ring[(pm - (P - n)) % P]
+        return ur.copy(), -vl.copy()
+
+    def displacement(self, s: int) -> np.ndarray:
+        """u(x) at grid points 0..N (m) at the last processed time."""
+        ur, ul = self.rails(s)
+        u = ur + ul
+        k = int(self.ipar[s, K.I_K])
+        u[k] -= self.fst[s, K.S_G]
+        return u

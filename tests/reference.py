@@ -1,0 +1,72 @@
+"""Slow, obvious numpy references for the kernels (never used by the package).
+
+``naive_string`` is the shift-every-array scheme of Publication II (eqs.
+9-13) with the conventions of physics notes sections 1-3: two explicit rails
+u_r[0..N], u_l[0..N]; each step shift, reflect (u_l(L) = -u_r(L),
+u_r(0) = -u_l(0)), inject g at k on both outgoing rails, clamp the region,
+read u(k) = u_r + u_l - g.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=()):
+    """Run the ideal string for ``n_steps`` with outgoing wave samples ``g``
+    (g[m] used at step m = 1..n_steps; g beyond its length stays at g[-1]).
+
+    U : array of U at points 1..R (inf = no contact) or None.
+    Returns (u_k per step, dict step -> (u, v) shapes) where shapes are
+    the displacement along x = 0..N and u_r, u_l.
+    """
+    g = np.asarray(g, float)
+    n_steps = len(g) if n_steps is None else n_steps
+    ur = np.zeros(N + 1)
+    ul = np.zeros(N + 1)
+    out = np.zeros(n_steps)
+    shapes = {}
+    R = 0 if U is None else len(U)
+    for m in range(n_steps):
+        gm = g[m] if m < len(g) else g[-1]
+        ur[1:] = ur[:-1].copy()
+        ul[:-1] = ul[1:].copy()
+        ul[N] = -ur[N]
+        ur[0] = -ul[0]
+        ur[k] += gm
+        ul[k] += gm
+        for n in range(1, R + 1):
+            u = ur[n] + ul[n] - (gm if n == k else 0.0)
+            if side * (u - U[n - 1]) > 0:
+                ur[n] += U[n - 1] - u
+        out[m] = ur[k] + ul[k] - gm
+        if m in record_shape_at:
+            u = ur + ul
+            u[k] -= gm
+            shapes[m] = (u.copy(), ur.copy(), ul.copy())
+    return out, shapes
+
+
+def closed_form_uk(g, N, k):
+    """Publication I eq. (4) on the grid (delays 2iL/c = 2iN samples,
+    2aL/c = 2k, 2bL/c = 2(N-k)): u(l, m) for g[m], m = 0.."""
+    g = np.asarray(g, float)
+    n = len(g)
+
+    def G(d):
+        out = np.zeros(n)
+        if d < n:
+            out[d:] = g[: n - d]
+        return out
+
+    u = g.copy()
+    i = 1
+    while 2 * i * N < n:
+        u += 2 * G(2 * i * N)
+        i += 1
+    i = 0
+    while 2 * (i * N + k) < n or 2 * (i * N + N - k) < n:
+        u -= G(2 * (i * N + k))
+        u -= G(2 * (i * N + N - k))
+        i += 1
+    return u
