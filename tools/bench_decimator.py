@@ -1,0 +1,57 @@
+"""Quick timing of the streaming decimator.
+
+Usage:  python tools/bench_decimator.py [--seconds 1] [--block 64] [--runs 7]
+
+For each internal rate, pushes ``--seconds`` of noise through a fresh
+Decimator in engine-like blocks (``inputs_needed(block)`` inputs for ``block``
+outputs at a time) and prints the median over ``--runs`` runs of: ns per
+output sample, and ms of CPU per second of audio.
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+from synth.engine.decimator import Decimator
+
+
+def bench(fs_in, seconds, block, runs):
+    dec = Decimator(fs_in)
+    rng = np.random.default_rng(0)
+    n_out_total = int(round(seconds * dec.fs_out))
+    x = rng.standard_normal(dec.inputs_needed(n_out_total) + 1)
+    out = np.empty(block, dtype=np.float64)
+    dec.process(x[:1000])  # compile / warm up
+    times = []
+    for _ in range(runs):
+        dec.reset()
+        pos = 0
+        made = 0
+        t0 = time.perf_counter()
+        while made < n_out_total:
+            n = min(block, n_out_total - made)
+            k = dec.inputs_needed(n)
+            dec.process(x[pos:pos + k], out)
+            pos += k
+            made += n
+        times.append(time.perf_counter() - t0)
+    t = float(np.median(times))
+    return dec, t / n_out_total * 1e9, t / seconds * 1e3
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--seconds", type=float, default=1.0)
+    ap.add_argument("--block", type=int, default=64)
+    ap.add_argument("--runs", type=int, default=7)
+    a = ap.parse_args()
+    for fs in (325000, 336000, 324800):
+        dec, ns, ms = bench(fs, a.seconds, a.block, a.runs)
+        print(f"fs_in={fs:7d}  L/M={dec.L}/{dec.M:<4d} taps/phase={dec.taps_per_phase}  "
+              f"latency={dec.latency_s * 1e3:.3f} ms  {ns:7.1f} ns/output  "
+              f"{ms:6.2f} ms per s of audio  (block {a.block} outputs)")
+
+
+if __name__ == "__main__":
+    main()
