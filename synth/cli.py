@@ -1,0 +1,238 @@
+"""The ``synth`` command: offline rendering of presets, notes and MIDI files.
+
+    synth demo [-o demo.wav]
+    synth presets
+    synth note PRESET [--key K | --f0 HZ] [--velocity V] [--seconds S]
+               [--internal-rate HZ] [--set PATH=VALUE ...] -o OUT.wav [--probe OUT.npy]
+    synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] -o OUT.wav
+
+MIDI values (0-127) are normalised here, once; everything below works in SI
+units and [0, 1].  User errors print one line (``synth: error: ...``) and
+exit with status 2; no half-written file is left behind.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .io.errors import SynthError
+
+
+def _fail(msg: str) -> None:
+    raise SynthError(msg)
+
+
+def _engine_for(preset_name: str, overrides, internal_rate=None, probe=False, low_key=None):
+    from .engine.engine import Engine
+    from .io.presets import load_preset
+    from .voices.plucked import PluckedInstrument
+
+    preset = load_preset(preset_name, overrides)
+    try:
+        inst = PluckedInstrument(preset, internal_rate)
+        eng = Engine(inst, probe=probe, extra_low_key=low_key)
+    except ValueError as e:
+        _fail(f"{preset_name}: {e}")
+    return preset, inst, eng
+
+
+def _write(path: str, audio: np.ndarray, fs: int, pcm24: bool) -> str:
+    from .io.wav import write_wav
+
+    res = write_wav(path, audio.astype(np.float32), fs, "pcm24" if pcm24 else "float")
+    clip = f", {res.n_clipped} samples clipped" if res.n_clipped else ""
+    return f"peak {res.peak_dbfs:.1f} dBFS{clip}"
+
+
+# ---------------------------------------------------------------------------
+def cmd_presets(args) -> int:
+    from .io.presets import list_presets
+
+    items = list_presets()
+    w = max((len(n) for n, _ in items), default=0)
+    for name, desc in items:
+        print(f"{name:<{w}}  {desc}")
+    return 0
+
+
+def cmd_note(args) -> int:
+    from .engine.engine import Event
+    from .physics.string import midi_key_to_hz
+
+    if args.key is not None and args.f0 is not None:
+        _fail("--key and --f0 are exclusive: give one of them")
+    if args.key is not None and not (0 <= args.key <= 127):
+        _fail(f"--key = {args.key} is out of range (0 <= value <= 127)")
+    if args.f0 is not None and not (20.0 <= args.f0 <= 5000.0):
+        _fail(f"--f0 = {args.f0} is out of range (20 <= value <= 5000 Hz)")
+    if not (1 <= args.velocity <= 127):
+        _fail(f"--velocity = {args.velocity} is out of range (1 <= value <= 127)")
+    if not (0 < args.seconds <= 600):
+        _fail(f"--seconds = {args.seconds} is out of range (0 < value <= 600)")
+    if args.internal_rate is not None and not (20_000 <= args.internal_rate <= 2_000_000):
+        _fail(f"--internal-rate = {args.internal_rate} is out of range (20000 <= value <= 2000000 Hz)")
+    low = args.key if args.key is not None else None
+    if args.f0 is not None:
+        low = int(math.floor(69 + 12 * math.log2(args.f0 / 440.0)))
+    preset, inst, eng = _engine_for(args.preset, args.set, args.internal_rate,
+                                    probe=args.probe is not None, low_key=low)
+    if preset.kind == "musical" and args.key is None and args.f0 is None:
+        _fail(f"{args.preset} is a musical preset: give --key or --f0")
+    if preset.kind == "musical" and args.key is not None:
+        lo, hi = preset.play.key_low, preset.play.key_high
+        if not (lo <= args.key <= hi):
+            _fail(f"--key = {args.key} is outside the playable range of {args.preset} ({lo} <= key <= {hi})")
+    f0 = args.f0
+    ev = Event(0.0, "note_on", args.key if args.key is not None else -1, args.velocity / 127.0, f0_hz=f0)
+    t = time.perf_counter()
+    y = eng.render([ev], duration_s=args.seconds)
+    el = time.perf_counter() - t
+    info = _write(args.output, y, eng.fs_out, args.pcm24)
+    pitch = f0 or (midi_key_to_hz(args.key) if args.key is not None else inst.open_string.f0_hz)
+    print(f"{args.output}: {args.seconds:g} s of {args.preset} at {pitch:.2f} Hz, "
+          f"internal rate {inst.fs:.1f} Hz, {info}, rendered in {el:.2f} s")
+    if args.probe:
+        from .io.wav import write_npy_atomic
+
+        u, _ = eng.probe_signals()
+        n = int(round(args.seconds * inst.fs))
+        write_npy_atomic(args.probe, u[:n].astype(np.float64))
+        print(f"{args.probe}: u(l, t) in metres, {n} samples at {inst.fs:.1f} Hz")
+    return 0
+
+
+def midi_to_events(midi_events):
+    """Normalised MIDI file events -> engine events (note, sustain, all-off)."""
+    from .engine.engine import Event
+
+    out = []
+    for m in midi_events:
+        if m.kind in ("note_on", "note_off"):
+            out.append(Event(m.time_s, m.kind, m.key, m.value, m.channel))
+        elif m.kind == "control":
+            out.append(Event(m.time_s, "control", m.key, m.value, m.channel))
+    return out
+
+
+def cmd_render(args) -> int:
+    from .io.midi import read_midi_file
+
+    midi = read_midi_file(args.midi_file)
+    events = midi_to_events(midi)
+    notes = [e for e in events if e.kind == "note_on" and e.value > 0]
+    if not notes:
+        _fail(f"{args.midi_file}: the file has no notes to play")
+    keys = [int(e.key) for e in notes]
+    preset, inst, eng = _engine_for(args.preset, args.set, args.internal_rate, low_key=min(keys))
+    if preset.kind == "musical":
+        lo, hi = preset.play.key_low, preset.play.key_high
+        out_of = sum(1 for k in keys if not (lo <= k <= hi))
+        if out_of:
+            print(f"note: {out_of} of {len(keys)} notes are outside {args.preset}'s range "
+                  f"{lo}..{hi}; they are played on the string retuned or fretted to that pitch",
+                  file=sys.stderr)
+    t = time.perf_counter()
+    y = eng.render(events, tail_s=0.5)
+    el = time.perf_counter() - t
+    info = _write(args.output, y, eng.fs_out, args.pcm24)
+    dur = len(y) / eng.fs_out
+    print(f"{args.output}: {dur:.1f} s, {len(notes)} notes on {args.preset}, {info}, "
+          f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)")
+    return 0
+
+
+DEMO_PHRASES = {
+    # (start beat, key, beats, velocity)
+    "sitar": [(0, 50, 1, 110), (1, 52, 1, 90), (2, 54, 1, 95), (3, 57, 2, 120),
+              (5, 55, 0.5, 85), (5.5, 54, 0.5, 80), (6, 52, 1, 95), (7, 50, 3, 115)],
+    "biwa": [(0, 52, 1.5, 120), (1.5, 53, 0.5, 80), (2, 57, 1, 100), (3, 59, 1, 95),
+             (4, 60, 2, 125), (6, 57, 1, 90), (7, 52, 3, 120)],
+}
+
+
+def cmd_demo(args) -> int:
+    from .engine.engine import Event
+
+    bpm = 96.0
+    beat = 60.0 / bpm
+    parts = []
+    fs = 48_000
+    for name, phrase in DEMO_PHRASES.items():
+        _, _, eng = _engine_for(name, ())
+        evs = []
+        for b, key, dur, vel in phrase:
+            evs.append(Event(b * beat, "note_on", key, vel / 127.0))
+            evs.append(Event((b + dur) * beat, "note_off", key, 0.0))
+        y = eng.render(evs, tail_s=0.2, max_tail_s=2.0)
+        parts += [y, np.zeros(int(0.5 * fs))]
+        fs = eng.fs_out
+    audio = np.concatenate(parts)
+    out = Path(args.output).resolve()
+    info = _write(str(out), audio, fs, False)
+    print(f"demo: {len(audio) / fs:.1f} s ({', '.join(DEMO_PHRASES)} phrases), {info}")
+    print(f"wrote {out}")
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="synth", description="Physical-modelling string synthesizer "
+                                "(waveguide strings against jawari, sawari and capo-bar terminations).")
+    sub = p.add_subparsers(dest="cmd", required=True)
+
+    d = sub.add_parser("demo", help="render a short phrase on each plucked preset to demo.wav")
+    d.add_argument("-o", "--output", default="demo.wav")
+    d.set_defaults(func=cmd_demo)
+
+    ps = sub.add_parser("presets", help="list presets with a one-line description")
+    ps.set_defaults(func=cmd_presets)
+
+    n = sub.add_parser("note", help="render one note of a preset to a WAV file")
+    n.add_argument("preset", help="preset name (see `synth presets`) or path to a .toml file")
+    n.add_argument("--key", type=int, help="MIDI key 0-127 (musical presets: their range)")
+    n.add_argument("--f0", type=float, help="fundamental frequency in Hz instead of --key")
+    n.add_argument("--velocity", type=int, default=100, help="MIDI velocity 1-127 (default 100)")
+    n.add_argument("--seconds", type=float, default=2.0, help="length in seconds (default 2)")
+    n.add_argument("--internal-rate", type=float, help="internal sample rate in Hz (default: "
+                   "325000, or the study grid's own rate)")
+    n.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                   help="override a preset value, e.g. --set pluck.position=0.7 (repeatable)")
+    n.add_argument("-o", "--output", required=True, help="output WAV file (48 kHz)")
+    n.add_argument("--probe", help="also save u(l, t) at the pluck point (m, internal rate, float64 .npy)")
+    n.add_argument("--pcm24", action="store_true", help="write 24-bit PCM instead of 32-bit float")
+    n.set_defaults(func=cmd_note)
+
+    r = sub.add_parser("render", help="render a MIDI file with a preset to a WAV file")
+    r.add_argument("midi_file")
+    r.add_argument("--preset", required=True)
+    r.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
+    r.add_argument("--internal-rate", type=float)
+    r.add_argument("-o", "--output", required=True)
+    r.add_argument("--pcm24", action="store_true")
+    r.set_defaults(func=cmd_render)
+    return p
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except SynthError as e:
+        print(f"synth: error: {e}", file=sys.stderr)
+        return 2
+    except (OSError, ValueError) as e:
+        print(f"synth: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("synth: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,230 @@
+"""Plucked string voices: sitar (jawari) and biwa (sawari).
+
+Plucked voice
+=============
+One waveguide string per note, plucked at ``pluck.position`` of its length
+by the thesis's plucks (sitar: kinematic g(t), eq. 1.13; biwa: force pluck,
+eqs. 1.10-1.11), buzzing against the preset's termination at x = 0.
+
+* Study presets (``kind = "study"``) are the thesis's experiments: lossless,
+  on the paper grid (c dt = dx, ``grid.cells`` cells), pluck amplitude
+  exactly ``pluck.amplitude_m`` whatever the velocity.  With an explicit key
+  or f0 the string is fretted to that pitch and the remaining fractional
+  delay is a lossless allpass at x = L.
+* Musical presets (``kind = "musical"``) tune every key exactly (loop filter
+  from two T60 values plus a fractional-delay allpass, see
+  :mod:`synth.physics.losses`), scale the pluck amplitude with velocity, and
+  damp the string at note-off (``loss.release_t60_s``).  The string is
+  fretted (shorter, same tension) above its open pitch and retuned below it
+  (:func:`synth.physics.string.fretted_string`).
+
+Contract (STK-like): ``note_on(slot, key|f0, velocity)``, ``note_off(slot)``,
+``control(...)``; rendering is the bank's job.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kernels import strings as K
+from ..physics import plucks, profiles
+from ..physics.losses import allpass_for_phase_delay, tune_loop, loop_gain_from_t60
+from ..physics.string import IdealString, fretted_string, midi_key_to_hz
+from .bank import StringBank
+
+
+def termination_from_spec(spec) -> profiles.Termination | None:
+    """Build a :class:`~synth.physics.profiles.Termination` from a preset's
+    ``[termination]`` section, or None for the ideal rigid end."""
+    p = spec.profile
+    if p == "none":
+        return None
+    if p == "capo":
+        prof = profiles.capo(spec.radius_m)
+    elif p == "sawari":
+        prof = profiles.sawari(spec.radius_m, spec.extent_m)
+    elif p == "jawari-case1":
+        prof = profiles.jawari_case1(spec.slope, spec.x_c_m)
+    elif p == "jawari-case2":
+        prof = profiles.jawari_case2(spec.slope, spec.x_b_m, spec.radius_m)
+    elif p == "jawari-case3":
+        prof = profiles.jawari_case3(spec.slope, spec.x_a_m, spec.x_b_m, spec.radius_m, spec.step_m)
+    elif p == "table":
+        prof = profiles.table(spec.points, spec.side)
+    else:  # pragma: no cover - the preset validator rejects it first
+        raise ValueError(f"termination.profile = {p!r} is not a known profile")
+    return profiles.Termination(prof, int(spec.side), int(spec.region_points))
+
+
+@dataclass(frozen=True)
+class StringSetup:
+    """Everything the bank needs for one note (derived at note-on)."""
+
+    string: IdealString
+    cells: int
+    k: int
+    dt_s: float
+    U: np.ndarray | None
+    side: int
+    b0: float
+    a1: float
+    eta: float
+    extra_delay: int
+    lossy: bool
+    f0_hz: float
+
+
+class PluckedInstrument:
+    """A preset turned into string setups and plucks.
+
+    Parameters
+    ----------
+    preset : synth.io.presets.Preset
+        Validated preset with ``voice == "plucked"``.
+    fs_internal : float or None
+        Internal rate (Hz).  None: the study grid's own rate
+        (``cells * c / L``) for study presets, 325 000 Hz for musical ones.
+        For a study preset a given rate re-grids the string:
+        cells = round(L fs / c) and the rate becomes cells c / L exactly.
+    """
+
+    DEFAULT_RATE = 325_000
+
+    def __init__(self, preset, fs_internal: float | None = None):
+        if preset.voice != "plucked":
+            raise ValueError(f"voice = {preset.voice!r} is not a plucked voice")
+        self.preset = preset
+        sp = preset.string
+        self.open_string = IdealString(sp.length_m, sp.tension_n, sp.linear_density_kg_per_m)
+        self.study = preset.kind == "study"
+        c = self.open_string.c_m_per_s
+        if self.study:
+            cells = preset.grid.cells
+            if fs_internal is not None:
+                cells = max(16, int(round(sp.length_m * float(fs_internal) / c)))
+            self.cells = int(cells)
+            self.fs = self.cells * c / sp.length_m
+        else:
+            self.cells = None
+            self.fs = float(fs_internal or self.DEFAULT_RATE)
+        if not (20_000 <= self.fs <= 2_000_000):
+            raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (20000 <= value <= 2000000)")
+        self.termination = termination_from_spec(preset.termination)
+        self._setups: dict = {}
+
+    # -- physics at note-on -------------------------------------------------------
+    @property
+    def polyphony(self) -> int:
+        return self.preset.play.polyphony if self.preset.play else 8
+
+    def nominal_f0(self, key: float | None = None, f0_hz: float | None = None) -> float:
+        if f0_hz is not None:
+            return float(f0_hz)
+        if key is not None:
+            return midi_key_to_hz(key)
+        if self.study:
+            return self.open_string.f0_hz
+        raise ValueError("key or f0_hz is required for a musical preset")
+
+    def setup(self, key: float | None = None, f0_hz: float | None = None) -> StringSetup:
+        """The string for a note (cached per pitch)."""
+        own = key is None and f0_hz is None
+        f0 = self.nominal_f0(key, f0_hz)
+        ck = (None if own else round(f0, 9))
+        if ck in self._setups:
+            return self._setups[ck]
+        pre = self.preset
+        if self.study and own:
+            st = self.open_string
+            cells = self.cells
+            dt = st.length_m / (cells * st.c_m_per_s)
+            b0, a1, eta, xd, lossy = 1.0, 0.0, 0.0, 0, False
+        else:
+            st = fretted_string(self.open_string, f0)
+            fs = self.fs
+            dt = 1.0 / fs
+            if self.study:
+                # lossless: all of the fractional delay in an allpass
+                w0 = 2 * math.pi * f0 / fs
+                rest = fs / f0
+                cells = int(math.floor((rest - 0.5) / 2.0))
+                rem = rest - 2 * cells
+                xd = 0
+                if rem >= 1.5:
+                    xd, rem = 1, rem - 1.0
+                b0, a1, eta, lossy = 1.0, 0.0, allpass_for_phase_delay(rem, w0), True
+            else:
+                L = pre.loss
+                tl = tune_loop(f0, fs, L.t60_low_s, L.f_low_hz, L.t60_high_s, L.f_high_hz)
+                cells, b0, a1, eta, xd, lossy = tl.cells, tl.b0, tl.a1, tl.eta, tl.extra_delay, True
+        # the grid spacing of this string
+        dx = st.c_m_per_s * dt
+        U = None
+        side = 1
+        if self.termination is not None:
+            U = self.termination.sample(dx)
+            side = self.termination.side
+        k = int(round(pre.pluck.position * cells))
+        k = min(max(k, 1), cells - 1)
+        s = StringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0)
+        self._setups[ck] = s
+        return s
+
+    def pluck_amplitude_m(self, velocity: float, string: IdealString | None = None) -> float:
+        """Pluck amplitude A (m) for a normalised velocity in (0, 1].
+
+        Study presets: exactly ``pluck.amplitude_m``.  Musical presets:
+        ``amplitude_m * velocity**velocity_exponent``, scaled with the
+        speaking length so that a fretted string is plucked at the same
+        slope (the same depth of buzz) as the open one.
+        """
+        A = self.preset.pluck.amplitude_m
+        if self.study:
+            return A
+        scale = 1.0 if string is None else string.length_m / self.open_string.length_m
+        return A * scale * float(velocity) ** self.preset.play.velocity_exponent
+
+    def max_cells(self, key_low: int | None = None) -> int:
+        """Largest N any playable note needs (for sizing the bank)."""
+        if self.study:
+            lo = key_low if key_low is not None else None
+            n = self.cells
+            if lo is not None:
+                n = max(n, int(self.fs / midi_key_to_hz(lo) / 2) + 2)
+            return n + 2
+        lo = self.preset.play.key_low if key_low is None else key_low
+        return int(self.fs / midi_key_to_hz(lo) / 2) + 2
+
+    # -- voice contract ------------------------------------------------------------
+    def note_on(self, bank: StringBank, slot: int, key: float | None, velocity: float,
+                f0_hz: float | None = None, probe_row: int = -1, restrike: bool = False) -> None:
+        """Pluck ``slot`` (configuring it for the pitch unless ``restrike``)."""
+        su = self.setup(key, f0_hz)
+        pre = self.preset
+        if not restrike:
+            out_mode = 1 if pre.output.signal == "bridge_force" else 0
+            bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=su.side,
+                           out_mode=out_mode, gain=pre.output.gain,
+                           tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
+                           b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
+                           lossy=su.lossy, probe_row=probe_row)
+        else:
+            bank.fpar[slot, K.F_B0] = su.b0      # undo a release damping
+        pl = pre.pluck
+        model = plucks.SITAR if pl.model == "sitar" else plucks.BIWA
+        alpha = pl.alpha_per_s if pl.model == "biwa" else 0.0
+        bank.start_pluck(slot, model, self.pluck_amplitude_m(velocity, su.string), pl.duration_s, alpha)
+        bank.activate(slot)
+
+    def note_off(self, bank: StringBank, slot: int, key: float | None = None,
+                 f0_hz: float | None = None) -> None:
+        """Damp the string: the loop gain drops to the release T60 (a pure
+        gain on the loss filter, so the tuning does not move)."""
+        if self.study:
+            return  # the thesis's strings are lossless and never damped
+        su = self.setup(key, f0_hz)
+        rel = loop_gain_from_t60(su.f0_hz, self.preset.loss.release_t60_s)
+        bank.fpar[slot, K.F_B0] = su.b0 * rel
