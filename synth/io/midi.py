@@ -1,0 +1,283 @@
+"""Reading Standard MIDI Files into a flat, time-ordered list of normalised events.
+
+MIDI's 7- and 14-bit integers are normalised here, once, so that nothing
+downstream ever sees a raw MIDI value:
+
+==============  ======  ============================================================
+kind            key     value
+==============  ======  ============================================================
+``note_on``     note    velocity / 127, in (0, 1]
+``note_off``    note    release velocity / 127, in [0, 1]; a note-on with velocity 0
+                        becomes a note-off with the MIDI-spec default 64/127
+``control``     CC no.  controller value / 127, in [0, 1]
+``program``     prog.   0.0
+``pitch_bend``  -1      bend in [-1, 1] (-8192 -> -1, 0 -> 0, +8191 -> +1)
+==============  ======  ============================================================
+
+Other messages (aftertouch, SysEx, meta events) are dropped. Times are in
+seconds from the start of the file and follow every tempo change (and SMPTE
+time division). Events are sorted by time; at equal times note-offs come
+before all other events, which otherwise keep their file order (track order
+for simultaneous events of different tracks).
+
+The byte-level framing (RIFF RMID wrapper, MThd header, track chunks, unknown
+chunks, truncation) is done here; the event data of each track is decoded by
+mido. Every failure is a :class:`~synth.io.errors.MidiFileError` whose
+message is one line naming the file and what is wrong.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import struct
+from dataclasses import dataclass
+
+import mido
+
+from synth.io.errors import MidiFileError, display_path
+
+__all__ = [
+    "MidiEvent",
+    "EVENT_KINDS",
+    "MAX_DURATION_S",
+    "read_midi_file",
+    "midi_file_duration_s",
+]
+
+#: Files longer than this (seconds) are rejected as implausible (broken delta times).
+MAX_DURATION_S = 6 * 3600.0
+
+EVENT_KINDS = ("note_on", "note_off", "control", "program", "pitch_bend")
+
+_DEFAULT_TEMPO_US = 500_000  # 120 BPM
+_NOTE_OFF_DEFAULT_VELOCITY = 64  # MIDI 1.0: note-on velocity 0 == note-off velocity 64
+_SMPTE_FPS = {24: 24.0, 25: 25.0, 29: 30000.0 / 1001.0, 30: 30.0}
+
+
+@dataclass(frozen=True)
+class MidiEvent:
+    """One normalised channel event.
+
+    Attributes
+    ----------
+    time_s : float
+        Time from the start of the file, s (>= 0).
+    kind : str
+        One of ``"note_on"``, ``"note_off"``, ``"control"``, ``"program"``, ``"pitch_bend"``.
+    channel : int
+        MIDI channel 0..15.
+    key : int
+        Note number (note events), controller number (control), program
+        number (program), or -1 (pitch_bend).
+    value : float
+        Normalised value, see the module docstring.
+    """
+
+    time_s: float
+    kind: str
+    channel: int
+    key: int
+    value: float
+
+
+# --------------------------------------------------------------------------
+# Byte-level framing
+# --------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class _Framed:
+    fmt: int
+    division: int  # raw 16-bit header word
+    tracks: tuple[bytes, ...]  # payloads of the MTrk chunks, in order
+
+
+def _fail(shown: str, what: str) -> MidiFileError:
+    return MidiFileError(f"{shown}: {what}")
+
+
+def _unwrap_riff(data: bytes, shown: str) -> bytes:
+    """Return the SMF embedded in a RIFF RMID file (the payload of its 'data' chunk)."""
+    if len(data) < 12:
+        raise _fail(shown, "truncated RIFF header")
+    form = data[8:12]
+    if form != b"RMID":
+        raise _fail(shown, f"RIFF file of type {form.decode('latin1')!r}, "
+                           "not a MIDI file (RIFF RMID)")
+    off = 12
+    while off + 8 <= len(data):
+        cid = data[off:off + 4]
+        (size,) = struct.unpack("<I", data[off + 4:off + 8])
+        body = data[off + 8:off + 8 + size]
+        if cid == b"data":
+            if len(body) < size:
+                raise _fail(shown, f"truncated: RMID data chunk declares {size} bytes, "
+                                   f"{len(body)} present")
+            return body
+        off += 8 + size + (size & 1)  # RIFF chunks are padded to even sizes
+    raise _fail(shown, "RIFF RMID file without a 'data' chunk")
+
+
+def _frame(data: bytes, shown: str) -> _Framed:
+    if data[:4] == b"RIFF":
+        data = _unwrap_riff(data, shown)
+    if data[:4] != b"MThd":
+        if not data:
+            raise _fail(shown, "empty file, not a Standard MIDI File")
+        raise _fail(shown, f"not a Standard MIDI File (no MThd header; starts with {data[:4]!r})")
+    if len(data) < 14:
+        raise _fail(shown, f"truncated: {len(data)} bytes, the MThd header alone needs 14")
+    (hlen,) = struct.unpack(">I", data[4:8])
+    if hlen < 6:
+        raise _fail(shown, f"MThd header length {hlen} is too short (at least 6)")
+    if 8 + hlen > len(data):
+        raise _fail(shown, f"truncated: MThd header declares {hlen} bytes")
+    fmt, ntrks, division = struct.unpack(">HHH", data[8:14])
+    if fmt == 2:
+        raise _fail(shown, "SMF format 2 (independent sequence patterns) is not supported; "
+                           "use format 0 or 1")
+    if fmt > 2:
+        raise _fail(shown, f"unknown SMF format {fmt} (supported: 0, 1)")
+    if ntrks == 0:
+        raise _fail(shown, "the MThd header declares 0 tracks")
+    if division & 0x8000:
+        fps = 256 - (division >> 8)
+        tpf = division & 0xFF
+        if fps not in _SMPTE_FPS or tpf == 0:
+            raise _fail(shown, f"invalid SMPTE time division 0x{division:04x} "
+                               "(frames per second must be 24, 25, 29 or 30, ticks per frame > 0)")
+    elif division == 0:
+        raise _fail(shown, "time division is 0 ticks per quarter note (must be > 0)")
+
+    tracks: list[bytes] = []
+    off = 8 + hlen
+    while off < len(data) and len(tracks) < ntrks:
+        if off + 8 > len(data):
+            raise _fail(shown, f"truncated: file ends inside a chunk header after "
+                               f"{len(tracks)} of {ntrks} tracks")
+        cid = data[off:off + 4]
+        (size,) = struct.unpack(">I", data[off + 4:off + 8])
+        body = data[off + 8:off + 8 + size]
+        if len(body) < size:
+            what = f"track {len(tracks) + 1} of {ntrks}" if cid == b"MTrk" else \
+                f"chunk {cid!r}"
+            raise _fail(shown, f"truncated: {what} declares {size} bytes but only "
+                               f"{len(body)} remain")
+        if cid == b"MTrk":
+            tracks.append(body)
+        # Any other chunk type is skipped, as the SMF specification requires.
+        off += 8 + size
+    if len(tracks) < ntrks:
+        raise _fail(shown, f"truncated: the header declares {ntrks} tracks, the file "
+                           f"holds {len(tracks)}")
+    return _Framed(fmt, division, tuple(tracks))
+
+
+def _decode_track(body: bytes, division: int, index: int, ntrks: int, shown: str) -> mido.MidiTrack:
+    """Decode one MTrk payload with mido (in a one-track SMF of its own)."""
+    mini = (b"MThd" + struct.pack(">IHHH", 6, 0, 1, division)
+            + b"MTrk" + struct.pack(">I", len(body)) + body)
+    where = f"track {index + 1} of {ntrks}"
+    try:
+        mf = mido.MidiFile(file=io.BytesIO(mini), clip=False)
+    except EOFError:
+        raise _fail(shown, f"{where}: event data runs past the end of the track "
+                           "(corrupt or truncated track)") from None
+    except Exception as e:  # mido raises OSError, ValueError, KeyError, ... on bad bytes
+        msg = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise _fail(shown, f"{where}: invalid event data ({msg})") from None
+    return mf.tracks[0]
+
+
+# --------------------------------------------------------------------------
+# Public API
+# --------------------------------------------------------------------------
+
+
+def _pitch_bend_value(pitch: int) -> float:
+    return pitch / 8192.0 if pitch < 0 else pitch / 8191.0
+
+
+def read_midi_file(path: str | os.PathLike[str]) -> list[MidiEvent]:
+    """Read a Standard MIDI File (format 0 or 1, optionally RIFF RMID-wrapped).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The ``.mid``/``.rmi`` file.
+
+    Returns
+    -------
+    list of MidiEvent
+        Channel events sorted by time (note-offs first at equal times). A file
+        without notes yields whatever events it has (possibly none); notes
+        without a note-off are kept as they are (the caller releases them).
+
+    Raises
+    ------
+    MidiFileError
+        Unreadable file, not an SMF, SMF format 2, truncated file, undecodable
+        event data, or a file longer than :data:`MAX_DURATION_S` (which only
+        broken delta times produce). The message is one line naming the file.
+    """
+    shown = display_path(path)
+    try:
+        with open(path, "rb") as f:
+            data = f.read()
+    except OSError as e:
+        raise _fail(shown, f"cannot read MIDI file ({e.strerror or e})") from None
+
+    framed = _frame(data, shown)
+    ntrks = len(framed.tracks)
+    tracks = [_decode_track(body, framed.division, i, ntrks, shown)
+              for i, body in enumerate(framed.tracks)]
+    merged = mido.merge_tracks(tracks, skip_checks=True)
+
+    smpte = bool(framed.division & 0x8000)
+    if smpte:
+        fps = _SMPTE_FPS[256 - (framed.division >> 8)]
+        sec_per_tick = 1.0 / (fps * (framed.division & 0xFF))
+    else:
+        tpb = framed.division
+        sec_per_tick = _DEFAULT_TEMPO_US * 1e-6 / tpb
+
+    events: list[MidiEvent] = []
+    tick = 0
+    seg_tick = 0  # tick and time at which the current tempo took effect
+    seg_s = 0.0
+    for msg in merged:
+        tick += msg.time
+        t = seg_s + (tick - seg_tick) * sec_per_tick
+        typ = msg.type
+        if typ == "set_tempo":
+            if not smpte:
+                seg_s, seg_tick = t, tick
+                sec_per_tick = msg.tempo * 1e-6 / tpb
+            continue
+        if typ == "note_on":
+            if msg.velocity > 0:
+                events.append(MidiEvent(t, "note_on", msg.channel, msg.note, msg.velocity / 127.0))
+            else:
+                events.append(MidiEvent(t, "note_off", msg.channel, msg.note,
+                                        _NOTE_OFF_DEFAULT_VELOCITY / 127.0))
+        elif typ == "note_off":
+            events.append(MidiEvent(t, "note_off", msg.channel, msg.note, msg.velocity / 127.0))
+        elif typ == "control_change":
+            events.append(MidiEvent(t, "control", msg.channel, msg.control, msg.value / 127.0))
+        elif typ == "program_change":
+            events.append(MidiEvent(t, "program", msg.channel, msg.program, 0.0))
+        elif typ == "pitchwheel":
+            events.append(MidiEvent(t, "pitch_bend", msg.channel, -1, _pitch_bend_value(msg.pitch)))
+    length_s = seg_s + (tick - seg_tick) * sec_per_tick  # includes trailing meta events
+    if length_s > MAX_DURATION_S:
+        raise _fail(shown, f"implausible length {length_s:.1f} s ({length_s / 3600:.1f} h), "
+                           f"more than the {MAX_DURATION_S / 3600:g} h limit (broken delta times?)")
+    # Stable sort: times are already non-decreasing; this moves note-offs first at equal times.
+    events.sort(key=lambda e: (e.time_s, e.kind != "note_off"))
+    return events
+
+
+def midi_file_duration_s(events: list[MidiEvent]) -> float:
+    """Time of the last event, s (0.0 for no events). Meta events (end of track) do not count."""
+    return max((e.time_s for e in events), default=0.0)

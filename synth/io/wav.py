@@ -1,0 +1,183 @@
+"""Atomic writing of WAV files and ``.npy`` arrays.
+
+Both writers write to a temporary file in the destination directory and
+then ``os.replace`` it onto the destination, so a failure (a full disk, an
+exception, a kill between the two steps) never leaves a half-written file
+under the requested name, and an existing file is either fully replaced or
+left untouched.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import secrets
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import BinaryIO
+
+import numpy as np
+import soundfile as sf
+
+from synth.io.errors import SynthError, display_path
+
+__all__ = ["WavWriteResult", "write_wav", "write_npy_atomic", "FS_MIN_HZ", "FS_MAX_HZ", "SUBTYPES"]
+
+FS_MIN_HZ = 8000
+FS_MAX_HZ = 384000
+MAX_CHANNELS = 64
+SUBTYPES = ("float", "pcm24")
+_PCM24_SCALE = float(1 << 23)
+_PCM24_MAX = 1.0 - 1.0 / _PCM24_SCALE  # largest representable sample, full scale is [-1, 1)
+_WAV_MAX_DATA_BYTES = 0xFFFFFFFF - 1024  # RIFF sizes are 32-bit
+
+
+@dataclass(frozen=True)
+class WavWriteResult:
+    """What :func:`write_wav` wrote.
+
+    Attributes
+    ----------
+    frames : int
+        Number of sample frames.
+    channels : int
+        Number of channels.
+    peak_dbfs : float
+        Peak |sample| of the input in dB re full scale (1.0), before any
+        clipping; ``-inf`` for silence or no frames. Above 0 means over full scale.
+    n_clipped : int
+        Samples changed by clipping to the PCM range [-1, 1 - 2**-23]
+        (always 0 for ``"float"``, which stores values beyond full scale as they are).
+    """
+
+    frames: int
+    channels: int
+    peak_dbfs: float
+    n_clipped: int
+
+
+def _atomic_write(path: str | os.PathLike[str], write: Callable[[BinaryIO], None]) -> None:
+    """Call ``write(f)`` on a fresh temporary file next to `path`, then rename it onto `path`."""
+    path = os.fspath(path)
+    shown = display_path(path)
+    directory, base = os.path.split(os.path.abspath(path))
+    if os.path.isdir(path):
+        raise SynthError(f"{shown}: is a directory, cannot write a file there")
+    tmp = os.path.join(directory, f".{base}.{secrets.token_hex(6)}.tmp")
+    try:
+        # 0o666 & ~umask, like a normally created file (mkstemp would force 0o600).
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    except OSError as e:
+        raise SynthError(f"{shown}: cannot write ({e.strerror or e})") from None
+    try:
+        with os.fdopen(fd, "wb") as f:
+            write(f)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    except BaseException as e:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if isinstance(e, (OSError, sf.SoundFileError)):
+            raise SynthError(f"{shown}: writing failed ({getattr(e, 'strerror', None) or e})") from e
+        raise
+
+
+def write_wav(path: str | os.PathLike[str], audio: np.ndarray, fs: int,
+              subtype: str = "float") -> WavWriteResult:
+    """Write audio to a WAV file atomically.
+
+    Parameters
+    ----------
+    path : str or path-like
+        Destination file; replaced atomically if it exists.
+    audio : numpy.ndarray
+        Real samples, shape ``(frames,)`` (mono) or ``(frames, channels)``,
+        full scale = 1.0. Must be finite.
+    fs : int
+        Sample rate, Hz, 8000..384000.
+    subtype : {"float", "pcm24"}
+        ``"float"``: 32-bit IEEE float, values beyond +-1 kept as they are.
+        ``"pcm24"``: 24-bit PCM, samples rounded to the nearest step of
+        2**-23 and clipped to [-1, 1 - 2**-23] (the count is reported).
+
+    Returns
+    -------
+    WavWriteResult
+        frames, channels, input peak in dBFS and number of clipped samples.
+
+    Raises
+    ------
+    SynthError
+        Bad fs, subtype, shape, dtype, non-finite samples (the message says how
+        many), a file too long for WAV, or an I/O failure. Nothing is left at
+        `path` (an existing file is kept unchanged) when an error occurs.
+    """
+    shown = display_path(path)
+    if isinstance(fs, bool) or not isinstance(fs, (int, np.integer)):
+        raise SynthError(f"{shown}: fs = {fs!r} must be an integer sample rate in Hz "
+                         f"({FS_MIN_HZ} <= fs <= {FS_MAX_HZ})")
+    fs = int(fs)
+    if not FS_MIN_HZ <= fs <= FS_MAX_HZ:
+        raise SynthError(f"{shown}: fs = {fs} Hz is out of range ({FS_MIN_HZ} <= fs <= {FS_MAX_HZ})")
+    if subtype not in SUBTYPES:
+        raise SynthError(f"{shown}: subtype = {subtype!r} is not allowed (choices: 'float', 'pcm24')")
+    a = np.asarray(audio)
+    if a.dtype.kind not in "fiu" or a.dtype == np.bool_:
+        raise SynthError(f"{shown}: audio has dtype {a.dtype}, expected real floating-point samples")
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or not 1 <= a.shape[1] <= MAX_CHANNELS:
+        raise SynthError(f"{shown}: audio has shape {np.shape(audio)}, expected (frames,) or "
+                         f"(frames, channels) with 1 <= channels <= {MAX_CHANNELS}")
+    frames, channels = a.shape
+    a = a.astype(np.float64, copy=False)
+    n_bad = int(a.size - np.count_nonzero(np.isfinite(a)))
+    if n_bad:
+        raise SynthError(f"{shown}: audio has {n_bad} non-finite samples (NaN or inf) of {a.size}; "
+                         "nothing written")
+    bytes_per_sample = 4 if subtype == "float" else 3
+    if a.size * bytes_per_sample > _WAV_MAX_DATA_BYTES:
+        raise SynthError(f"{shown}: {frames} frames x {channels} channels is too long for a WAV "
+                         f"file (4 GiB limit)")
+    peak = float(np.max(np.abs(a))) if a.size else 0.0
+    peak_dbfs = 20.0 * math.log10(peak) if peak > 0 else -math.inf
+
+    if subtype == "float":
+        data = np.ascontiguousarray(a, dtype=np.float32)
+        sf_subtype = "FLOAT"
+        n_clipped = 0
+    else:
+        over = (a > _PCM24_MAX) | (a < -1.0)
+        n_clipped = int(np.count_nonzero(over))
+        q = np.clip(np.rint(a * _PCM24_SCALE), -_PCM24_SCALE, _PCM24_SCALE - 1.0)
+        # libsndfile stores the top 24 bits of int32 data: exact, no float rescaling.
+        data = np.ascontiguousarray(q.astype(np.int32) << 8)
+        sf_subtype = "PCM_24"
+
+    def write(f: BinaryIO) -> None:
+        with sf.SoundFile(f, mode="w", samplerate=fs, channels=channels,
+                          subtype=sf_subtype, format="WAV") as snd:
+            snd.write(data)
+
+    _atomic_write(path, write)
+    return WavWriteResult(frames=int(frames), channels=int(channels),
+                          peak_dbfs=peak_dbfs, n_clipped=n_clipped)
+
+
+def write_npy_atomic(path: str | os.PathLike[str], array: np.ndarray) -> None:
+    """Save `array` in ``.npy`` format at exactly `path` (no suffix added), atomically.
+
+    Raises
+    ------
+    SynthError
+        On I/O failure; nothing is left at `path` (an existing file is kept).
+    """
+    arr = np.asanyarray(array)
+
+    def write(f: BinaryIO) -> None:
+        np.save(f, arr, allow_pickle=False)
+
+    _atomic_write(path, write)
