@@ -168,12 +168,14 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe_u, probe_c
     e = ipar[s, I_EXC_M]
     e_end = ipar[s, I_EXC_END]
     g = st[S_G]
-    if exc == -1:
-        _remove_offset(ring, off, P, ipar[s, I_POS], k, g)
-        g = 0.0
-        exc = 0
     peak = st[S_PEAK]
     for i in range(n):
+        if exc == -1:
+            # the pluck ended on the previous sample: cancel its offset
+            # field before this sample (exactly where the fast path does)
+            _remove_offset(ring, off, P, pm, k, g)
+            g = 0.0
+            exc = 0
         pm += 1
         if pm == P:
             pm = 0
@@ -189,10 +191,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe_u, probe_c
             ring[off + j1] += g
             ring[off + j2] -= g
             if e >= e_end:
-                # pluck over: g constant from now on; cancel its offset field
-                _remove_offset(ring, off, P, pm, k, g)
-                g = 0.0
-                exc = 0
+                exc = -1     # g constant from now on; offset removed next sample
             e += 1
         # 3. termination region
         ncont = 0
