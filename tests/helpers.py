@@ -1,0 +1,17 @@
+"""Shared test helpers: build instruments and engines from presets."""
+
+from synth.engine.engine import Engine, Event
+from synth.io.presets import load_preset
+from synth.voices.plucked import PluckedInstrument
+
+
+def engine(name, overrides=(), probe=False, **kw):
+    inst = PluckedInstrument(load_preset(name, overrides))
+    return Engine(inst, probe=probe, **kw)
+
+
+def note(key, t=0.0, vel=0.8, off=None):
+    ev = [Event(t, "note_on", key, vel)]
+    if off is not None:
+        ev.append(Event(off, "note_off", key, 0.0))
+    return ev

@@ -1,0 +1,98 @@
+"""Engine: sample-accurate events, block independence, voice pool, silence."""
+
+import numpy as np
+import pytest
+
+from helpers import engine, note
+from synth.engine.engine import Event
+from synth.kernels import strings as K
+
+
+def test_output_does_not_depend_on_block_size():
+    """Events act at their own internal sample, not at block boundaries."""
+    evs = note(50, 0.0123, 0.9, off=0.2) + note(57, 0.0311, 0.6) + note(62, 0.1507, 1.0)
+    ref = None
+    for block in (37, 128, 1000):
+        y = engine("sitar").render(evs, duration_s=0.3, block=block)
+        if ref is None:
+            ref = y
+        else:
+            assert np.max(np.abs(y - ref)) < 1e-12 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("n_out", [0, 1, 7, 255, 256, 257, 1000])
+def test_note_starts_at_the_matching_internal_sample(n_out):
+    """A note at output sample n starts at internal sample round(n fs_in/fs_out):
+    the first non-zero u at the pluck point is the next sample (g(0) = 0)."""
+    e = engine("paper/sitar-ideal", probe=True)
+    t = n_out / e.fs_out
+    e.render([Event(t, "note_on", -1, 1.0)], duration_s=0.05, block=256, compensate_latency=False)
+    u, _ = e.probe_signals()
+    first = int(np.flatnonzero(u)[0])
+    assert first == round(n_out * e.fs_in_exact / e.fs_out) + 1
+
+
+def test_output_onset_shifts_with_the_event():
+    """Moving a note by 30 output samples (= 203 internal samples exactly at
+    324.8 kHz) moves the audio by exactly 30 samples."""
+    ys = [engine("paper/sitar-ideal").render([Event(n / 48000, "note_on", -1, 1.0)],
+                                              duration_s=0.05) for n in (0, 30)]
+    a, b = ys
+    assert np.max(np.abs(a[: len(a) - 30] - b[30:])) < 1e-9 * np.max(np.abs(a))
+
+
+def test_silent_voices_are_freed_before_any_subnormal_state():
+    """A dying string is freed (and its state zeroed) long before its
+    samples could become subnormal, so it never slows the kernel down."""
+    e = engine("sitar")
+    e.schedule(note(60, 0.0, 1.0, off=0.3))
+    tiny = np.finfo(np.float64).tiny
+    freed_at = None
+    for i in range(400):
+        e.render_block(1024)
+        b = e.bank
+        for s in b.active[: b.n_active]:
+            off = b.ipar[s, K.I_OFF]
+            r = b.ring[off: off + 2 * b.ipar[s, K.I_N]]
+            assert not np.any((np.abs(r) < tiny) & (r != 0))
+            assert not np.any((np.abs(b.fst[s]) < tiny) & (b.fst[s] != 0))
+        if e.n_voices == 0:
+            freed_at = i
+            break
+    assert freed_at is not None, "the released voice was never freed"
+    assert e.bank.n_active == 0
+    assert not np.any(e.bank.ring)
+
+
+def test_restrike_uses_the_same_string_and_pool_is_bounded():
+    e = engine("biwa", polyphony=4)
+    evs = note(55, 0.0) + note(55, 0.05)          # repeated note-on, no note-off
+    e.schedule(evs)
+    for _ in range(20):
+        e.render_block(512)
+    assert e.n_voices == 1
+    e.schedule([Event(0.3 + 0.01 * i, "note_on", 45 + i, 0.7) for i in range(10)])
+    for _ in range(60):
+        e.render_block(512)
+        assert e.n_voices <= 4
+
+
+def test_sustain_pedal_holds_released_notes():
+    e = engine("sitar")
+    e.schedule([Event(0.0, "control", 64, 1.0)] + note(52, 0.0, 0.8, off=0.05)
+               + [Event(0.2, "control", 64, 0.0)])
+    for _ in range(10):                              # up to ~0.1 s
+        e.render_block(512)
+    (v,) = e.voices.values()
+    assert not v.released and v.held_by_pedal
+    for _ in range(15):                              # past the pedal release
+        e.render_block(512)
+    assert all(v.released for v in e.voices.values())
+
+
+def test_all_sound_off_frees_everything():
+    e = engine("sitar")
+    e.schedule(note(50) + note(55) + [Event(0.05, "control", 120, 0.0)])
+    for _ in range(10):
+        e.render_block(512)
+    assert e.n_voices == 0 and e.bank.n_active == 0
