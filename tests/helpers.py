@@ -15,3 +15,12 @@ def note(key, t=0.0, vel=0.8, off=None):
     if off is not None:
         ev.append(Event(off, "note_off", key, 0.0))
     return ev
+
+
+def shared_dir():
+    """The workplace's shared/ folder: beside the checkout (as in CI), else
+    /work/shared."""
+    from pathlib import Path
+
+    here = Path(__file__).resolve().parents[2] / "shared"
+    return here if here.is_dir() else Path("/work/shared")

@@ -22,7 +22,9 @@ from synth.io.midi import (
     read_midi_file,
 )
 
-MIDI_DIR = Path("/work/shared/midi")
+from helpers import shared_dir
+
+MIDI_DIR = shared_dir() / "midi"
 MALFORMED = MIDI_DIR / "malformed"
 
 needs_corpus = pytest.mark.skipif(not MIDI_DIR.is_dir(), reason="shared MIDI corpus not present")
