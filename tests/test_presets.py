@@ -457,9 +457,32 @@ def test_table_points_validation(points, fragment):
     ("termination.points=[[0, 0], [0.01, -1e-4]]", ("termination.points", [[0, 0], [0.01, -1e-4]])),
     ("description=a bare sentence", ("description", "a bare sentence")),
     (" kind = study ", ("kind", "study")),
+    # decimals TOML rejects are read as floats
+    ("pluck.position=.5", ("pluck.position", 0.5)),
+    ("pluck.position= .75 ", ("pluck.position", 0.75)),
+    ("termination.slope=-.5", ("termination.slope", -0.5)),
+    ("output.gain=5.", ("output.gain", 5.0)),
+    ("output.gain=+.5e3", ("output.gain", 500.0)),
+    ("output.gain=1.e-3", ("output.gain", 0.001)),
+    ("output.gain=01.5", ("output.gain", 1.5)),
+    # ... but not text that is no decimal
+    ("output.gain=.", ("output.gain", ".")),
+    ("output.gain=0.5.1", ("output.gain", "0.5.1")),
+    ("output.gain=007", ("output.gain", "007")),
+    ("output.gain=.5x", ("output.gain", ".5x")),
 ])
 def test_parse_override(text, expected):
-    assert parse_override(text) == expected
+    got = parse_override(text)
+    assert got == expected
+    assert type(got[1]) is type(expected[1])
+
+
+def test_bare_decimal_set_is_validated_as_a_number(preset_dir):
+    assert load_preset("sitar", ["pluck.position=.6"]).pluck.position == 0.6
+    with pytest.raises(PresetError, match=r"pluck.position = 1.5 \(from --set\) is out of range"):
+        load_preset("sitar", ["pluck.position=1.5"])
+    with pytest.raises(PresetError, match=r"grid.cells = 5.0 \(from --set\) has the wrong type"):
+        load_preset("paper/sitar-case1", ["grid.cells=5."])
 
 
 @pytest.mark.parametrize("text,fragment", [
@@ -639,13 +662,19 @@ def test_set_can_add_keys_for_a_new_variant(preset_dir):
         in str(ei.value)
     p = load_preset("sitar", ["pluck.model=biwa", "pluck.alpha_per_s=500"])
     assert p.pluck.model == "biwa" and p.pluck.alpha_per_s == 500.0
-    # jawari-case1 -> case2 keeps slope, drops nothing, adds x_b_m/radius_m ... but x_c_m stays:
-    with pytest.raises(PresetError) as ei:
-        load_preset("sitar", ["termination.profile=jawari-case2", "termination.x_b_m=0.005",
+    # jawari-case1 -> case2 keeps side, region_points and slope, adds x_b_m/radius_m and
+    # drops the file's x_c_m (case 2 forbids it; this used to be an error)
+    p = load_preset("sitar", ["termination.profile=jawari-case2", "termination.x_b_m=0.005",
                               "termination.radius_m=0.1"])
-    msg = str(ei.value)
-    assert "key 'termination.x_c_m' is not allowed when termination.profile = \"jawari-case2\"" in msg
-    assert "--set cannot remove keys" in msg
+    t = p.termination
+    assert (t.profile, t.side, t.region_points, t.slope) == ("jawari-case2", -1, 20, 0.01)
+    assert (t.x_b_m, t.radius_m, t.x_c_m) == (0.005, 0.1, None)
+    # ... but what case 2 requires and the file lacks must still be given
+    with pytest.raises(PresetError) as ei:
+        load_preset("sitar", ["termination.profile=jawari-case2", "termination.x_b_m=0.005"])
+    assert str(ei.value).endswith("missing key 'termination.radius_m' (required when "
+                                  "termination.profile is one of \"jawari-case2\", "
+                                  "\"jawari-case3\", set by --set)")
 
 
 def test_set_of_a_forbidden_key_says_from_set(preset_dir):
@@ -656,8 +685,17 @@ def test_set_of_a_forbidden_key_says_from_set(preset_dir):
 
 
 def test_set_switching_variants(preset_dir):
-    with pytest.raises(PresetError, match="key 'grid' is not allowed when kind = \"musical\""):
+    # study -> musical: the file's [grid] is dropped (this used to be the error
+    # "key 'grid' is not allowed"); [loss] and [play] are then required
+    with pytest.raises(PresetError) as ei:
         load_preset("paper/sitar-case1", ["kind=musical"])
+    assert str(ei.value).endswith("missing key 'loss' (required when kind = \"musical\", set by --set)")
+    m = musical()
+    sets = ["kind=musical"] + [f"{sec}.{k}={v}" for sec in ("loss", "play")
+                               for k, v in m[sec].items()]
+    p = load_preset("paper/sitar-case1", sets)
+    assert p.kind == "musical" and p.grid is None
+    assert p.loss == validate_dict(m, SRC).loss and p.play == validate_dict(m, SRC).play
     assert load_preset("paper/sitar-case1", ["grid.cells=50"]).grid.cells == 50
     # none -> capo adds side, region_points and radius_m; nothing has to be removed
     d = with_profile("none")
@@ -665,9 +703,101 @@ def test_set_switching_variants(preset_dir):
     p = load_preset("plain", ["termination.profile=capo", "termination.side=1",
                               "termination.region_points=5", "termination.radius_m=0.002"])
     assert p.termination.profile == "capo" and p.termination.radius_m == 0.002
-    # musical -> study: grid can be added, but loss/play of the file cannot be removed
-    with pytest.raises(PresetError, match="key 'loss' is not allowed when kind = \"study\""):
-        load_preset("plain", ["kind=study", "grid.cells=100"])
+    # musical -> study: grid is added, the file's [loss] and [play] are dropped
+    # (this used to be the error "key 'loss' is not allowed when kind = "study"")
+    p = load_preset("plain", ["kind=study", "grid.cells=100"])
+    assert p.kind == "study" and p.grid.cells == 100 and p.loss is None and p.play is None
+    assert p.pluck == load_preset("plain").pluck
+
+
+def test_set_profile_none_drops_the_file_parameters(preset_dir):
+    p = load_preset("paper/sitar-case1", ["termination.profile=none"])
+    ideal = validate_dict(with_profile("none"), SRC).termination
+    assert p.termination == ideal
+    assert p.termination.side is None and p.termination.slope is None
+
+
+def test_set_profile_capo_keeps_side_and_region_points(preset_dir):
+    p = load_preset("sitar", ["termination.profile=capo", "termination.radius_m=0.015"])
+    t = p.termination
+    assert (t.profile, t.radius_m, t.side, t.region_points) == ("capo", 0.015, -1, 20)
+    assert t.slope is None and t.x_c_m is None
+    # the file is untouched, and the other sections come through
+    assert load_preset("sitar").termination.slope == 0.01
+    assert p.pluck == load_preset("sitar").pluck
+
+
+def test_set_model_sitar_drops_alpha(preset_dir):
+    p = load_preset("paper/sitar-case1", ["pluck.model=sitar"])
+    assert p.pluck.model == "sitar" and p.pluck.alpha_per_s is None
+
+
+def test_shipped_jawari_preset_with_profile_none_is_the_ideal_string():
+    case1 = load_preset("paper/sitar-case1", ["termination.profile=none"])
+    ideal = load_preset("paper/sitar-ideal")
+    for sec in ("kind", "string", "grid", "pluck", "termination", "output"):
+        if sec != "output":
+            assert getattr(case1, sec) == getattr(ideal, sec), sec
+    assert case1.output.signal == ideal.output.signal
+    # capo from the jawari preset: side and region_points of the file are kept
+    capo = load_preset("paper/sitar-case1", ["termination.profile=capo",
+                                              "termination.radius_m=0.015"])
+    file_t = load_preset("paper/sitar-case1").termination
+    assert (capo.termination.side, capo.termination.region_points) == \
+        (file_t.side, file_t.region_points)
+    assert capo.termination.slope is None and capo.termination.x_c_m is None
+
+
+def test_forbidden_key_given_by_set_stays_an_error(preset_dir):
+    with pytest.raises(PresetError) as ei:
+        load_preset("sitar", ["termination.profile=none", "termination.slope=0.02"])
+    msg = str(ei.value)
+    assert "\n" not in msg
+    assert msg.endswith("key 'termination.slope' (from --set) is not allowed when "
+                        "termination.profile = \"none\" (from --set), only when "
+                        "termination.profile is one of \"jawari-case1\", \"jawari-case2\", "
+                        "\"jawari-case3\"")
+    # order of the --set arguments does not matter
+    with pytest.raises(PresetError, match=r"'termination.slope' \(from --set\)"):
+        load_preset("sitar", ["termination.slope=0.02", "termination.profile=none"])
+    # a --set key inside a section that the new kind forbids is named
+    with pytest.raises(PresetError) as ei:
+        load_preset("sitar", ["kind=study", "grid.cells=100", "play.polyphony=4"])
+    assert "key 'play.polyphony' (from --set) is not allowed when kind = \"study\" (from --set)" \
+        in str(ei.value)
+
+
+def test_key_the_file_itself_may_not_have_is_still_an_error(preset_dir):
+    # radius_m is not a jawari-case1 key: the file is wrong whatever --set does to the profile
+    d = musical()
+    d["termination"]["radius_m"] = 0.1
+    _write(preset_dir / "stray.toml", d)
+    with pytest.raises(PresetError, match="key 'termination.radius_m' is not allowed when "
+                                          "termination.profile = \"jawari-case1\""):
+        load_preset("stray")
+    with pytest.raises(PresetError, match="key 'termination.radius_m' is not allowed when "
+                                          "termination.profile = \"none\" \\(from --set\\)"):
+        load_preset("stray", ["termination.profile=none"])
+    # setting the discriminator to the file's own value drops nothing either
+    with pytest.raises(PresetError, match="'termination.radius_m' is not allowed"):
+        load_preset("stray", ["termination.profile=jawari-case1"])
+
+
+def test_validate_dict_drops_keys_not_named_as_overridden():
+    d = musical()
+    d["termination"]["profile"] = "none"
+    # without the flag, the jawari keys are the file's error
+    assert "'termination.side' is not allowed" in error_of(d)
+    p = validate_dict(d, SRC, overridden=["termination.profile"])
+    assert p.termination == validate_dict(with_profile("none"), SRC).termination
+    # with the document before the overrides, only keys it allowed are dropped
+    p = validate_dict(d, SRC, overridden=["termination.profile"], file_raw=musical())
+    assert p.termination.profile == "none"
+    stray = musical()
+    stray["termination"]["radius_m"] = 0.1
+    d["termination"]["radius_m"] = 0.1
+    assert "'termination.radius_m' is not allowed" in error_of(
+        d, overridden=["termination.profile"], file_raw=stray)
 
 
 def test_preset_error_is_a_synth_error():

@@ -35,6 +35,7 @@ import difflib
 import json
 import math
 import os
+import re
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, fields as dc_fields
@@ -473,10 +474,13 @@ _TYPE_TEXT = {
 
 
 class _Validator:
-    def __init__(self, source: str, overridden: frozenset[str]):
+    def __init__(self, source: str, overridden: frozenset[str],
+                 file_raw: Mapping[str, Any] | None = None):
         self.src = source
         self.overridden = overridden
+        self.file_raw = file_raw
         self.ctx: dict[str, Any] = {}
+        self.dropped: list[str] = []
 
     # -- messages ---------------------------------------------------------
     def _origin(self, key: str) -> str:
@@ -551,13 +555,48 @@ class _Validator:
                 raise self.fail(f"unknown key '{dotted}'{self._origin(dotted)} "
                                 f"(allowed: {', '.join(allowed)})")
 
+    def _overridden_under(self, key: str) -> str | None:
+        """The first dotted key given by --set that is `key` itself or inside section `key`."""
+        if key in self.overridden:
+            return key
+        return next((k for k in sorted(self.overridden) if k.startswith(key + ".")), None)
+
+    def _file_value(self, dotted: str) -> Any:
+        """Value of `dotted` in the file before the overrides (``_ABSENT`` if not there)."""
+        node: Any = self.file_raw
+        for part in dotted.split("."):
+            if not isinstance(node, Mapping) or part not in node:
+                return _ABSENT
+            node = node[part]
+        return node
+
+    def _droppable(self, key: str, whens: Sequence[When]) -> bool:
+        """Whether the forbidden, present `key` is a key of the file left over by a
+        --set that changed its discriminator (it is then dropped, not an error).
+
+        True when the discriminator was given by --set, neither `key` nor
+        (for a section) any key inside it was, and the file's own value of
+        the discriminator allowed `key` (a key the file could not have is
+        still the file's error). Without the file (``file_raw`` None) every
+        such key counts as coming from the file.
+        """
+        disc = whens[0].key
+        if disc not in self.overridden or self._overridden_under(key) is not None:
+            return False
+        if self.file_raw is None:
+            return True
+        fv = self._file_value(disc)
+        return fv is not _ABSENT and any(fv in w.values for w in whens)
+
     def presence(self, key: str, present: bool, whens: Sequence[When | None]) -> When | None:
         """Check presence of `key` whose schema rows have conditions `whens`.
 
         Returns the condition of the active row (None if unconditional) when
         the key is required and present; raises if it is missing but required
         or present but forbidden; returns the sentinel ``_ABSENT`` when it is
-        (correctly) absent.
+        (correctly) absent, or when it is a key of the file that a --set of
+        its discriminator made forbidden (it is then dropped, see
+        :meth:`_droppable`, and recorded in ``self.dropped``).
         """
         active = [w for w in whens if w is None or w.holds(self.ctx)]
         if active:
@@ -567,15 +606,15 @@ class _Validator:
                 raise self.fail(f"missing key '{key}'{cond}")
             return active[0]
         if present:
+            if self._droppable(key, whens):
+                self.dropped.append(key)
+                return _ABSENT
             disc = whens[0].key  # rows of one key share their discriminator (_check_schema)
             allowed = When(disc, tuple(v for w in whens for v in w.values)).describe()
             actual = _fmt_value(self.ctx[disc]) if disc in self.ctx else "(absent)"
-            if disc in self.overridden and key not in self.overridden:
-                hint = f" ({disc} set by --set; --set cannot remove keys of the file)"
-            else:
-                hint = ""
-            raise self.fail(f"key '{key}'{self._origin(key)} is not allowed when "
-                            f"{disc} = {actual}, only when {allowed}{hint}")
+            shown = self._overridden_under(key) or key  # name the --set key inside a section
+            raise self.fail(f"key '{shown}'{self._origin(shown)} is not allowed when "
+                            f"{disc} = {actual}{self._origin(disc)}, only when {allowed}")
         return _ABSENT
 
     def run(self, raw: Mapping[str, Any]) -> dict[str, Any]:
@@ -620,7 +659,8 @@ class _Validator:
 
 
 def validate_dict(raw: Mapping[str, Any], source: str, *, name: str | None = None,
-                  overridden: Sequence[str] = ()) -> Preset:
+                  overridden: Sequence[str] = (),
+                  file_raw: Mapping[str, Any] | None = None) -> Preset:
     """Validate a parsed preset table and build the :class:`Preset`.
 
     Parameters
@@ -634,13 +674,22 @@ def validate_dict(raw: Mapping[str, Any], source: str, *, name: str | None = Non
         Preset name; defaults to the stem of ``source``.
     overridden : sequence of str
         Dotted keys whose values came from ``--set``; errors about them say so.
+        When one of them is a discriminating key (``kind``, ``pluck.model``,
+        ``termination.profile``, ...), the keys and sections *not* given by
+        ``--set`` that its new value forbids are dropped instead of being an
+        error; forbidden keys given by ``--set`` stay an error.
+    file_raw : mapping, optional
+        The document before the overrides. With it, only keys the file's own
+        value of the discriminator allowed are dropped (a key the file could
+        not have had is still reported). None: every key not in `overridden`
+        counts as the file's.
 
     Raises
     ------
     PresetError
         One line: source, dotted key, value and the allowed range or choices.
     """
-    v = _Validator(source, frozenset(overridden))
+    v = _Validator(source, frozenset(overridden), file_raw)
     out = v.run(raw)
     if name is None:
         name = Path(source).stem
@@ -650,6 +699,10 @@ def validate_dict(raw: Mapping[str, Any], source: str, *, name: str | None = Non
 # --------------------------------------------------------------------------
 # Overrides (--set PATH=VALUE)
 # --------------------------------------------------------------------------
+
+
+#: A decimal with a point that TOML rejects (".5", "5.", "-.5e-3", "01.5"); parsed as float.
+_LOOSE_FLOAT = re.compile(r"[+-]?(?:\d+\.\d*|\.\d+)(?:[eE][+-]?\d+)?")
 
 
 def _known_path(path: str) -> bool:
@@ -663,8 +716,10 @@ def parse_override(text: str) -> tuple[str, Any]:
     """Parse one ``--set`` argument ``"PATH=VALUE"`` into ``(dotted_path, value)``.
 
     VALUE is read as a TOML value (``0.7``, ``3``, ``"capo"``, ``[[0, 0], [0.01, 1e-4]]``,
-    ``true``); text that is not valid TOML is taken as a plain string, so
-    ``termination.profile=capo`` works without quotes. PATH must be a key of
+    ``true``); a decimal TOML rejects but Python reads (``.5``, ``-.5``,
+    ``5.``, ``007.5``) is a float; other text that is not valid TOML is
+    taken as a plain string, so ``termination.profile=capo`` works without
+    quotes. PATH must be a key of
     the schema (``kind``, ``pluck.position``, ...).
 
     Raises
@@ -690,6 +745,8 @@ def parse_override(text: str) -> tuple[str, Any]:
         value = tomllib.loads(f"v = {value_text}")["v"]
     except tomllib.TOMLDecodeError:
         value = value_text.strip()
+        if _LOOSE_FLOAT.fullmatch(value):
+            value = float(value)  # ".5", "-.5", "5.", "1.e-3": decimals TOML rejects
     return path, value
 
 
@@ -811,13 +868,15 @@ def load_preset(name_or_path: str | os.PathLike, overrides: Sequence[str] = ()) 
         validation, so they are checked exactly like the file; errors about
         such keys say ``(from --set)``. A ``--set`` may add a key the file
         lacks (e.g. ``pluck.alpha_per_s`` when switching ``pluck.model`` to
-        ``biwa``, or a whole section when switching ``kind``) but can never
-        remove one: when a ``--set`` changes a discriminating key
-        (``kind``, ``pluck.model``, ``termination.profile``), keys of the file
-        that are forbidden for the new value are an error (the message says
-        so), and keys the new value requires must be given with further
-        ``--set``. To change to a profile with different parameters, use or
-        copy a preset file that has that profile.
+        ``biwa``, or a whole section when switching ``kind``). When a
+        ``--set`` changes a discriminating key (``kind``, ``pluck.model``,
+        ``termination.profile``), the keys of the file that the new value
+        forbids are dropped (``--set termination.profile=none`` on a jawari
+        preset gives the ideal string; ``--set termination.profile=capo
+        --set termination.radius_m=0.015`` keeps the file's ``side`` and
+        ``region_points`` and drops the jawari parameters); keys the new
+        value requires and the file lacks must be given with further
+        ``--set``. A forbidden key given by ``--set`` itself is an error.
 
     Returns
     -------
@@ -849,6 +908,7 @@ def load_preset(name_or_path: str | os.PathLike, overrides: Sequence[str] = ()) 
         shown = _display_path(path)
         name = text
     raw = _read_toml(path, shown)
+    file_raw = raw
     raw, keys = _apply_overrides(raw, overrides, shown)
-    preset = validate_dict(raw, shown, name=name, overridden=keys)
+    preset = validate_dict(raw, shown, name=name, overridden=keys, file_raw=file_raw)
     return dataclasses.replace(preset, path=str(path.resolve()))
