@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import sys
 import time
 from pathlib import Path
@@ -26,6 +27,15 @@ from .io.errors import SynthError
 
 def _fail(msg: str) -> None:
     raise SynthError(msg)
+
+
+def _check_output(path: str, option: str) -> None:
+    """Fail before any work if `path` cannot be an output file (its directory is missing)."""
+    if os.path.isdir(path):
+        _fail(f"{option} {path}: is a directory, give a file name")
+    d = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(d):
+        _fail(f"{option} {path}: directory {d} does not exist")
 
 
 def _engine_for(preset_name: str, overrides, internal_rate=None, probe=False, low_key=None):
@@ -77,6 +87,9 @@ def cmd_note(args) -> int:
         _fail(f"--seconds = {args.seconds} is out of range (0 < value <= 600)")
     if args.internal_rate is not None and not (20_000 <= args.internal_rate <= 2_000_000):
         _fail(f"--internal-rate = {args.internal_rate} is out of range (20000 <= value <= 2000000 Hz)")
+    _check_output(args.output, "-o")
+    if args.probe is not None:
+        _check_output(args.probe, "--probe")
     low = args.key if args.key is not None else None
     if args.f0 is not None:
         low = int(math.floor(69 + 12 * math.log2(args.f0 / 440.0)))
@@ -123,6 +136,7 @@ def midi_to_events(midi_events):
 def cmd_render(args) -> int:
     from .io.midi import read_midi_file
 
+    _check_output(args.output, "-o")
     midi = read_midi_file(args.midi_file)
     events = midi_to_events(midi)
     notes = [e for e in events if e.kind == "note_on" and e.value > 0]
@@ -159,6 +173,7 @@ DEMO_PHRASES = {
 def cmd_demo(args) -> int:
     from .engine.engine import Event
 
+    _check_output(args.output, "-o")
     bpm = 96.0
     beat = 60.0 / bpm
     parts = []
