@@ -167,6 +167,10 @@ class PluckedInstrument:
         if self.termination is not None:
             U = self.termination.sample(dx)
             side = self.termination.side
+            # a very short (high, fretted) string keeps the region within its
+            # first third, below the pluck point (3/4): the obstacle then
+            # reaches as far along this string as it can
+            U = U[: max(1, min(len(U), cells // 3))]
         k = int(round(pre.pluck.position * cells))
         k = min(max(k, 1), cells - 1)
         s = StringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0)
@@ -195,7 +199,9 @@ class PluckedInstrument:
             if lo is not None:
                 n = max(n, int(self.fs / midi_key_to_hz(lo) / 2) + 2)
             return n + 2
-        lo = self.preset.play.key_low if key_low is None else key_low
+        # every MIDI key can sound (a file may go beyond the playable range):
+        # rings for key 0 cost 2 * 19 900 samples a voice at 325 kHz
+        lo = 0 if key_low is None else min(key_low, 0)
         return int(self.fs / midi_key_to_hz(lo) / 2) + 2
 
     # -- voice contract ------------------------------------------------------------
