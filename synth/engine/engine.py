@@ -140,9 +140,14 @@ class Engine:
         self.bank.deactivate(s)
         self._quiet[s] = 0
 
+    @staticmethod
+    def _voice_key(ev: Event):
+        """Identity of a sounding note: channel and key (or explicit f0)."""
+        return (ev.channel, ev.key if ev.f0_hz is None else ("f0", ev.f0_hz))
+
     def _apply(self, ev: Event, at: int) -> None:
+        vk = self._voice_key(ev)
         if ev.kind == NOTE_ON and ev.value > 0:
-            vk = (ev.channel, ev.key if ev.f0_hz is None else ("f0", ev.f0_hz))
             key = None if ev.key is None or ev.key < 0 else ev.key
             s = self.by_key.get(vk)
             if s is not None and self.bank.is_active(s):
@@ -157,7 +162,6 @@ class Engine:
                 self.by_key[vk] = s
             self._quiet[s] = 0
         elif ev.kind in (NOTE_OFF, NOTE_ON):
-            vk = (ev.channel, ev.key if ev.f0_hz is None else ("f0", ev.f0_hz))
             s = self.by_key.get(vk)
             if s is None:
                 return

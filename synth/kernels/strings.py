@@ -271,7 +271,10 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
         exc = 0
         ipar[s, I_EXC] = 0
     # ---- 2. excitation -------------------------------------------------------
-    if exc != 0:
+    # gbuf holds g per sample only while a pluck runs; otherwise g = 0 (an
+    # ended pluck's offset field has been cancelled)
+    plucking = exc != 0
+    if plucking:
         dt = fpar[s, F_DT]
         A = fpar[s, F_A]
         t0 = fpar[s, F_T0]
@@ -300,10 +303,6 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
         ipar[s, I_EXC] = exc
         ipar[s, I_EXC_M] = e
         st[S_G] = g
-    else:
-        g0 = st[S_G]
-        for i in range(C):
-            gbuf[i] = g0
     # ---- 3. termination region: min/max along right-going characteristics --
     if R > 0:
         roff = ipar[s, I_REG_OFF]
@@ -403,7 +402,8 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
         j1 = (m0 + 1 - k) % P
         j2 = (m0 + 1 + k) % P
         for i in range(C):
-            v = gain * (ring[off + j1] - ring[off + j2] - gbuf[i])
+            gi = gbuf[i] if plucking else 0.0
+            v = gain * (ring[off + j1] - ring[off + j2] - gi)
             mix[o0 + i] += v
             if abs(v) > peak:
                 peak = abs(v)
