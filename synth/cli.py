@@ -41,11 +41,11 @@ def _check_output(path: str, option: str) -> None:
 def _engine_for(preset_name: str, overrides, internal_rate=None, probe=False, low_key=None):
     from .engine.engine import Engine
     from .io.presets import load_preset
-    from .voices.plucked import PluckedInstrument
+    from .voices import instrument_for
 
     preset = load_preset(preset_name, overrides)
     try:
-        inst = PluckedInstrument(preset, internal_rate)
+        inst = instrument_for(preset, internal_rate)
         eng = Engine(inst, probe=probe, extra_low_key=low_key)
     except ValueError as e:
         _fail(f"{preset_name}: {e}")
@@ -90,11 +90,20 @@ def cmd_note(args) -> int:
     _check_output(args.output, "-o")
     if args.probe is not None:
         _check_output(args.probe, "--probe")
+    if args.hammer_log is not None:
+        _check_output(args.hammer_log, "--hammer-log")
+    if args.hammer_speed is not None and not (0.01 <= args.hammer_speed <= 20.0):
+        _fail(f"--hammer-speed = {args.hammer_speed} is out of range (0.01 <= value <= 20 m/s)")
     low = args.key if args.key is not None else None
     if args.f0 is not None:
         low = int(math.floor(69 + 12 * math.log2(args.f0 / 440.0)))
     preset, inst, eng = _engine_for(args.preset, args.set, args.internal_rate,
-                                    probe=args.probe is not None, low_key=low)
+                                    probe=args.probe is not None or args.hammer_log is not None,
+                                    low_key=low)
+    if args.hammer_speed is not None and preset.voice == "plucked":
+        _fail(f"--hammer-speed: {args.preset} is a plucked preset (voice = plucked): it has no hammer")
+    if args.hammer_log is not None and preset.voice == "plucked":
+        _fail(f"--hammer-log: {args.preset} is a plucked preset (voice = plucked): it has no hammer")
     if preset.kind == "musical" and args.key is None and args.f0 is None:
         _fail(f"{args.preset} is a musical preset: give --key or --f0")
     if preset.kind == "musical" and args.key is not None:
@@ -102,7 +111,8 @@ def cmd_note(args) -> int:
         if not (lo <= args.key <= hi):
             _fail(f"--key = {args.key} is outside the playable range of {args.preset} ({lo} <= key <= {hi})")
     f0 = args.f0
-    ev = Event(0.0, "note_on", args.key if args.key is not None else -1, args.velocity / 127.0, f0_hz=f0)
+    ev = Event(0.0, "note_on", args.key if args.key is not None else -1, args.velocity / 127.0,
+               f0_hz=f0, speed_m_per_s=args.hammer_speed)
     t = time.perf_counter()
     y = eng.render([ev], duration_s=args.seconds)
     el = time.perf_counter() - t
@@ -117,7 +127,35 @@ def cmd_note(args) -> int:
         n = int(round(args.seconds * inst.fs))
         write_npy_atomic(args.probe, u[:n].astype(np.float64))
         print(f"{args.probe}: u(l, t) in metres, {n} samples at {inst.fs:.1f} Hz")
+    if args.hammer_log:
+        _write_hammer_log(args.hammer_log, inst, eng)
     return 0
+
+
+def _write_hammer_log(path: str, inst, eng) -> None:
+    """CSV of the strike at the internal rate, from the hammer's first
+    sample to the end of its last contact: t, F, w, g, z."""
+    from .io.wav import write_text_atomic
+    from .kernels import strings as K
+
+    ch = getattr(inst, "last_strike_log", None)
+    src = "the first-stage strike on the ideally supported string (injected g)"
+    if ch is None:
+        ch = eng.probe_channels()
+        src = "the strike"
+    F = ch[K.P_F]
+    hit = np.flatnonzero(F > 0)
+    if len(hit) == 0:
+        _fail("--hammer-log: the hammer never touched the string")
+    n = int(hit[-1]) + 2
+    t = np.arange(n) / inst.fs
+    rows = ["time_s,force_n,felt_compression_m,g_m,hammer_position_m"]
+    rows += [f"{t[i]:.9e},{F[i]:.9e},{ch[K.P_W][i]:.9e},{ch[K.P_G][i]:.9e},{ch[K.P_Z][i]:.9e}"
+             for i in range(n)]
+    write_text_atomic(path, "\n".join(rows) + "\n")
+    dur = (hit[-1] - hit[0] + 1) / inst.fs
+    print(f"{path}: {n} samples of {src}: contact {dur * 1e3:.3f} ms "
+          f"(first to last sample with F > 0), peak force {F.max():.2f} N")
 
 
 def midi_to_events(midi_events):
@@ -220,6 +258,11 @@ def build_parser() -> argparse.ArgumentParser:
     n.add_argument("-o", "--output", required=True, help="output WAV file (48 kHz)")
     n.add_argument("--probe", help="also save u(l, t) at the pluck point (m, internal rate, float64 .npy)")
     n.add_argument("--pcm24", action="store_true", help="write 24-bit PCM instead of 32-bit float")
+    n.add_argument("--hammer-speed", type=float, metavar="M_PER_S",
+                   help="hammer speed at contact in m/s (hammered presets; overrides --velocity)")
+    n.add_argument("--hammer-log", metavar="OUT.csv",
+                   help="CSV of the strike at the internal rate: time, force, felt compression, g, "
+                        "hammer position")
     n.set_defaults(func=cmd_note)
 
     r = sub.add_parser("render", help="render a MIDI file with a preset to a WAV file")

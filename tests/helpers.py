@@ -2,11 +2,11 @@
 
 from synth.engine.engine import Engine, Event
 from synth.io.presets import load_preset
-from synth.voices.plucked import PluckedInstrument
+from synth.voices import instrument_for
 
 
 def engine(name, overrides=(), probe=False, **kw):
-    inst = PluckedInstrument(load_preset(name, overrides))
+    inst = instrument_for(load_preset(name, overrides))
     return Engine(inst, probe=probe, **kw)
 
 

@@ -70,3 +70,67 @@ def closed_form_uk(g, N, k):
         u -= G(2 * (i * N + N - k))
         i += 1
     return u
+
+
+def hammer_on_ideal_string(N, k, dt, n_steps, *, law, m, V, Q, p, A, tau0, T, c):
+    """Slow reference of the hammer kernel on the ideally supported string.
+
+    The incoming displacement at the strike point comes from Publication I
+    eq. (4) (every earlier g, reflected), the felt impulse over a step from
+    direct quadrature (scipy.integrate.quad) of y linear in the step, and the
+    implicit step is solved with scipy.optimize.brentq.  Returns g per step.
+    law 4: three-parameter (A = alpha); law 5: four-parameter (A = gamma).
+    """
+    from scipy.integrate import quad
+    from scipy.optimize import brentq
+
+    g = np.zeros(n_steps)
+    K = c / (2 * T)
+    mc = 2 * T / (c * m)
+    z, y0, phi = 0.0, 0.0, 0.0
+
+    def incoming(mm):
+        s = 0.0
+        i = 1
+        while mm - 2 * i * N >= 0:
+            s += 2 * g[mm - 2 * i * N]
+            i += 1
+        i = 0
+        while mm - 2 * (i * N + k) >= 0 or mm - 2 * (i * N + N - k) >= 0:
+            for d in (2 * (i * N + k), 2 * (i * N + N - k)):
+                if mm - d >= 0:
+                    s -= g[mm - d]
+            i += 1
+        return s
+
+    def impulse(y1):
+        if law == 4:
+            return Q * (quad(lambda r: y0 + (y1 - y0) * r / dt, 0, dt)[0] + A * (y1 - y0))
+        # F = F0 (y - gamma/tau0 Phi), Phi' = y - Phi/tau0, y linear in the step
+        yl = lambda r: y0 + (y1 - y0) * r / dt
+        Phi = lambda s: phi * np.exp(-s / tau0) + quad(lambda r: np.exp(-(s - r) / tau0) * yl(r), 0, s)[0]
+        return Q * quad(lambda s: yl(s) - A / tau0 * Phi(s), 0, dt, limit=200)[0]
+
+    gprev = 0.0
+    for mm in range(n_steps):
+        I1 = incoming(mm)
+
+        def parts(g1):
+            z1 = z + dt * (V - mc * (gprev + g1) / 2)
+            w1 = z1 - I1 - g1
+            y1 = (1000 * w1) ** p if w1 > 0 else 0.0
+            return z1, w1, y1
+
+        def resid(g1):
+            return g1 - gprev - K * max(0.0, impulse(parts(g1)[2]))
+
+        top = gprev + K * max(0.0, impulse(parts(gprev)[2]))
+        g1 = gprev if top == gprev else brentq(resid, gprev, top, xtol=1e-18, rtol=1e-14)
+        z, w1, y1 = parts(g1)
+        if law == 5:
+            phi = phi * np.exp(-dt / tau0) + quad(
+                lambda r: np.exp(-(dt - r) / tau0) * (y0 + (y1 - y0) * r / dt), 0, dt)[0]
+        y0 = y1
+        g[mm] = g1
+        gprev = g1
+    return g

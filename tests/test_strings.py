@@ -177,8 +177,8 @@ def test_probe_records_contacts_and_displacement():
     N, k, dt = 200, 150, 1e-5
     U = np.full(25, 0.0)  # a flat bar touching the string everywhere near x = 0
     y, b = run_bank(N, k, 1, 0.01, 0.001, 0.0, dt, 2000, U=U, side=1, probe=True)
-    assert np.allclose(b.probe_u[0, :2000], y)
-    assert b.probe_c[0, :2000].max() > 0
+    assert np.allclose(b.probe[0, K.P_U, :2000], y)
+    assert b.probe[0, K.P_CONTACT, :2000].max() > 0
     # the string never crosses the bar
     for _ in range(3):
         mix = np.zeros(37)

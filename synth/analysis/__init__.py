@@ -4,7 +4,13 @@ Used by the tests and by the reproduction scripts; never imports numba or
 other ``synth`` layers.
 """
 
-from synth.analysis.modes import mode_energies, mode_levels_db, string_energy
+from synth.analysis.modes import (
+    free_mode_energies,
+    mode_energies,
+    mode_levels_db,
+    string_energy,
+    struck_mode_energies,
+)
 from synth.analysis.pitch import cents, estimate_f0, f0_track, fit_inharmonicity
 from synth.analysis.regimes import (
     aperiodic_end,
@@ -33,6 +39,8 @@ __all__ = [
     "f0_track",
     "fit_inharmonicity",
     "mode_energies",
+    "free_mode_energies",
+    "struck_mode_energies",
     "string_energy",
     "mode_levels_db",
     "period_deviation",

@@ -26,7 +26,8 @@ import numpy as np
 
 from synth.analysis.spectrum import FLOOR_DB, _int, _positive
 
-__all__ = ["mode_energies", "string_energy", "mode_levels_db"]
+__all__ = ["mode_energies", "string_energy", "mode_levels_db", "free_mode_energies",
+           "struck_mode_energies"]
 
 
 def _field(name, a, min_len=3):
@@ -158,3 +159,81 @@ def mode_levels_db(E, E_ref):
     E_ref = _positive("E_ref", E_ref)
     with np.errstate(divide="ignore"):
         return np.maximum(10.0 * np.log10(e / E_ref), FLOOR_DB)
+
+
+def free_mode_energies(u0, u1, dt_s, length_m, linear_density_kg_per_m, tension_n, n_modes,
+                       piecewise_linear=True):
+    """Mode energies (J) of a freely vibrating string from two snapshots.
+
+    u0, u1 : displacement on the grid x_n = n L / N (n = 0..N) at t and t + dt.
+    Each mode of the ideally supported string evolves as
+    q_i(t) = a cos(w_i t) + b sin(w_i t), so from q_i(t) and q_i(t + dt) its
+    amplitude is exact: |q|^2 = q0^2 + ((q1 - q0 cos th) / sin th)^2 with
+    th = w_i dt, and E_i = M w_i^2 |q|^2 / 4 (Publication II eq. 17).
+
+    piecewise_linear : project the linear interpolant of the samples (exact
+        for the waveguide string on a grid with c dt = dx, whose shape is
+        piecewise linear between grid points), i.e. the DST-I coefficient
+        times sinc^2(i pi / 2N); False: the trapezoid rule on the samples.
+    """
+    L = _positive("length_m", length_m)
+    mu = _positive("linear_density_kg_per_m", linear_density_kg_per_m)
+    T = _positive("tension_n", tension_n)
+    dt = _positive("dt_s", dt_s)
+    n_modes = _int("n_modes", n_modes, 1)
+    a0 = _field("u0", u0)
+    a1 = _field("u1", u1)
+    if a0.shape != a1.shape:
+        raise ValueError(f"u0 and u1 must have the same shape, got {a0.shape} and {a1.shape}")
+    N = a0.shape[-1] - 1
+    if n_modes >= N:
+        raise ValueError(f"n_modes = {n_modes} is out of range (1 <= value < N = {N})")
+    i = np.arange(1, n_modes + 1)
+    q0 = _dst_sums(a0, n_modes) * (2.0 / N)
+    q1 = _dst_sums(a1, n_modes) * (2.0 / N)
+    if piecewise_linear:
+        h = i * np.pi / (2 * N)
+        f = (np.sin(h) / h) ** 2
+        q0, q1 = q0 * f, q1 * f
+    w = i * np.pi * np.sqrt(T / mu) / L
+    th = w * dt
+    amp2 = q0 ** 2 + ((q1 - q0 * np.cos(th)) / np.sin(th)) ** 2
+    return mu * L * w ** 2 * amp2 / 4.0
+
+
+def struck_mode_energies(g_m, dt_s, strike_fraction, length_m, linear_density_kg_per_m,
+                         tension_n, n_modes):
+    """Mode energies (J) of an ideally supported string from the force history
+    of a point strike (Publication I eqs. 11-13, with the factor 2 the printed
+    modal amplitudes lack).
+
+    The force enters through the outgoing wave, F = (2T/c) dg/dt; ``g_m`` are
+    its samples at t_m = m dt (piecewise linear between them, so F is
+    constant within each step and the integrals are exact).  For a strike at
+    a = l/L,
+
+        amp_i = 2 sin(i pi a) / (i pi c mu) | int F(s) exp(j w_i s) ds |,
+        E_i = M w_i^2 amp_i^2 / 4.
+
+    The spectrum is stationary once the force has stopped (the hammer has
+    left), which is when this route applies.
+    """
+    L = _positive("length_m", length_m)
+    mu = _positive("linear_density_kg_per_m", linear_density_kg_per_m)
+    T = _positive("tension_n", tension_n)
+    dt = _positive("dt_s", dt_s)
+    n_modes = _int("n_modes", n_modes, 1)
+    g = _field("g_m", g_m, min_len=2)
+    c = np.sqrt(T / mu)
+    a = float(strike_fraction)
+    if not (0.0 < a < 1.0):
+        raise ValueError(f"strike_fraction = {strike_fraction!r} is out of range (0 < value < 1)")
+    F = (2.0 * T / c) * np.diff(g) / dt          # constant on [t_(m-1), t_m]
+    t_lo = np.arange(len(F)) * dt
+    i = np.arange(1, n_modes + 1)[:, None]
+    w = i * np.pi * c / L
+    # int over each step of exp(j w s) ds = (exp(j w t_hi) - exp(j w t_lo)) / (j w)
+    seg = (np.exp(1j * w * (t_lo + dt)) - np.exp(1j * w * t_lo)) / (1j * w)
+    I = np.sum(F[None, :] * seg, axis=1)
+    amp = 2.0 * np.sin(i[:, 0] * np.pi * a) / (i[:, 0] * np.pi * c * mu) * np.abs(I)
+    return mu * L * w[:, 0] ** 2 * amp ** 2 / 4.0

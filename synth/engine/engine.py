@@ -40,6 +40,7 @@ class Event:
     value : float         velocity in (0, 1] or controller value in [0, 1]
     channel : int         0..15
     f0_hz : float | None  explicit pitch instead of the key (note_on only)
+    speed_m_per_s : float | None  hammer speed instead of the velocity's
     """
 
     time_s: float
@@ -48,6 +49,7 @@ class Event:
     value: float = 0.0
     channel: int = 0
     f0_hz: float | None = None
+    speed_m_per_s: float | None = None
 
 
 @dataclass
@@ -94,13 +96,13 @@ class Engine:
         self.polyphony = int(polyphony or instrument.polyphony)
         max_in = self.dec.inputs_needed(self.MAX_BLOCK_OUT) + 16
         R = 0 if instrument.termination is None else instrument.termination.region_points
+        gt = instrument.gtable_length() if hasattr(instrument, "gtable_length") else 0
         self.bank = StringBank(self.polyphony, instrument.max_cells(extra_low_key),
                                max_region=max(R, 1), max_block=4096,
-                               n_probes=1 if probe else 0)
+                               n_probes=1 if probe else 0, max_gtable=gt)
         self.mix = np.zeros(max_in)
         self.probe = probe
-        self._probe_u: list[np.ndarray] = []
-        self._probe_c: list[np.ndarray] = []
+        self._probe: list[np.ndarray] = []
         self.time_in = 0                    # internal samples rendered so far
         self.voices: dict[int, _Voice] = {}  # slot -> voice
         self.by_key: dict[object, int] = {}  # (channel, key) -> slot
@@ -145,6 +147,10 @@ class Engine:
         """Identity of a sounding note: channel and key (or explicit f0)."""
         return (ev.channel, ev.key if ev.f0_hz is None else ("f0", ev.f0_hz))
 
+    @staticmethod
+    def _extra(ev: Event) -> dict:
+        return {} if ev.speed_m_per_s is None else {"speed_m_per_s": ev.speed_m_per_s}
+
     def _apply(self, ev: Event, at: int) -> None:
         vk = self._voice_key(ev)
         if ev.kind == NOTE_ON and ev.value > 0:
@@ -152,12 +158,14 @@ class Engine:
             s = self.by_key.get(vk)
             if s is not None and self.bank.is_active(s):
                 # a sounding key is re-plucked on the same string
-                self.inst.note_on(self.bank, s, key, ev.value, f0_hz=ev.f0_hz, restrike=True)
+                self.inst.note_on(self.bank, s, key, ev.value, f0_hz=ev.f0_hz, restrike=True,
+                                  **self._extra(ev))
                 self.voices[s] = _Voice(vk, at)
             else:
                 s = self._alloc()
                 self.inst.note_on(self.bank, s, key, ev.value, f0_hz=ev.f0_hz,
-                                  probe_row=0 if (self.probe and not self.voices) else -1)
+                                  probe_row=0 if (self.probe and not self.voices) else -1,
+                                  **self._extra(ev))
                 self.voices[s] = _Voice(vk, at)
                 self.by_key[vk] = s
             self._quiet[s] = 0
@@ -211,8 +219,7 @@ class Engine:
         bank = self.bank
         if self.probe:
             bank.ensure_probe_length(n_in)
-            bank.probe_u[:, :n_in] = 0.0
-            bank.probe_c[:, :n_in] = 0.0
+            bank.probe[:, :, :n_in] = 0.0
         cursor = 0
         pend = self._pending
         while pend and pend[0][0] < end:
@@ -226,8 +233,7 @@ class Engine:
             bank.render(self.mix, cursor, n_in - cursor)
         self.time_in = end
         if self.probe:
-            self._probe_u.append(bank.probe_u[0, :n_in].copy())
-            self._probe_c.append(bank.probe_c[0, :n_in].copy())
+            self._probe.append(bank.probe[0, :, :n_in].copy())
         y = self.dec.process(mix, out)
         self._reap(n_in)
         return y
@@ -254,11 +260,19 @@ class Engine:
     def n_voices(self) -> int:
         return len(self.voices)
 
-    def probe_signals(self):
-        """(u at the excitation point (m), contact counts) per internal sample."""
+    def probe_channels(self) -> np.ndarray:
+        """All probe channels (kernel ``P_*``) per internal sample, shape
+        (channels, samples): u at the excitation point (m), region points in
+        contact, hammer force (N), felt compression (m), hammer position (m),
+        outgoing wave g (m)."""
         if not self.probe:
             raise ValueError("probe = False: this engine records no probe")
-        return np.concatenate(self._probe_u), np.concatenate(self._probe_c)
+        return np.concatenate(self._probe, axis=1)
+
+    def probe_signals(self):
+        """(u at the excitation point (m), contact counts) per internal sample."""
+        ch = self.probe_channels()
+        return ch[K.P_U], ch[K.P_CONTACT]
 
     def render(self, events, duration_s: float | None = None, tail_s: float = 1.0,
                max_tail_s: float = 30.0, block: int = 1024, compensate_latency: bool = True) -> np.ndarray:

@@ -104,6 +104,29 @@ class PluckSpec:
 
 
 @dataclass(frozen=True)
+class HammerSpec:
+    """A felt hammer striking one string (thesis eqs. 1.4-1.9, Pub. III eq. 3).
+
+    law: "three-parameter" (F = Q0 (w^p + alpha d(w^p)/dt)) or
+    "four-parameter" (F = F0 (w^p - gamma/tau0 int w^p e^((s-t)/tau0) ds));
+    stiffness is Q0 or F0 in N/mm^p; capo_coupling: "direct" (the hammer
+    strikes the string with its termination) or "injected" (g(t) from a strike
+    on the ideally supported string is injected, as Publication I does).
+    """
+
+    law: str
+    position: float
+    mass_kg: float
+    speed_m_per_s: float
+    stiffness_n_per_mm_p: float
+    exponent: float
+    capo_coupling: str
+    alpha_s: float | None = None
+    gamma: float | None = None
+    tau0_s: float | None = None
+
+
+@dataclass(frozen=True)
 class TerminationSpec:
     """Nonlinear termination profile; parameters not used by the profile are None.
 
@@ -172,7 +195,8 @@ class Preset:
     voice: str
     string: StringSpec
     grid: GridSpec | None
-    pluck: PluckSpec
+    pluck: PluckSpec | None
+    hammer: HammerSpec | None
     termination: TerminationSpec
     loss: LossSpec | None
     output: OutputSpec
@@ -279,7 +303,9 @@ class Section:
 
 
 KINDS = ("study", "musical")
-VOICES = ("plucked",)  # "piano" will be added here (plus its section rows)
+VOICES = ("plucked", "piano")
+HAMMER_LAWS = ("three-parameter", "four-parameter")
+CAPO_COUPLINGS = ("direct", "injected")
 PLUCK_MODELS = ("sitar", "biwa")
 PROFILES = (
     "none",
@@ -328,9 +354,30 @@ SECTIONS: tuple[Section, ...] = (
         Field("alpha_per_s", "float", "biwa force-pluck rate alpha, 1/s", 1.0, 1e6,
               when=When("pluck.model", ("biwa",))),
     ), when=When("voice", ("plucked",))),
+    Section("hammer", "felt hammer striking the string (voice piano)", HammerSpec, (
+        Field("law", "str", "felt law: three-parameter (eq. 1.5) or four-parameter (Pub. III eq. 3)",
+              choices=HAMMER_LAWS),
+        Field("position", "float", "striking point l as a fraction of L from x=0", 0.0, 1.0,
+              lo_open=True, hi_open=True),
+        Field("mass_kg", "float", "hammer mass acting on this string, kg", 1e-4, 0.05),
+        Field("speed_m_per_s", "float", "hammer speed V at first contact (musical: at velocity 127), m/s",
+              0.01, 20.0),
+        Field("stiffness_n_per_mm_p", "float", "felt stiffness Q0 (three-parameter) or F0 "
+              "(four-parameter), N/mm^p", 1.0, 1e9),
+        Field("exponent", "float", "felt nonlinearity exponent p", 1.0, 6.0),
+        Field("capo_coupling", "str", "direct: the hammer strikes the terminated string; injected: "
+              "g(t) of a strike on the ideal string is injected (Publication I)", choices=CAPO_COUPLINGS),
+        Field("alpha_s", "float", "hereditary time alpha, s", 0.0, 0.01,
+              when=When("hammer.law", ("three-parameter",))),
+        Field("gamma", "float", "hereditary amplitude gamma", 0.0, 1.0, hi_open=True,
+              when=When("hammer.law", ("four-parameter",))),
+        Field("tau0_s", "float", "relaxation time tau0, s", 1e-9, 1e-2,
+              when=When("hammer.law", ("four-parameter",))),
+    ), when=When("voice", ("piano",))),
     Section("termination", "nonlinear contact termination", TerminationSpec, (
         Field("profile", "str", "obstacle profile at the termination", choices=PROFILES),
-        Field("side", "int", "which end: -1 at x=0, +1 at x=L", choices=(-1, 1),
+        Field("side", "int", "+1: obstacle above the string (u <= U); -1: below it (u >= U)",
+              choices=(-1, 1),
               when=_when_not(_PROFILE, PROFILES, ("none",))),
         Field("region_points", "int", "number of grid points in the contact region", 1, 2000,
               when=_when_not(_PROFILE, PROFILES, ("none",))),

@@ -181,3 +181,14 @@ def write_npy_atomic(path: str | os.PathLike[str], array: np.ndarray) -> None:
         np.save(f, arr, allow_pickle=False)
 
     _atomic_write(path, write)
+
+
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
+    """Write UTF-8 text (a CSV log, say) at `path` atomically, like
+    :func:`write_npy_atomic`."""
+    data = text.encode("utf-8")
+
+    def write(f: BinaryIO) -> None:
+        f.write(data)
+
+    _atomic_write(path, write)

@@ -52,7 +52,9 @@ I_OFF = 0        # ring offset in the flat ring array
 I_N = 1          # cells N (ring length 2N)
 I_POS = 2        # state: (time index of the last processed sample) mod 2N
 I_K = 3          # excitation / pickup grid point k (1 .. N-1)
-I_EXC = 4        # state: 0 none or ended, 1 sitar g (eq. 1.13), 2 biwa g (eq. 1.11)
+I_EXC = 4        # state: 0 none/ended, -1 ended (offset to cancel), 1 sitar g (eq. 1.13),
+                 #   2 biwa g (eq. 1.11), 3 g from a table, 4 hammer 3-parameter felt
+                 #   (eq. 1.5), 5 hammer 4-parameter felt (Pub. III eq. 3)
 I_EXC_M = 5      # state: samples since excitation start (t = I_EXC_M * dt)
 I_REG_OFF = 6    # offset of U(1..R) in the flat profile array
 I_REG_N = 7      # R, points in the termination region (0: ideal rigid end)
@@ -62,8 +64,11 @@ I_XDELAY = 10    # extra unit delay in the far-end filter (0 or 1)
 I_OUT = 11       # output signal: 0 displacement u(k), 1 bridge force at x = L
 I_PROBE = 12     # row in probe arrays, or -1
 I_CHUNK = 13     # longest exact fast-path chunk (samples); 0 forces per-sample
-I_EXC_END = 14   # first excitation sample with t > t0 (g constant from there)
-I_NI = 15
+I_EXC_END = 14   # first excitation sample with t > t0 (g constant from there);
+                 #   g table: its length; hammer: latest end of the hammer's flight
+I_GT_OFF = 15    # offset of the g table in the flat table array (kind 3)
+I_HLAST = 16     # state: excitation sample of the hammer's last contact (-1: none yet)
+I_NI = 17
 
 # ---- float parameter columns (fpar[s, :]) -----------------------------------
 F_DT = 0         # time step dt (s)
@@ -75,7 +80,16 @@ F_A1 = 5         # one-pole a1   (y = b0 x - a1 y1)
 F_ETA = 6        # allpass coefficient
 F_GAIN = 7       # output gain (signal units -> mix units)
 F_TDX = 8        # T / dx (N/m), bridge force scale
-F_NF = 9
+F_HM = 9         # hammer mass m (kg)
+F_HV = 10        # hammer speed V at first contact (m/s)
+F_HQ = 11        # felt stiffness Q0 (3-par) or F0 (4-par), N/mm^p
+F_HP = 12        # felt exponent p
+F_HA = 13        # 3-par: alpha (s); 4-par: gamma
+F_HT = 14        # 4-par: tau0 (s)
+F_TEN = 15       # string tension T (N)
+F_C = 16         # wave speed c (m/s)
+F_HREL = 17      # samples without contact after which the hammer is gone
+F_NF = 18
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -84,7 +98,21 @@ S_APX = 2        # allpass x[n-1]
 S_APY = 3        # allpass y[n-1]
 S_XD = 4         # extra-delay register
 S_PEAK = 5       # peak |gain * signal| since last reset (silence detection)
-S_NS = 6
+S_HZ = 6         # hammer position z (m)
+S_HY = 7         # felt y = w_mm^p at the last step
+S_HPHI = 8       # 4-par: memory integral Phi (mm^p s)
+S_HF = 9         # hammer force at the last step (N)
+S_HW = 10        # felt compression w at the last step (m)
+S_NS = 11
+
+# ---- probe channels (probe[row, ch, n]) ---------------------------------------
+P_U = 0          # u at the excitation point (m)
+P_CONTACT = 1    # region points in contact with the termination
+P_F = 2          # hammer force (N)
+P_W = 3          # felt compression w (m)
+P_Z = 4          # hammer position z (m)
+P_G = 5          # outgoing wave g (m)
+P_NCH = 6
 
 
 @njit(**JIT_OPTS)
@@ -102,6 +130,119 @@ def _g_at(kind, e, dt, A, t0, alpha):
         if t > t0:
             t = t0
         return A * (1.0 - (1.0 + alpha * t) * np.exp(-alpha * t))
+
+
+@njit(**JIT_OPTS)
+def _felt_impulse(law, y0, y1, dt, Q, alpha_or_gamma, tau0, phi0):
+    """Felt impulse over one step, int F dt (N s), with y = w_mm^p linear in
+    the step, and its derivative with respect to y1.
+
+    law 4 (eq. 1.5):  int F = Q0 [dt (y0 + y1)/2 + alpha (y1 - y0)]  (exact
+        for the alpha term).
+    law 5 (Pub. III eq. 3, recursive convolution integrated exactly):
+        int F = F0 [(1 - gamma) dt (y0 + y1)/2 + gamma J - gamma (1 - E) Phi0],
+        J = tau0 (c1 y1 + c0 y0), E = exp(-dt/tau0).
+    """
+    if law == 4:
+        a = alpha_or_gamma
+        return Q * (0.5 * dt * (y0 + y1) + a * (y1 - y0)), Q * (0.5 * dt + a)
+    gam = alpha_or_gamma
+    h = dt / tau0
+    E = np.exp(-h)
+    q = (1.0 - E) / h
+    c1 = 1.0 - q
+    c0 = q - E
+    J = tau0 * (c1 * y1 + c0 * y0)
+    imp = Q * ((1.0 - gam) * 0.5 * dt * (y0 + y1) + gam * J - gam * (1.0 - E) * phi0)
+    return imp, Q * ((1.0 - gam) * 0.5 * dt + gam * tau0 * c1)
+
+
+@njit(**JIT_OPTS)
+def _hammer_step(law, I1, g0, dt, fp, st):
+    """Advance the hammer-string contact (eq. 1.4) by one step.
+
+    Unknown: g1 = g(t_{n+1}).  With the incoming displacement I1 at the
+    strike point known (it arrives from the neighbours), z1 = z0 + dt (V -
+    (2T/cm)(g0 + g1)/2), w1 = z1 - I1 - g1, y1 = max(w1, 0)^p (w in mm) and
+    g1 = g0 + (c/2T) max(0, int F dt).  The right side falls as g1 rises, so
+    the root is unique and lies in [g0, g0 + (c/2T) max(0, int F(g0))]:
+    Newton steps, safeguarded by bisection.  A-stable (the stiff felt terms
+    are integrated exactly), second order.  Returns (g1, F1, w1, contact).
+    """
+    m = fp[F_HM]
+    V = fp[F_HV]
+    Q = fp[F_HQ]
+    p = fp[F_HP]
+    A = fp[F_HA]
+    tau0 = fp[F_HT]
+    T = fp[F_TEN]
+    c = fp[F_C]
+    K = c / (2.0 * T)
+    mc = 2.0 * T / (c * m)
+    z0 = st[S_HZ]
+    y0 = st[S_HY]
+    phi0 = st[S_HPHI]
+    zc = z0 + dt * (V - mc * 0.5 * g0)      # z1 = zc - dt mc/2 g1
+    dz = 0.5 * dt * mc
+
+    # residual r(g) = g - g0 - K max(0, imp(g)); r' = 1 - K dimp/dy dy/dg
+    w = zc - dz * g0 - I1 - g0
+    y = (1000.0 * w) ** p if w > 0.0 else 0.0
+    imp, dimp = _felt_impulse(law, y0, y, dt, Q, A, tau0, phi0)
+    if imp <= 0.0:
+        g1 = g0
+    else:
+        lo = g0
+        hi = g0 + K * imp
+        g1 = hi
+        for it in range(100):
+            w = zc - dz * g1 - I1 - g1
+            if w > 0.0:
+                wm = 1000.0 * w
+                y = wm ** p
+                dy = -p * wm ** (p - 1.0) * 1000.0 * (1.0 + dz)
+            else:
+                y = 0.0
+                dy = 0.0
+            imp, dimp = _felt_impulse(law, y0, y, dt, Q, A, tau0, phi0)
+            if imp < 0.0:
+                imp = 0.0
+                dimp = 0.0
+            r = g1 - g0 - K * imp
+            if r > 0.0:
+                hi = g1
+            else:
+                lo = g1
+            if r == 0.0 or hi - lo <= 1e-15 * (abs(hi) + 1e-30):
+                break
+            dr = 1.0 - K * dimp * dy
+            gn = g1 - r / dr
+            if not (lo < gn < hi):
+                gn = 0.5 * (lo + hi)
+            if gn == g1:
+                break
+            g1 = gn
+    # state update at t_{n+1}
+    z1 = zc - dz * g1
+    w1 = z1 - I1 - g1
+    y1 = (1000.0 * w1) ** p if w1 > 0.0 else 0.0
+    if law == 4:
+        F1 = Q * (y1 + A * (y1 - y0) / dt)
+    else:
+        h = dt / tau0
+        E = np.exp(-h)
+        q = (1.0 - E) / h
+        phi1 = E * phi0 + tau0 * ((1.0 - q) * y1 + (q - E) * y0)
+        st[S_HPHI] = phi1
+        F1 = Q * (y1 - A / tau0 * phi1)
+    contact = g1 > g0
+    if F1 < 0.0 or not contact:
+        F1 = 0.0
+    st[S_HZ] = z1
+    st[S_HY] = y1
+    st[S_HF] = F1
+    st[S_HW] = w1
+    return g1, F1, w1, contact
 
 
 @njit(**JIT_OPTS)
@@ -138,10 +279,10 @@ def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, st):
 
 
 @njit(**JIT_OPTS)
-def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe_u, probe_c):
+def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     """Plain per-sample scheme for string s over n samples, mixing into
-    mix[o0:o0+n].  Reference for the fast path; also used when the
-    excitation lies inside the region or diagnostics are requested."""
+    mix[o0:o0+n].  Reference for the fast path; also used for hammers and g
+    tables, when the excitation lies inside the region, and for probes."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
@@ -153,25 +294,29 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe_u, probe_c
     xdel = ipar[s, I_XDELAY]
     outm = ipar[s, I_OUT]
     prow = ipar[s, I_PROBE]
-    dt = fpar[s, F_DT]
-    A = fpar[s, F_A]
-    t0 = fpar[s, F_T0]
-    alpha = fpar[s, F_ALPHA]
-    b0 = fpar[s, F_B0]
-    a1 = fpar[s, F_A1]
-    eta = fpar[s, F_ETA]
-    gain = fpar[s, F_GAIN]
-    tdx = fpar[s, F_TDX]
+    goff = ipar[s, I_GT_OFF]
+    fp = fpar[s]
+    dt = fp[F_DT]
+    A = fp[F_A]
+    t0 = fp[F_T0]
+    alpha = fp[F_ALPHA]
+    b0 = fp[F_B0]
+    a1 = fp[F_A1]
+    eta = fp[F_ETA]
+    gain = fp[F_GAIN]
+    tdx = fp[F_TDX]
+    hrel = int(fp[F_HREL])
     st = fst[s]
     pm = ipar[s, I_POS]
     exc = ipar[s, I_EXC]
     e = ipar[s, I_EXC_M]
     e_end = ipar[s, I_EXC_END]
+    hlast = ipar[s, I_HLAST]
     g = st[S_G]
     peak = st[S_PEAK]
     for i in range(n):
         if exc == -1:
-            # the pluck ended on the previous sample: cancel its offset
+            # the excitation ended on the previous sample: cancel its offset
             # field before this sample (exactly where the fast path does)
             _remove_offset(ring, off, P, pm, k, g)
             g = 0.0
@@ -179,19 +324,32 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe_u, probe_c
         pm += 1
         if pm == P:
             pm = 0
-        # 2. excitation
+        # 2. excitation at k: outgoing = incoming + g on both rails
+        j1 = pm - k
+        if j1 < 0:
+            j1 += P
+        j2 = pm + k
+        if j2 >= P:
+            j2 -= P
+        F = 0.0
         if exc != 0:
-            g = _g_at(exc, e, dt, A, t0, alpha)
-            j1 = pm - k
-            if j1 < 0:
-                j1 += P
-            j2 = pm + k
-            if j2 >= P:
-                j2 -= P
+            if exc <= 2:
+                g = _g_at(exc, e, dt, A, t0, alpha)
+                if e >= e_end:
+                    exc = -1
+            elif exc == 3:
+                g = U[goff + e]
+                if e >= e_end - 1:
+                    exc = -1
+            else:
+                I1 = ring[off + j1] - ring[off + j2]
+                g, F, w, contact = _hammer_step(exc, I1, g, dt, fp, st)
+                if contact:
+                    hlast = e
+                if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):
+                    exc = -1          # the hammer is gone
             ring[off + j1] += g
             ring[off + j2] -= g
-            if e >= e_end:
-                exc = -1     # g constant from now on; offset removed next sample
             e += 1
         # 3. termination region
         ncont = 0
@@ -217,12 +375,6 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe_u, probe_c
             x = 0.0
             y = 0.0
         # output
-        j1 = pm - k
-        if j1 < 0:
-            j1 += P
-        j2 = pm + k
-        if j2 >= P:
-            j2 -= P
         uk = ring[off + j1] - ring[off + j2] - g
         if outm == 0:
             sig = uk
@@ -241,11 +393,16 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe_u, probe_c
         if a > peak:
             peak = a
         if prow >= 0:
-            probe_u[prow, o0 + i] = uk
-            probe_c[prow, o0 + i] = ncont
+            probe[prow, P_U, o0 + i] = uk
+            probe[prow, P_CONTACT, o0 + i] = ncont
+            probe[prow, P_G, o0 + i] = g
+            probe[prow, P_F, o0 + i] = F
+            probe[prow, P_W, o0 + i] = st[S_HW]
+            probe[prow, P_Z, o0 + i] = st[S_HZ]
     ipar[s, I_POS] = pm
     ipar[s, I_EXC] = exc
     ipar[s, I_EXC_M] = e
+    ipar[s, I_HLAST] = hlast
     st[S_G] = g
     st[S_PEAK] = peak
 
@@ -419,22 +576,22 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
 
 @njit(**JIT_OPTS)
 def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
-                probe_u, probe_c, scratch):
+                probe, scratch):
     """Render ``n`` internal samples of every active string into
     ``mix[o0:o0+n]`` (accumulating).
 
     ring : float64[:]        all rings, concatenated
     ipar, fpar, fst : 2-D     parameter and state tables (columns above)
-    U : float64[:]            all region profiles, concatenated
+    U : float64[:]            all region profiles and g tables, concatenated
     active : int64[:]         string indices; the first ``n_active`` are used
-    probe_u, probe_c : 2-D    per-sample u(k) (m) and contact counts for
+    probe : 3-D               per-sample diagnostics [row, channel P_*, n] for
                               strings with ``ipar[s, I_PROBE] >= 0``
     scratch : float64[:]      >= 3 * (max chunk + max R) samples
     """
     for a in range(n_active):
         s = active[a]
-        if ipar[s, I_PROBE] >= 0 or ipar[s, I_CHUNK] <= 0:
-            _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe_u, probe_c)
+        if ipar[s, I_PROBE] >= 0 or ipar[s, I_CHUNK] <= 0 or ipar[s, I_EXC] >= 3:
+            _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
         else:
             cmax = ipar[s, I_CHUNK]
             done = 0

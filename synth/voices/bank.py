@@ -28,12 +28,15 @@ class StringBank:
     max_block : int
         Longest segment (internal samples) rendered in one call.
     n_probes : int
-        Rows for per-sample diagnostics (u at the excitation point and
-        contact counts), used by study renders.
+        Rows for per-sample diagnostics (channels ``P_*`` of the kernel: u at
+        the excitation point, contacts, hammer force, felt compression,
+        hammer position, g), used by study renders.
+    max_gtable : int
+        Longest injected g(t) table per slot (samples), 0 if none.
     """
 
     def __init__(self, capacity: int, max_cells: int, max_region: int = 64,
-                 max_block: int = 4096, n_probes: int = 0):
+                 max_block: int = 4096, n_probes: int = 0, max_gtable: int = 0):
         if not (1 <= capacity <= 4096):
             raise ValueError(f"capacity = {capacity!r} is out of range (1 <= value <= 4096)")
         if not (8 <= max_cells <= 1_000_000):
@@ -46,18 +49,20 @@ class StringBank:
         self.ipar = np.zeros((self.capacity, K.I_NI), dtype=np.int64)
         self.fpar = np.zeros((self.capacity, K.F_NF))
         self.fst = np.zeros((self.capacity, K.S_NS))
-        self.U = np.zeros(max(1, self.capacity * self.max_region))
+        self.max_gtable = int(max_gtable)
+        # region profiles, then g tables, in one flat table array
+        self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable)))
         # fast-path chunks never exceed max_block; scratch holds g, acc, window
         self.scratch = np.zeros(3 * (self.max_block + self.max_region) + 8)
         self.active = np.zeros(self.capacity, dtype=np.int64)
         self.n_active = 0
         self._is_active = np.zeros(self.capacity, dtype=bool)
-        self.probe_u = np.zeros((max(n_probes, 1), 0))
-        self.probe_c = np.zeros((max(n_probes, 1), 0))
+        self.probe = np.zeros((max(n_probes, 1), K.P_NCH, 0))
         self.n_probes = int(n_probes)
         for s in range(self.capacity):
             self.ipar[s, K.I_OFF] = s * 2 * self.max_cells
             self.ipar[s, K.I_REG_OFF] = s * self.max_region
+            self.ipar[s, K.I_GT_OFF] = self.capacity * self.max_region + s * self.max_gtable
             self.ipar[s, K.I_PROBE] = -1
 
     # -- slot management ------------------------------------------------------
@@ -87,6 +92,7 @@ class StringBank:
         self.ipar[s, K.I_POS] = 0
         self.ipar[s, K.I_EXC] = 0
         self.ipar[s, K.I_EXC_M] = 0
+        self.ipar[s, K.I_HLAST] = -1
 
     def is_active(self, s: int) -> bool:
         return bool(self._is_active[s])
@@ -170,11 +176,67 @@ class StringBank:
         st[K.S_G] = 0.0
         ip[K.I_EXC] = 0
 
+    def start_gtable(self, s: int, g: np.ndarray) -> None:
+        """Inject a given outgoing wave g (m, one value per internal sample,
+        held at its last value afterwards) at slot s's excitation point."""
+        g = np.asarray(g, float)
+        if not (1 <= len(g) <= self.max_gtable):
+            raise ValueError(f"g table length = {len(g)} is out of range (1 <= value <= {self.max_gtable})")
+        ip = self.ipar[s]
+        if ip[K.I_EXC] != 0:
+            self._end_excitation(s)
+        o = ip[K.I_GT_OFF]
+        self.U[o: o + len(g)] = g
+        ip[K.I_EXC] = 3
+        ip[K.I_EXC_M] = 0
+        ip[K.I_EXC_END] = len(g)
+
+    def start_hammer(self, s: int, *, law: int, mass_kg: float, speed_m_per_s: float,
+                     stiffness: float, exponent: float, alpha_or_gamma: float,
+                     tau0_s: float, tension_n: float, c_m_per_s: float,
+                     max_flight_s: float = 0.05, release_s: float = 0.004) -> None:
+        """Strike slot s with a felt hammer (eq. 1.4) from its next sample.
+
+        law : 4 three-parameter felt (eq. 1.5; ``stiffness`` = Q0 in N/mm^p,
+            ``alpha_or_gamma`` = alpha in s), 5 four-parameter felt (Pub. III
+            eq. 3; ``stiffness`` = F0 in N/mm^p, ``alpha_or_gamma`` = gamma,
+            ``tau0_s``).
+        The hammer starts touching the string where it is now (w = 0) and
+        flies until it has been out of contact for ``release_s`` (it may hit
+        again before that) or ``max_flight_s`` has passed.
+        """
+        if law not in (4, 5):
+            raise ValueError(f"law = {law!r} is not allowed (4: three-parameter, 5: four-parameter)")
+        if not (0.0 < speed_m_per_s <= 20.0):
+            raise ValueError(f"speed_m_per_s = {speed_m_per_s!r} is out of range (0 < value <= 20)")
+        ip, fp, st = self.ipar[s], self.fpar[s], self.fst[s]
+        if ip[K.I_EXC] != 0:
+            self._end_excitation(s)
+        dt = float(fp[K.F_DT])
+        u_now = float(self.displacement(s)[int(ip[K.I_K])])
+        fp[K.F_HM] = mass_kg
+        fp[K.F_HV] = speed_m_per_s
+        fp[K.F_HQ] = stiffness
+        fp[K.F_HP] = exponent
+        fp[K.F_HA] = alpha_or_gamma
+        fp[K.F_HT] = tau0_s if law == 5 else 1.0
+        fp[K.F_TEN] = tension_n
+        fp[K.F_C] = c_m_per_s
+        fp[K.F_HREL] = max(1.0, round(release_s / dt))
+        st[K.S_HZ] = u_now
+        st[K.S_HY] = 0.0
+        st[K.S_HPHI] = 0.0
+        st[K.S_HF] = 0.0
+        st[K.S_HW] = 0.0
+        ip[K.I_EXC] = law
+        ip[K.I_EXC_M] = 0
+        ip[K.I_EXC_END] = max(1, int(round(max_flight_s / dt)))
+        ip[K.I_HLAST] = -1
+
     # -- probes ---------------------------------------------------------------
     def ensure_probe_length(self, n: int) -> None:
-        if self.probe_u.shape[1] < n:
-            self.probe_u = np.zeros((self.probe_u.shape[0], n))
-            self.probe_c = np.zeros((self.probe_c.shape[0], n))
+        if self.probe.shape[2] < n:
+            self.probe = np.zeros((self.probe.shape[0], K.P_NCH, n))
 
     # -- rendering --------------------------------------------------------------
     def render(self, mix: np.ndarray, o0: int, n: int) -> None:
@@ -186,7 +248,7 @@ class StringBank:
             c = min(n - done, self.max_block)
             K.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
                           self.active, self.n_active, c, o0 + done, mix,
-                          self.probe_u, self.probe_c, self.scratch)
+                          self.probe, self.scratch)
             done += c
 
     # -- inspection (tests, analysis) ----------------------------------------

@@ -92,10 +92,11 @@ class PluckedInstrument:
     """
 
     DEFAULT_RATE = 325_000
+    VOICES = ("plucked",)
 
     def __init__(self, preset, fs_internal: float | None = None):
-        if preset.voice != "plucked":
-            raise ValueError(f"voice = {preset.voice!r} is not a plucked voice")
+        if preset.voice not in self.VOICES:
+            raise ValueError(f"voice = {preset.voice!r} is not handled by {type(self).__name__}")
         self.preset = preset
         sp = preset.string
         self.open_string = IdealString(sp.length_m, sp.tension_n, sp.linear_density_kg_per_m)
@@ -116,6 +117,11 @@ class PluckedInstrument:
         self._setups: dict = {}
 
     # -- physics at note-on -------------------------------------------------------
+    @property
+    def excitation_position(self) -> float:
+        """Pluck (or strike) point as a fraction of the string length."""
+        return self.preset.pluck.position
+
     @property
     def polyphony(self) -> int:
         return self.preset.play.polyphony if self.preset.play else 8
@@ -171,7 +177,7 @@ class PluckedInstrument:
             # first third, below the pluck point (3/4): the obstacle then
             # reaches as far along this string as it can
             U = U[: max(1, min(len(U), cells // 3))]
-        k = int(round(pre.pluck.position * cells))
+        k = int(round(self.excitation_position * cells))
         k = min(max(k, 1), cells - 1)
         s = StringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0)
         self._setups[ck] = s

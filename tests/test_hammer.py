@@ -1,0 +1,151 @@
+"""Felt hammer on the waveguide string (thesis section 1.3, Publications I, III)."""
+
+import numpy as np
+import pytest
+
+from helpers import engine
+from reference import closed_form_uk, hammer_on_ideal_string
+from synth.analysis import free_mode_energies, struck_mode_energies
+from synth.engine.engine import Event
+from synth.kernels import strings as K
+from synth.voices.bank import StringBank
+
+# the A7 study (note 85): physics notes section 4
+L, T, MU = 0.061, 774.6, 0.0042
+C = np.sqrt(T / MU)
+A7 = dict(law=4, mass_kg=0.0018, stiffness=8387.4, exponent=4.975, alpha_or_gamma=0.0005312,
+          tau0_s=0.0, tension_n=T, c_m_per_s=C)
+# the four-parameter law of key 85 (Pub. III eqs. 4-7), mass per string as above
+n85 = 85
+A7_4 = dict(law=5, mass_kg=0.0018, stiffness=15500 * np.exp(0.059 * n85), exponent=3.7 + 0.015 * n85,
+            alpha_or_gamma=0.9894 + 0.000088 * n85, tau0_s=(2.72 - 0.02 * n85 + 0.00009 * n85 ** 2) * 1e-6,
+            tension_n=T, c_m_per_s=C)
+
+
+def strike(cells, k, speed, params, n, U=None, side=1):
+    dt = L / (cells * C)
+    b = StringBank(1, cells + 2, max(1, 0 if U is None else len(U)), 4096, n_probes=1)
+    b.configure(0, cells=cells, k=k, dt_s=dt, U=U, side=side, probe_row=0)
+    b.activate(0)
+    b.start_hammer(0, speed_m_per_s=speed, **params)
+    mix = np.zeros(n)
+    b.render(mix, 0, n)
+    return b, b.probe[0, :, :n].copy(), dt
+
+
+@pytest.mark.parametrize("params", [A7, A7_4], ids=["three-parameter", "four-parameter"])
+def test_u_at_strike_point_equals_closed_form_eq4(params):
+    """Ideal supports: u(l, t) is Publication I eq. (4) of the same g."""
+    _, ch, _ = strike(46, 2, 5.0, params, 600)
+    u, g = ch[K.P_U], ch[K.P_G]
+    assert np.max(np.abs(u - closed_form_uk(g, 46, 2))) < 1e-12 * np.max(np.abs(u))
+
+
+@pytest.mark.parametrize("params,V", [(A7, 5.0), (A7, 0.3), (A7_4, 5.0), (A7_4, 8.0)],
+                         ids=["3p-5", "3p-0.3", "4p-5", "4p-8"])
+def test_kernel_hammer_matches_slow_reference(params, V):
+    cells, k, n = 46, 2, 160
+    _, ch, dt = strike(cells, k, V, params, n)
+    law = params["law"]
+    ref = hammer_on_ideal_string(cells, k, dt, n, law=law, m=params["mass_kg"], V=V,
+                                 Q=params["stiffness"], p=params["exponent"],
+                                 A=params["alpha_or_gamma"], tau0=params["tau0_s"] or 1.0,
+                                 T=T, c=C)
+    g = ch[K.P_G]
+    assert np.max(np.abs(g - ref)) < 1e-9 * np.max(np.abs(ref))
+
+
+def test_a7_contact_duration_and_force():
+    """About 0.3 ms of contact at 5 m/s (physics notes section 4)."""
+    _, ch, dt = strike(46, 2, 5.0, A7, 400)
+    F = ch[K.P_F]
+    hit = np.flatnonzero(F > 0)
+    assert np.all(np.diff(hit) == 1)                 # one contact
+    dur = (hit[-1] + 1) * dt
+    assert 0.27e-3 < dur < 0.33e-3
+    assert 50 < F.max() < 150
+
+
+def _contact_end_s(ch, dt):
+    """End of contact from the step-mean force dg/(K dt) (at mid-step),
+    extrapolated linearly to zero from its last two positive values."""
+    g = np.concatenate([[0.0], ch[K.P_G]])
+    Fm = np.diff(g)
+    e = int(np.flatnonzero(Fm > 0)[-1])
+    f1, f0 = Fm[e], Fm[e - 1]
+    return (e + 0.5 + f1 / (f0 - f1)) * dt
+
+
+@pytest.mark.parametrize("params", [A7, A7_4], ids=["three-parameter", "four-parameter"])
+def test_strike_converges_at_second_order_with_the_internal_rate(params):
+    """l = L/23 on every grid (46 * 2^j cells).  g(t) at common instants
+    against the finest grid: error falls 4x per halving of dt (order 2); the
+    contact duration converges (0.3005 ms for the study's law at 5 m/s)."""
+    J = 5
+    gs, durs = {}, []
+    for j in range(J + 1):
+        cells = 46 * 2 ** j
+        _, ch, dt = strike(cells, 2 * 2 ** j, 5.0, params, int(0.4e-3 / (L / (cells * C))))
+        gs[j] = ch[K.P_G]
+        durs.append(_contact_end_s(ch, dt))
+    n0 = len(gs[0])
+    idx = [(np.arange(n0) + 1) * 2 ** j - 1 for j in range(J + 1)]
+    m = int(np.sum(idx[J] < len(gs[J])))
+    ref = gs[J][idx[J][:m]]
+    err = np.array([np.max(np.abs(gs[j][idx[j][:m]] - ref)) for j in range(J - 1)])
+    order = np.log2(err[:-1] / err[1:])
+    assert np.all(order > 1.9), order
+    assert abs(durs[1] - durs[-1]) < 0.01 * durs[-1] and abs(durs[0] - durs[-1]) < 0.02 * durs[-1]
+    if params is A7:
+        assert abs(durs[-1] - 0.30e-3) < 0.005e-3
+
+
+def test_mode_energies_from_shape_equal_those_from_the_force_history():
+    """Publication II eqs. 14-18 on the string vs Publication I eqs. 11-13
+    (with the factor 2), modes 1-40, within 0.05 dB; mode 23 missing."""
+    b, ch, dt = strike(46, 2, 5.0, A7, 200)
+    u0 = b.displacement(0)
+    b.render(np.zeros(1), 0, 1)
+    u1 = b.displacement(0)
+    E_shape = free_mode_energies(u0, u1, dt, L, MU, T, 40)
+    F = ch[K.P_F]
+    last = int(np.flatnonzero(F > 0)[-1]) + 2
+    g = np.concatenate([[0.0], ch[K.P_G, :last]])
+    E_force = struck_mode_energies(g, dt, 2 / 46, L, MU, T, 40)
+    lvl = 10 * np.log10(E_force / E_force[0])
+    for i in range(40):
+        if i + 1 == 23:
+            continue
+        assert abs(10 * np.log10(E_shape[i] / E_force[i])) < 0.05, f"mode {i + 1}"
+    # l = L/23: mode 23 is (nearly) missing from the spectrum
+    assert lvl[22] < min(lvl[21], lvl[23]) - 60
+    assert E_shape[22] < 1e-10 * max(E_shape[21], E_shape[23])
+
+
+@pytest.mark.parametrize("params", [A7, A7_4], ids=["three-parameter", "four-parameter"])
+@pytest.mark.parametrize("V", [0.1, 1.0, 4.0, 8.0])
+def test_strike_is_stable_and_passive_over_the_velocity_range(params, V):
+    """Finite, ends, and gives the string no more than the hammer's kinetic
+    energy (the felt only dissipates)."""
+    b, ch, dt = strike(46, 2, V, params, 2000)
+    assert np.all(np.isfinite(ch))
+    F = ch[K.P_F]
+    assert F.max() > 0 and F[-1] == 0
+    from test_strings import grid_energy  # the string's energy on the grid
+    u0 = b.displacement(0)
+    b.render(np.zeros(1), 0, 1)
+    E = grid_energy(b.displacement(0), u0, T, L / 46)
+    assert 0 < E <= 0.5 * params["mass_kg"] * V ** 2
+
+
+def test_study_presets_render_and_capo_variants_differ():
+    ys = {}
+    for m in ("direct", "injected"):
+        e = engine("paper/piano-a7-capo", [f'hammer.capo_coupling="{m}"'], probe=True)
+        e.render([Event(0.0, "note_on", -1, 1.0)], duration_s=0.004, compensate_latency=False)
+        u, c = e.probe_signals()
+        assert c.max() > 0                       # the string touches the bar
+        U_l = 0.0026 ** 2 / (2 * 0.015)          # it never rises through it
+        assert u.max() <= (2 / 46 * L) ** 2 / (2 * 0.015) + 1e-12 or u.max() <= U_l
+        ys[m] = u
+    assert np.max(np.abs(ys["direct"] - ys["injected"])) > 1e-6
