@@ -26,6 +26,7 @@ NOTE_ON = "note_on"
 NOTE_OFF = "note_off"
 CONTROL = "control"
 CC_SUSTAIN = 64
+CC_SOFT = 67
 CC_ALL_SOUND_OFF = 120
 CC_ALL_NOTES_OFF = 123
 
@@ -54,10 +55,12 @@ class Event:
 
 @dataclass
 class _Voice:
-    key: object
-    start: int
+    key: object            # (channel, key) identity
+    start: int             # internal sample of the (last) note-on
+    slots: tuple           # bank slots of its strings
+    key_arg: object        # MIDI key for the instrument, or None
+    f0_hz: float | None
     released: bool = False
-    held_by_pedal: bool = False
 
 
 class Engine:
@@ -94,20 +97,26 @@ class Engine:
         self.fs_out = int(fs_out)
         self.dec = Decimator(self.fs_in, self.fs_out)
         self.polyphony = int(polyphony or instrument.polyphony)
+        #: strings per voice (a grand piano note has up to three)
+        self.spv = int(getattr(instrument, "strings_per_voice", 1))
         max_in = self.dec.inputs_needed(self.MAX_BLOCK_OUT) + 16
-        R = 0 if instrument.termination is None else instrument.termination.region_points
+        R = instrument.max_region_points() if hasattr(instrument, "max_region_points") else (
+            0 if instrument.termination is None else instrument.termination.region_points)
         gt = instrument.gtable_length() if hasattr(instrument, "gtable_length") else 0
-        self.bank = StringBank(self.polyphony, instrument.max_cells(extra_low_key),
+        self.bank = StringBank(self.polyphony * self.spv, instrument.max_cells(extra_low_key),
                                max_region=max(R, 1), max_block=4096,
                                n_probes=1 if probe else 0, max_gtable=gt)
+        #: the body (soundboard) stage after decimation, if the instrument has one
+        self.body = instrument.make_body(fs_out) if hasattr(instrument, "make_body") else None
         self.mix = np.zeros(max_in)
         self.probe = probe
         self._probe: list[np.ndarray] = []
-        self.time_in = 0                    # internal samples rendered so far
-        self.voices: dict[int, _Voice] = {}  # slot -> voice
-        self.by_key: dict[object, int] = {}  # (channel, key) -> slot
-        self.sustain = False
-        self._quiet = np.zeros(self.polyphony, dtype=np.int64)
+        self.time_in = 0                     # internal samples rendered so far
+        self.voices: dict[int, _Voice] = {}  # voice index -> voice
+        self.by_key: dict[object, int] = {}  # (channel, key) -> voice index
+        self.pedal = 0.0                     # sustain pedal CC64, 0..1 (half pedal between)
+        self.soft = 0.0                      # soft pedal CC67, 0..1
+        self._quiet = np.zeros(self.polyphony * self.spv, dtype=np.int64)
         self.silence_level = 10.0 ** (silence_dbfs / 20.0)
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
@@ -125,86 +134,90 @@ class Engine:
         self._pending.sort(key=lambda t: (t[0], t[2].kind != NOTE_OFF, t[1]))
 
     def _alloc(self) -> int:
-        for s in range(self.polyphony):
-            if s not in self.voices:
-                return s
+        for v in range(self.polyphony):
+            if v not in self.voices:
+                return v
         # steal: the oldest released voice, else the oldest voice
-        rel = [s for s, v in self.voices.items() if v.released]
+        rel = [v for v, vo in self.voices.items() if vo.released]
         pool = rel if rel else list(self.voices)
-        s = min(pool, key=lambda q: self.voices[q].start)
-        self._free(s)
-        return s
+        v = min(pool, key=lambda q: self.voices[q].start)
+        self._free(v)
+        return v
 
-    def _free(self, s: int) -> None:
-        v = self.voices.pop(s, None)
-        if v is not None and self.by_key.get(v.key) == s:
-            del self.by_key[v.key]
-        self.bank.deactivate(s)
-        self._quiet[s] = 0
+    def _slots(self, v: int) -> tuple:
+        return tuple(range(v * self.spv, (v + 1) * self.spv))
+
+    def _free(self, v: int) -> None:
+        vo = self.voices.pop(v, None)
+        if vo is not None and self.by_key.get(vo.key) == v:
+            del self.by_key[vo.key]
+        for s in self._slots(v):
+            self.bank.deactivate(s)
+            self._quiet[s] = 0
 
     @staticmethod
     def _voice_key(ev: Event):
         """Identity of a sounding note: channel and key (or explicit f0)."""
         return (ev.channel, ev.key if ev.f0_hz is None else ("f0", ev.f0_hz))
 
-    @staticmethod
-    def _extra(ev: Event) -> dict:
-        return {} if ev.speed_m_per_s is None else {"speed_m_per_s": ev.speed_m_per_s}
+    def _extra(self, ev: Event) -> dict:
+        x = {"soft": self.soft}
+        if ev.speed_m_per_s is not None:
+            x["speed_m_per_s"] = ev.speed_m_per_s
+        return x
 
     def _apply(self, ev: Event, at: int) -> None:
         vk = self._voice_key(ev)
         if ev.kind == NOTE_ON and ev.value > 0:
             key = None if ev.key is None or ev.key < 0 else ev.key
-            s = self.by_key.get(vk)
-            if s is not None and self.bank.is_active(s):
-                # a sounding key is re-plucked on the same string
-                self.inst.note_on(self.bank, s, key, ev.value, f0_hz=ev.f0_hz, restrike=True,
-                                  **self._extra(ev))
-                self.voices[s] = _Voice(vk, at)
+            v = self.by_key.get(vk)
+            if v is not None and any(self.bank.is_active(s) for s in self._slots(v)):
+                # a sounding key is struck again on the same strings
+                vo = self.voices[v]
+                self.inst.note_on(self.bank, vo.slots, key, ev.value, f0_hz=ev.f0_hz,
+                                  restrike=True, **self._extra(ev))
+                vo.start, vo.released = at, False
             else:
-                s = self._alloc()
-                self.inst.note_on(self.bank, s, key, ev.value, f0_hz=ev.f0_hz,
+                v = self._alloc()
+                slots = self._slots(v)
+                self.inst.note_on(self.bank, slots, key, ev.value, f0_hz=ev.f0_hz,
                                   probe_row=0 if (self.probe and not self.voices) else -1,
                                   **self._extra(ev))
-                self.voices[s] = _Voice(vk, at)
-                self.by_key[vk] = s
-            self._quiet[s] = 0
+                self.voices[v] = _Voice(vk, at, slots, key, ev.f0_hz)
+                self.by_key[vk] = v
+            for s in self._slots(v):
+                self._quiet[s] = 0
         elif ev.kind in (NOTE_OFF, NOTE_ON):
-            s = self.by_key.get(vk)
-            if s is None:
-                return
-            v = self.voices[s]
-            if self.sustain:
-                v.held_by_pedal = True
-            else:
-                self._release(s)
+            v = self.by_key.get(vk)
+            if v is not None:
+                self._release(v)
         elif ev.kind == CONTROL:
             cc = int(ev.key)
             if cc == CC_SUSTAIN:
-                down = ev.value >= 0.5
-                if self.sustain and not down:
-                    for s, v in list(self.voices.items()):
-                        if v.held_by_pedal:
-                            v.held_by_pedal = False
-                            self._release(s)
-                self.sustain = down
+                self.pedal = float(ev.value)
+                for v, vo in self.voices.items():
+                    if vo.released:
+                        self._damp(vo)
+            elif cc == CC_SOFT:
+                self.soft = float(ev.value)
             elif cc == CC_ALL_NOTES_OFF:
-                for s in list(self.voices):
-                    self._release(s)
+                for v in list(self.voices):
+                    self._release(v)
             elif cc == CC_ALL_SOUND_OFF:
-                for s in list(self.voices):
-                    self._free(s)
+                for v in list(self.voices):
+                    self._free(v)
 
-    def _release(self, s: int) -> None:
-        v = self.voices[s]
-        if v.released:
+    def _damp(self, vo: _Voice) -> None:
+        self.inst.damp(self.bank, vo.slots, vo.key_arg, vo.f0_hz, self.pedal)
+
+    def _release(self, v: int) -> None:
+        """Key up: the instrument damps the strings as far as the sustain
+        pedal lets it (fully up: the player's or the damper's full damping)."""
+        vo = self.voices[v]
+        if vo.released:
             return
-        v.released = True
-        key = v.key[1]
-        if isinstance(key, tuple):
-            self.inst.note_off(self.bank, s, None, f0_hz=key[1])
-        else:
-            self.inst.note_off(self.bank, s, None if key is None or key < 0 else key)
+        vo.released = True
+        self._damp(vo)
 
     # -- rendering ----------------------------------------------------------------
     def render_block(self, n_out: int, out: np.ndarray | None = None) -> np.ndarray:
@@ -235,15 +248,20 @@ class Engine:
         if self.probe:
             self._probe.append(bank.probe[0, :, :n_in].copy())
         y = self.dec.process(mix, out)
+        if self.body is not None:
+            self.body.process(y, out=y)
         self._reap(n_in)
         return y
 
     def _reap(self, n_in: int) -> None:
-        """Free voices that are silent: output below the silence level for two
-        periods and 20 ms, excitation over."""
+        """Free voices that are silent: every string's output below the
+        silence level for four periods and 20 ms, excitation over."""
         bank = self.bank
         na = bank.n_active
         if na == 0:
+            if self.voices:                  # voices whose strings all stopped
+                for v in [v for v in self.voices if not self.inst.study]:
+                    self._free(v)
             return
         act = bank.active[:na]
         peak = bank.fst[act, K.S_PEAK]
@@ -252,9 +270,13 @@ class Engine:
         need = np.maximum(4 * bank.ipar[act, K.I_N], int(0.02 * self.fs_in))
         done = act[(self._quiet[act] >= need)]
         bank.fst[act, K.S_PEAK] = 0.0
+        if len(done) == 0 or self.inst.study:
+            return
         for s in done.tolist():
-            if s in self.voices and (self.voices[s].released or not self.inst.study):
-                self._free(s)
+            bank.deactivate(s)
+        for v in {s // self.spv for s in done.tolist()}:
+            if v in self.voices and not any(bank.is_active(s) for s in self._slots(v)):
+                self._free(v)
 
     @property
     def n_voices(self) -> int:

@@ -83,23 +83,18 @@ class HammeredStringInstrument(PluckedInstrument):
         self.last_strike_log = b.probe[0, :, :last].copy()
         return b.probe[0, K.P_G, :last].copy()
 
-    def note_on(self, bank: StringBank, slot: int, key, velocity: float, f0_hz=None,
-                probe_row: int = -1, restrike: bool = False, speed_m_per_s: float | None = None) -> None:
+    def note_on(self, bank: StringBank, slots, key, velocity: float, f0_hz=None,
+                probe_row: int = -1, restrike: bool = False, speed_m_per_s: float | None = None,
+                soft: float = 0.0) -> None:
+        slot = slots[0]
         su = self.setup(key, f0_hz)
-        pre = self.preset
-        if not restrike:
-            out_mode = 1 if pre.output.signal == "bridge_force" else 0
-            bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=su.side,
-                           out_mode=out_mode, gain=pre.output.gain,
-                           tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
-                           b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
-                           lossy=su.lossy, probe_row=probe_row)
-        else:
+        if restrike:
             bank.fpar[slot, K.F_B0] = su.b0
+        else:
+            self._configure(bank, slot, su, probe_row)
         V = self.hammer_speed(velocity, speed_m_per_s)
-        if su.U is not None and pre.hammer.capo_coupling == "injected":
+        if su.U is not None and self.preset.hammer.capo_coupling == "injected":
             bank.start_gtable(slot, self.ideal_support_g(su, V))
         else:
             bank.start_hammer(slot, **self.hammer_kwargs(su, V))
         bank.activate(slot)
-

@@ -211,32 +211,42 @@ class PluckedInstrument:
         return int(self.fs / midi_key_to_hz(lo) / 2) + 2
 
     # -- voice contract ------------------------------------------------------------
-    def note_on(self, bank: StringBank, slot: int, key: float | None, velocity: float,
-                f0_hz: float | None = None, probe_row: int = -1, restrike: bool = False) -> None:
-        """Pluck ``slot`` (configuring it for the pitch unless ``restrike``)."""
-        su = self.setup(key, f0_hz)
+    strings_per_voice = 1
+
+    def _configure(self, bank: StringBank, slot: int, su: StringSetup, probe_row: int) -> None:
         pre = self.preset
-        if not restrike:
-            out_mode = 1 if pre.output.signal == "bridge_force" else 0
-            bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=su.side,
-                           out_mode=out_mode, gain=pre.output.gain,
-                           tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
-                           b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
-                           lossy=su.lossy, probe_row=probe_row)
-        else:
+        out_mode = 1 if pre.output.signal == "bridge_force" else 0
+        bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=su.side,
+                       out_mode=out_mode, gain=pre.output.gain,
+                       tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
+                       b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
+                       lossy=su.lossy, probe_row=probe_row)
+
+    def note_on(self, bank: StringBank, slots, key: float | None, velocity: float,
+                f0_hz: float | None = None, probe_row: int = -1, restrike: bool = False,
+                soft: float = 0.0) -> None:
+        """Pluck the voice's string (configuring it for the pitch unless
+        ``restrike``: a sounding string is plucked again where it is)."""
+        slot = slots[0]
+        su = self.setup(key, f0_hz)
+        if restrike:
             bank.fpar[slot, K.F_B0] = su.b0      # undo a release damping
-        pl = pre.pluck
+        else:
+            self._configure(bank, slot, su, probe_row)
+        pl = self.preset.pluck
         model = plucks.SITAR if pl.model == "sitar" else plucks.BIWA
         alpha = pl.alpha_per_s if pl.model == "biwa" else 0.0
         bank.start_pluck(slot, model, self.pluck_amplitude_m(velocity, su.string), pl.duration_s, alpha)
         bank.activate(slot)
 
-    def note_off(self, bank: StringBank, slot: int, key: float | None = None,
-                 f0_hz: float | None = None) -> None:
-        """Damp the string: the loop gain drops to the release T60 (a pure
-        gain on the loss filter, so the tuning does not move)."""
+    def damp(self, bank: StringBank, slots, key: float | None, f0_hz: float | None,
+             pedal: float) -> None:
+        """The key is up: damp the string (loop gain down to the release T60,
+        a pure gain on the loss filter so the tuning does not move) unless
+        the sustain pedal is down (>= 0.5)."""
         if self.study:
             return  # the thesis's strings are lossless and never damped
         su = self.setup(key, f0_hz)
-        rel = loop_gain_from_t60(su.f0_hz, self.preset.loss.release_t60_s)
-        bank.fpar[slot, K.F_B0] = su.b0 * rel
+        rel = 1.0 if pedal >= 0.5 else loop_gain_from_t60(su.f0_hz, self.preset.loss.release_t60_s)
+        for slot in slots:
+            bank.fpar[slot, K.F_B0] = su.b0 * rel
