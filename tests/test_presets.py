@@ -689,7 +689,8 @@ def test_set_switching_variants(preset_dir):
     # "key 'grid' is not allowed"); [loss] and [play] are then required
     with pytest.raises(PresetError) as ei:
         load_preset("paper/sitar-case1", ["kind=musical"])
-    assert str(ei.value).endswith("missing key 'loss' (required when kind = \"musical\", set by --set)")
+    assert str(ei.value).endswith("missing key 'loss' (required when kind = \"musical\" and voice "
+                                  "is one of \"plucked\", \"piano\", set by --set)")
     m = musical()
     sets = ["kind=musical"] + [f"{sec}.{k}={v}" for sec in ("loss", "play")
                                for k, v in m[sec].items()]

@@ -127,6 +127,61 @@ class HammerSpec:
 
 
 @dataclass(frozen=True)
+class TuningSpec:
+    """Grand piano tuning: A4 (Hz) and octave stretch (0 equal temperament,
+    1 the stretch a tuner sets for the strings' inharmonicity)."""
+
+    a4_hz: float
+    stretch: float
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    """Grand piano action: felt law of the per-key hammers, hammer speed at
+    velocity 1 and 127 (m/s; play.velocity_exponent shapes the curve), felt
+    stiffness factor with the soft pedal fully down."""
+
+    law: str
+    speed_min_m_per_s: float
+    speed_max_m_per_s: float
+    soft_stiffness: float
+
+
+@dataclass(frozen=True)
+class StringsSpec:
+    """Grand piano strings: scale factors on the per-key data, stiffness
+    filter size, capo d'astro bar of the treble strings."""
+
+    detune_scale: float
+    t60_scale: float
+    dispersion_sections: int
+    capo_radius_m: float
+    capo_region_m: float
+
+
+@dataclass(frozen=True)
+class DampersSpec:
+    """Dampers: T60 of a damped string in the bass and the treble (s), and
+    the sustain-pedal range over which the dampers lift (half pedal)."""
+
+    release_t60_bass_s: float
+    release_t60_treble_s: float
+    half_pedal_low: float
+    half_pedal_high: float
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """Soundboard: modal bank on the 48 kHz mix (synth.physics.soundboard)."""
+
+    wet: float
+    modes: int
+    size: float
+    brightness: float
+    seed: int
+
+
+@dataclass(frozen=True)
 class TerminationSpec:
     """Nonlinear termination profile; parameters not used by the profile are None.
 
@@ -193,12 +248,17 @@ class Preset:
     description: str
     kind: str
     voice: str
-    string: StringSpec
+    string: StringSpec | None
     grid: GridSpec | None
     pluck: PluckSpec | None
     hammer: HammerSpec | None
-    termination: TerminationSpec
+    termination: TerminationSpec | None
     loss: LossSpec | None
+    tuning: TuningSpec | None
+    action: ActionSpec | None
+    strings: StringsSpec | None
+    dampers: DampersSpec | None
+    body: BodySpec | None
     output: OutputSpec
     play: PlaySpec | None
 
@@ -214,15 +274,19 @@ class When:
 
     key: str
     values: tuple
+    also: "When | None" = None    # a second condition that must hold too
 
     def holds(self, ctx: Mapping[str, Any]) -> bool:
-        return self.key in ctx and ctx[self.key] in self.values
+        return (self.key in ctx and ctx[self.key] in self.values
+                and (self.also is None or self.also.holds(ctx)))
 
     def describe(self) -> str:
         vals = [_fmt_value(v) for v in self.values]
         if len(vals) == 1:
-            return f"{self.key} = {vals[0]}"
-        return f"{self.key} is one of {', '.join(vals)}"
+            text = f"{self.key} = {vals[0]}"
+        else:
+            text = f"{self.key} is one of {', '.join(vals)}"
+        return text if self.also is None else f"{text} and {self.also.describe()}"
 
 
 def _when_not(key: str, choices: Sequence, excluded: Sequence) -> When:
@@ -303,7 +367,8 @@ class Section:
 
 
 KINDS = ("study", "musical")
-VOICES = ("plucked", "piano")
+VOICES = ("plucked", "piano", "grand")
+_ONE_STRING = When("voice", ("plucked", "piano"))
 HAMMER_LAWS = ("three-parameter", "four-parameter")
 CAPO_COUPLINGS = ("direct", "injected")
 PLUCK_MODELS = ("sitar", "biwa")
@@ -340,7 +405,7 @@ SECTIONS: tuple[Section, ...] = (
         Field("length_m", "float", "speaking length L (musical: of the open string), m", 0.01, 3.0),
         Field("tension_n", "float", "tension T, N", 1.0, 5000.0),
         Field("linear_density_kg_per_m", "float", "linear mass density mu, kg/m", 1e-5, 0.1),
-    )),
+    ), when=_ONE_STRING),
     Section("grid", "study grid (c*dt = dx exactly)", GridSpec, (
         Field("cells", "int", "number of cells N; internal rate = N*c/L", 20, 100000),
     ), when=When("kind", ("study",))),
@@ -399,17 +464,54 @@ SECTIONS: tuple[Section, ...] = (
               when=_prof("jawari-case3")),
         Field("points", "points", "obstacle table [[x_m, U_m], ...], x >= 0 strictly increasing",
               when=_prof("table")),
-    ), checks=(OrderCheck("x_a_m", "<", "x_b_m"),)),
+    ), when=_ONE_STRING, checks=(OrderCheck("x_a_m", "<", "x_b_m"),)),
     Section("loss", "frequency-dependent losses of a musical string", LossSpec, (
         Field("t60_low_s", "float", "T60 decay time at f_low_hz, s", 0.01, 120.0),
         Field("f_low_hz", "float", "low reference frequency, Hz", 10.0, 2000.0),
         Field("t60_high_s", "float", "T60 decay time at f_high_hz, s", 0.005, 120.0),
         Field("f_high_hz", "float", "high reference frequency, Hz", 200.0, 20000.0),
         Field("release_t60_s", "float", "T60 after note-off (damped by the player), s", 0.005, 10.0),
-    ), when=When("kind", ("musical",)), checks=(
+    ), when=When("kind", ("musical",), also=_ONE_STRING), checks=(
         OrderCheck("f_low_hz", "<", "f_high_hz"),
         OrderCheck("t60_high_s", "<=", "t60_low_s"),
     )),
+    Section("tuning", "grand piano tuning", TuningSpec, (
+        Field("a4_hz", "float", "frequency of A4 (partial 1), Hz", 380.0, 480.0),
+        Field("stretch", "float", "octave stretch: 0 equal temperament, 1 a tuner's stretch for "
+              "this inharmonicity", 0.0, 1.5),
+    ), when=When("voice", ("grand",))),
+    Section("action", "grand piano hammers", ActionSpec, (
+        Field("law", "str", "felt law of the per-key hammers (thesis eqs. 1.5-1.9 or Pub. III eqs. 3-7)",
+              choices=HAMMER_LAWS),
+        Field("speed_min_m_per_s", "float", "hammer speed at velocity 1, m/s", 0.05, 10.0),
+        Field("speed_max_m_per_s", "float", "hammer speed at velocity 127, m/s", 0.1, 15.0),
+        Field("soft_stiffness", "float", "felt stiffness factor with the soft pedal fully down "
+              "(the hammer meets the strings with a softer part of the felt)", 0.1, 1.0),
+    ), when=When("voice", ("grand",)), checks=(
+        OrderCheck("speed_min_m_per_s", "<", "speed_max_m_per_s"),)),
+    Section("strings", "grand piano strings", StringsSpec, (
+        Field("detune_scale", "float", "factor on the unison detuning of the per-key data", 0.0, 5.0),
+        Field("t60_scale", "float", "factor on the per-key decay times", 0.05, 5.0),
+        Field("dispersion_sections", "int", "largest stiffness allpass cascade per string (cost "
+              "~1.5 ns each per string-sample)", 0, 16),
+        Field("capo_radius_m", "float", "capo d'astro bar radius R, m", 0.0005, 1.0),
+        Field("capo_region_m", "float", "length of string next to the bar that may touch it, m",
+              0.0, 0.05),
+    ), when=When("voice", ("grand",))),
+    Section("dampers", "grand piano dampers and sustain pedal", DampersSpec, (
+        Field("release_t60_bass_s", "float", "T60 of a damped bass string, s", 0.02, 5.0),
+        Field("release_t60_treble_s", "float", "T60 of a damped treble string, s", 0.01, 5.0),
+        Field("half_pedal_low", "float", "pedal value below which the dampers rest fully", 0.0, 1.0),
+        Field("half_pedal_high", "float", "pedal value above which the dampers are fully lifted",
+              0.0, 1.0),
+    ), when=When("voice", ("grand",)), checks=(OrderCheck("half_pedal_low", "<", "half_pedal_high"),)),
+    Section("body", "soundboard", BodySpec, (
+        Field("wet", "float", "share of the soundboard in the output (0: bare strings)", 0.0, 1.0),
+        Field("modes", "int", "number of soundboard modes", 1, 1024),
+        Field("size", "float", "board size factor (divides all mode frequencies)", 0.25, 4.0),
+        Field("brightness", "float", "spectral tilt of the board, dB/octave", -12.0, 12.0),
+        Field("seed", "int", "random seed of the mode set (deterministic)", 0, 2 ** 31 - 1),
+    ), when=When("voice", ("grand",))),
     Section("output", "what is written to the WAV", OutputSpec, (
         Field("signal", "str", "displacement u(l,t) at the pluck point (m) or bridge force at x=L (N)",
               choices=SIGNALS),
@@ -657,7 +759,10 @@ class _Validator:
                 self.dropped.append(key)
                 return _ABSENT
             disc = whens[0].key  # rows of one key share their discriminator (_check_schema)
-            allowed = When(disc, tuple(v for w in whens for v in w.values)).describe()
+            if len(whens) == 1 and whens[0].also is not None:
+                allowed = whens[0].describe()
+            else:
+                allowed = When(disc, tuple(v for w in whens for v in w.values)).describe()
             actual = _fmt_value(self.ctx[disc]) if disc in self.ctx else "(absent)"
             shown = self._overridden_under(key) or key  # name the --set key inside a section
             raise self.fail(f"key '{shown}'{self._origin(shown)} is not allowed when "

@@ -20,10 +20,16 @@ Per time step, in the order of physics notes sections 1-3:
   4. far end x = L: identity (ideal) or the loss/tuning filter of a musical
      string, applied in place to the sample turning round at q = N.
 
-When a pluck has ended, g stays constant (= G) forever.  Rather than keep
-injecting +G and -G every sample, the constant offset field is subtracted
-once from the loop positions k .. 2N-k-1 and injection stops: exact for the
-lossless string (the offsets cancel in u and commute with the clamp).
+When a pluck has ended, g stays constant (= G) forever.  On a lossless
+string, rather than keep injecting +G and -G every sample, the constant
+offset field is subtracted once from the loop positions k .. 2N-k-1 and
+injection stops: exact (the offsets cancel in u and commute with the clamp).
+On a lossy string that shortcut is wrong: the loop filter's DC gain is below
+1 and its allpasses ring on a step, so the cancellation itself would strike
+the string with a broadband transient proportional to G.  There G is held
+(``S_GHOLD``) and injected every sample, as the physics says; the loop's
+steady state then carries -G on both rails between 2N-k and k (through
+x = 0), which cancels in u and commutes with the clamp.
 
 Fast path (no probe, termination region entirely below the excitation
 point): the chunk of C samples is processed operation by operation instead
@@ -68,7 +74,8 @@ I_EXC_END = 14   # first excitation sample with t > t0 (g constant from there);
                  #   g table: its length; hammer: latest end of the hammer's flight
 I_GT_OFF = 15    # offset of the g table in the flat table array (kind 3)
 I_HLAST = 16     # state: excitation sample of the hammer's last contact (-1: none yet)
-I_NI = 17
+I_NDISP = 17     # dispersion: number M of identical first-order allpass sections (0..MAX_DISP)
+I_NI = 18
 
 # ---- float parameter columns (fpar[s, :]) -----------------------------------
 F_DT = 0         # time step dt (s)
@@ -89,7 +96,8 @@ F_HT = 14        # 4-par: tau0 (s)
 F_TEN = 15       # string tension T (N)
 F_C = 16         # wave speed c (m/s)
 F_HREL = 17      # samples without contact after which the hammer is gone
-F_NF = 18
+F_ADISP = 18     # dispersion allpass coefficient a (string stiffness)
+F_NF = 19
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -103,7 +111,10 @@ S_HY = 7         # felt y = w_mm^p at the last step
 S_HPHI = 8       # 4-par: memory integral Phi (mm^p s)
 S_HF = 9         # hammer force at the last step (N)
 S_HW = 10        # felt compression w at the last step (m)
-S_NS = 11
+S_GHOLD = 11     # g of ended excitations, still injected (lossy strings, see below)
+S_D0 = 12        # dispersion sections' states: x1, y1 per section
+MAX_DISP = 16
+S_NS = S_D0 + 2 * MAX_DISP
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -258,7 +269,7 @@ def _remove_offset(ring, off, P, pm, k, G):
 
 
 @njit(**JIT_OPTS)
-def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, st):
+def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st):
     """One sample of the far-end filter at loop position N; returns (x, y)."""
     j = pm - N
     if j < 0:
@@ -271,6 +282,14 @@ def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, st):
         xin = x
     lp = b0 * xin - a1 * st[S_LP]
     st[S_LP] = lp
+    # string stiffness: M identical first-order allpasses (a + z^-1)/(1 + a z^-1)
+    for d in range(nd):
+        xo = st[S_D0 + 2 * d]
+        yo = st[S_D0 + 2 * d + 1]
+        yd = ad * lp + xo - ad * yo
+        st[S_D0 + 2 * d] = lp
+        st[S_D0 + 2 * d + 1] = yd
+        lp = yd
     y = eta * lp + st[S_APX] - eta * st[S_APY]
     st[S_APX] = lp
     st[S_APY] = y
@@ -306,6 +325,8 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     gain = fp[F_GAIN]
     tdx = fp[F_TDX]
     hrel = int(fp[F_HREL])
+    nd = ipar[s, I_NDISP]
+    ad = fp[F_ADISP]
     st = fst[s]
     pm = ipar[s, I_POS]
     exc = ipar[s, I_EXC]
@@ -313,12 +334,17 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     e_end = ipar[s, I_EXC_END]
     hlast = ipar[s, I_HLAST]
     g = st[S_G]
+    gh = st[S_GHOLD]
     peak = st[S_PEAK]
     for i in range(n):
         if exc == -1:
-            # the excitation ended on the previous sample: cancel its offset
-            # field before this sample (exactly where the fast path does)
-            _remove_offset(ring, off, P, pm, k, g)
+            # the excitation ended on the previous sample: hold its g (lossy
+            # string) or cancel its offset field (lossless), before this
+            # sample, exactly where the fast path does
+            if filt == 1:
+                gh += g
+            else:
+                _remove_offset(ring, off, P, pm, k, g)
             g = 0.0
             exc = 0
         pm += 1
@@ -342,15 +368,17 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
                 if e >= e_end - 1:
                     exc = -1
             else:
-                I1 = ring[off + j1] - ring[off + j2]
+                I1 = ring[off + j1] - ring[off + j2] + gh
                 g, F, w, contact = _hammer_step(exc, I1, g, dt, fp, st)
                 if contact:
                     hlast = e
                 if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):
                     exc = -1          # the hammer is gone
-            ring[off + j1] += g
-            ring[off + j2] -= g
             e += 1
+        gt = g + gh                   # everything injected at k this sample
+        if gt != 0.0:
+            ring[off + j1] += gt
+            ring[off + j2] -= gt
         # 3. termination region
         ncont = 0
         for r in range(R):
@@ -363,19 +391,19 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
                 jv -= P
             u = ring[off + ju] - ring[off + jv]
             if nn == k:
-                u -= g
+                u -= gt
             Ur = U[roff + r]
             if side * (u - Ur) > 0.0:
                 ring[off + ju] += Ur - u
                 ncont += 1
         # 4. far end
         if filt == 1:
-            x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, st)
+            x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st)
         else:
             x = 0.0
             y = 0.0
         # output
-        uk = ring[off + j1] - ring[off + j2] - g
+        uk = ring[off + j1] - ring[off + j2] - gt
         if outm == 0:
             sig = uk
         else:
@@ -395,7 +423,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
         if prow >= 0:
             probe[prow, P_U, o0 + i] = uk
             probe[prow, P_CONTACT, o0 + i] = ncont
-            probe[prow, P_G, o0 + i] = g
+            probe[prow, P_G, o0 + i] = gt
             probe[prow, P_F, o0 + i] = F
             probe[prow, P_W, o0 + i] = st[S_HW]
             probe[prow, P_Z, o0 + i] = st[S_HZ]
@@ -404,6 +432,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     ipar[s, I_EXC_M] = e
     ipar[s, I_HLAST] = hlast
     st[S_G] = g
+    st[S_GHOLD] = gh
     st[S_PEAK] = peak
 
 
@@ -420,18 +449,22 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
     gbuf = scratch[0:C]
     exc = ipar[s, I_EXC]
     if exc == -1:
-        # the pluck ended on the last sample of the previous chunk: cancel
-        # its offset field now, between chunks, so no output of that chunk
-        # sees it
-        _remove_offset(ring, off, P, m0, k, st[S_G])
+        # the pluck ended on the last sample of the previous chunk: hold its
+        # g (lossy) or cancel its offset field (lossless) now, between
+        # chunks, so no output of that chunk sees the change
+        if ipar[s, I_FILT] == 1:
+            st[S_GHOLD] += st[S_G]
+        else:
+            _remove_offset(ring, off, P, m0, k, st[S_G])
         st[S_G] = 0.0
         exc = 0
         ipar[s, I_EXC] = 0
     # ---- 2. excitation -------------------------------------------------------
     # gbuf holds g per sample only while a pluck runs; otherwise g = 0 (an
     # ended pluck's offset field has been cancelled)
-    plucking = exc != 0
-    if plucking:
+    gh = st[S_GHOLD]
+    plucking = exc != 0 or gh != 0.0
+    if exc != 0:
         dt = fpar[s, F_DT]
         A = fpar[s, F_A]
         t0 = fpar[s, F_T0]
@@ -451,15 +484,29 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
             j2 = pm + k
             if j2 >= P:
                 j2 -= P
-            ring[off + j1] += g
-            ring[off + j2] -= g
+            ring[off + j1] += g + gh
+            ring[off + j2] -= g + gh
             if e >= e_end:
-                exc = -1     # offset removed at the start of the next chunk
+                exc = -1     # held or cancelled at the start of the next chunk
             e += 1
-            gbuf[i] = g
+            gbuf[i] = g + gh
         ipar[s, I_EXC] = exc
         ipar[s, I_EXC_M] = e
         st[S_G] = g
+    elif gh != 0.0:
+        # ended excitations of a lossy string: keep injecting their g
+        j1 = (m0 + 1 - k) % P
+        j2 = (m0 + 1 + k) % P
+        for i in range(C):
+            ring[off + j1] += gh
+            ring[off + j2] -= gh
+            gbuf[i] = gh
+            j1 += 1
+            if j1 == P:
+                j1 = 0
+            j2 += 1
+            if j2 == P:
+                j2 = 0
     # ---- 3. termination region: min/max along right-going characteristics --
     if R > 0:
         roff = ipar[s, I_REG_OFF]
@@ -523,12 +570,14 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
         eta = fpar[s, F_ETA]
         xdel = ipar[s, I_XDELAY]
         tdx = fpar[s, F_TDX]
+        nd = ipar[s, I_NDISP]
+        ad = fpar[s, F_ADISP]
         pm = m0
         for i in range(C):
             pm += 1
             if pm == P:
                 pm = 0
-            x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, st)
+            x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st)
             if outm == 1:
                 ja = pm - N + 1
                 if ja < 0:

@@ -1,5 +1,6 @@
 """Voices: physics at note-on, kernels per block (via the string bank)."""
 
+from .grand import GrandPianoInstrument
 from .hammered import HammeredStringInstrument
 from .plucked import PluckedInstrument
 
@@ -11,4 +12,6 @@ def instrument_for(preset, fs_internal=None):
         return PluckedInstrument(preset, fs_internal)
     if preset.voice == "piano":
         return HammeredStringInstrument(preset, fs_internal)
+    if preset.voice == "grand":
+        return GrandPianoInstrument(preset, fs_internal)
     raise ValueError(f"voice = {preset.voice!r} has no instrument")

@@ -103,7 +103,8 @@ class StringBank:
                   out_mode: int = 0, gain: float = 1.0, tension_over_dx: float = 0.0,
                   b0: float = 1.0, a1: float = 0.0, eta: float = 0.0,
                   extra_delay: int = 0, lossy: bool = False,
-                  probe_row: int = -1, force_per_sample: bool = False) -> None:
+                  probe_row: int = -1, force_per_sample: bool = False,
+                  n_disp: int = 0, a_disp: float = 0.0) -> None:
         """Set up slot s as an idle string (zero state, no excitation).
 
         cells : N, 8 .. max_cells.  k : excitation/pickup point, 1 .. N-1.
@@ -127,7 +128,10 @@ class StringBank:
         ip[K.I_SIDE] = side
         if R:
             self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = U
-        ip[K.I_FILT] = 1 if lossy else 0
+        if not (0 <= n_disp <= K.MAX_DISP):
+            raise ValueError(f"n_disp = {n_disp!r} is out of range (0 <= value <= {K.MAX_DISP})")
+        ip[K.I_FILT] = 1 if (lossy or n_disp) else 0
+        ip[K.I_NDISP] = int(n_disp)
         ip[K.I_XDELAY] = int(extra_delay)
         ip[K.I_OUT] = int(out_mode)
         ip[K.I_PROBE] = int(probe_row)
@@ -140,6 +144,7 @@ class StringBank:
         fp[K.F_ETA] = eta
         fp[K.F_GAIN] = gain
         fp[K.F_TDX] = tension_over_dx
+        fp[K.F_ADISP] = a_disp
 
     def start_pluck(self, s: int, model: int, amplitude_m: float, duration_s: float,
                     alpha_per_s: float = 0.0) -> None:
@@ -162,17 +167,20 @@ class StringBank:
         fp[K.F_ALPHA] = alpha_per_s
 
     def _end_excitation(self, s: int) -> None:
-        """Freeze a running excitation at its current g and cancel its offset
-        field (what the kernel does when a pluck ends), so that a new
-        excitation can start from g = 0."""
+        """Freeze a running excitation at its current g and, as the kernel
+        does when a pluck ends, hold it (lossy string) or cancel its offset
+        field (lossless), so that a new excitation can start from g = 0."""
         ip, st = self.ipar[s], self.fst[s]
         G = st[K.S_G]
-        N = int(ip[K.I_N])
-        P = 2 * N
-        k = int(ip[K.I_K])
-        q = np.arange(k, P - k)
-        idx = ip[K.I_OFF] + (int(ip[K.I_POS]) - q) % P
-        self.ring[idx] -= G
+        if ip[K.I_FILT] == 1:
+            st[K.S_GHOLD] += G          # lossy string: keep injecting it
+        else:
+            N = int(ip[K.I_N])
+            P = 2 * N
+            k = int(ip[K.I_K])
+            q = np.arange(k, P - k)
+            idx = ip[K.I_OFF] + (int(ip[K.I_POS]) - q) % P
+            self.ring[idx] -= G
         st[K.S_G] = 0.0
         ip[K.I_EXC] = 0
 
@@ -269,5 +277,5 @@ class StringBank:
         ur, ul = self.rails(s)
         u = ur + ul
         k = int(self.ipar[s, K.I_K])
-        u[k] -= self.fst[s, K.S_G]
+        u[k] -= self.fst[s, K.S_G] + self.fst[s, K.S_GHOLD]
         return u

@@ -1,0 +1,226 @@
+"""Grand piano voice: 88 keys of hammered, stiff, detuned strings.
+
+Grand piano
+===========
+Each key (MIDI 21-108) is one, two or three strings
+(:mod:`synth.physics.piano`), each a waveguide string on the engine's grid
+with, at x = L, a loop filter from the key's two T60 values, a cascade of
+first-order allpasses for the string's stiffness (inharmonic partials
+f_n = n f0 sqrt(1 + B n^2), :mod:`synth.physics.dispersion`) and a
+fractional-delay allpass tuning partial 1 exactly to the preset's tuning
+(equal temperament at ``tuning.stretch = 0``, a tuner's stretch for this
+inharmonicity at 1).  Treble strings from C#5 up bear against the capo
+d'astro bar (thesis section 1.3.2) near x = 0; the others start at an
+agraffe (ideal end).
+
+Every string is struck by its share of the key's hammer (the thesis's
+per-key felt laws, mass divided by the number of strings), at the key's
+strike position, with the hammer speed given by the velocity curve
+``speed_min + (speed_max - speed_min) v^e``, v = (velocity - 1/127) /
+(1 - 1/127), e = ``play.velocity_exponent``.
+
+Two-stage decay: in a real piano the bridge couples the unison strings and
+splits their motion into a fast "prompt" and a slow "aftersound" decay
+(Weinreich).  The bridge coupling is not modelled; instead the unison
+strings, slightly detuned, decay at different rates (the centre-tuned string
+slowest), so a note beats and its envelope falls fast, then slowly.
+
+Dampers: a key's release damps its strings (T60 from
+``dampers.release_t60_bass_s`` to ``..._treble_s`` across the keyboard),
+except the top keys, which have no dampers; the sustain pedal lifts the
+dampers gradually between ``half_pedal_low`` and ``half_pedal_high`` (half
+pedal: the T60 lies geometrically between the damped and the free value).
+Soft pedal: at 0.5 and above the hammer misses one string of a two- or
+three-string unison (una corda shift); the felt gets softer continuously
+(stiffness times 1 - (1 - soft_stiffness) * soft).
+
+The soundboard is a modal bank on the decimated mix
+(:mod:`synth.engine.body`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..kernels import strings as K
+from ..physics import piano as P
+from ..physics.dispersion import tune_stiff_loop
+from ..physics.profiles import Termination, capo
+from .bank import StringBank
+
+#: decay-time factor of each unison string (the centre-tuned one decays slowest)
+UNISON_T60 = {1: (1.0,), 2: (1.0, 0.45), 3: (0.45, 1.0, 0.5)}
+
+
+@dataclass(frozen=True)
+class GrandStringSetup:
+    """One string of a key, ready for the bank."""
+
+    cells: int
+    k: int
+    dt_s: float
+    U: np.ndarray | None
+    b0: float
+    a1: float
+    eta: float
+    extra_delay: int
+    n_disp: int
+    a_disp: float
+    tension_n: float
+    c_m_per_s: float
+    f1_hz: float
+
+
+class GrandPianoInstrument:
+    """The 88-key grand (voice ``grand``)."""
+
+    VOICES = ("grand",)
+    DEFAULT_RATE = 325_000
+    KEY_LOW, KEY_HIGH = 21, 108
+    strings_per_voice = 3
+    study = False
+    termination = None
+
+    def __init__(self, preset, fs_internal: float | None = None):
+        if preset.voice not in self.VOICES:
+            raise ValueError(f"voice = {preset.voice!r} is not handled by {type(self).__name__}")
+        self.preset = preset
+        self.fs = float(fs_internal or self.DEFAULT_RATE)
+        if not (100_000 <= self.fs <= 2_000_000):
+            raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (100000 <= value <= 2000000)")
+        self._keys: dict[int, tuple[GrandStringSetup, ...]] = {}
+        st = preset.strings
+        self._capo = capo(st.capo_radius_m)
+
+    # -- sizes for the engine -----------------------------------------------------
+    @property
+    def polyphony(self) -> int:
+        return self.preset.play.polyphony
+
+    def max_cells(self, key_low: int | None = None) -> int:
+        return int(self.fs / P.et_f0_hz(self.KEY_LOW, 400.0) / 2) + 4
+
+    def max_region_points(self) -> int:
+        c_min = min(g.c_m_per_s for g in P.grand_piano_strings() if g.has_capo)
+        return int(math.ceil(self.preset.strings.capo_region_m * self.fs / c_min)) + 1
+
+    def make_body(self, fs_out: int):
+        from ..engine.body import Body
+
+        b = self.preset.body
+        return Body(fs_out, n_modes=b.modes, seed=b.seed, wet=b.wet, size=b.size,
+                    brightness=b.brightness)
+
+    # -- physics at note-on -------------------------------------------------------
+    def tuning_hz(self, key: int) -> float:
+        """Partial-1 frequency this preset tunes ``key`` to (Hz)."""
+        t = self.preset.tuning
+        return P.stretched_f0_hz(key, None, a4_hz=t.a4_hz, stretch=t.stretch)
+
+    def setup(self, key: int) -> tuple[GrandStringSetup, ...]:
+        key = int(key)
+        if key in self._keys:
+            return self._keys[key]
+        gs = P.grand_string(key)
+        pre = self.preset
+        sp = pre.strings
+        f1 = self.tuning_hz(key)
+        B = gs.inharmonicity_b
+        dt = 1.0 / self.fs
+        dx = gs.c_m_per_s * dt
+        out = []
+        for j, det in enumerate(gs.unison_detune_cents):
+            fj = f1 * 2.0 ** (det * sp.detune_scale / 1200.0)
+            fac = UNISON_T60[gs.n_strings][j] * sp.t60_scale
+            t_lo = gs.t60_low_s * fac
+            t_hi = min(gs.t60_high_s * fac, t_lo)
+            loop = tune_stiff_loop(fj, B, self.fs, t_lo, fj, t_hi, max(gs.f_high_hz, 1.5 * fj),
+                                   m_max=sp.dispersion_sections, f_max_hz=18000.0)
+            cells = loop.cells
+            k = min(max(int(round(gs.strike_position * cells)), 1), cells - 2)
+            U = None
+            if gs.has_capo and sp.capo_region_m > 0:
+                R = max(1, int(round(sp.capo_region_m / dx)))
+                R = min(R, cells // 3)
+                U = Termination(self._capo, 1, R).sample(dx)
+            out.append(GrandStringSetup(cells, k, dt, U, loop.b0, loop.a1, loop.eta,
+                                        loop.extra_delay, loop.M, loop.a_disp,
+                                        gs.tension_n, gs.c_m_per_s, fj))
+        self._keys[key] = tuple(out)
+        return self._keys[key]
+
+    def hammer_speed(self, velocity: float) -> float:
+        a = self.preset.action
+        v = (float(velocity) - 1.0 / 127.0) / (1.0 - 1.0 / 127.0)
+        v = min(max(v, 0.0), 1.0)
+        return a.speed_min_m_per_s + (a.speed_max_m_per_s - a.speed_min_m_per_s) * v ** (
+            self.preset.play.velocity_exponent)
+
+    def _hammer(self, key: int, n_strings: int, su: GrandStringSetup, speed: float, soft: float) -> dict:
+        a = self.preset.action
+        stiff = 1.0 - (1.0 - a.soft_stiffness) * min(max(soft, 0.0), 1.0)
+        mass = P.hammer_mass_kg(key, n_strings)
+        if a.law == "three-parameter":
+            q0, p, alpha = P.hammer_three_param(key)
+            return dict(law=4, mass_kg=mass, speed_m_per_s=speed, stiffness=q0 * stiff, exponent=p,
+                        alpha_or_gamma=alpha, tau0_s=0.0, tension_n=su.tension_n,
+                        c_m_per_s=su.c_m_per_s, max_flight_s=0.05)
+        f0, p, gamma, tau0 = P.hammer_four_param(key)
+        return dict(law=5, mass_kg=mass, speed_m_per_s=speed, stiffness=f0 * stiff, exponent=p,
+                    alpha_or_gamma=gamma, tau0_s=tau0, tension_n=su.tension_n,
+                    c_m_per_s=su.c_m_per_s, max_flight_s=0.05)
+
+    # -- voice contract -----------------------------------------------------------
+    def note_on(self, bank: StringBank, slots, key, velocity: float, f0_hz=None,
+                probe_row: int = -1, restrike: bool = False, speed_m_per_s: float | None = None,
+                soft: float = 0.0) -> None:
+        """Strike the key's strings (all of them, or all but one with the
+        soft pedal at 0.5 or more)."""
+        if key is None or not (self.KEY_LOW <= int(round(key)) <= self.KEY_HIGH):
+            return  # no such key on a piano
+        key = int(round(key))
+        sus = self.setup(key)
+        n = len(sus)
+        struck = n - 1 if (soft >= 0.5 and n >= 2) else n
+        V = self.hammer_speed(velocity) if speed_m_per_s is None else float(speed_m_per_s)
+        out_gain = self.preset.output.gain
+        for j, (slot, su) in enumerate(zip(slots, sus)):
+            if not restrike or not bank.is_active(slot):
+                bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=1,
+                               out_mode=1, gain=out_gain, tension_over_dx=su.tension_n / (su.c_m_per_s * su.dt_s),
+                               b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
+                               lossy=True, n_disp=su.n_disp, a_disp=su.a_disp,
+                               probe_row=probe_row if j == 0 else -1)
+            else:
+                bank.fpar[slot, K.F_B0] = su.b0     # dampers off: the key is down
+            if j < struck:
+                bank.start_hammer(slot, **self._hammer(key, n, su, V, soft))
+                bank.activate(slot)
+
+    def release_t60_s(self, key: int) -> float:
+        d = self.preset.dampers
+        x = (key - self.KEY_LOW) / (self.KEY_HIGH - self.KEY_LOW)
+        return math.exp((1 - x) * math.log(d.release_t60_bass_s) + x * math.log(d.release_t60_treble_s))
+
+    def damp(self, bank: StringBank, slots, key, f0_hz, pedal: float) -> None:
+        """Key up: the damper falls on the strings, as far as the sustain
+        pedal lets it (half pedal: partly); keys without dampers ring on."""
+        if key is None or not (self.KEY_LOW <= int(round(key)) <= self.KEY_HIGH):
+            return
+        key = int(round(key))
+        if not P.grand_string(key).has_damper:
+            return
+        d = self.preset.dampers
+        lift = min(max((pedal - d.half_pedal_low) / (d.half_pedal_high - d.half_pedal_low), 0.0), 1.0)
+        t_rel = self.release_t60_s(key)
+        gs = P.grand_string(key)
+        t_nat = gs.t60_low_s * self.preset.strings.t60_scale
+        # the damper's felt resting more or less firmly: the fundamental's T60
+        # moves from the damped to the free value geometrically with the lift
+        t_eff = math.exp((1.0 - lift) * math.log(min(t_rel, t_nat)) + lift * math.log(t_nat))
+        sigma = max(6.907755 / t_eff - 6.907755 / t_nat, 0.0)   # extra decay rate, 1/s
+        for slot, su in zip(slots, self.setup(key)):
+            bank.fpar[slot, K.F_B0] = su.b0 * math.exp(-sigma / su.f1_hz)
