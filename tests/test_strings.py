@@ -185,3 +185,24 @@ def test_probe_records_contacts_and_displacement():
         b.render(mix, 0, 37)
         u = b.displacement(0)
         assert np.all(u[1:26] <= 1e-15)
+
+
+def test_dispersion_cascade_in_the_kernel_gives_the_designed_partials():
+    """A stiff loop (tune_stiff_loop) run by the kernel: the rendered
+    partials sit where synth.physics.dispersion.loop_partials puts them."""
+    from synth.analysis import partial_peaks
+    from synth.physics.dispersion import loop_partials, tune_stiff_loop
+
+    fs, f1, B = 325000.0, 220.0, 5e-4
+    lp = tune_stiff_loop(f1, B, fs, 20.0, f1, 15.0, 5000.0, m_max=8)
+    assert lp.M > 0
+    N = lp.cells
+    k = int(0.13 * N)
+    n = int(1.5 * fs)
+    y, _ = run_bank(N, k, 1, 0.001, 0.001, 0.0, 1 / fs, n, lossy=True, b0=lp.b0, a1=lp.a1,
+                    eta=lp.eta, extra_delay=lp.extra_delay, n_disp=lp.M, a_disp=lp.a_disp,
+                    out_mode=1, tension_over_dx=100.0)
+    want = loop_partials(fs, N, lp.b0, lp.a1, lp.eta, lp.extra_delay, lp.M, lp.a_disp, 8)
+    got, _ = partial_peaks(y[int(0.1 * fs):], fs, f1 / np.sqrt(1 + B), 8, search_cents=40,
+                           inharmonicity=B)
+    assert np.max(np.abs(1200 * np.log2(got / want))) < 0.05

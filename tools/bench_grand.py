@@ -1,0 +1,129 @@
+"""Cost of grand-piano notes at the default 325 kHz internal rate, one core.
+
+    NUMBA_NUM_THREADS=1 python tools/bench_grand.py [--runs 5]
+
+Prints, medians over ``--runs`` repetitions (each after a warm-up render):
+
+1. per key (a sample across the keyboard): CPU time per second of a
+   sounding note, after its attack (the hammer phase is timed apart), and ns
+   per string-sample;
+2. a 64-note chord spread over the keyboard, sustain pedal down: the time to
+   render 2 s of it through the whole engine (bank, decimator, soundboard),
+   as a fraction of real time, and the number of such notes one core plays in
+   real time;
+3. the fixed cost of the engine with no note (decimation + soundboard).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import platform
+import sys
+import time
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from synth.engine.engine import Engine, Event  # noqa: E402
+from synth.io.presets import load_preset  # noqa: E402
+from synth.voices import instrument_for  # noqa: E402
+
+KEYS = (21, 33, 45, 57, 60, 69, 81, 93, 105, 108)
+
+
+def cpu_name() -> str:
+    try:
+        for line in open("/proc/cpuinfo"):
+            if line.startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
+def make_engine(polyphony=96):
+    inst = instrument_for(load_preset("grand-piano"))
+    return Engine(inst, polyphony=polyphony)
+
+
+def time_blocks(e: Engine, seconds: float, block: int = 256) -> float:
+    n = int(seconds * e.fs_out / block)
+    t = time.perf_counter()
+    for _ in range(n):
+        e.render_block(block)
+    return time.perf_counter() - t
+
+
+def per_key(runs: int):
+    print("| key | strings | dispersion sections | attack (first 50 ms), ms CPU | sustain, ms CPU per note-second | ns per string-sample |")
+    print("|---|---|---|---|---|---|")
+    costs = []
+    for key in KEYS:
+        att, sus = [], []
+        for _ in range(runs):
+            e = make_engine(4)
+            base = make_engine(4)
+            e.schedule([Event(0.0, "note_on", key, 0.8)])
+            ta = time_blocks(e, 0.05)
+            ts = time_blocks(e, 1.0)
+            tb = time_blocks(base, 1.05)          # engine without notes, same blocks
+            att.append(ta - tb * 0.05 / 1.05)
+            sus.append(ts - tb * 1.0 / 1.05)
+        ns = len(e.inst.setup(key))
+        sus_ms = float(np.median(sus)) * 1e3
+        costs.append(sus_ms)
+        print(f"| {key} | {ns} | {max(s.n_disp for s in e.inst.setup(key))} | "
+              f"{float(np.median(att)) * 1e3:.2f} | {sus_ms:.2f} | "
+              f"{sus_ms * 1e-3 / (ns * e.fs_in) * 1e9:.2f} |")
+    return costs
+
+
+def chord(runs: int, n_notes: int = 64):
+    keys = np.linspace(21, 108, n_notes).round().astype(int)
+    out = []
+    for _ in range(runs):
+        e = make_engine(n_notes + 8)
+        e.schedule([Event(0.0, "control", 64, 1.0)] +
+                   [Event(0.001 * i, "note_on", int(k), 0.7) for i, k in enumerate(keys)])
+        time_blocks(e, 0.1)                       # attacks
+        assert e.n_voices == len(set(keys.tolist())), e.n_voices
+        out.append(time_blocks(e, 2.0) / 2.0)     # CPU seconds per second of audio
+    return float(np.median(out)), len(set(keys.tolist()))
+
+
+def idle(runs: int) -> float:
+    return float(np.median([time_blocks(make_engine(4), 1.0) for _ in range(runs)]))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--runs", type=int, default=5)
+    a = ap.parse_args(argv)
+    import numba
+
+    print(f"# {time.strftime('%Y-%m-%d %H:%M')}  {cpu_name()}  numba {numba.__version__}  "
+          f"NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')}")
+    print(f"# command: {' '.join([os.path.basename(sys.executable)] + sys.argv)}")
+    # warm-up (compilation, caches)
+    e = make_engine(4)
+    e.schedule([Event(0.0, "note_on", 60, 0.8)])
+    time_blocks(e, 0.2)
+    print()
+    costs = per_key(a.runs)
+    mean_ms = float(np.mean(costs))
+    print(f"\nMean over these keys: {mean_ms:.2f} ms of CPU per note-second after the attack "
+          f"-> {1000.0 / mean_ms:.0f} sustained notes in real time on one core (kernel only).")
+    t_idle = idle(a.runs)
+    print(f"Engine with no note (decimator + soundboard, 256-sample blocks): "
+          f"{t_idle * 1e3:.1f} ms per second of audio.")
+    frac, n = chord(a.runs)
+    print(f"\n{n}-note chord over the keyboard, sustain pedal down, whole engine: "
+          f"{frac * 100:.1f} % of real time -> about {n / frac:.0f} such notes in real time "
+          f"on one core.")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
