@@ -117,7 +117,12 @@ def cmd_note(args) -> int:
     y = eng.render([ev], duration_s=args.seconds)
     el = time.perf_counter() - t
     info = _write(args.output, y, eng.fs_out, args.pcm24)
-    pitch = f0 or (midi_key_to_hz(args.key) if args.key is not None else inst.open_string.f0_hz)
+    if f0:
+        pitch = f0
+    elif args.key is not None:
+        pitch = inst.tuning_hz(args.key) if hasattr(inst, "tuning_hz") else midi_key_to_hz(args.key)
+    else:
+        pitch = inst.open_string.f0_hz
     print(f"{args.output}: {args.seconds:g} s of {args.preset} at {pitch:.2f} Hz, "
           f"internal rate {inst.fs:.1f} Hz, {info}, rendered in {el:.2f} s")
     if args.probe:

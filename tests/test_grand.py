@@ -154,3 +154,31 @@ def test_repeated_notes_restrike_the_same_strings():
     y, e = render(64, 0.6, 0.5, events=evs)
     assert e.n_voices == 1
     assert np.all(np.isfinite(y)) and np.max(np.abs(y)) < 1.0
+
+
+def _contacts(key, speed, sets=()):
+    from synth.kernels import strings as K
+    e = engine("grand-piano", sets, probe=True)
+    e.render([Event(0.0, "note_on", key, 1.0, speed_m_per_s=speed)], duration_s=0.03,
+             compensate_latency=False)
+    F = e.probe_channels()[K.P_F]
+    hit = np.flatnonzero(F > 0)
+    return 1 + int(np.sum(np.diff(hit) > 1)), F
+
+
+def test_bass_hammers_hit_the_string_more_than_once():
+    """Multiple contacts happen in the bass (the hammer is thrown back by
+    the string and meets it again); one contact in the treble."""
+    assert _contacts(21, 4.0)[0] >= 2
+    assert _contacts(48, 4.0)[0] >= 2
+    assert _contacts(96, 4.0)[0] == 1
+    assert _contacts(21, 0.5)[0] == 1          # a soft blow: one contact
+
+
+@pytest.mark.parametrize("key", [21, 60, 108])
+def test_four_parameter_felt_plays_across_the_keyboard(key):
+    """The Publication III law (recursive convolution; p = 5.02 and F0 =
+    2.8e6 N/mm^p at C8) at the extremes of speed: finite, the hammer leaves."""
+    for speed in (0.3, 8.0):
+        n, F = _contacts(key, speed, ['action.law="four-parameter"'])
+        assert np.all(np.isfinite(F)) and F.max() > 0 and F[-1] == 0
