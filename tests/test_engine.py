@@ -85,10 +85,10 @@ def test_sustain_pedal_holds_released_notes():
         e.render_block(512)
     (v,) = e.voices.values()
     su = e.inst.setup(52)
-    assert v.released and e.bank.fpar[v.slots[0], K.F_B0] == su.b0      # undamped
+    assert v.released and e.bank.fpar[v.slots[0], K.F_B0T] == su.b0     # undamped
     for _ in range(15):                              # past the pedal release
         e.render_block(512)
-    assert all(e.bank.fpar[vo.slots[0], K.F_B0] < su.b0 for vo in e.voices.values())
+    assert all(e.bank.fpar[vo.slots[0], K.F_B0T] < su.b0 for vo in e.voices.values())
 
 
 def test_all_sound_off_frees_everything():

@@ -182,3 +182,17 @@ def test_four_parameter_felt_plays_across_the_keyboard(key):
     for speed in (0.3, 8.0):
         n, F = _contacts(key, speed, ['action.law="four-parameter"'])
         assert np.all(np.isfinite(F)) and F.max() > 0 and F[-1] == 0
+
+
+@pytest.mark.parametrize("name,key", [("grand-piano", 36), ("grand-piano", 60), ("sitar", 50)])
+def test_key_up_does_not_click(name, key):
+    """The damper's loss glides in: around the key-up the largest second
+    difference of the output stays near that of the tone just before (an
+    instant loss change steps the bridge force: a click)."""
+    e = engine(name, ["body.wet=0"] if name == "grand-piano" else ())
+    y = e.render([Event(0.0, "note_on", key, 1.0), Event(0.3, "note_off", key, 0.0)],
+                 duration_s=0.4)
+    d2 = np.abs(np.diff(y, 2))
+    before = d2[int(0.25 * FS):int(0.299 * FS)].max()
+    around = d2[int(0.299 * FS):int(0.32 * FS)].max()
+    assert around < 3.0 * before, (around, before)   # the click was ~50x

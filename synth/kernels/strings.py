@@ -97,7 +97,10 @@ F_TEN = 15       # string tension T (N)
 F_C = 16         # wave speed c (m/s)
 F_HREL = 17      # samples without contact after which the hammer is gone
 F_ADISP = 18     # dispersion allpass coefficient a (string stiffness)
-F_NF = 19
+F_B0T = 19       # target of the loss filter's b0: dampers and releases glide there
+F_B0S = 20       # glide rate per sample (1 - exp(-dt / 2 ms)); an instant change of the
+                 #   end's loss would step the bridge force (u(L) = x - y) and click
+F_NF = 21
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -270,7 +273,8 @@ def _remove_offset(ring, off, P, pm, k, G):
 
 @njit(**JIT_OPTS)
 def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st):
-    """One sample of the far-end filter at loop position N; returns (x, y)."""
+    """One sample of the far-end filter at loop position N; returns (x, y).
+    (The caller glides b0 toward its target.)"""
     j = pm - N
     if j < 0:
         j += P
@@ -327,6 +331,8 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     hrel = int(fp[F_HREL])
     nd = ipar[s, I_NDISP]
     ad = fp[F_ADISP]
+    b0t = fp[F_B0T]
+    b0s = fp[F_B0S]
     st = fst[s]
     pm = ipar[s, I_POS]
     exc = ipar[s, I_EXC]
@@ -398,6 +404,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
                 ncont += 1
         # 4. far end
         if filt == 1:
+            b0 += b0s * (b0t - b0)
             x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st)
         else:
             x = 0.0
@@ -431,6 +438,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     ipar[s, I_EXC] = exc
     ipar[s, I_EXC_M] = e
     ipar[s, I_HLAST] = hlast
+    fp[F_B0] = b0
     st[S_G] = g
     st[S_GHOLD] = gh
     st[S_PEAK] = peak
@@ -572,11 +580,14 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
         tdx = fpar[s, F_TDX]
         nd = ipar[s, I_NDISP]
         ad = fpar[s, F_ADISP]
+        b0t = fpar[s, F_B0T]
+        b0s = fpar[s, F_B0S]
         pm = m0
         for i in range(C):
             pm += 1
             if pm == P:
                 pm = 0
+            b0 += b0s * (b0t - b0)
             x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st)
             if outm == 1:
                 ja = pm - N + 1
@@ -589,6 +600,7 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
                 mix[o0 + i] += v
                 if abs(v) > peak:
                     peak = abs(v)
+        fpar[s, F_B0] = b0
     elif outm == 1:
         tdx = fpar[s, F_TDX]
         ja = (m0 + 1 - N + 1) % P

@@ -9,6 +9,8 @@ segment.  Nothing is allocated per block.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ..kernels import strings as K
@@ -16,6 +18,10 @@ from ..kernels import strings as K
 
 class StringBank:
     """Preallocated storage for up to ``capacity`` strings.
+
+    Loss changes (dampers, releases) are given as a target
+    (:meth:`set_loss`); the kernel glides to it with a time constant of
+    ``LOSS_GLIDE_S``.
 
     Parameters
     ----------
@@ -34,6 +40,8 @@ class StringBank:
     max_gtable : int
         Longest injected g(t) table per slot (samples), 0 if none.
     """
+
+    LOSS_GLIDE_S = 0.002
 
     def __init__(self, capacity: int, max_cells: int, max_region: int = 64,
                  max_block: int = 4096, n_probes: int = 0, max_gtable: int = 0):
@@ -140,11 +148,18 @@ class StringBank:
         fp = self.fpar[s]
         fp[K.F_DT] = dt_s
         fp[K.F_B0] = b0
+        fp[K.F_B0T] = b0
+        fp[K.F_B0S] = 1.0 - math.exp(-dt_s / self.LOSS_GLIDE_S)
         fp[K.F_A1] = a1
         fp[K.F_ETA] = eta
         fp[K.F_GAIN] = gain
         fp[K.F_TDX] = tension_over_dx
         fp[K.F_ADISP] = a_disp
+
+    def set_loss(self, s: int, b0: float) -> None:
+        """New loss filter gain b0 for slot s (a damper falling or lifting):
+        reached smoothly within a few ``LOSS_GLIDE_S``."""
+        self.fpar[s, K.F_B0T] = b0
 
     def start_pluck(self, s: int, model: int, amplitude_m: float, duration_s: float,
                     alpha_per_s: float = 0.0) -> None:

@@ -195,7 +195,7 @@ class GrandPianoInstrument:
                                lossy=True, n_disp=su.n_disp, a_disp=su.a_disp,
                                probe_row=probe_row if j == 0 else -1)
             else:
-                bank.fpar[slot, K.F_B0] = su.b0     # dampers off: the key is down
+                bank.set_loss(slot, su.b0)          # dampers off: the key is down
             if j < struck:
                 bank.start_hammer(slot, **self._hammer(key, n, su, V, soft))
                 bank.activate(slot)
@@ -223,4 +223,4 @@ class GrandPianoInstrument:
         t_eff = math.exp((1.0 - lift) * math.log(min(t_rel, t_nat)) + lift * math.log(t_nat))
         sigma = max(6.907755 / t_eff - 6.907755 / t_nat, 0.0)   # extra decay rate, 1/s
         for slot, su in zip(slots, self.setup(key)):
-            bank.fpar[slot, K.F_B0] = su.b0 * math.exp(-sigma / su.f1_hz)
+            bank.set_loss(slot, su.b0 * math.exp(-sigma / su.f1_hz))

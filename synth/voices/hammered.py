@@ -89,7 +89,7 @@ class HammeredStringInstrument(PluckedInstrument):
         slot = slots[0]
         su = self.setup(key, f0_hz)
         if restrike:
-            bank.fpar[slot, K.F_B0] = su.b0
+            bank.set_loss(slot, su.b0)
         else:
             self._configure(bank, slot, su, probe_row)
         V = self.hammer_speed(velocity, speed_m_per_s)

@@ -230,7 +230,7 @@ class PluckedInstrument:
         slot = slots[0]
         su = self.setup(key, f0_hz)
         if restrike:
-            bank.fpar[slot, K.F_B0] = su.b0      # undo a release damping
+            bank.set_loss(slot, su.b0)           # undo a release damping
         else:
             self._configure(bank, slot, su, probe_row)
         pl = self.preset.pluck
@@ -249,4 +249,4 @@ class PluckedInstrument:
         su = self.setup(key, f0_hz)
         rel = 1.0 if pedal >= 0.5 else loop_gain_from_t60(su.f0_hz, self.preset.loss.release_t60_s)
         for slot in slots:
-            bank.fpar[slot, K.F_B0] = su.b0 * rel
+            bank.set_loss(slot, su.b0 * rel)
