@@ -61,6 +61,7 @@ class _Voice:
     key_arg: object        # MIDI key for the instrument, or None
     f0_hz: float | None
     released: bool = False
+    dying: bool = False    # stolen or shed: fading out, no longer counted
 
 
 class Engine:
@@ -97,13 +98,16 @@ class Engine:
         self.fs_out = int(fs_out)
         self.dec = Decimator(self.fs_in, self.fs_out)
         self.polyphony = int(polyphony or instrument.polyphony)
+        #: voices fading out after being stolen or shed use spare indices
+        self.n_spare = max(4, self.polyphony // 4)
+        self.n_index = self.polyphony + self.n_spare
         #: strings per voice (a grand piano note has up to three)
         self.spv = int(getattr(instrument, "strings_per_voice", 1))
         max_in = self.dec.inputs_needed(self.MAX_BLOCK_OUT) + 16
         R = instrument.max_region_points() if hasattr(instrument, "max_region_points") else (
             0 if instrument.termination is None else instrument.termination.region_points)
         gt = instrument.gtable_length() if hasattr(instrument, "gtable_length") else 0
-        self.bank = StringBank(self.polyphony * self.spv, instrument.max_cells(extra_low_key),
+        self.bank = StringBank(self.n_index * self.spv, instrument.max_cells(extra_low_key),
                                max_region=max(R, 1), max_block=4096,
                                n_probes=1 if probe else 0, max_gtable=gt)
         #: the body (soundboard) stage after decimation, if the instrument has one
@@ -116,7 +120,12 @@ class Engine:
         self.by_key: dict[object, int] = {}  # (channel, key) -> voice index
         self.pedal = 0.0                     # sustain pedal CC64, 0..1 (half pedal between)
         self.soft = 0.0                      # soft pedal CC67, 0..1
-        self._quiet = np.zeros(self.polyphony * self.spv, dtype=np.int64)
+        self._quiet = np.zeros(self.n_index * self.spv, dtype=np.int64)
+        self._last_peak = np.zeros(self.n_index * self.spv)
+        self._done = np.zeros(self.n_index * self.spv, dtype=np.int64)
+        self._out = np.zeros(self.MAX_BLOCK_OUT)
+        self.n_stolen = 0                    # voices faded out to make room
+        self.n_shed = 0                      # voices faded out under CPU overload
         self.silence_level = 10.0 ** (silence_dbfs / 20.0)
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
@@ -134,15 +143,48 @@ class Engine:
         self._pending.sort(key=lambda t: (t[0], t[2].kind != NOTE_OFF, t[1]))
 
     def _alloc(self) -> int:
-        for v in range(self.polyphony):
+        """A free voice index.  With ``polyphony`` voices sounding, the
+        quietest released voice (else the quietest voice) is faded out in
+        about 10 ms (never cut: that clicks) and keeps its index until
+        silent; the new note takes a spare index."""
+        live = [v for v, vo in self.voices.items() if not vo.dying]
+        if len(live) >= self.polyphony:
+            rel = [v for v in live if self.voices[v].released]
+            self._fade(min(rel or live, key=self._level))
+            self.n_stolen += 1
+        for v in range(self.n_index):
             if v not in self.voices:
                 return v
-        # steal: the oldest released voice, else the oldest voice
-        rel = [v for v, vo in self.voices.items() if vo.released]
-        pool = rel if rel else list(self.voices)
-        v = min(pool, key=lambda q: self.voices[q].start)
+        # every index busy (fading voices too): cut the quietest fading one
+        v = min((v for v, vo in self.voices.items() if vo.dying), key=self._level)
         self._free(v)
         return v
+
+    def _level(self, v: int) -> float:
+        """Last block's peak output of voice v (the loudest of its strings)."""
+        return float(max(self._last_peak[s] for s in self._slots(v)))
+
+    def _fade(self, v: int, t60_s: float = 0.01) -> None:
+        """Fade voice v out (its strings' loss rises to T60 = ``t60_s``)."""
+        vo = self.voices[v]
+        vo.dying = vo.released = True
+        if self.by_key.get(vo.key) == v:
+            del self.by_key[vo.key]
+        for s in vo.slots:
+            if self.bank.is_active(s):
+                P = 2 * int(self.bank.ipar[s, K.I_N])
+                self.bank.set_loss(s, float(self.bank.fpar[s, K.F_B0T])
+                                   * 10.0 ** (-3.0 * P / (self.fs_in_exact * t60_s)))
+                self.bank.ipar[s, K.I_FILT] = 1
+
+    def shed(self, n: int) -> int:
+        """Fade out the ``n`` quietest sounding voices (CPU overload); returns
+        how many were shed."""
+        live = sorted((v for v, vo in self.voices.items() if not vo.dying), key=self._level)
+        for v in live[:n]:
+            self._fade(v)
+        self.n_shed += len(live[:n])
+        return len(live[:n])
 
     def _slots(self, v: int) -> tuple:
         return tuple(range(v * self.spv, (v + 1) * self.spv))
@@ -221,7 +263,8 @@ class Engine:
 
     # -- rendering ----------------------------------------------------------------
     def render_block(self, n_out: int, out: np.ndarray | None = None) -> np.ndarray:
-        """Render the next ``n_out`` output samples (float64)."""
+        """Render the next ``n_out`` output samples (float64), into ``out``
+        or the engine's own buffer (valid until the next call)."""
         if not (1 <= n_out <= self.MAX_BLOCK_OUT):
             raise ValueError(f"n_out = {n_out!r} is out of range (1 <= value <= {self.MAX_BLOCK_OUT})")
         n_in = self.dec.inputs_needed(n_out)
@@ -247,40 +290,42 @@ class Engine:
         self.time_in = end
         if self.probe:
             self._probe.append(bank.probe[0, :, :n_in].copy())
-        y = self.dec.process(mix, out)
+        y = self.dec.process(mix, self._out if out is None else out)
         if self.body is not None:
             self.body.process(y, out=y)
         self._reap(n_in)
         return y
 
     def _reap(self, n_in: int) -> None:
-        """Free voices that are silent: every string's output below the
-        silence level for four periods and 20 ms, excitation over."""
+        """Free silent strings (output below the silence level for four
+        periods and 20 ms, excitation over) and the voices left with none;
+        the scan itself is a kernel (no allocation per block)."""
         bank = self.bank
-        na = bank.n_active
-        if na == 0:
-            if self.voices:                  # voices whose strings all stopped
-                for v in [v for v in self.voices if not self.inst.study]:
+        if bank.n_active == 0:
+            if self.voices and not self.inst.study:
+                for v in list(self.voices):
                     self._free(v)
             return
-        act = bank.active[:na]
-        peak = bank.fst[act, K.S_PEAK]
-        quiet = (peak < self.silence_level) & (bank.ipar[act, K.I_EXC] == 0)
-        self._quiet[act] = np.where(quiet, self._quiet[act] + n_in, 0)
-        need = np.maximum(4 * bank.ipar[act, K.I_N], int(0.02 * self.fs_in))
-        done = act[(self._quiet[act] >= need)]
-        bank.fst[act, K.S_PEAK] = 0.0
-        if len(done) == 0 or self.inst.study:
+        nd = K.scan_silence(bank.active, bank.n_active, bank.ipar, bank.fst, self._quiet,
+                            self._last_peak, n_in, self.silence_level,
+                            int(0.02 * self.fs_in), self._done)
+        if nd == 0 or self.inst.study:
             return
-        for s in done.tolist():
+        for s in self._done[:nd].tolist():
             bank.deactivate(s)
-        for v in {s // self.spv for s in done.tolist()}:
+        for v in {s // self.spv for s in self._done[:nd].tolist()}:
             if v in self.voices and not any(bank.is_active(s) for s in self._slots(v)):
                 self._free(v)
 
     @property
     def n_voices(self) -> int:
+        """Sounding voices (fading-out ones included)."""
         return len(self.voices)
+
+    @property
+    def n_live(self) -> int:
+        """Voices that count against the polyphony (not fading out)."""
+        return sum(1 for vo in self.voices.values() if not vo.dying)
 
     def probe_channels(self) -> np.ndarray:
         """All probe channels (kernel ``P_*``) per internal sample, shape
@@ -316,13 +361,13 @@ class Engine:
             total = int(round(duration_s * self.fs_out)) + lat
             while n_done < total:
                 n = min(block, total - n_done)
-                chunks.append(self.render_block(n))
+                chunks.append(self.render_block(n).copy())
                 n_done += n
         else:
             hard = int((last + max_tail_s) * self.fs_out) + lat
             quiet_after = None
             while n_done < hard:
-                chunks.append(self.render_block(block))
+                chunks.append(self.render_block(block).copy())
                 n_done += block
                 t = n_done / self.fs_out
                 if t > last and not self._pending and not self.voices:

@@ -682,3 +682,32 @@ def max_fast_chunk(N: int, k: int, R: int, out_mode: int) -> int:
     if out_mode == 1:
         c = min(c, N - R - 2)
     return max(c, 0)
+
+
+@njit(**JIT_OPTS)
+def scan_silence(active, n_active, ipar, fst, quiet, last_peak, n_in, level, min_quiet, done):
+    """Per-block bookkeeping of the active strings, without allocation.
+
+    For each active string: remember its block peak in ``last_peak`` and
+    reset it; add ``n_in`` to its quiet count if its peak stayed below
+    ``level`` and no excitation runs, else reset the count; list in ``done``
+    the strings quiet for max(4 periods, ``min_quiet``) samples.  Returns
+    how many were listed.
+    """
+    nd = 0
+    for a in range(n_active):
+        s = active[a]
+        pk = fst[s, S_PEAK]
+        last_peak[s] = pk
+        fst[s, S_PEAK] = 0.0
+        if pk < level and ipar[s, I_EXC] == 0:
+            quiet[s] += n_in
+        else:
+            quiet[s] = 0
+        need = 4 * ipar[s, I_N]
+        if need < min_quiet:
+            need = min_quiet
+        if quiet[s] >= need:
+            done[nd] = s
+            nd += 1
+    return nd
