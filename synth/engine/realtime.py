@@ -1,0 +1,220 @@
+"""Real-time driver: the same engine as offline rendering, fed by a live
+event stream and pulled by an audio callback.
+
+Timing
+------
+Live MIDI messages carry no timestamp, so each event is stamped with the
+clock when it arrives (:meth:`Realtime.push`) and played at a constant
+latency after that: the event acts at stream time
+
+    t = (arrival - t0) + latency_s
+
+where ``t0`` is the clock time of output sample 0 (:meth:`start`).  The
+engine places it at internal sample round(t * fs_in), so the timing jitter
+is at most one internal sample (3 us), not one block, provided the latency
+covers a block plus the callback's scheduling slack (default: two blocks).
+Rendering offline the same events with ``time_s = t`` gives exactly the same
+samples (tested): live play and offline rendering are one engine.
+
+The callback
+------------
+:meth:`callback` (sounddevice's signature) drains the event queue, renders
+one block into a preallocated buffer and copies it to the float32 output.
+It does no per-voice Python work and allocates no arrays: the engine renders
+all strings with one kernel call per segment, decimates and runs the
+soundboard in place.  Rendering time is measured per block; when a block
+takes more than ``overload`` of its real-time budget the quietest voices are
+faded out (``shed_fraction`` of them), so that a heavy passage thins out
+instead of dropping out.  Underruns reported by the audio device are counted.
+
+Program changes swap the instrument: a new engine (built and warmed outside
+the callback) takes the new notes while the old one renders until its
+voices have died away.
+"""
+
+from __future__ import annotations
+
+import collections
+import threading
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .engine import Engine, Event
+
+
+@dataclass
+class RealtimeStats:
+    """What the meter shows (``synth play --stats``) and the exit report."""
+
+    blocks: int = 0
+    worst_fraction: float = 0.0      # slowest block, as a fraction of its real-time budget
+    sum_fraction: float = 0.0
+    underruns: int = 0               # reported by the audio device
+    overloads: int = 0               # blocks over the overload threshold
+    shed_voices: int = 0
+    late_events: int = 0             # events that arrived after their slot had been rendered
+    errors: int = 0                  # blocks lost to an exception (silence written)
+    block_times_s: collections.deque = field(default_factory=lambda: collections.deque(maxlen=100000))
+
+    @property
+    def mean_fraction(self) -> float:
+        return self.sum_fraction / self.blocks if self.blocks else 0.0
+
+    def percentile_fraction(self, q: float, budget_s: float) -> float:
+        if not self.block_times_s:
+            return 0.0
+        return float(np.percentile(np.asarray(self.block_times_s), q)) / budget_s
+
+
+class Realtime:
+    """Drive ``engine`` block by block from a live event stream.
+
+    Parameters
+    ----------
+    engine : Engine
+        The engine that renders (its ``fs_out`` is the stream's rate).
+    block : int
+        Output block size (samples), 16 .. 4096.
+    latency_s : float or None
+        Constant delay from an event's arrival to its sound (s); default two
+        blocks.
+    clock : callable
+        Monotonic clock in seconds (``time.monotonic``).
+    overload : float or None
+        Fraction of the block budget above which voices are shed (0 < x <= 2);
+        None: never shed (rendering is then independent of the machine's speed).
+    shed_fraction : float
+        Share of the sounding voices faded out at an overload (0..1).
+    """
+
+    def __init__(self, engine: Engine, block: int = 128, latency_s: float | None = None,
+                 clock=time.monotonic, overload: float = 0.9, shed_fraction: float = 0.25):
+        if not (16 <= int(block) <= Engine.MAX_BLOCK_OUT):
+            raise ValueError(f"block = {block!r} is out of range (16 <= value <= {Engine.MAX_BLOCK_OUT})")
+        if overload is not None and not (0.0 < overload <= 2.0):
+            raise ValueError(f"overload = {overload!r} is out of range (0 < value <= 2, or None)")
+        self.engines = [engine]
+        self.fs = engine.fs_out
+        self.block = int(block)
+        self.latency_s = 2.0 * self.block / self.fs if latency_s is None else float(latency_s)
+        self.clock = clock
+        self.overload = None if overload is None else float(overload)
+        self.shed_fraction = float(shed_fraction)
+        self.budget_s = self.block / self.fs
+        self._queue: collections.deque = collections.deque()
+        self._buf = np.zeros(Engine.MAX_BLOCK_OUT)
+        self._acc = np.zeros(Engine.MAX_BLOCK_OUT)
+        self.t0 = None
+        self.n_out = 0
+        self.stats = RealtimeStats()
+        self._lock = threading.Lock()
+        self._pending_swap = None
+
+    @property
+    def engine(self) -> Engine:
+        """The engine that takes new notes."""
+        return self.engines[-1]
+
+    # -- control thread ---------------------------------------------------------
+    def start(self, t0: float | None = None) -> None:
+        """Set the clock time of output sample 0 (default: now)."""
+        self.t0 = self.clock() if t0 is None else float(t0)
+
+    def push(self, event: Event, arrival_s: float | None = None) -> None:
+        """Queue an event that arrived at clock time ``arrival_s`` (default:
+        now).  Thread-safe; ``event.time_s`` is ignored."""
+        t = self.clock() if arrival_s is None else float(arrival_s)
+        self._queue.append((t, event))
+
+    def swap(self, engine: Engine) -> None:
+        """Program change: ``engine`` (built and warmed by the caller) takes
+        the notes from the next block on; the current one fades out."""
+        if engine.fs_out != self.fs:
+            raise ValueError(f"engine fs_out = {engine.fs_out} differs from the stream's {self.fs}")
+        self._pending_swap = engine
+
+    # -- audio thread ---------------------------------------------------------------
+    def _drain(self) -> None:
+        q = self._queue
+        now_s = self.n_out / self.fs
+        while q:
+            t_arr, ev = q.popleft()
+            t = (t_arr - self.t0) + self.latency_s
+            if t < now_s:
+                self.stats.late_events += 1
+                t = now_s
+            self.engine.schedule([Event(t, ev.kind, ev.key, ev.value, ev.channel, ev.f0_hz,
+                                        ev.speed_m_per_s)])
+
+    def render(self, out: np.ndarray, frames: int) -> None:
+        """Render the next ``frames`` output samples into ``out[:frames]``
+        (any float array).  The audio callback's body."""
+        if self.t0 is None:
+            self.start()
+        t_start = time.perf_counter()
+        try:
+            if self._pending_swap is not None:
+                new, self._pending_swap = self._pending_swap, None
+                new.time_in = 0
+                # align the new engine's clock with the stream
+                new.time_in = int(round(self.n_out / self.fs * new.fs_in_exact))
+                new.dec.reset()
+                for e in self.engines:
+                    e.schedule([Event(self.n_out / self.fs, "control", 123, 0.0)])
+                self.engines.append(new)
+            self._drain()
+            acc = self._acc[:frames]
+            acc[:] = 0.0
+            keep = []
+            for e in self.engines:
+                y = e.render_block(frames, self._buf)
+                acc += y
+                if e is self.engine or e.n_voices:
+                    keep.append(e)
+            self.engines = keep
+            np.copyto(out[:frames], acc, casting="unsafe")
+        except Exception:                      # never let the stream die
+            self.stats.errors += 1
+            out[:frames] = 0.0
+        self.n_out += frames
+        dt = time.perf_counter() - t_start
+        frac = dt / (frames / self.fs)
+        st = self.stats
+        st.blocks += 1
+        st.sum_fraction += frac
+        st.block_times_s.append(dt * self.block / frames)
+        if frac > st.worst_fraction:
+            st.worst_fraction = frac
+        if self.overload is not None and frac > self.overload:
+            st.overloads += 1
+            n = int(np.ceil(self.shed_fraction * self.engine.n_live))
+            if n:
+                st.shed_voices += self.engine.shed(n)
+
+    def callback(self, outdata, frames, time_info, status) -> None:
+        """sounddevice output callback (mono or several identical channels)."""
+        if status and status.output_underflow:
+            self.stats.underruns += 1
+        self.render(outdata[:, 0], frames)
+        if outdata.shape[1] > 1:
+            outdata[:, 1:] = outdata[:, :1]
+
+    # -- reporting ----------------------------------------------------------------
+    def meter(self) -> str:
+        """One line: blocks, worst and mean block time (fraction of the
+        budget), voices, underruns."""
+        st = self.stats
+        return (f"blocks {st.blocks}  worst {st.worst_fraction * 100:5.1f}%  mean "
+                f"{st.mean_fraction * 100:5.1f}%  voices {self.engine.n_live:3d}  "
+                f"underruns {st.underruns}  shed {st.shed_voices}")
+
+    def report(self) -> str:
+        st = self.stats
+        return (f"{st.blocks} blocks of {self.block} at {self.fs} Hz; block time worst "
+                f"{st.worst_fraction * 100:.1f}%, 99th percentile "
+                f"{st.percentile_fraction(99, self.budget_s) * 100:.1f}%, mean "
+                f"{st.mean_fraction * 100:.1f}% of the budget; {st.underruns} underruns, "
+                f"{st.overloads} overloaded blocks, {st.shed_voices} voices shed, "
+                f"{st.late_events} late events, {st.errors} errors")
