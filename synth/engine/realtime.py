@@ -35,6 +35,7 @@ voices have died away.
 from __future__ import annotations
 
 import collections
+import gc
 import threading
 import time
 from dataclasses import dataclass, field
@@ -119,7 +120,13 @@ class Realtime:
 
     # -- control thread ---------------------------------------------------------
     def start(self, t0: float | None = None) -> None:
-        """Set the clock time of output sample 0 (default: now)."""
+        """Set the clock time of output sample 0 (default: now).
+
+        Also collects garbage once and freezes what exists (``gc.freeze``),
+        so that the collector's later passes, which run in whatever thread
+        allocates, only scan the few objects made while playing."""
+        gc.collect()
+        gc.freeze()
         self.t0 = self.clock() if t0 is None else float(t0)
 
     def push(self, event: Event, arrival_s: float | None = None) -> None:

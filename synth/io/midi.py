@@ -43,6 +43,7 @@ __all__ = [
     "MAX_DURATION_S",
     "read_midi_file",
     "midi_file_duration_s",
+    "normalise_message",
 ]
 
 #: Files longer than this (seconds) are rejected as implausible (broken delta times).
@@ -199,6 +200,39 @@ def _pitch_bend_value(pitch: int) -> float:
     return pitch / 8192.0 if pitch < 0 else pitch / 8191.0
 
 
+def normalise_message(msg: mido.Message) -> tuple[str, int, int, float] | None:
+    """Normalise one channel message, as read from a file or from a live port.
+
+    Parameters
+    ----------
+    msg : mido.Message
+        Any message (meta messages and system messages included).
+
+    Returns
+    -------
+    tuple (kind, channel, key, value) or None
+        ``kind``, ``key`` and ``value`` as in the module docstring's table
+        (values in [0, 1], bend in [-1, 1]); None for a message that is
+        dropped (aftertouch, SysEx, clock, meta events, ...).  The file
+        reader and ``synth play`` both use this function, so a file and a
+        keyboard are normalised identically.
+    """
+    typ = msg.type
+    if typ == "note_on":
+        if msg.velocity > 0:
+            return ("note_on", msg.channel, msg.note, msg.velocity / 127.0)
+        return ("note_off", msg.channel, msg.note, _NOTE_OFF_DEFAULT_VELOCITY / 127.0)
+    if typ == "note_off":
+        return ("note_off", msg.channel, msg.note, msg.velocity / 127.0)
+    if typ == "control_change":
+        return ("control", msg.channel, msg.control, msg.value / 127.0)
+    if typ == "program_change":
+        return ("program", msg.channel, msg.program, 0.0)
+    if typ == "pitchwheel":
+        return ("pitch_bend", msg.channel, -1, _pitch_bend_value(msg.pitch))
+    return None
+
+
 def read_midi_file(path: str | os.PathLike[str]) -> list[MidiEvent]:
     """Read a Standard MIDI File (format 0 or 1, optionally RIFF RMID-wrapped).
 
@@ -255,20 +289,9 @@ def read_midi_file(path: str | os.PathLike[str]) -> list[MidiEvent]:
                 seg_s, seg_tick = t, tick
                 sec_per_tick = msg.tempo * 1e-6 / tpb
             continue
-        if typ == "note_on":
-            if msg.velocity > 0:
-                events.append(MidiEvent(t, "note_on", msg.channel, msg.note, msg.velocity / 127.0))
-            else:
-                events.append(MidiEvent(t, "note_off", msg.channel, msg.note,
-                                        _NOTE_OFF_DEFAULT_VELOCITY / 127.0))
-        elif typ == "note_off":
-            events.append(MidiEvent(t, "note_off", msg.channel, msg.note, msg.velocity / 127.0))
-        elif typ == "control_change":
-            events.append(MidiEvent(t, "control", msg.channel, msg.control, msg.value / 127.0))
-        elif typ == "program_change":
-            events.append(MidiEvent(t, "program", msg.channel, msg.program, 0.0))
-        elif typ == "pitchwheel":
-            events.append(MidiEvent(t, "pitch_bend", msg.channel, -1, _pitch_bend_value(msg.pitch)))
+        norm = normalise_message(msg)
+        if norm is not None:
+            events.append(MidiEvent(t, *norm))
     length_s = seg_s + (tick - seg_tick) * sec_per_tick  # includes trailing meta events
     if length_s > MAX_DURATION_S:
         raise _fail(shown, f"implausible length {length_s:.1f} s ({length_s / 3600:.1f} h), "

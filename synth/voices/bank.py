@@ -54,6 +54,8 @@ class StringBank:
         self.max_region = int(max_region)
         self.max_block = int(max_block)
         self.ring = np.zeros(self.capacity * 2 * self.max_cells)
+        self.ring.fill(0.0)            # fault the pages in now, not at a note-on
+        self._clean = np.ones(self.capacity, dtype=bool)
         self.ipar = np.zeros((self.capacity, K.I_NI), dtype=np.int64)
         self.fpar = np.zeros((self.capacity, K.F_NF))
         self.fst = np.zeros((self.capacity, K.S_NS))
@@ -78,6 +80,7 @@ class StringBank:
         return [s for s in range(self.capacity) if not self._is_active[s]]
 
     def activate(self, s: int) -> None:
+        self._clean[s] = False
         if not self._is_active[s]:
             self._is_active[s] = True
             self.active[self.n_active] = s
@@ -95,7 +98,9 @@ class StringBank:
     def clear(self, s: int) -> None:
         off = self.ipar[s, K.I_OFF]
         N = self.ipar[s, K.I_N]
-        self.ring[off: off + 2 * max(N, 0)] = 0.0
+        if not self._clean[s]:
+            self.ring[off: off + 2 * max(N, 0)] = 0.0
+            self._clean[s] = True
         self.fst[s, :] = 0.0
         self.ipar[s, K.I_POS] = 0
         self.ipar[s, K.I_EXC] = 0
@@ -129,8 +134,8 @@ class StringBank:
         if R >= cells - 2:
             raise ValueError(f"region points = {R} must be smaller than cells - 2 = {cells - 2}")
         ip = self.ipar[s]
+        self.clear(s)                  # (free when the slot is already clean)
         ip[K.I_N] = cells
-        self.clear(s)
         ip[K.I_K] = k
         ip[K.I_REG_N] = R
         ip[K.I_SIDE] = side
@@ -236,7 +241,7 @@ class StringBank:
         if ip[K.I_EXC] != 0:
             self._end_excitation(s)
         dt = float(fp[K.F_DT])
-        u_now = float(self.displacement(s)[int(ip[K.I_K])])
+        u_now = self.displacement_at_excitation(s)
         fp[K.F_HM] = mass_kg
         fp[K.F_HV] = speed_m_per_s
         fp[K.F_HQ] = stiffness
@@ -286,6 +291,14 @@ class StringBank:
         ur = ring[(pm - n) % P]
         vl = ring[(pm - (P - n)) % P]
         return ur.copy(), -vl.copy()
+
+    def displacement_at_excitation(self, s: int) -> float:
+        """u (m) at slot s's excitation point k, now."""
+        ip = self.ipar[s]
+        P = 2 * int(ip[K.I_N])
+        off, pm, k = int(ip[K.I_OFF]), int(ip[K.I_POS]), int(ip[K.I_K])
+        return float(self.ring[off + (pm - k) % P] - self.ring[off + (pm + k) % P]
+                     - self.fst[s, K.S_G] - self.fst[s, K.S_GHOLD])
 
     def displacement(self, s: int) -> np.ndarray:
         """u(x) at grid points 0..N (m) at the last processed time."""

@@ -51,6 +51,9 @@ from ..physics.dispersion import tune_stiff_loop
 from ..physics.profiles import Termination, capo
 from .bank import StringBank
 
+#: per-key string designs, by (preset, internal rate)
+_DESIGNS: dict = {}
+
 #: decay-time factor of each unison string (the centre-tuned one decays slowest)
 UNISON_T60 = {1: (1.0,), 2: (1.0, 0.45), 3: (0.45, 1.0, 0.5)}
 
@@ -91,9 +94,18 @@ class GrandPianoInstrument:
         self.fs = float(fs_internal or self.DEFAULT_RATE)
         if not (100_000 <= self.fs <= 2_000_000):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (100000 <= value <= 2000000)")
-        self._keys: dict[int, tuple[GrandStringSetup, ...]] = {}
+        # per-key designs are shared by every instrument of the same preset
+        # and rate in this process (designing a key takes ~17 ms)
+        self._keys: dict[int, tuple[GrandStringSetup, ...]] = _DESIGNS.setdefault(
+            (preset, self.fs), {})
         st = preset.strings
         self._capo = capo(st.capo_radius_m)
+
+    def warm(self) -> None:
+        """Design every key now (about 1.5 s), so that no note-on has to:
+        call before a live stream opens."""
+        for key in range(self.KEY_LOW, self.KEY_HIGH + 1):
+            self.setup(key)
 
     # -- sizes for the engine -----------------------------------------------------
     @property

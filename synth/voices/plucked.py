@@ -116,6 +116,14 @@ class PluckedInstrument:
         self.termination = termination_from_spec(preset.termination)
         self._setups: dict = {}
 
+    def warm(self, keys=range(128)) -> None:
+        """Derive every key's string now, so that no note-on has to."""
+        for k in keys:
+            try:
+                self.setup(k)
+            except ValueError:
+                pass    # a pitch this rate cannot hold
+
     # -- physics at note-on -------------------------------------------------------
     @property
     def excitation_position(self) -> float:

@@ -1,0 +1,125 @@
+"""Stress the real-time callback: per-block render time against the budget.
+
+    NUMBA_NUM_THREADS=1 python tools/bench_live.py [--blocks 64,128,256] [--seconds S]
+
+Drives :class:`synth.engine.realtime.Realtime` exactly as the audio device
+would (``callback(outdata, frames, ...)``), as fast as it can, and times every
+block.  A block slower than its budget (block / 48 kHz) would be an underrun
+on a live stream.  Shedding is off (``overload=None``), so the numbers are the
+full performance's cost.  Performances:
+
+1. the densest piano file in ../shared/midi (Rachmaninoff op. 23/5: 3861
+   notes in 197 s, up to 29 keys sounding with the pedal) at double speed on
+   ``grand-piano`` (polyphony 64);
+2. the Paderewski roll (Chopin op. 25/9, up to 48 keys with the pedal) at
+   double speed on ``grand-piano``;
+3. a 128-note cluster on ``sitar`` (every key struck within 50 ms, polyphony
+   128, held), i.e. 128 terminated plucked voices.
+
+For each and each block size: worst, 99th-percentile and mean block time as
+a fraction of the budget, blocks over budget, and the most voices sounding.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from synth.cli import midi_to_events  # noqa: E402
+from synth.engine.engine import Engine, Event  # noqa: E402
+from synth.engine.realtime import Realtime  # noqa: E402
+from synth.io.midi import read_midi_file  # noqa: E402
+from synth.io.presets import load_preset  # noqa: E402
+from synth.voices import instrument_for  # noqa: E402
+
+SHARED = Path(__file__).resolve().parents[2] / "shared"
+if not SHARED.is_dir():
+    SHARED = Path("/work/shared")
+
+
+class Clock:
+    t = 0.0
+
+    def __call__(self):
+        return self.t
+
+
+def drive(preset: str, events, seconds: float, block: int, polyphony: int):
+    inst = instrument_for(load_preset(preset))
+    inst.warm()                      # as the live player does before the stream opens
+    eng = Engine(inst, polyphony=polyphony)
+    clock = Clock()
+    rt = Realtime(eng, block=block, clock=clock, overload=None)
+    rt.start(0.0)
+    events = sorted(events, key=lambda e: e.time_s)
+    out = np.zeros((block, 1), dtype=np.float32)
+    n_blocks = int(seconds * eng.fs_out / block)
+    times = np.zeros(n_blocks)
+    most = 0
+    i = 0
+    for b in range(n_blocks):
+        clock.t = b * block / eng.fs_out
+        while i < len(events) and events[i].time_s <= clock.t:
+            rt.push(events[i], events[i].time_s)
+            i += 1
+        t = time.perf_counter()
+        rt.callback(out, block, None, None)
+        times[b] = time.perf_counter() - t
+        most = max(most, eng.n_voices)
+    budget = block / eng.fs_out
+    f = times / budget
+    return dict(worst=f.max(), p99=np.percentile(f, 99), mean=f.mean(),
+                over=int(np.sum(f > 1.0)), blocks=n_blocks, voices=most, errors=rt.stats.errors)
+
+
+def piece(name: str, speed: float):
+    evs = midi_to_events(read_midi_file(SHARED / "midi" / name))
+    return [Event(e.time_s / speed, e.kind, e.key, e.value, e.channel) for e in evs]
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--blocks", default="64,128,256")
+    ap.add_argument("--seconds", type=float, default=None,
+                    help="limit each performance to this many seconds (default: whole)")
+    a = ap.parse_args(argv)
+    blocks = [int(b) for b in a.blocks.split(",")]
+    import numba
+
+    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo")
+                if ln.startswith("model name")), "?")
+    print(f"# {time.strftime('%Y-%m-%d %H:%M')}  {cpu}  numba {numba.__version__}  one core")
+    print(f"# command: python {' '.join(sys.argv)}")
+    # warm-up: compile/load every kernel before timing
+    drive("grand-piano", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8)
+    drive("sitar", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8)
+    cluster = [Event(0.0004 * i, "note_on", 0 + i, 0.8, 0) for i in range(128)]
+    perfs = [
+        ("rac_op23_5.mid x2, grand-piano (64 voices)", "grand-piano", piece("rac_op23_5.mid", 2.0), 64),
+        ("hp956bx4547_exp.mid x2, grand-piano (64 voices)", "grand-piano",
+         piece("hp956bx4547_exp.mid", 2.0), 64),
+        ("128-note cluster, sitar (128 voices)", "sitar", cluster, 128),
+    ]
+    print("\n| performance | block | worst | 99th pct | mean | blocks over budget | most voices |")
+    print("|---|---|---|---|---|---|---|")
+    for label, preset, evs, poly in perfs:
+        dur = max(e.time_s for e in evs) + 1.0 if preset != "sitar" else 5.0
+        if a.seconds:
+            dur = min(dur, a.seconds)
+        for b in blocks:
+            r = drive(preset, evs, dur, b, poly)
+            print(f"| {label} | {b} | {r['worst'] * 100:.0f}% | {r['p99'] * 100:.0f}% | "
+                  f"{r['mean'] * 100:.0f}% | {r['over']} of {r['blocks']} | {r['voices']} |",
+                  flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
