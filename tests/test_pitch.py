@@ -54,3 +54,23 @@ def test_loss_filter_gives_the_preset_t60(f0):
     assert abs(t60 / t60_expected - 1) < 0.03
     if f0 == 200.0:
         assert abs(t60 / pre.loss.t60_low_s - 1) < 0.03
+
+
+@pytest.mark.parametrize("name", ["sitar", "biwa"])
+@pytest.mark.parametrize("bend", [1.0, -1.0, 0.5])
+def test_pitch_bend_moves_the_string_by_the_preset_range(name, bend):
+    """A bend of value b moves f0 by b * play.pitch_bend_semitones (2) within
+    1 cent, gliding (no step in the output), and back at 0."""
+    from synth.engine.engine import Event
+
+    e = engine(name)
+    y = e.render([Event(0.0, "note_on", 57, 0.8), Event(0.6, "pitch_bend", -1, bend),
+                  Event(1.8, "pitch_bend", -1, 0.0)], duration_s=3.0)
+    f_ref = midi_key_to_hz(57)
+    f_bent = estimate_f0(y[int(1.0 * 48000):int(1.8 * 48000)], 48000,
+                         f_ref * 2 ** (2 * bend / 12), search_cents=60)
+    assert abs(cents(f_bent, f_ref) - 200 * bend) < 1.0
+    f_back = estimate_f0(y[int(2.1 * 48000):], 48000, f_ref, search_cents=60)
+    assert abs(cents(f_back, f_ref)) < 1.0
+    d2 = np.abs(np.diff(y, 2))
+    assert d2[int(0.59 * 48000):int(0.7 * 48000)].max() < 3 * d2[int(0.45 * 48000):int(0.59 * 48000)].max()

@@ -25,6 +25,7 @@ from .decimator import Decimator
 NOTE_ON = "note_on"
 NOTE_OFF = "note_off"
 CONTROL = "control"
+PITCH_BEND = "pitch_bend"
 CC_SUSTAIN = 64
 CC_SOFT = 67
 CC_ALL_SOUND_OFF = 120
@@ -36,7 +37,7 @@ class Event:
     """A normalised performance event.
 
     time_s : float        time from the start of the render (s), >= 0
-    kind : str            "note_on" | "note_off" | "control"
+    kind : str            "note_on" | "note_off" | "control" | "pitch_bend" (others ignored)
     key : float           MIDI key (may be fractional) or controller number
     value : float         velocity in (0, 1] or controller value in [0, 1]
     channel : int         0..15
@@ -107,9 +108,10 @@ class Engine:
         R = instrument.max_region_points() if hasattr(instrument, "max_region_points") else (
             0 if instrument.termination is None else instrument.termination.region_points)
         gt = instrument.gtable_length() if hasattr(instrument, "gtable_length") else 0
+        mb = instrument.max_bend_len() if hasattr(instrument, "max_bend_len") else 0
         self.bank = StringBank(self.n_index * self.spv, instrument.max_cells(extra_low_key),
                                max_region=max(R, 1), max_block=4096,
-                               n_probes=1 if probe else 0, max_gtable=gt)
+                               n_probes=1 if probe else 0, max_gtable=gt, max_bend=mb)
         #: the body (soundboard) stage after decimation, if the instrument has one
         self.body = instrument.make_body(fs_out) if hasattr(instrument, "make_body") else None
         self.mix = np.zeros(max_in)
@@ -120,6 +122,7 @@ class Engine:
         self.by_key: dict[object, int] = {}  # (channel, key) -> voice index
         self.pedal = 0.0                     # sustain pedal CC64, 0..1 (half pedal between)
         self.soft = 0.0                      # soft pedal CC67, 0..1
+        self.bend = {}                       # pitch bend per channel, -1..1
         self._quiet = np.zeros(self.n_index * self.spv, dtype=np.int64)
         self._last_peak = np.zeros(self.n_index * self.spv)
         self._done = np.zeros(self.n_index * self.spv, dtype=np.int64)
@@ -227,12 +230,20 @@ class Engine:
                                   **self._extra(ev))
                 self.voices[v] = _Voice(vk, at, slots, key, ev.f0_hz)
                 self.by_key[vk] = v
+                if self.bend.get(ev.channel) and hasattr(self.inst, "bend"):
+                    self.inst.bend(self.bank, slots, key, ev.f0_hz, self.bend[ev.channel])
             for s in self._slots(v):
                 self._quiet[s] = 0
         elif ev.kind in (NOTE_OFF, NOTE_ON):
             v = self.by_key.get(vk)
             if v is not None:
                 self._release(v)
+        elif ev.kind == PITCH_BEND:
+            self.bend[ev.channel] = float(ev.value)
+            if hasattr(self.inst, "bend"):
+                for vo in self.voices.values():
+                    if vo.key[0] == ev.channel and not vo.dying:
+                        self.inst.bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, ev.value)
         elif ev.kind == CONTROL:
             cc = int(ev.key)
             if cc == CC_SUSTAIN:

@@ -75,7 +75,9 @@ I_EXC_END = 14   # first excitation sample with t > t0 (g constant from there);
 I_GT_OFF = 15    # offset of the g table in the flat table array (kind 3)
 I_HLAST = 16     # state: excitation sample of the hammer's last contact (-1: none yet)
 I_NDISP = 17     # dispersion: number M of identical first-order allpass sections (0..MAX_DISP)
-I_NI = 18
+I_BOFF = 18      # offset of the pitch-bend delay line in the flat table array
+I_BLEN = 19      # its length (0: no bend line)
+I_NI = 20
 
 # ---- float parameter columns (fpar[s, :]) -----------------------------------
 F_DT = 0         # time step dt (s)
@@ -100,7 +102,9 @@ F_ADISP = 18     # dispersion allpass coefficient a (string stiffness)
 F_B0T = 19       # target of the loss filter's b0: dampers and releases glide there
 F_B0S = 20       # glide rate per sample (1 - exp(-dt / 2 ms)); an instant change of the
                  #   end's loss would step the bridge force (u(L) = x - y) and click
-F_NF = 21
+F_BDT = 21       # pitch bend: target delay of the bend line (samples, >= 1)
+F_BDS = 22       # its glide rate per sample (20 ms: a pitch wheel moves, it does not jump)
+F_NF = 23
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -115,7 +119,9 @@ S_HPHI = 8       # 4-par: memory integral Phi (mm^p s)
 S_HF = 9         # hammer force at the last step (N)
 S_HW = 10        # felt compression w at the last step (m)
 S_GHOLD = 11     # g of ended excitations, still injected (lossy strings, see below)
-S_D0 = 12        # dispersion sections' states: x1, y1 per section
+S_BD = 12        # pitch bend: current delay of the bend line (samples)
+S_BW = 13        # its write position
+S_D0 = 14        # dispersion sections' states: x1, y1 per section
 MAX_DISP = 16
 S_NS = S_D0 + 2 * MAX_DISP
 
@@ -272,9 +278,11 @@ def _remove_offset(ring, off, P, pm, k, G):
 
 
 @njit(**JIT_OPTS)
-def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st):
+def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, U, boff, blen, bdt, bds):
     """One sample of the far-end filter at loop position N; returns (x, y).
-    (The caller glides b0 toward its target.)"""
+    (The caller glides b0 toward its target.)  With a bend line (blen > 0)
+    the filtered sample goes through a variable delay, read with third-order
+    Lagrange interpolation, its delay gliding toward ``bdt``."""
     j = pm - N
     if j < 0:
         j += P
@@ -297,6 +305,38 @@ def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st):
     y = eta * lp + st[S_APX] - eta * st[S_APY]
     st[S_APX] = lp
     st[S_APY] = y
+    if blen > 0:
+        w = int(st[S_BW])
+        U[boff + w] = y
+        D = st[S_BD] + bds * (bdt - st[S_BD])
+        st[S_BD] = D
+        i = int(D)
+        f = D - i
+        # taps at delays i-1, i, i+1, i+2 (Lagrange, 3rd order)
+        h0 = -f * (f - 1.0) * (f - 2.0) / 6.0
+        h1 = (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0
+        h2 = -(f + 1.0) * f * (f - 2.0) / 2.0
+        h3 = (f + 1.0) * f * (f - 1.0) / 6.0
+        r = w - i + 1
+        if r < 0:
+            r += blen
+        y = h0 * U[boff + r]
+        r -= 1
+        if r < 0:
+            r += blen
+        y += h1 * U[boff + r]
+        r -= 1
+        if r < 0:
+            r += blen
+        y += h2 * U[boff + r]
+        r -= 1
+        if r < 0:
+            r += blen
+        y += h3 * U[boff + r]
+        w += 1
+        if w == blen:
+            w = 0
+        st[S_BW] = w
     ring[off + j] = y
     return x, y
 
@@ -333,6 +373,10 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     ad = fp[F_ADISP]
     b0t = fp[F_B0T]
     b0s = fp[F_B0S]
+    boff = ipar[s, I_BOFF]
+    blen = ipar[s, I_BLEN]
+    bdt = fp[F_BDT]
+    bds = fp[F_BDS]
     st = fst[s]
     pm = ipar[s, I_POS]
     exc = ipar[s, I_EXC]
@@ -405,7 +449,8 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
         # 4. far end
         if filt == 1:
             b0 += b0s * (b0t - b0)
-            x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st)
+            x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, U, boff, blen,
+                            bdt, bds)
         else:
             x = 0.0
             y = 0.0
@@ -582,13 +627,18 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
         ad = fpar[s, F_ADISP]
         b0t = fpar[s, F_B0T]
         b0s = fpar[s, F_B0S]
+        boff = ipar[s, I_BOFF]
+        blen = ipar[s, I_BLEN]
+        bdt = fpar[s, F_BDT]
+        bds = fpar[s, F_BDS]
         pm = m0
         for i in range(C):
             pm += 1
             if pm == P:
                 pm = 0
             b0 += b0s * (b0t - b0)
-            x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st)
+            x, y = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, U, boff, blen,
+                            bdt, bds)
             if outm == 1:
                 ja = pm - N + 1
                 if ja < 0:

@@ -107,10 +107,12 @@ class LoopTuning:
 
 
 def tune_loop(f0_hz: float, fs: float, t60_low_s: float, f_low_hz: float,
-              t60_high_s: float, f_high_hz: float) -> LoopTuning:
+              t60_high_s: float, f_high_hz: float, fixed_delay: float = 0.0) -> LoopTuning:
     """Choose N, the loss filter and the fractional delay so that the loop
     resonates at exactly ``f0_hz`` with the requested decay times.
 
+    fixed_delay : samples of the loop taken by something else at x = L (the
+        pitch-bend line's rest delay), left out of the grid.
     Raises ValueError if f0 is too high for the rate (fewer than 8 cells).
     """
     if not (0 < f0_hz < fs / 16):
@@ -120,7 +122,7 @@ def tune_loop(f0_hz: float, fs: float, t60_low_s: float, f_low_hz: float,
     f2 = min(f_high_hz, 0.45 * fs)
     b0, a1 = one_pole_from_two_gains(g1, f_low_hz, g2, f2, fs)
     w0 = 2 * math.pi * f0_hz / fs
-    rest = fs / f0_hz - one_pole_phase_delay(a1, w0)
+    rest = fs / f0_hz - one_pole_phase_delay(a1, w0) - fixed_delay
     N = int(math.floor((rest - 0.5) / 2.0))
     rem = rest - 2 * N  # in [0.5, 2.5)
     extra = 0

@@ -42,9 +42,11 @@ class StringBank:
     """
 
     LOSS_GLIDE_S = 0.002
+    BEND_GLIDE_S = 0.02
 
     def __init__(self, capacity: int, max_cells: int, max_region: int = 64,
-                 max_block: int = 4096, n_probes: int = 0, max_gtable: int = 0):
+                 max_block: int = 4096, n_probes: int = 0, max_gtable: int = 0,
+                 max_bend: int = 0):
         if not (1 <= capacity <= 4096):
             raise ValueError(f"capacity = {capacity!r} is out of range (1 <= value <= 4096)")
         if not (8 <= max_cells <= 1_000_000):
@@ -60,8 +62,9 @@ class StringBank:
         self.fpar = np.zeros((self.capacity, K.F_NF))
         self.fst = np.zeros((self.capacity, K.S_NS))
         self.max_gtable = int(max_gtable)
-        # region profiles, then g tables, in one flat table array
-        self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable)))
+        self.max_bend = int(max_bend)
+        # region profiles, g tables and pitch-bend lines, in one flat table array
+        self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable + self.max_bend)))
         # fast-path chunks never exceed max_block; scratch holds g, acc, window
         self.scratch = np.zeros(3 * (self.max_block + self.max_region) + 8)
         self.active = np.zeros(self.capacity, dtype=np.int64)
@@ -73,6 +76,8 @@ class StringBank:
             self.ipar[s, K.I_OFF] = s * 2 * self.max_cells
             self.ipar[s, K.I_REG_OFF] = s * self.max_region
             self.ipar[s, K.I_GT_OFF] = self.capacity * self.max_region + s * self.max_gtable
+            self.ipar[s, K.I_BOFF] = (self.capacity * (self.max_region + self.max_gtable)
+                                      + s * self.max_bend)
             self.ipar[s, K.I_PROBE] = -1
 
     # -- slot management ------------------------------------------------------
@@ -117,7 +122,8 @@ class StringBank:
                   b0: float = 1.0, a1: float = 0.0, eta: float = 0.0,
                   extra_delay: int = 0, lossy: bool = False,
                   probe_row: int = -1, force_per_sample: bool = False,
-                  n_disp: int = 0, a_disp: float = 0.0) -> None:
+                  n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
+                  bend_delay: float = 0.0) -> None:
         """Set up slot s as an idle string (zero state, no excitation).
 
         cells : N, 8 .. max_cells.  k : excitation/pickup point, 1 .. N-1.
@@ -143,8 +149,16 @@ class StringBank:
             self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = U
         if not (0 <= n_disp <= K.MAX_DISP):
             raise ValueError(f"n_disp = {n_disp!r} is out of range (0 <= value <= {K.MAX_DISP})")
-        ip[K.I_FILT] = 1 if (lossy or n_disp) else 0
+        ip[K.I_FILT] = 1 if (lossy or n_disp or bend_len) else 0
         ip[K.I_NDISP] = int(n_disp)
+        if not (0 <= bend_len <= self.max_bend):
+            raise ValueError(f"bend_len = {bend_len!r} is out of range (0 <= value <= {self.max_bend})")
+        if bend_len and not (1.0 <= bend_delay <= bend_len - 3):
+            raise ValueError(f"bend_delay = {bend_delay!r} is out of range (1 <= value <= {bend_len - 3})")
+        ip[K.I_BLEN] = int(bend_len)
+        if bend_len:
+            self.U[ip[K.I_BOFF]: ip[K.I_BOFF] + bend_len] = 0.0
+        self.fst[s, K.S_BD] = bend_delay
         ip[K.I_XDELAY] = int(extra_delay)
         ip[K.I_OUT] = int(out_mode)
         ip[K.I_PROBE] = int(probe_row)
@@ -160,11 +174,19 @@ class StringBank:
         fp[K.F_GAIN] = gain
         fp[K.F_TDX] = tension_over_dx
         fp[K.F_ADISP] = a_disp
+        fp[K.F_BDT] = bend_delay
+        fp[K.F_BDS] = 1.0 - math.exp(-dt_s / self.BEND_GLIDE_S)
 
     def set_loss(self, s: int, b0: float) -> None:
         """New loss filter gain b0 for slot s (a damper falling or lifting):
         reached smoothly within a few ``LOSS_GLIDE_S``."""
         self.fpar[s, K.F_B0T] = b0
+
+    def set_bend_delay(self, s: int, delay: float) -> None:
+        """New delay (samples) of slot s's pitch-bend line, glided to."""
+        blen = int(self.ipar[s, K.I_BLEN])
+        if blen:
+            self.fpar[s, K.F_BDT] = min(max(delay, 1.0), blen - 3.0)
 
     def start_pluck(self, s: int, model: int, amplitude_m: float, duration_s: float,
                     alpha_per_s: float = 0.0) -> None:

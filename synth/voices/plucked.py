@@ -75,6 +75,8 @@ class StringSetup:
     extra_delay: int
     lossy: bool
     f0_hz: float
+    bend_len: int = 0          # pitch-bend line length (samples), 0: none
+    bend_delay: float = 0.0    # its rest delay (samples)
 
 
 class PluckedInstrument:
@@ -172,7 +174,14 @@ class PluckedInstrument:
                 b0, a1, eta, lossy = 1.0, 0.0, allpass_for_phase_delay(rem, w0), True
             else:
                 L = pre.loss
-                tl = tune_loop(f0, fs, L.t60_low_s, L.f_low_hz, L.t60_high_s, L.f_high_hz)
+                loop = fs / f0
+                r = pre.play.pitch_bend_semitones
+                # the bend line: at rest D0, down to 2 samples for +r semitones,
+                # up to D0 + loop (2^(r/12) - 1) for -r
+                D0 = loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0 if r > 0 else 0.0
+                blen = int(math.ceil(D0 + loop * (2.0 ** (r / 12.0) - 1.0))) + 6 if r > 0 else 0
+                tl = tune_loop(f0, fs, L.t60_low_s, L.f_low_hz, L.t60_high_s, L.f_high_hz,
+                               fixed_delay=D0)
                 cells, b0, a1, eta, xd, lossy = tl.cells, tl.b0, tl.a1, tl.eta, tl.extra_delay, True
         # the grid spacing of this string
         dx = st.c_m_per_s * dt
@@ -187,7 +196,9 @@ class PluckedInstrument:
             U = U[: max(1, min(len(U), cells // 3))]
         k = int(round(self.excitation_position * cells))
         k = min(max(k, 1), cells - 1)
-        s = StringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0)
+        bl = blen if (not self.study and not own and pre.play.pitch_bend_semitones > 0) else 0
+        s = StringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0,
+                        bl, D0 if bl else 0.0)
         self._setups[ck] = s
         return s
 
@@ -228,7 +239,29 @@ class PluckedInstrument:
                        out_mode=out_mode, gain=pre.output.gain,
                        tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
                        b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
-                       lossy=su.lossy, probe_row=probe_row)
+                       lossy=su.lossy, probe_row=probe_row, bend_len=su.bend_len,
+                       bend_delay=su.bend_delay)
+
+    def max_bend_len(self) -> int:
+        """Longest pitch-bend line any playable note needs (samples)."""
+        if self.study or self.preset.play.pitch_bend_semitones <= 0:
+            return 0
+        r = self.preset.play.pitch_bend_semitones
+        loop = self.fs / midi_key_to_hz(0)
+        return int(math.ceil(loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0
+                             + loop * (2.0 ** (r / 12.0) - 1.0))) + 6
+
+    def bend(self, bank: StringBank, slots, key, f0_hz, value: float) -> None:
+        """Pitch bend, ``value`` in [-1, 1] of ``play.pitch_bend_semitones``:
+        the string's loop is shortened or lengthened (as a player deflecting
+        the string raises its tension) through the bend line's delay."""
+        su = self.setup(key, f0_hz)
+        if not su.bend_len:
+            return
+        r = self.preset.play.pitch_bend_semitones * min(max(value, -1.0), 1.0)
+        loop = self.fs / su.f0_hz
+        for slot in slots:
+            bank.set_bend_delay(slot, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0))
 
     def note_on(self, bank: StringBank, slots, key: float | None, velocity: float,
                 f0_hz: float | None = None, probe_row: int = -1, restrike: bool = False,
