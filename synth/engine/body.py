@@ -36,6 +36,8 @@ import numbers
 
 import numpy as np
 
+from .signal import as_mono_block
+
 from synth.kernels.body import body_process as _body_kernel
 from synth.physics.soundboard import (
     DEFAULT_N_MODES,
@@ -144,18 +146,8 @@ class Body:
         ndarray of float64, shape (len(x),)
             ``dry_gain x + wet_gain (bank * x)``.
         """
-        x = np.asarray(x)
-        if x.ndim != 1:
-            raise ValueError(f"x has shape {x.shape}; must be 1-D (one channel)")
-        if x.dtype.kind not in "fiu":
-            raise ValueError(f"x has dtype {x.dtype}; must be real (float or integer)")
-        if x.dtype != np.float64 or not x.flags.c_contiguous:
-            x = np.ascontiguousarray(x, dtype=np.float64)
+        x = as_mono_block(x)
         n = x.shape[0]
-        # A finite sum means finite samples; only look closer if it is not.
-        if not math.isfinite(x.sum()) and not np.isfinite(x).all():
-            bad = int(np.flatnonzero(~np.isfinite(x))[0])
-            raise ValueError(f"x[{bad}] = {x[bad]} is not finite; input samples must be finite")
         if out is None:
             out = np.empty(n, dtype=np.float64)
         else:

@@ -25,6 +25,8 @@ import numpy as np
 
 from synth.kernels.decimator import decimate as _decimate_kernel
 
+from .signal import as_mono_block
+
 __all__ = ["Decimator", "design_prototype"]
 
 #: Largest interpolation factor L = fs_out / gcd(fs_in, fs_out) accepted.
@@ -268,19 +270,8 @@ class Decimator:
         ndarray of float64
             The ``outputs_for(len(x))`` new output samples at ``fs_out``.
         """
-        x = np.asarray(x)
-        if x.ndim != 1:
-            raise ValueError(f"x has shape {x.shape}; must be 1-D (one channel)")
-        if x.dtype.kind not in "fiu":
-            raise ValueError(f"x has dtype {x.dtype}; must be real (float or integer)")
-        if x.dtype != np.float64 or not x.flags.c_contiguous:
-            x = np.ascontiguousarray(x, dtype=np.float64)
+        x = as_mono_block(x)
         n_in = x.shape[0]
-        # Fast path: a finite sum means finite samples; only if the sum is
-        # not finite (a non-finite sample, or an overflow) look closer.
-        if not math.isfinite(x.sum()) and not np.isfinite(x).all():
-            bad = int(np.flatnonzero(~np.isfinite(x))[0])
-            raise ValueError(f"x[{bad}]={x[bad]} is not finite; input samples must be finite")
         p, d = int(self._state[0]), int(self._state[1])
         n = 0 if n_in < d else ((n_in - d + 1) * self.L - 1 - p) // self.M + 1
         if out is None:

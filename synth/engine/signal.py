@@ -1,0 +1,24 @@
+"""Validation of the sample blocks handed to the engine's stream stages."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def as_mono_block(x) -> np.ndarray:
+    """``x`` as a C-contiguous float64 1-D array of finite samples, or a
+    one-line ValueError naming what is wrong.  Cheap on valid input: a finite
+    sum means finite samples; only then is the block looked at closely."""
+    x = np.asarray(x)
+    if x.ndim != 1:
+        raise ValueError(f"x has shape {x.shape}; must be 1-D (one channel)")
+    if x.dtype.kind not in "fiu":
+        raise ValueError(f"x has dtype {x.dtype}; must be real (float or integer)")
+    if x.dtype != np.float64 or not x.flags.c_contiguous:
+        x = np.ascontiguousarray(x, dtype=np.float64)
+    if not math.isfinite(x.sum()) and not np.isfinite(x).all():
+        bad = int(np.flatnonzero(~np.isfinite(x))[0])
+        raise ValueError(f"x[{bad}] = {x[bad]} is not finite; input samples must be finite")
+    return x
