@@ -5,6 +5,8 @@
     synth note PRESET [--key K | --f0 HZ] [--velocity V] [--seconds S]
                [--internal-rate HZ] [--set PATH=VALUE ...] -o OUT.wav [--probe OUT.npy]
     synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] -o OUT.wav
+    synth play --preset PRESET [--midi-port NAME] [--audio-device NAME] [--block N]
+               [--latency-ms X] [--program-map 0=PRESET,...] [--stats] | --list-ports
 
 MIDI values (0-127) are normalised here, once; everything below works in SI
 units and [0, 1].  User errors print one line (``synth: error: ...``) and
@@ -204,6 +206,26 @@ def cmd_render(args) -> int:
     return 0
 
 
+def cmd_play(args) -> int:
+    """Live play from a MIDI keyboard (synth.io.live; sounddevice and
+    python-rtmidi are imported there, only now)."""
+    from .io import live
+
+    if args.list_ports:
+        print(live.list_ports())
+        return 0
+    if args.preset is None:
+        _fail("play needs --preset PRESET (see `synth presets`), or --list-ports")
+    programs = live.ProgramMap.parse(args.program_map, args.preset)
+    player = live.Player(args.preset, programs, block=args.block,
+                         latency_s=None if args.latency_ms is None else args.latency_ms / 1e3,
+                         audio_device=args.audio_device, midi_port=args.midi_port,
+                         stats=args.stats)
+    player.start()
+    player.run()
+    return 0
+
+
 DEMO_PHRASES = {
     # (start beat, key, beats, velocity)
     "sitar": [(0, 50, 1, 110), (1, 52, 1, 90), (2, 54, 1, 95), (3, 57, 2, 120),
@@ -278,6 +300,25 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--output", required=True)
     r.add_argument("--pcm24", action="store_true")
     r.set_defaults(func=cmd_render)
+
+    pl = sub.add_parser("play", help="play a preset live from a MIDI keyboard (needs the [live] extra)")
+    pl.add_argument("--preset", help="preset played first (program 0), see `synth presets`")
+    pl.add_argument("--midi-port", metavar="NAME",
+                    help="MIDI input port: exact name or part of it (default: the first keyboard)")
+    pl.add_argument("--audio-device", metavar="NAME",
+                    help="audio output device: index, exact name or part of it (default: the system's)")
+    pl.add_argument("--block", type=int, default=128,
+                    help="audio block in samples at 48 kHz (default 128 = 2.7 ms)")
+    pl.add_argument("--latency-ms", type=float, metavar="X",
+                    help="delay from key to stream in ms, at least one block (default: two blocks)")
+    pl.add_argument("--program-map", metavar="P=PRESET,...",
+                    help="presets for MIDI program changes, e.g. 0=grand-piano,1=sitar,24=biwa "
+                         "(programs 0-127; default: 0=the --preset)")
+    pl.add_argument("--stats", action="store_true",
+                    help="show block time, voices and underruns once a second")
+    pl.add_argument("--list-ports", action="store_true",
+                    help="list MIDI input ports and audio output devices, then exit")
+    pl.set_defaults(func=cmd_play)
     return p
 
 

@@ -1,0 +1,806 @@
+"""Live play: a MIDI keyboard in, the audio device out (``synth play``).
+
+The offline engine plays live through :class:`synth.engine.realtime.Realtime`.
+This module adds what touches the outside world, all of it optional:
+
+* ``sounddevice`` (PortAudio) for the audio output and ``python-rtmidi``
+  (mido's ``rtmidi`` backend) for the MIDI input, imported only here and only
+  when live play is asked for: importing :mod:`synth` or rendering offline
+  never loads them.  What is missing is reported as one line saying how to
+  get it (:func:`check_audio`, :func:`check_midi`).
+* Port and device choice by name (exact, else case-insensitive substring).
+* :func:`normalise`: live messages are normalised by the same function as
+  the MIDI file reader (:func:`synth.io.midi.normalise_message`).
+* :class:`ProgramMap`: MIDI program number -> preset.
+* :class:`Player`: builds and warms the engine before the stream opens,
+  stamps each MIDI message with its arrival time, swaps instruments on a
+  program change (built and warmed in a background thread), prints a meter
+  and, at Ctrl-C, the real-time report.
+
+Latency
+-------
+An event arriving at clock time ``a`` is rendered at stream time
+``a - t0 + latency_s`` (``latency_s``: two blocks by default, 5.3 ms for 128
+samples at 48 kHz), then waits for the device buffer (PortAudio's output
+latency) and the decimator's delay (0.9 ms) before it is heard.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import gc
+import os
+import sys
+import tempfile
+import threading
+import time
+
+from synth.io.errors import SynthError
+from synth.io.midi import normalise_message
+
+__all__ = [
+    "FS_OUT",
+    "INSTALL_LIVE",
+    "PORTAUDIO_MISSING",
+    "NO_MIDI_PORT",
+    "check_audio",
+    "check_midi",
+    "midi_input_names",
+    "pick_midi_port",
+    "pick_audio_device",
+    "match_name",
+    "list_ports",
+    "normalise",
+    "ProgramMap",
+    "ready_engine",
+    "Player",
+]
+
+#: Output rate of the live stream (Hz): the engine's.
+FS_OUT = 48_000
+
+INSTALL_LIVE = 'pip install -e ".[live]"'
+PORTAUDIO_MISSING = ("PortAudio library not found: install it (Debian/Ubuntu: apt-get install "
+                     "libportaudio2; Fedora: dnf install portaudio; macOS: brew install portaudio)")
+NO_MIDI_PORT = ("no MIDI input port found; connect a keyboard, or on Linux check that the ALSA "
+                "sequencer (/dev/snd/seq) is available")
+_RTMIDI_BACKEND = "mido.backends.rtmidi"
+
+
+# --------------------------------------------------------------------------
+# What is installed
+# --------------------------------------------------------------------------
+
+
+@contextlib.contextmanager
+def _quiet_c_stderr():
+    """Silence file descriptor 2 (the C libraries' ``ALSA lib ...: open
+    /dev/snd/seq failed`` chatter) for the duration; the Python errors that
+    follow carry the same information in one line."""
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+    except (OSError, ValueError, AttributeError):
+        yield
+        return
+    try:
+        with tempfile.TemporaryFile() as sink:
+            os.dup2(sink.fileno(), 2)
+            try:
+                yield
+            finally:
+                os.dup2(saved, 2)
+    finally:
+        os.close(saved)
+
+
+def check_audio():
+    """The ``sounddevice`` module, or a :class:`SynthError` saying what is
+    missing and how to install it.
+
+    Returns
+    -------
+    module
+        ``sounddevice`` (PortAudio loaded).
+
+    Raises
+    ------
+    SynthError
+        ``sounddevice`` is not installed (``pip install -e ".[live]"``), or
+        the PortAudio library is missing (the system package to install).
+    """
+    try:
+        with _quiet_c_stderr():
+            import sounddevice
+    except ImportError as e:
+        if e.name in ("sounddevice", "cffi", "_cffi_backend"):
+            raise SynthError(f"sounddevice is not installed (audio output of synth play): "
+                             f"{INSTALL_LIVE} in the synth checkout, or pip install sounddevice"
+                             ) from None
+        raise SynthError(f"sounddevice cannot be imported ({e}): {INSTALL_LIVE}") from None
+    except OSError as e:
+        if "portaudio" in str(e).lower():
+            raise SynthError(PORTAUDIO_MISSING) from None
+        raise SynthError(f"sounddevice cannot load PortAudio ({e}); {PORTAUDIO_MISSING}") from None
+    return sounddevice
+
+
+def check_midi():
+    """mido's ``rtmidi`` backend (a :class:`mido.Backend`, loaded), or a
+    :class:`SynthError` saying how to install python-rtmidi.
+
+    The backend is not made mido's global default; use its
+    ``get_input_names()`` and ``open_input()``.
+    """
+    import mido
+
+    try:
+        with _quiet_c_stderr():
+            return mido.Backend(_RTMIDI_BACKEND, load=True)
+    except ImportError as e:
+        if e.name == "rtmidi":
+            raise SynthError(f"python-rtmidi is not installed (MIDI input of synth play): "
+                             f"{INSTALL_LIVE} in the synth checkout, or pip install python-rtmidi"
+                             ) from None
+        raise SynthError(f"python-rtmidi cannot be loaded ({e}): {INSTALL_LIVE}") from None
+
+
+def midi_input_names(backend) -> list[str]:
+    """Names of the MIDI input ports the backend sees.
+
+    Raises
+    ------
+    SynthError
+        The MIDI system cannot be opened (no ALSA sequencer): the
+        no-port message with the backend's reason in parentheses.
+    """
+    try:
+        with _quiet_c_stderr():
+            names = backend.get_input_names()
+    except Exception as e:  # rtmidi raises its own SystemError subclasses
+        raise SynthError(f"{NO_MIDI_PORT} ({_one_line(e)})") from None
+    return list(names)
+
+
+def _one_line(e: BaseException) -> str:
+    s = str(e).strip()
+    return s.splitlines()[0] if s else type(e).__name__
+
+
+def match_name(wanted: str, names: list[str], option: str, what: str) -> str:
+    """The one name in ``names`` that ``wanted`` designates: an exact match,
+    else the only one containing it (case-insensitive).
+
+    Parameters
+    ----------
+    wanted : str
+        What the user gave.
+    names : list of str
+        The candidates (non-empty).
+    option : str
+        The option, for the message (``"--midi-port"``).
+    what : str
+        What the names are, for the message (``"MIDI input port"``).
+
+    Raises
+    ------
+    SynthError
+        No name matches (the message lists them all), or several contain
+        ``wanted`` and none equals it (the message lists those).
+    """
+    if wanted in names:
+        return wanted
+    low = wanted.lower()
+    hits = list(dict.fromkeys(n for n in names if low in n.lower()))
+    if len(hits) == 1:
+        return hits[0]
+    if not hits:
+        shown = "; ".join(repr(n) for n in names)
+        raise SynthError(f"{option} {wanted!r} matches no {what} (available: {shown})")
+    shown = "; ".join(repr(n) for n in hits)
+    raise SynthError(f"{option} {wanted!r} matches several {what}s ({shown}): give more of the name")
+
+
+def pick_midi_port(backend, wanted: str | None = None) -> str:
+    """The MIDI input port to play from.
+
+    Parameters
+    ----------
+    backend : mido.Backend
+        From :func:`check_midi`.
+    wanted : str or None
+        ``--midi-port``: an exact name or a case-insensitive part of one;
+        None: the first port that is not ALSA's "Midi Through" (else that).
+
+    Raises
+    ------
+    SynthError
+        No input port at all, or ``wanted`` matches none (all are listed)
+        or several.
+    """
+    names = midi_input_names(backend)
+    if not names:
+        raise SynthError(NO_MIDI_PORT)
+    if wanted is not None:
+        return match_name(wanted, names, "--midi-port", "MIDI input port")
+    real = [n for n in names if not n.lower().startswith("midi through")]
+    return (real or names)[0]
+
+
+def _output_devices(sd) -> list[dict]:
+    return [dict(d, index=i) for i, d in enumerate(sd.query_devices())
+            if d["max_output_channels"] > 0]
+
+
+def _default_output(sd) -> int:
+    try:
+        return int(sd.default.device[1])
+    except Exception:
+        return -1
+
+
+def pick_audio_device(sd, wanted: str | None = None) -> tuple[int, str, int]:
+    """The audio output device and its channel count for the live stream.
+
+    Parameters
+    ----------
+    sd : module
+        ``sounddevice`` (from :func:`check_audio`).
+    wanted : str or None
+        ``--audio-device``: a device index, an exact name or a
+        case-insensitive part of one; None: PortAudio's default output.
+
+    Returns
+    -------
+    (index, name, channels)
+        ``channels`` is 1 when the device takes mono at 48 kHz float32,
+        else 2 (the mono signal on both).
+
+    Raises
+    ------
+    SynthError
+        No output device, no match, or a device that cannot play 48 kHz.
+    """
+    outs = _output_devices(sd)
+    if not outs:
+        raise SynthError("no audio output device found (PortAudio lists none); check the "
+                         "sound card, or on Linux ALSA (aplay -l), PulseAudio/PipeWire or JACK")
+    if wanted is None:
+        idx = _default_output(sd)
+        dev = next((d for d in outs if d["index"] == idx), outs[0])
+    elif wanted.strip().isdigit():
+        dev = next((d for d in outs if d["index"] == int(wanted)), None)
+        if dev is None:
+            shown = "; ".join(f"{d['index']} {d['name']!r}" for d in outs)
+            raise SynthError(f"--audio-device {wanted} is not an output device (available: {shown})")
+    else:
+        name = match_name(wanted, [d["name"] for d in outs], "--audio-device", "audio output device")
+        dev = next(d for d in outs if d["name"] == name)
+    errors = []
+    for ch in (1, 2):
+        if ch > dev["max_output_channels"]:
+            break
+        try:
+            with _quiet_c_stderr():
+                sd.check_output_settings(device=dev["index"], channels=ch, dtype="float32",
+                                         samplerate=FS_OUT)
+            return dev["index"], dev["name"], ch
+        except Exception as e:
+            errors.append(_one_line(e))
+    raise SynthError(f"audio device {dev['name']!r} cannot play {FS_OUT} Hz float32 mono or "
+                     f"stereo ({'; '.join(errors) or 'no output channels'})")
+
+
+def list_ports() -> str:
+    """MIDI input ports and audio output devices (``synth play --list-ports``).
+
+    Works with either part missing: what cannot be listed says why.
+    """
+    lines = ["MIDI input ports (--midi-port):"]
+    try:
+        names = midi_input_names(check_midi())
+    except SynthError as e:
+        lines.append(f"  unavailable: {e}")
+    else:
+        lines += [f"  {n}" for n in names] or [f"  none: {NO_MIDI_PORT}"]
+    lines.append("Audio output devices (--audio-device; * = default):")
+    try:
+        sd = check_audio()
+        outs = _output_devices(sd)
+        default = _default_output(sd)
+        apis = [a["name"] for a in sd.query_hostapis()]
+    except SynthError as e:
+        lines.append(f"  unavailable: {e}")
+    else:
+        if not outs:
+            lines.append("  none: PortAudio lists no output device")
+        for d in outs:
+            mark = "*" if d["index"] == default else " "
+            api = apis[d["hostapi"]] if 0 <= d["hostapi"] < len(apis) else "?"
+            lines.append(f"{mark} {d['index']:2d}  {d['name']}  ({api}, {d['max_output_channels']} "
+                         f"channels, {d['default_samplerate']:.0f} Hz)")
+    return "\n".join(lines)
+
+
+# --------------------------------------------------------------------------
+# Messages and programs
+# --------------------------------------------------------------------------
+
+
+def normalise(msg):
+    """A live mido message as an engine :class:`~synth.engine.engine.Event`.
+
+    The values are those of the MIDI file reader (one shared function,
+    :func:`synth.io.midi.normalise_message`): note-on velocity / 127 (a
+    note-on with velocity 0 is a note-off), note-off release velocity / 127,
+    ``control`` value / 127, ``pitch_bend`` in [-1, 1] (key -1; the engine
+    ignores kinds it does not play).  The event's ``time_s`` is 0: the
+    player stamps the arrival time.
+
+    Returns
+    -------
+    Event or None
+        None for program changes (the player handles those) and for
+        messages that are dropped (aftertouch, clock, SysEx, ...).
+    """
+    from synth.engine.engine import Event
+
+    n = normalise_message(msg)
+    if n is None or n[0] == "program":
+        return None
+    kind, channel, key, value = n
+    return Event(0.0, kind, key, value, channel)
+
+
+class ProgramMap:
+    """MIDI program number (0-127, as sent in the message) -> preset name.
+
+    Parameters
+    ----------
+    programs : mapping of int to str
+        Program -> preset name (or ``.toml`` path).
+    """
+
+    def __init__(self, programs: dict[int, str]):
+        self.programs = dict(sorted(programs.items()))
+
+    @classmethod
+    def parse(cls, text: str | None, default_preset: str, check: bool = True) -> ProgramMap:
+        """Parse ``--program-map 0=grand-piano,1=sitar,24=biwa``.
+
+        Program 0 plays ``default_preset`` unless the text maps it.  With
+        ``check``, every preset is loaded and validated.
+
+        Raises
+        ------
+        SynthError
+            A malformed entry, a program outside 0..127, a program given
+            twice, or a preset that does not load (the message lists the
+            available presets).
+        """
+        from synth.io.presets import load_preset
+
+        progs: dict[int, str] = {0: default_preset}
+        given: set[int] = set()
+        if text is not None:
+            entries = [e.strip() for e in text.split(",")]
+            if not any(entries):
+                raise SynthError(f"--program-map = {text!r} is empty (e.g. 0=grand-piano,1=sitar)")
+            for entry in entries:
+                if not entry:
+                    continue
+                prog_s, sep, name = (s.strip() for s in entry.partition("="))
+                if not sep or not name or not prog_s:
+                    raise SynthError(f"--program-map entry {entry!r} is not PROGRAM=PRESET "
+                                     "(e.g. 0=grand-piano,1=sitar)")
+                try:
+                    prog = int(prog_s)
+                except ValueError:
+                    raise SynthError(f"--program-map entry {entry!r}: program {prog_s!r} is not an "
+                                     "integer (0 <= value <= 127)") from None
+                if not (0 <= prog <= 127):
+                    raise SynthError(f"--program-map entry {entry!r}: program = {prog} is out of "
+                                     "range (0 <= value <= 127)")
+                if prog in given:
+                    raise SynthError(f"--program-map: program {prog} is given twice")
+                given.add(prog)
+                progs[prog] = name
+        if check:
+            for prog, name in progs.items():
+                try:
+                    load_preset(name)
+                except SynthError as e:
+                    if prog in given:
+                        raise SynthError(f"--program-map entry {prog}={name}: {e}") from None
+                    raise
+        return cls(progs)
+
+    def preset_for(self, program: int) -> str | None:
+        """The preset of ``program``, or None if it is not mapped."""
+        return self.programs.get(int(program))
+
+    def __str__(self) -> str:
+        return ",".join(f"{p}={n}" for p, n in self.programs.items())
+
+    def __repr__(self) -> str:
+        return f"ProgramMap({self.programs!r})"
+
+
+# --------------------------------------------------------------------------
+# Engines
+# --------------------------------------------------------------------------
+
+
+def _warm_phrase(preset) -> list:
+    """Events that take the engine through every path a performance uses:
+    note-ons across the range, a restrike, releases with and without the
+    sustain pedal, the soft pedal."""
+    from synth.engine.engine import Event
+
+    if preset.kind == "musical" and preset.play is not None:
+        lo, hi = preset.play.key_low, preset.play.key_high
+        keys = sorted({lo, (lo + hi) // 2, hi})
+    else:
+        keys = [-1]
+    ev = [Event(0.0, "control", 67, 0.5)]
+    ev += [Event(0.001 * i, "note_on", k, 0.8) for i, k in enumerate(keys)]
+    ev += [Event(0.012, "note_on", keys[len(keys) // 2], 0.6),
+           Event(0.015, "control", 64, 1.0)]
+    ev += [Event(0.020, "note_off", k, 0.5) for k in keys]
+    ev += [Event(0.025, "control", 64, 0.0), Event(0.026, "control", 67, 0.0),
+           Event(0.030, "pitch_bend", -1, 0.5)]
+    return ev
+
+
+def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = None):
+    """Build the engine for a preset, warmed for live play.
+
+    The instrument designs every key now (its ``warm()``), then a throwaway
+    engine renders a short phrase block by block (compiling or loading the
+    numba kernels, faulting the buffers in), and a fresh engine on the same
+    instrument is returned, so the warm-up leaves no sound behind.
+
+    Parameters
+    ----------
+    preset_name : str
+        Preset name or ``.toml`` path.
+    block : int
+        Output block size of the stream (samples).
+    instruments : dict or None
+        Cache of instruments by preset name (a program change back to a
+        preset reuses its designs).
+
+    Raises
+    ------
+    SynthError
+        The preset does not load or its instrument cannot be built.
+    """
+    from synth.engine.engine import Engine
+    from synth.io.presets import load_preset
+    from synth.voices import instrument_for
+
+    inst = None if instruments is None else instruments.get(preset_name)
+    if inst is None:
+        preset = load_preset(preset_name)
+        try:
+            inst = instrument_for(preset)
+        except ValueError as e:
+            raise SynthError(f"{preset_name}: {e}") from None
+        warm = getattr(inst, "warm", None)
+        if warm is not None:
+            warm()
+        if instruments is not None:
+            instruments[preset_name] = inst
+    else:
+        preset = inst.preset
+    # a keyboard may send any key: size the strings for key 0 (study presets
+    # otherwise only hold their own string's length; musical ones already do)
+    try:
+        scratch = Engine(inst, fs_out=FS_OUT, extra_low_key=0)
+    except ValueError as e:
+        raise SynthError(f"{preset_name}: {e}") from None
+    scratch.schedule(_warm_phrase(preset))
+    for _ in range(int(0.05 * FS_OUT / block) + 1):
+        scratch.render_block(block)
+    scratch.shed(1)
+    scratch.render_block(block)
+    return Engine(inst, fs_out=FS_OUT, extra_low_key=0)
+
+
+# --------------------------------------------------------------------------
+# The player
+# --------------------------------------------------------------------------
+
+
+class Player:
+    """Play a preset live: MIDI input -> :class:`Realtime` -> audio output.
+
+    The constructor checks everything that can be missing or wrong (the
+    sounddevice/PortAudio and rtmidi installs, the ports, the device, the
+    presets) before any slow work; :meth:`start` builds and warms the
+    engine and opens the stream and the port; :meth:`run` shows the meter
+    until Ctrl-C (or ``seconds``), closes, and prints the report.
+
+    Parameters
+    ----------
+    preset : str
+        The preset played first (program 0 unless ``program_map`` says otherwise).
+    program_map : ProgramMap or None
+        Presets for program changes; default: program 0 -> ``preset``.
+    block : int
+        Audio block size (samples at 48 kHz), 16 .. 4096.
+    latency_s : float or None
+        Constant delay from a message's arrival to its place in the stream
+        (s), at least one block; default two blocks.
+    audio_device : str or None
+        Output device index or name (part); None: the default output.
+    midi_port : str or None
+        MIDI input port name (part); None: the first real input port.
+    midi : bool
+        Open a MIDI input port (False: messages only via :meth:`handle`).
+    stats : bool
+        Print the meter once a second while playing.
+    out : file
+        Where status lines, the meter and the report go (stdout).
+    """
+
+    def __init__(self, preset: str, program_map: ProgramMap | None = None, block: int = 128,
+                 latency_s: float | None = None, audio_device: str | None = None,
+                 midi_port: str | None = None, midi: bool = True, stats: bool = False,
+                 out=None):
+        from synth.engine.engine import Engine
+        from synth.io.presets import load_preset
+
+        if not (16 <= int(block) <= Engine.MAX_BLOCK_OUT):
+            raise SynthError(f"--block = {block} is out of range (16 <= value <= "
+                             f"{Engine.MAX_BLOCK_OUT})")
+        self.block = int(block)
+        lo_ms = 1e3 * self.block / FS_OUT
+        if latency_s is not None and not (self.block / FS_OUT <= latency_s <= 1.0):
+            raise SynthError(f"--latency-ms = {latency_s * 1e3:g} is out of range ({lo_ms:.2f} <= "
+                             f"value <= 1000: at least one block of {self.block} samples)")
+        self.latency_s = latency_s
+        load_preset(preset)                                  # a bad name fails now
+        self.program_map = program_map or ProgramMap({0: preset})
+        self.preset_name = preset
+        self.stats = stats
+        self.out = out if out is not None else sys.stdout
+        self.clock = time.monotonic
+        # -- what the outside world offers, checked before any slow work
+        self.sd = check_audio()
+        self.device, self.device_name, self.channels = pick_audio_device(self.sd, audio_device)
+        self.midi_backend = None
+        self.midi_port_name = None
+        if midi:
+            self.midi_backend = check_midi()
+            self.midi_port_name = pick_midi_port(self.midi_backend, midi_port)
+        # -- state
+        self.rt = None
+        self.stream = None
+        self.port = None
+        self.instruments: dict = {}
+        self.ready_s = None            # start(): call to stream running (s)
+        self.warm_s = None             # start(): engine built and warmed (s)
+        self.n_messages = 0
+        self.n_notes = 0
+        self.n_program_changes = 0
+        self.handler_errors = 0
+        self.peak = 0.0                # largest |sample| written to the device
+        self.clipped_blocks = 0
+        self.max_voices = 0
+        self.device_ahead_s = 0.0      # PortAudio: DAC time - callback time, largest seen
+        self._lock = threading.Lock()
+        self._gen = 0
+        self._target = preset
+        self._builders: list[threading.Thread] = []
+        self._switch = None
+
+    # -- start and stop -------------------------------------------------------------
+    def start(self) -> None:
+        """Build and warm the engine, open the audio stream, then the MIDI
+        input; prints the latency budget and ``ready in X s``."""
+        from synth.engine.realtime import Realtime
+
+        t_call = time.perf_counter()
+        try:
+            eng = ready_engine(self.preset_name, self.block, self.instruments)
+            self.warm_s = time.perf_counter() - t_call
+            self.rt = Realtime(eng, block=self.block, latency_s=self.latency_s)
+            # the audio thread must get the GIL quickly even while a program
+            # change is built in the background (default switch interval: 5 ms)
+            self._switch = sys.getswitchinterval()
+            sys.setswitchinterval(min(self._switch, 0.0005))
+            gc.collect()
+            gc.freeze()                # warm-up garbage never scanned from the callback
+            try:
+                with _quiet_c_stderr():
+                    self.stream = self.sd.OutputStream(
+                        samplerate=FS_OUT, blocksize=self.block, channels=self.channels,
+                        dtype="float32", callback=self._callback, device=self.device,
+                        latency="low")
+            except Exception as e:
+                raise SynthError(f"cannot open audio device {self.device_name!r}: "
+                                 f"{_one_line(e)}") from None
+            self.stream.start()
+            if self.midi_port_name is not None:
+                try:
+                    with _quiet_c_stderr():
+                        self.port = self.midi_backend.open_input(self.midi_port_name,
+                                                                 callback=self.handle)
+                except Exception as e:
+                    raise SynthError(f"cannot open MIDI input port {self.midi_port_name!r}: "
+                                     f"{_one_line(e)}") from None
+        except BaseException:
+            self.close()
+            raise
+        self.ready_s = time.perf_counter() - t_call
+        self._say(self.describe())
+        self._say(f"ready in {self.ready_s:.2f} s (engine built and warmed in {self.warm_s:.2f} s)"
+                  "; Ctrl-C stops")
+
+    def latency_budget_s(self) -> dict:
+        """The parts of the key-to-sound delay (s) that are known: the
+        scheduling latency, the device's output latency (PortAudio's figure),
+        the decimator's delay, and their sum."""
+        sched = self.rt.latency_s
+        dev = float(self.stream.latency) if self.stream is not None else 0.0
+        dec = float(self.rt.engine.dec.latency_s)
+        return {"schedule_s": sched, "device_s": dev, "decimator_s": dec,
+                "total_s": sched + dev + dec}
+
+    def describe(self) -> str:
+        lat = self.latency_budget_s()
+        midi = f"MIDI in {self.midi_port_name!r}" if self.midi_port_name else "no MIDI input"
+        progs = f"; programs {self.program_map}" if len(self.program_map.programs) > 1 else ""
+        return (f"{self.preset_name}: {midi} -> audio out {self.device_name!r} "
+                f"({self.channels} ch, {FS_OUT} Hz, block {self.block} = "
+                f"{1e3 * self.block / FS_OUT:.1f} ms){progs}; latency {lat['total_s'] * 1e3:.1f} ms "
+                f"= schedule {lat['schedule_s'] * 1e3:.1f} + device {lat['device_s'] * 1e3:.1f} "
+                f"+ decimator {lat['decimator_s'] * 1e3:.1f}")
+
+    def close(self) -> None:
+        """Close the MIDI port and the stream (idempotent)."""
+        port, self.port = self.port, None
+        if port is not None:
+            with contextlib.suppress(Exception):
+                port.close()
+        stream, self.stream = self.stream, None
+        if stream is not None:
+            with contextlib.suppress(Exception):
+                stream.stop()
+            with contextlib.suppress(Exception):
+                stream.close()
+        with self._lock:
+            self._gen += 1                  # a program change still building is dropped
+        for th in self._builders:
+            th.join(timeout=10.0)
+        self._builders = []
+        if self._switch is not None:
+            sys.setswitchinterval(self._switch)
+            self._switch = None
+            gc.unfreeze()
+
+    def run(self, seconds: float | None = None, interval_s: float = 1.0) -> str:
+        """Play until Ctrl-C (or for ``seconds``), then close and print the
+        report, which is returned.  With ``stats`` the meter is printed once
+        per ``interval_s`` on one line."""
+        if self.stream is None:
+            raise RuntimeError("Player.run() before start()")
+        t_end = None if seconds is None else time.monotonic() + seconds
+        stopped = None
+        try:
+            while True:
+                wait = interval_s if t_end is None else min(interval_s, t_end - time.monotonic())
+                if wait > 0:
+                    time.sleep(wait)
+                if self.stats:
+                    print("\r" + self.rt.meter(), end="", file=self.out, flush=True)
+                if not self.stream.active:
+                    stopped = "the audio stream stopped (device gone?)"
+                    break
+                if t_end is not None and time.monotonic() >= t_end:
+                    break
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self.close()
+        if self.stats:
+            print(file=self.out)
+        rep = self.report()
+        if stopped:
+            rep += f"\n{stopped}"
+        self._say(rep)
+        return rep
+
+    def report(self) -> str:
+        """:meth:`Realtime.report` and what the player saw."""
+        peak = f"{20 * math.log10(self.peak):.1f} dBFS" if self.peak > 0 else "silence"
+        clip = f" ({self.clipped_blocks} blocks clipped)" if self.clipped_blocks else ""
+        ready = f"ready in {self.ready_s:.2f} s; " if self.ready_s is not None else ""
+        ahead = (f"; the device played blocks up to {self.device_ahead_s * 1e3:.1f} ms after "
+                 "their callback (PortAudio's timestamps)" if self.device_ahead_s > 0 else "")
+        return (f"{self.rt.report()}\n{ready}{self.n_messages} MIDI messages, {self.n_notes} notes, "
+                f"{self.n_program_changes} program changes, at most {self.max_voices} voices, "
+                f"peak {peak}{clip}, {self.handler_errors} message errors{ahead}")
+
+    def _say(self, text: str) -> None:
+        print(text, file=self.out, flush=True)
+
+    # -- the audio thread -----------------------------------------------------------
+    def _callback(self, outdata, frames, time_info, status) -> None:
+        """The stream's callback: the real-time driver, then the peak and
+        voice meters (scalar reductions, no allocation)."""
+        self.rt.callback(outdata, frames, time_info, status)
+        hi = float(outdata.max())
+        lo = -float(outdata.min())
+        p = hi if hi > lo else lo
+        if p > self.peak:
+            self.peak = p
+        if p > 1.0:
+            self.clipped_blocks += 1
+        n = self.rt.engine.n_voices
+        if n > self.max_voices:
+            self.max_voices = n
+        try:
+            ahead = time_info.outputBufferDacTime - time_info.currentTime
+            if 0.0 < ahead < 1.0 and ahead > self.device_ahead_s:
+                self.device_ahead_s = ahead
+        except AttributeError:
+            pass
+
+    # -- the MIDI thread --------------------------------------------------------------
+    def handle(self, msg, arrival_s: float | None = None) -> None:
+        """A MIDI message arrived (the input port's callback): stamp it now
+        (or at ``arrival_s``, ``time.monotonic`` seconds) and queue it;
+        a program change swaps the instrument.  Never raises."""
+        t = self.clock() if arrival_s is None else float(arrival_s)
+        try:
+            self.n_messages += 1
+            if msg.type == "program_change":
+                self.program_change(msg.program)
+                return
+            ev = normalise(msg)
+            if ev is None or self.rt is None:
+                return
+            if ev.kind == "note_on":
+                self.n_notes += 1
+            self.rt.push(ev, t)
+        except Exception:
+            self.handler_errors += 1
+
+    def program_change(self, program: int) -> None:
+        """Swap to the preset of ``program``: its engine is built and warmed
+        in a background thread, then handed to :meth:`Realtime.swap`.  An
+        unmapped program is reported and ignored; the latest request wins."""
+        name = self.program_map.preset_for(program)
+        if name is None:
+            self._say(f"\nprogram {program} is not in the program map ({self.program_map}); "
+                      f"keeping {self._target}")
+            return
+        with self._lock:
+            if name == self._target:
+                return
+            self._target = name
+            self._gen += 1
+            gen = self._gen
+        th = threading.Thread(target=self._build_and_swap, args=(program, name, gen),
+                              name=f"synth-program-{program}", daemon=True)
+        self._builders = [b for b in self._builders if b.is_alive()] + [th]
+        th.start()
+
+    def _build_and_swap(self, program: int, name: str, gen: int) -> None:
+        try:
+            t = time.perf_counter()
+            eng = ready_engine(name, self.block, self.instruments)
+        except Exception as e:
+            self.handler_errors += 1
+            self._say(f"\nprogram {program}: {name} failed: {_one_line(e)}")
+            return
+        with self._lock:
+            if gen != self._gen or self.rt is None:
+                return
+            self.rt.swap(eng)
+            self.preset_name = name
+            self.n_program_changes += 1
+        self._say(f"\nprogram {program}: {name} (ready in {time.perf_counter() - t:.2f} s)")
