@@ -76,6 +76,30 @@ def test_flood_past_the_polyphony_steals_without_clicks():
     assert _max_jump(y) <= 1.2 * _max_jump(ref)
 
 
+def test_unplayable_notes_are_dropped_not_raised():
+    e = engine("paper/piano-a7-ideal", polyphony=4)
+    y = e.render([Event(0.0, "note_on", 0, 0.8), Event(0.01, "note_on", -1, 0.8)], duration_s=0.05)
+    assert e.n_dropped == 1 and e.n_voices == 1 and np.all(np.isfinite(y))
+
+
+def test_one_slow_block_does_not_shed():
+    clock = FakeClock()
+    rt = Realtime(engine("sitar"), block=128, clock=clock, overload=0.9)
+    rt.start(0.0)
+    rt.push(Event(0.0, "note_on", 60, 0.8), 0.0)
+    buf = np.zeros((128, 1), dtype=np.float32)
+    import time as _t
+    real = _t.perf_counter
+    for b in range(20):
+        clock.t = b * 128 / 48000
+        if b == 10:                      # one block made to look 10x too slow
+            calls = iter([0.0, 10 * 128 / 48000])
+            _t.perf_counter = lambda: next(calls)
+        rt.callback(buf, 128, None, None)
+        _t.perf_counter = real
+    assert rt.stats.overloads == 1 and rt.stats.shed_voices == 0
+
+
 def test_overload_sheds_voices():
     arrivals = [(0.01 * i, Event(0.0, "note_on", 45 + i, 0.8)) for i in range(20)]
     _, rt = run_live("sitar", arrivals, 0.5, overload=1e-9)   # every block "too slow"

@@ -129,6 +129,7 @@ class Engine:
         self._out = np.zeros(self.MAX_BLOCK_OUT)
         self.n_stolen = 0                    # voices faded out to make room
         self.n_shed = 0                      # voices faded out under CPU overload
+        self.n_dropped = 0                   # note-ons the instrument could not play
         self.silence_level = 10.0 ** (silence_dbfs / 20.0)
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
@@ -225,9 +226,17 @@ class Engine:
             else:
                 v = self._alloc()
                 slots = self._slots(v)
-                self.inst.note_on(self.bank, slots, key, ev.value, f0_hz=ev.f0_hz,
-                                  probe_row=0 if (self.probe and not self.voices) else -1,
-                                  **self._extra(ev))
+                try:
+                    self.inst.note_on(self.bank, slots, key, ev.value, f0_hz=ev.f0_hz,
+                                      probe_row=0 if (self.probe and not self.voices) else -1,
+                                      **self._extra(ev))
+                except ValueError:
+                    # a pitch this instrument cannot build (a study string far
+                    # off its own pitch, say): the note is dropped, not the block
+                    self.n_dropped += 1
+                    for s in slots:
+                        self.bank.deactivate(s)
+                    return
                 self.voices[v] = _Voice(vk, at, slots, key, ev.f0_hz)
                 self.by_key[vk] = v
                 if self.bend.get(ev.channel) and hasattr(self.inst, "bend"):

@@ -24,8 +24,8 @@ It does no per-voice Python work and allocates no arrays: the engine renders
 all strings with one kernel call per segment, decimates and runs the
 soundboard in place.  Rendering time is measured per block; when a block
 takes more than ``overload`` of its real-time budget the quietest voices are
-faded out (``shed_fraction`` of them), so that a heavy passage thins out
-instead of dropping out.  Underruns reported by the audio device are counted.
+faded out (``shed_fraction`` of them) once ``slow_blocks`` blocks in a row
+were that slow, so that a heavy passage thins out instead of dropping out.  Underruns reported by the audio device are counted.
 
 Program changes swap the instrument: a new engine (built and warmed outside
 the callback) takes the new notes while the old one renders until its
@@ -88,10 +88,13 @@ class Realtime:
         None: never shed (rendering is then independent of the machine's speed).
     shed_fraction : float
         Share of the sounding voices faded out at an overload (0..1).
+    slow_blocks : int
+        Consecutive blocks over the threshold before voices are shed.
     """
 
     def __init__(self, engine: Engine, block: int = 128, latency_s: float | None = None,
-                 clock=time.monotonic, overload: float = 0.9, shed_fraction: float = 0.25):
+                 clock=time.monotonic, overload: float = 0.9, shed_fraction: float = 0.25,
+                 slow_blocks: int = 2):
         if not (16 <= int(block) <= Engine.MAX_BLOCK_OUT):
             raise ValueError(f"block = {block!r} is out of range (16 <= value <= {Engine.MAX_BLOCK_OUT})")
         if overload is not None and not (0.0 < overload <= 2.0):
@@ -103,6 +106,8 @@ class Realtime:
         self.clock = clock
         self.overload = None if overload is None else float(overload)
         self.shed_fraction = float(shed_fraction)
+        self.slow_blocks = max(1, int(slow_blocks))
+        self._slow = 0
         self.budget_s = self.block / self.fs
         self._queue: collections.deque = collections.deque()
         self._buf = np.zeros(Engine.MAX_BLOCK_OUT)
@@ -196,9 +201,16 @@ class Realtime:
             st.worst_fraction = frac
         if self.overload is not None and frac > self.overload:
             st.overloads += 1
-            n = int(np.ceil(self.shed_fraction * self.engine.n_live))
-            if n:
-                st.shed_voices += self.engine.shed(n)
+            self._slow += 1
+            # one slow block is often the machine, not the music (another
+            # process, a page fault): shed only when the overload lasts
+            if self._slow >= self.slow_blocks:
+                n = int(np.ceil(self.shed_fraction * self.engine.n_live))
+                if n:
+                    st.shed_voices += self.engine.shed(n)
+                self._slow = 0
+        else:
+            self._slow = 0
 
     def callback(self, outdata, frames, time_info, status) -> None:
         """sounddevice output callback (mono or several identical channels)."""
