@@ -121,7 +121,8 @@ S_HW = 10        # felt compression w at the last step (m)
 S_GHOLD = 11     # g of ended excitations, still injected (lossy strings, see below)
 S_BD = 12        # pitch bend: current delay of the bend line (samples)
 S_BW = 13        # its write position
-S_D0 = 14        # dispersion sections' states: x1, y1 per section
+S_HDG = 14       # hammer: g increment of the last step (Newton's first guess)
+S_D0 = 15        # dispersion sections' states: x1, y1 per section
 MAX_DISP = 16
 S_NS = S_D0 + 2 * MAX_DISP
 
@@ -211,16 +212,22 @@ def _hammer_step(law, I1, g0, dt, fp, st):
     imp, dimp = _felt_impulse(law, y0, y, dt, Q, A, tau0, phi0)
     if imp <= 0.0:
         g1 = g0
+        y = -1.0                    # (recomputed below)
     else:
         lo = g0
         hi = g0 + K * imp
-        g1 = hi
-        for it in range(100):
+        # start from the last step's increment (the force changes little
+        # from one sample to the next): two or three Newton steps
+        g1 = g0 + st[S_HDG]
+        if not (lo < g1 < hi):
+            g1 = 0.5 * (lo + hi)
+        y_conv = -1.0
+        for it in range(60):
             w = zc - dz * g1 - I1 - g1
             if w > 0.0:
                 wm = 1000.0 * w
                 y = wm ** p
-                dy = -p * wm ** (p - 1.0) * 1000.0 * (1.0 + dz)
+                dy = -p * (y / wm) * 1000.0 * (1.0 + dz)     # one pow per iteration
             else:
                 y = 0.0
                 dy = 0.0
@@ -231,21 +238,36 @@ def _hammer_step(law, I1, g0, dt, fp, st):
             r = g1 - g0 - K * imp
             if r > 0.0:
                 hi = g1
-            else:
+            elif r < 0.0:
                 lo = g1
-            if r == 0.0 or hi - lo <= 1e-15 * (abs(hi) + 1e-30):
+            else:
                 break
             dr = 1.0 - K * dimp * dy
             gn = g1 - r / dr
+            # converged: test before the bracket (at convergence gn sits on
+            # the bracket's end that g1 just became, and bisecting from there
+            # would undo it)
+            if abs(gn - g1) <= 1e-13 * (abs(g1) + 1e-30):
+                g1 = gn
+                y_conv = y          # w^p there, to 1e-13: no pow below
+                break
             if not (lo < gn < hi):
                 gn = 0.5 * (lo + hi)
-            if gn == g1:
-                break
             g1 = gn
+            if hi - lo <= 1e-15 * (abs(hi) + 1e-30):
+                break
+        if y_conv < 0.0:
+            w = zc - dz * g1 - I1 - g1
+            y_conv = (1000.0 * w) ** p if w > 0.0 else 0.0
+        y = y_conv
+    st[S_HDG] = g1 - g0
     # state update at t_{n+1}
     z1 = zc - dz * g1
     w1 = z1 - I1 - g1
-    y1 = (1000.0 * w1) ** p if w1 > 0.0 else 0.0
+    if y < 0.0:
+        y1 = (1000.0 * w1) ** p if w1 > 0.0 else 0.0
+    else:
+        y1 = y if w1 > 0.0 else 0.0
     if law == 4:
         F1 = Q * (y1 + A * (y1 - y0) / dt)
     else:

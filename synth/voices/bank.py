@@ -278,6 +278,7 @@ class StringBank:
         st[K.S_HPHI] = 0.0
         st[K.S_HF] = 0.0
         st[K.S_HW] = 0.0
+        st[K.S_HDG] = 0.0
         ip[K.I_EXC] = law
         ip[K.I_EXC_M] = 0
         ip[K.I_EXC_END] = max(1, int(round(max_flight_s / dt)))
