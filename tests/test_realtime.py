@@ -35,6 +35,7 @@ def run_live(name, arrivals, seconds, block=128, polyphony=None, **kw):
         buf = np.zeros((block, 1), dtype=np.float32)
         rt.callback(buf, block, None, None)
         out.append(buf[:, 0].copy())
+    rt.stop()
     return np.concatenate(out), rt
 
 
@@ -97,6 +98,7 @@ def test_one_slow_block_does_not_shed():
             _t.perf_counter = lambda: next(calls)
         rt.callback(buf, 128, None, None)
         _t.perf_counter = real
+    rt.stop()
     assert rt.stats.overloads == 1 and rt.stats.shed_voices == 0
 
 
@@ -106,6 +108,18 @@ def test_overload_sheds_voices():
     assert rt.stats.overloads == rt.stats.blocks
     assert rt.stats.shed_voices > 0 and rt.stats.errors == 0
     assert rt.engine.n_live < 20
+
+
+def test_start_quiets_the_garbage_collector_and_stop_restores_it():
+    import gc
+    rt = Realtime(engine("sitar"), block=128)
+    assert gc.isenabled()
+    rt.start()
+    try:
+        assert not gc.isenabled()
+    finally:
+        rt.stop()
+    assert gc.isenabled()
 
 
 def test_late_events_are_counted_and_played_at_once():
@@ -118,5 +132,6 @@ def test_late_events_are_counted_and_played_at_once():
         rt.callback(buf, 128, None, None)
     rt.push(Event(0.0, "note_on", 60, 0.8), 0.0)      # arrived long ago
     rt.callback(buf, 128, None, None)
+    rt.stop()
     assert rt.stats.late_events == 1 and rt.engine.n_voices == 1
     assert "underruns 0" in rt.meter() and "late events" in rt.report()

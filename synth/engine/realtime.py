@@ -117,6 +117,7 @@ class Realtime:
         self.stats = RealtimeStats()
         self._lock = threading.Lock()
         self._pending_swap = None
+        self._gc_was_enabled = None
 
     @property
     def engine(self) -> Engine:
@@ -124,15 +125,31 @@ class Realtime:
         return self.engines[-1]
 
     # -- control thread ---------------------------------------------------------
-    def start(self, t0: float | None = None) -> None:
-        """Set the clock time of output sample 0 (default: now).
+    def start(self, t0: float | None = None, quiet_gc: bool = True) -> None:
+        """Set the clock time of output sample 0 (default: now); call it
+        before the stream starts, not from the callback.
 
-        Also collects garbage once and freezes what exists (``gc.freeze``),
-        so that the collector's later passes, which run in whatever thread
-        allocates, only scan the few objects made while playing."""
-        gc.collect()
-        gc.freeze()
+        quiet_gc : collect garbage once, freeze what exists and switch the
+            cyclic collector off until :meth:`stop` (it runs in whichever
+            thread allocates, and a pass in the audio callback cost up to 4
+            block budgets in tools/bench_live.py); reference counting still
+            frees everything the engine drops.  The control thread may call
+            ``gc.collect(0)`` now and then.
+        """
+        if quiet_gc and self._gc_was_enabled is None:
+            gc.collect()
+            gc.freeze()
+            self._gc_was_enabled = gc.isenabled()
+            gc.disable()
         self.t0 = self.clock() if t0 is None else float(t0)
+
+    def stop(self) -> None:
+        """Undo :meth:`start`'s garbage-collector settings."""
+        if self._gc_was_enabled is not None:
+            if self._gc_was_enabled:
+                gc.enable()
+            gc.unfreeze()
+            self._gc_was_enabled = None
 
     def push(self, event: Event, arrival_s: float | None = None) -> None:
         """Queue an event that arrived at clock time ``arrival_s`` (default:
@@ -163,8 +180,8 @@ class Realtime:
     def render(self, out: np.ndarray, frames: int) -> None:
         """Render the next ``frames`` output samples into ``out[:frames]``
         (any float array).  The audio callback's body."""
-        if self.t0 is None:
-            self.start()
+        if self.t0 is None:                    # nobody called start(): stamp only
+            self.t0 = self.clock()
         t_start = time.perf_counter()
         try:
             if self._pending_swap is not None:

@@ -611,8 +611,6 @@ class Player:
             # change is built in the background (default switch interval: 5 ms)
             self._switch = sys.getswitchinterval()
             sys.setswitchinterval(min(self._switch, 0.0005))
-            gc.collect()
-            gc.freeze()                # warm-up garbage never scanned from the callback
             try:
                 with _quiet_c_stderr():
                     self.stream = self.sd.OutputStream(
@@ -622,6 +620,9 @@ class Player:
             except Exception as e:
                 raise SynthError(f"cannot open audio device {self.device_name!r}: "
                                  f"{_one_line(e)}") from None
+            # the cyclic collector off while playing (Realtime.start), and the
+            # stream's sample 0 stamped now
+            self.rt.start()
             self.stream.start()
             if self.midi_port_name is not None:
                 try:
@@ -679,7 +680,8 @@ class Player:
         if self._switch is not None:
             sys.setswitchinterval(self._switch)
             self._switch = None
-            gc.unfreeze()
+        if self.rt is not None:
+            self.rt.stop()
 
     def run(self, seconds: float | None = None, interval_s: float = 1.0) -> str:
         """Play until Ctrl-C (or for ``seconds``), then close and print the
@@ -694,6 +696,7 @@ class Player:
                 wait = interval_s if t_end is None else min(interval_s, t_end - time.monotonic())
                 if wait > 0:
                     time.sleep(wait)
+                gc.collect(0)          # the young generation only, from this thread
                 if self.stats:
                     print("\r" + self.rt.meter(), end="", file=self.out, flush=True)
                 if not self.stream.active:
