@@ -56,7 +56,12 @@ def test_live_path_equals_offline_render(name):
         [Event(t + rt.latency_s, ev.kind, ev.key, ev.value) for t, ev in arrivals],
         duration_s=len(live) / 48000, block=1000, compensate_latency=False)
     assert rt.stats.late_events == 0 and rt.stats.errors == 0
-    assert np.array_equal(live, offline[: len(live)].astype(np.float32))
+    # the same samples: equal to the float32 output's last place (the
+    # soundboard kernel runs 4 samples per pass, so the float64 sums depend
+    # on block boundaries at 1e-14; once in a while a float32 rounding flips)
+    ref = offline[: len(live)].astype(np.float32)
+    assert np.all(np.abs(live - ref) <= np.spacing(np.abs(ref)))
+    assert np.count_nonzero(live != ref) <= len(live) // 10000
 
 
 def _max_jump(y):
