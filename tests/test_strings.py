@@ -206,3 +206,15 @@ def test_dispersion_cascade_in_the_kernel_gives_the_designed_partials():
     got, _ = partial_peaks(y[int(0.1 * fs):], fs, f1 / np.sqrt(1 + B), 8, search_cents=40,
                            inharmonicity=B)
     assert np.max(np.abs(1200 * np.log2(got / want))) < 0.05
+
+
+def test_biwa_force_integrates_to_the_outgoing_wave():
+    """Eqs. 1.10-1.11: g = (c / 2T) int F dt, F0 = 0.96 N for the thesis's biwa."""
+    from synth.physics.plucks import biwa_force
+
+    T, c, A, alpha, t0 = 38.4, 320.0, 0.002, 2000.0, 0.0025
+    t = np.linspace(0.0, t0, 200001)
+    F = biwa_force(t, A, alpha, t0, T, c)
+    g = c / (2 * T) * np.concatenate([[0.0], np.cumsum(0.5 * (F[1:] + F[:-1]) * np.diff(t))])
+    assert np.max(np.abs(g[:-1] - biwa_g(t[:-1], A, alpha, t0))) < 1e-9
+    assert abs(np.max(F) * np.e - 0.96) < 1e-6      # F0 alpha t e^(-alpha t) peaks at F0 / e

@@ -36,7 +36,7 @@ import numbers
 
 import numpy as np
 
-from .signal import as_mono_block
+from .signal import as_mono_block, output_block
 
 from synth.kernels.body import body_process as _body_kernel
 from synth.physics.soundboard import (
@@ -148,15 +148,7 @@ class Body:
         """
         x = as_mono_block(x)
         n = x.shape[0]
-        if out is None:
-            out = np.empty(n, dtype=np.float64)
-        else:
-            if not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.ndim != 1:
-                raise ValueError("out must be a 1-D float64 ndarray")
-            if out.shape[0] < n:
-                raise ValueError(f"out has length {out.shape[0]}; must be >= {n} (len(x))")
-            if not out.flags.writeable:
-                raise ValueError("out must be writeable")
+        out = output_block(out, n, "len(x)")
         if n == 0:
             return out[:0]
         target = out if out.flags.c_contiguous else np.empty(n, dtype=np.float64)

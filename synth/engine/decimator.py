@@ -25,7 +25,7 @@ import numpy as np
 
 from synth.kernels.decimator import decimate as _decimate_kernel
 
-from .signal import as_mono_block
+from .signal import as_mono_block, output_block
 
 __all__ = ["Decimator", "design_prototype"]
 
@@ -274,15 +274,7 @@ class Decimator:
         n_in = x.shape[0]
         p, d = int(self._state[0]), int(self._state[1])
         n = 0 if n_in < d else ((n_in - d + 1) * self.L - 1 - p) // self.M + 1
-        if out is None:
-            out = np.empty(n, dtype=np.float64)
-        else:
-            if not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.ndim != 1:
-                raise ValueError("out must be a 1-D float64 ndarray")
-            if out.shape[0] < n:
-                raise ValueError(f"out has length {out.shape[0]}; must be >= {n} (outputs_for(len(x)))")
-            if not out.flags.writeable:
-                raise ValueError("out must be writeable")
+        out = output_block(out, n, "outputs_for(len(x))")
         if n_in == 0:
             return out[:0]
         target = out if out.flags.c_contiguous else np.empty(n, dtype=np.float64)

@@ -22,3 +22,18 @@ def as_mono_block(x) -> np.ndarray:
         bad = int(np.flatnonzero(~np.isfinite(x))[0])
         raise ValueError(f"x[{bad}] = {x[bad]} is not finite; input samples must be finite")
     return x
+
+
+def output_block(out, n: int, what: str) -> np.ndarray:
+    """The buffer to write ``n`` output samples into: ``out`` checked (1-D,
+    float64, writeable, at least ``n`` long; ``what`` names the required
+    length in the error), or a new array when ``out`` is None."""
+    if out is None:
+        return np.empty(n, dtype=np.float64)
+    if not isinstance(out, np.ndarray) or out.dtype != np.float64 or out.ndim != 1:
+        raise ValueError("out must be a 1-D float64 ndarray")
+    if out.shape[0] < n:
+        raise ValueError(f"out has length {out.shape[0]}; must be >= {n} ({what})")
+    if not out.flags.writeable:
+        raise ValueError("out must be writeable")
+    return out

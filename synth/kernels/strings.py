@@ -116,13 +116,12 @@ S_PEAK = 5       # peak |gain * signal| since last reset (silence detection)
 S_HZ = 6         # hammer position z (m)
 S_HY = 7         # felt y = w_mm^p at the last step
 S_HPHI = 8       # 4-par: memory integral Phi (mm^p s)
-S_HF = 9         # hammer force at the last step (N)
-S_HW = 10        # felt compression w at the last step (m)
-S_GHOLD = 11     # g of ended excitations, still injected (lossy strings, see below)
-S_BD = 12        # pitch bend: current delay of the bend line (samples)
-S_BW = 13        # its write position
-S_HDG = 14       # hammer: g increment of the last step (Newton's first guess)
-S_D0 = 15        # dispersion sections' states: x1, y1 per section
+S_HW = 9         # felt compression w at the last step (m)
+S_GHOLD = 10     # g of ended excitations, still injected (lossy strings, see below)
+S_BD = 11        # pitch bend: current delay of the bend line (samples)
+S_BW = 12        # its write position
+S_HDG = 13       # hammer: g increment of the last step (Newton's first guess)
+S_D0 = 14        # dispersion sections' states: x1, y1 per section
 MAX_DISP = 16
 S_NS = S_D0 + 2 * MAX_DISP
 
@@ -293,7 +292,6 @@ def _hammer_step(law, I1, g0, dt, fp, st):
         F1 = 0.0
     st[S_HZ] = z1
     st[S_HY] = y1
-    st[S_HF] = F1
     st[S_HW] = w1
     return g1, F1, w1, contact
 

@@ -81,9 +81,6 @@ class StringBank:
             self.ipar[s, K.I_PROBE] = -1
 
     # -- slot management ------------------------------------------------------
-    def free_slots(self) -> list[int]:
-        return [s for s in range(self.capacity) if not self._is_active[s]]
-
     def activate(self, s: int) -> None:
         self._clean[s] = False
         if not self._is_active[s]:
@@ -276,7 +273,6 @@ class StringBank:
         st[K.S_HZ] = u_now
         st[K.S_HY] = 0.0
         st[K.S_HPHI] = 0.0
-        st[K.S_HF] = 0.0
         st[K.S_HW] = 0.0
         st[K.S_HDG] = 0.0
         ip[K.I_EXC] = law
