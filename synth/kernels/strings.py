@@ -104,7 +104,10 @@ F_B0S = 20       # glide rate per sample (1 - exp(-dt / 2 ms)); an instant chang
                  #   end's loss would step the bridge force (u(L) = x - y) and click
 F_BDT = 21       # pitch bend: target delay of the bend line (samples, >= 1)
 F_BDS = 22       # its glide rate per sample (20 ms: a pitch wheel moves, it does not jump)
-F_NF = 23
+F_HE = 23        # 4-par hammer: exp(-dt / tau0)
+F_HK = 24        # hammer: c / 2T (m per N s): g increment per unit felt impulse
+F_HMC = 25       # hammer: 2T / (c m) (1/s): hammer deceleration per unit g
+F_NF = 26
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -120,10 +123,11 @@ S_HW = 9         # felt compression w at the last step (m)
 S_GHOLD = 10     # g of ended excitations, still injected (lossy strings, see below)
 S_BD = 11        # pitch bend: current delay of the bend line (samples)
 S_BW = 12        # its write position
-S_HDG = 13       # hammer: g increment of the last step (Newton's first guess)
+S_HDG = 13       # hammer: g increment of the last step (Newton's predictor)
 S_D0 = 14        # dispersion sections' states: x1, y1 per section
 MAX_DISP = 16
-S_NS = S_D0 + 2 * MAX_DISP
+S_HDG2 = S_D0 + 2 * MAX_DISP   # hammer: g increment of the step before the last
+S_NS = S_HDG2 + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -153,141 +157,140 @@ def _g_at(kind, e, dt, A, t0, alpha):
 
 
 @njit(**JIT_OPTS)
-def _felt_impulse(law, y0, y1, dt, Q, alpha_or_gamma, tau0, phi0):
-    """Felt impulse over one step, int F dt (N s), with y = w_mm^p linear in
-    the step, and its derivative with respect to y1.
-
-    law 4 (eq. 1.5):  int F = Q0 [dt (y0 + y1)/2 + alpha (y1 - y0)]  (exact
-        for the alpha term).
-    law 5 (Pub. III eq. 3, recursive convolution integrated exactly):
-        int F = F0 [(1 - gamma) dt (y0 + y1)/2 + gamma J - gamma (1 - E) Phi0],
-        J = tau0 (c1 y1 + c0 y0), E = exp(-dt/tau0).
-    """
-    if law == 4:
-        a = alpha_or_gamma
-        return Q * (0.5 * dt * (y0 + y1) + a * (y1 - y0)), Q * (0.5 * dt + a)
-    gam = alpha_or_gamma
-    h = dt / tau0
-    E = np.exp(-h)
-    q = (1.0 - E) / h
-    c1 = 1.0 - q
-    c0 = q - E
-    J = tau0 * (c1 * y1 + c0 * y0)
-    imp = Q * ((1.0 - gam) * 0.5 * dt * (y0 + y1) + gam * J - gam * (1.0 - E) * phi0)
-    return imp, Q * ((1.0 - gam) * 0.5 * dt + gam * tau0 * c1)
-
-
-@njit(**JIT_OPTS)
 def _hammer_step(law, I1, g0, dt, fp, st):
     """Advance the hammer-string contact (eq. 1.4) by one step.
 
-    Unknown: g1 = g(t_{n+1}).  With the incoming displacement I1 at the
-    strike point known (it arrives from the neighbours), z1 = z0 + dt (V -
-    (2T/cm)(g0 + g1)/2), w1 = z1 - I1 - g1, y1 = max(w1, 0)^p (w in mm) and
-    g1 = g0 + (c/2T) max(0, int F dt).  The right side falls as g1 rises, so
-    the root is unique and lies in [g0, g0 + (c/2T) max(0, int F(g0))]:
-    Newton steps, safeguarded by bisection.  A-stable (the stiff felt terms
-    are integrated exactly), second order.  Returns (g1, F1, w1, contact).
+    Unknown: g1 = g(t_{n+1}), written g1 = g0 + x.  With the incoming
+    displacement I1 at the strike point known (it arrives from the
+    neighbours), z1 = z0 + dt (V - (2T/cm)(g0 + g1)/2), so the compression
+    w1 = z1 - I1 - g1 = W0 - D x is linear in x (D = 1 + dt T/(cm)), and
+    g1 = g0 + (c/2T) max(0, int F dt).  The felt impulse over the step, with
+    y = w_mm^p linear in the step, is integrated exactly:
+
+    law 4 (eq. 1.5):  int F = Q0 [dt (y0 + y1)/2 + alpha (y1 - y0)];
+    law 5 (Pub. III eq. 3, recursive convolution):
+        int F = F0 [(1 - gamma) dt (y0 + y1)/2 + gamma J - gamma (1 - E) Phi0],
+        J = tau0 (c1 y1 + c0 y0), E = exp(-dt/tau0);
+
+    both are ``ca y1 + cb`` with ca > 0.  So the residual
+    r(x) = x - K max(0, ca y(W0 - D x) + cb) is increasing (r' >= 1) and
+    concave (y is convex in w, w linear in x): Newton's method converges
+    from any start, monotonically from the left after its first step, with
+    no bracket.  It starts from the last step's increment extrapolated
+    linearly, and stops when a correction changes w by less than 1e-7
+    relative (the next error, ~ (p-1)/2 (D dx/w) dx, is below 1e-14 w) or
+    x by less than 1e-13 of g.  One pow per step (later iterates update w^p
+    by a Taylor step).  A-stable (the stiff felt terms are integrated
+    exactly), second order.  Returns (g1, F1, w1, contact).
     """
-    m = fp[F_HM]
     V = fp[F_HV]
+    mc = fp[F_HMC]
+    z0 = st[S_HZ]
+    y0 = st[S_HY]
+    phi0 = st[S_HPHI]
+    zc = z0 + dt * (V - mc * 0.5 * g0)      # z1 = zc - dz g1
+    dz = 0.5 * dt * mc
+    D = 1.0 + dz
+    W0 = zc - I1 - D * g0                   # w1 if g1 = g0
+    if W0 <= 0.0 and y0 == 0.0 and phi0 == 0.0:
+        # in flight (law 4: cb = 0; law 5: no felt memory left): w < 0 for
+        # every x >= 0 and no force, so x = 0
+        st[S_HDG2] = st[S_HDG]
+        st[S_HDG] = 0.0
+        st[S_HZ] = zc - dz * g0
+        st[S_HY] = 0.0
+        st[S_HW] = W0
+        return g0, 0.0, W0, False
     Q = fp[F_HQ]
     p = fp[F_HP]
     A = fp[F_HA]
     tau0 = fp[F_HT]
-    T = fp[F_TEN]
-    c = fp[F_C]
-    K = c / (2.0 * T)
-    mc = 2.0 * T / (c * m)
-    z0 = st[S_HZ]
-    y0 = st[S_HY]
-    phi0 = st[S_HPHI]
-    zc = z0 + dt * (V - mc * 0.5 * g0)      # z1 = zc - dt mc/2 g1
-    dz = 0.5 * dt * mc
-
-    # residual r(g) = g - g0 - K max(0, imp(g)); r' = 1 - K dimp/dy dy/dg
-    w = zc - dz * g0 - I1 - g0
-    y = (1000.0 * w) ** p if w > 0.0 else 0.0
-    imp, dimp = _felt_impulse(law, y0, y, dt, Q, A, tau0, phi0)
-    if imp <= 0.0:
-        g1 = g0
-        y = -1.0                    # (recomputed below)
+    K = fp[F_HK]
+    E = 0.0
+    c1 = 0.0
+    c0 = 0.0
+    if law == 4:
+        ca = Q * (0.5 * dt + A)
+        cb = Q * (0.5 * dt - A) * y0
     else:
-        lo = g0
-        hi = g0 + K * imp
-        # start from the last step's increment (the force changes little
-        # from one sample to the next): two or three Newton steps
-        g1 = g0 + st[S_HDG]
-        if not (lo < g1 < hi):
-            g1 = 0.5 * (lo + hi)
-        y_conv = -1.0
-        wm_prev = -1.0
-        y_prev = 0.0
-        for it in range(60):
-            w = zc - dz * g1 - I1 - g1
-            if w > 0.0:
-                wm = 1000.0 * w
-                e = (wm - wm_prev) / wm_prev if wm_prev > 0.0 else 1.0
-                if -1e-4 < e < 1e-4:
-                    # a Newton correction: w^p by a third-order Taylor step
-                    # from the last point (error < 1e-16 relative), no pow
-                    y = y_prev * (1.0 + e * (p + e * (0.5 * p * (p - 1.0)
-                                                      + e * (p * (p - 1.0) * (p - 2.0) / 6.0))))
-                else:
-                    y = wm ** p
-                wm_prev = wm
-                y_prev = y
-                dy = -p * (y / wm) * 1000.0 * (1.0 + dz)     # w^(p-1) = w^p / w
+        E = fp[F_HE]
+        h = dt / tau0
+        qq = (1.0 - E) / h
+        c1 = 1.0 - qq
+        c0 = qq - E
+        ca = Q * ((1.0 - A) * 0.5 * dt + A * tau0 * c1)
+        cb = Q * ((1.0 - A) * 0.5 * dt * y0 + A * tau0 * c0 * y0 - A * (1.0 - E) * phi0)
+    # predictor: the increments change slowly from one sample to the next
+    x = 2.0 * st[S_HDG] - st[S_HDG2]
+    if x < 0.0:
+        x = 0.0
+    y = 0.0
+    wm_prev = -1.0
+    y_prev = 0.0
+    tol_g = 1e-13 * (abs(g0) + 1e-30)
+    for it in range(60):
+        w = W0 - D * x
+        if w > 0.0:
+            wm = 1000.0 * w
+            e = (wm - wm_prev) / wm_prev if wm_prev > 0.0 else 1.0
+            if -1e-4 < e < 1e-4:
+                # a Newton correction: w^p by a third-order Taylor step from
+                # the last point (error < 1e-16 relative), no pow
+                y = y_prev * (1.0 + e * (p + e * (0.5 * p * (p - 1.0)
+                                                  + e * (p * (p - 1.0) * (p - 2.0) / 6.0))))
             else:
+                y = wm ** p
+            wm_prev = wm
+            y_prev = y
+            imp = ca * y + cb
+            if imp > 0.0:
+                r = x - K * imp
+                dr = 1.0 + K * ca * D * p * y / w
+            else:
+                r = x
+                dr = 1.0
+        else:
+            y = 0.0
+            imp = cb
+            if imp > 0.0:
+                r = x - K * imp
+            else:
+                r = x
+            dr = 1.0
+        dx = r / dr
+        xn = x - dx
+        if xn < 0.0:
+            xn = 0.0                 # the root is >= 0 (r(0) <= 0)
+        dx = x - xn
+        x = xn
+        if w <= 0.0:
+            # r is linear where w <= 0: exact if the new point stays there
+            if W0 - D * x <= 0.0:
                 y = 0.0
-                dy = 0.0
-            imp, dimp = _felt_impulse(law, y0, y, dt, Q, A, tau0, phi0)
-            if imp < 0.0:
-                imp = 0.0
-                dimp = 0.0
-            r = g1 - g0 - K * imp
-            if r > 0.0:
-                hi = g1
-            elif r < 0.0:
-                lo = g1
-            else:
                 break
-            dr = 1.0 - K * dimp * dy
-            gn = g1 - r / dr
-            # converged: test before the bracket (at convergence gn sits on
-            # the bracket's end that g1 just became, and bisecting from there
-            # would undo it)
-            if abs(gn - g1) <= 1e-13 * (abs(g1) + 1e-30):
-                g1 = gn
-                y_conv = y          # w^p there, to 1e-13: no pow below
-                break
-            if not (lo < gn < hi):
-                gn = 0.5 * (lo + hi)
-            g1 = gn
-            if hi - lo <= 1e-15 * (abs(hi) + 1e-30):
-                break
-        if y_conv < 0.0:
-            w = zc - dz * g1 - I1 - g1
-            y_conv = (1000.0 * w) ** p if w > 0.0 else 0.0
-        y = y_conv
-    st[S_HDG] = g1 - g0
+        elif D * abs(dx) <= 1e-7 * w:
+            # converged: w^p at the final point by a second-order step
+            ee = D * dx / w             # w_new = w + D dx
+            y = y * (1.0 + ee * (p + ee * 0.5 * p * (p - 1.0)))
+            break
+        if abs(dx) <= tol_g:
+            w = W0 - D * x
+            y = (1000.0 * w) ** p if w > 0.0 else 0.0
+            break
+    st[S_HDG2] = st[S_HDG]
+    st[S_HDG] = x
+    g1 = g0 + x
     # state update at t_{n+1}
     z1 = zc - dz * g1
-    w1 = z1 - I1 - g1
-    if y < 0.0:
-        y1 = (1000.0 * w1) ** p if w1 > 0.0 else 0.0
-    else:
-        y1 = y if w1 > 0.0 else 0.0
+    w1 = W0 - D * x
+    y1 = y if w1 > 0.0 else 0.0
     if law == 4:
         F1 = Q * (y1 + A * (y1 - y0) / dt)
     else:
-        h = dt / tau0
-        E = np.exp(-h)
-        q = (1.0 - E) / h
-        phi1 = E * phi0 + tau0 * ((1.0 - q) * y1 + (q - E) * y0)
+        phi1 = E * phi0 + tau0 * (c1 * y1 + c0 * y0)
         st[S_HPHI] = phi1
         F1 = Q * (y1 - A / tau0 * phi1)
-    contact = g1 > g0
+    contact = x > 0.0
     if F1 < 0.0 or not contact:
         F1 = 0.0
     st[S_HZ] = z1
@@ -382,8 +385,9 @@ def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st):
 @njit(**JIT_OPTS)
 def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     """Plain per-sample scheme for string s over n samples, mixing into
-    mix[o0:o0+n].  Reference for the fast path; also used for hammers and g
-    tables, when the excitation lies inside the region, and for probes."""
+    mix[o0:o0+n].  Reference for the fast path; also used when the
+    excitation lies inside or next to the region (I_CHUNK = 0, e.g. the top
+    keys' hammers on the capo bar) and for probes."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
@@ -553,38 +557,107 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
         exc = 0
         ipar[s, I_EXC] = 0
     # ---- 2. excitation -------------------------------------------------------
-    # gbuf holds g per sample only while a pluck runs; otherwise g = 0 (an
-    # ended pluck's offset field has been cancelled)
+    # gbuf holds the injected g per sample while an excitation runs or a
+    # lossy string holds ended ones; otherwise nothing is injected (an ended
+    # pluck's offset field has been cancelled).  Within a chunk the incoming
+    # wave at k does not depend on this chunk's injections (they leave k and
+    # come back after 2k samples through the region, or 2(N-k) through the
+    # far end, both longer than the chunk), so a hammer runs here exactly as
+    # in the per-sample path.  An excitation that ends inside the chunk
+    # (a hammer gone) keeps its last g for the rest of it, as the per-sample
+    # path does (held), or until the next chunk cancels it (lossless: the
+    # offset field cancels in u and commutes with the clamp).
     gh = st[S_GHOLD]
     plucking = exc != 0 or gh != 0.0
     if exc != 0:
-        dt = fpar[s, F_DT]
-        A = fpar[s, F_A]
-        t0 = fpar[s, F_T0]
-        alpha = fpar[s, F_ALPHA]
+        fp = fpar[s]
+        dt = fp[F_DT]
+        A = fp[F_A]
+        t0 = fp[F_T0]
+        alpha = fp[F_ALPHA]
+        hrel = int(fp[F_HREL])
+        goff = ipar[s, I_GT_OFF]
+        hlast = ipar[s, I_HLAST]
         e = ipar[s, I_EXC_M]
         e_end = ipar[s, I_EXC_END]
         pm = m0
-        g = 0.0
-        for i in range(C):   # the caller ends the chunk at e_end at the latest
+        g = st[S_G]
+        n_step = C               # samples left to step one by one
+        if exc >= 4 and hlast >= 0 and st[S_HY] == 0.0 and st[S_HPHI] == 0.0:
+            # a hammer in free flight after a contact (felt relaxed): if its
+            # compression w = z - u(k) stays <= 0 over the whole chunk, no
+            # step touches the string and the chunk is a constant injection
+            # (the incoming u(k) of every sample is in the ring already)
+            vz = fp[F_HV] - fp[F_HMC] * g
+            z0 = st[S_HZ]
+            j1 = (m0 + 1 - k) % P
+            j2 = (m0 + 1 + k) % P
+            wmax = -np.inf
+            w = 0.0
+            for i in range(C):
+                w = z0 + (i + 1) * dt * vz - (ring[off + j1] - ring[off + j2] + gh) - g
+                wmax = max(wmax, w)
+                j1 += 1
+                if j1 == P:
+                    j1 = 0
+                j2 += 1
+                if j2 == P:
+                    j2 = 0
+            if wmax <= 0.0:
+                gt = g + gh
+                j1 = (m0 + 1 - k) % P
+                j2 = (m0 + 1 + k) % P
+                for i in range(C):
+                    ring[off + j1] += gt
+                    ring[off + j2] -= gt
+                    gbuf[i] = gt
+                    j1 += 1
+                    if j1 == P:
+                        j1 = 0
+                    j2 += 1
+                    if j2 == P:
+                        j2 = 0
+                e += C
+                st[S_HZ] = z0 + C * dt * vz
+                st[S_HW] = w
+                st[S_HDG2] = 0.0
+                st[S_HDG] = 0.0
+                if e - 1 >= e_end or (e - 1 - hlast > hrel and w < 0.0):
+                    exc = -1         # the hammer is gone
+                n_step = 0
+        for i in range(n_step):   # the caller ends the chunk at e_end at the latest
             pm += 1
             if pm == P:
                 pm = 0
-            g = _g_at(exc, e, dt, A, t0, alpha)
             j1 = pm - k
             if j1 < 0:
                 j1 += P
             j2 = pm + k
             if j2 >= P:
                 j2 -= P
+            if exc > 0:
+                if exc <= 2:
+                    g = _g_at(exc, e, dt, A, t0, alpha)
+                    if e >= e_end:
+                        exc = -1     # held or cancelled at the start of the next chunk
+                elif exc == 3:
+                    g = U[goff + e]
+                    if e >= e_end - 1:
+                        exc = -1
+                else:
+                    I1 = ring[off + j1] - ring[off + j2] + gh
+                    g, F, w, contact = _hammer_step(exc, I1, g, dt, fp, st)
+                    if contact:
+                        hlast = e
+                    if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):
+                        exc = -1     # the hammer is gone
+                e += 1
             ring[off + j1] += g + gh
             ring[off + j2] -= g + gh
-            if e >= e_end:
-                exc = -1     # held or cancelled at the start of the next chunk
-            e += 1
             gbuf[i] = g + gh
         ipar[s, I_EXC] = exc
         ipar[s, I_EXC_M] = e
+        ipar[s, I_HLAST] = hlast
         st[S_G] = g
     elif gh != 0.0:
         # ended excitations of a lossy string: keep injecting their g
@@ -743,7 +816,7 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     """
     for a in range(n_active):
         s = active[a]
-        if ipar[s, I_PROBE] >= 0 or ipar[s, I_CHUNK] <= 0 or ipar[s, I_EXC] >= 3:
+        if ipar[s, I_PROBE] >= 0 or ipar[s, I_CHUNK] <= 0:
             _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
         else:
             cmax = ipar[s, I_CHUNK]

@@ -267,6 +267,9 @@ class StringBank:
         fp[K.F_HP] = exponent
         fp[K.F_HA] = alpha_or_gamma
         fp[K.F_HT] = tau0_s if law == 5 else 1.0
+        fp[K.F_HE] = math.exp(-dt / fp[K.F_HT])
+        fp[K.F_HK] = c_m_per_s / (2.0 * tension_n)
+        fp[K.F_HMC] = 2.0 * tension_n / (c_m_per_s * mass_kg)
         fp[K.F_TEN] = tension_n
         fp[K.F_C] = c_m_per_s
         fp[K.F_HREL] = max(1.0, round(release_s / dt))
@@ -275,6 +278,7 @@ class StringBank:
         st[K.S_HPHI] = 0.0
         st[K.S_HW] = 0.0
         st[K.S_HDG] = 0.0
+        st[K.S_HDG2] = 0.0
         ip[K.I_EXC] = law
         ip[K.I_EXC_M] = 0
         ip[K.I_EXC_END] = max(1, int(round(max_flight_s / dt)))
