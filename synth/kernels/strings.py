@@ -534,29 +534,19 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
 
 
 @njit(**JIT_OPTS)
-def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
-    """C samples (C <= ipar[s, I_CHUNK]) of string s, operation by operation."""
+def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
+    """Step 2 of the fast path over a chunk of C samples: inject the
+    excitation at k and record the injected g per sample in ``gbuf``.
+    (Kept out of
+    :func:`_chunk_fast`: with the hammer code inside it, the region's
+    min/max loops ran 35 % slower.)"""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
     k = ipar[s, I_K]
-    R = ipar[s, I_REG_N]
     st = fst[s]
     m0 = ipar[s, I_POS]
-    gbuf = scratch[0:C]
     exc = ipar[s, I_EXC]
-    if exc == -1:
-        # the pluck ended on the last sample of the previous chunk: hold its
-        # g (lossy) or cancel its offset field (lossless) now, between
-        # chunks, so no output of that chunk sees the change
-        if ipar[s, I_FILT] == 1:
-            st[S_GHOLD] += st[S_G]
-        else:
-            _remove_offset(ring, off, P, m0, k, st[S_G])
-        st[S_G] = 0.0
-        exc = 0
-        ipar[s, I_EXC] = 0
-    # ---- 2. excitation -------------------------------------------------------
     # gbuf holds the injected g per sample while an excitation runs or a
     # lossy string holds ended ones; otherwise nothing is injected (an ended
     # pluck's offset field has been cancelled).  Within a chunk the incoming
@@ -568,7 +558,6 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
     # path does (held), or until the next chunk cancels it (lossless: the
     # offset field cancels in u and commutes with the clamp).
     gh = st[S_GHOLD]
-    plucking = exc != 0 or gh != 0.0
     if exc != 0:
         fp = fpar[s]
         dt = fp[F_DT]
@@ -659,6 +648,36 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
         ipar[s, I_EXC_M] = e
         ipar[s, I_HLAST] = hlast
         st[S_G] = g
+
+
+@njit(**JIT_OPTS)
+def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
+    """C samples (C <= ipar[s, I_CHUNK]) of string s, operation by operation."""
+    off = ipar[s, I_OFF]
+    N = ipar[s, I_N]
+    P = 2 * N
+    k = ipar[s, I_K]
+    R = ipar[s, I_REG_N]
+    st = fst[s]
+    m0 = ipar[s, I_POS]
+    gbuf = scratch[0:C]
+    exc = ipar[s, I_EXC]
+    if exc == -1:
+        # the pluck ended on the last sample of the previous chunk: hold its
+        # g (lossy) or cancel its offset field (lossless) now, between
+        # chunks, so no output of that chunk sees the change
+        if ipar[s, I_FILT] == 1:
+            st[S_GHOLD] += st[S_G]
+        else:
+            _remove_offset(ring, off, P, m0, k, st[S_G])
+        st[S_G] = 0.0
+        exc = 0
+        ipar[s, I_EXC] = 0
+    # ---- 2. excitation -------------------------------------------------------
+    gh = st[S_GHOLD]
+    plucking = exc != 0 or gh != 0.0
+    if exc != 0:
+        _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
     elif gh != 0.0:
         # ended excitations of a lossy string: keep injecting their g
         j1 = (m0 + 1 - k) % P
