@@ -10,10 +10,118 @@ segment.  Nothing is allocated per block.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..kernels import strings as K
+
+#: per-slot columns of ``ipar`` that a template does not carry
+_SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF)
+#: ``fpar`` columns a hammer template sets (speed F_HV is per strike)
+_HAMMER_COLS = np.array([K.F_HM, K.F_HQ, K.F_HP, K.F_HA, K.F_HT, K.F_TEN, K.F_C,
+                         K.F_HREL, K.F_HE, K.F_HK, K.F_HMC], dtype=np.int64)
+
+
+@dataclass(frozen=True, eq=False)
+class SlotTemplate:
+    """A validated string configuration (see :meth:`StringBank.configure`),
+    written into a slot by :meth:`StringBank.configure_from` with a few array
+    copies: what a note-on in the audio thread should cost."""
+
+    ipar: np.ndarray          # int64[I_NI]; per-slot columns filled in by the bank
+    fpar: np.ndarray          # float64[F_NF]
+    U: np.ndarray | None      # termination profile at points 1..R (m)
+    bend_delay: float
+
+
+@dataclass(frozen=True, eq=False)
+class HammerTemplate:
+    """A validated felt hammer (see :meth:`StringBank.start_hammer`) for a
+    string of time step ``dt_s``; the speed and a stiffness factor (soft
+    pedal) are given per strike to :meth:`StringBank.start_hammer_from`."""
+
+    law: int
+    values: np.ndarray        # fpar values at _HAMMER_COLS
+    e_end: int                # samples of flight at most
+    dt_s: float
+
+
+def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side: int = 1,
+                  out_mode: int = 0, gain: float = 1.0, tension_over_dx: float = 0.0,
+                  b0: float = 1.0, a1: float = 0.0, eta: float = 0.0,
+                  extra_delay: int = 0, lossy: bool = False, force_per_sample: bool = False,
+                  n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
+                  bend_delay: float = 0.0, glide_s: float = 0.002,
+                  bend_glide_s: float = 0.02) -> SlotTemplate:
+    """Validate a string configuration once (parameters as
+    :meth:`StringBank.configure`); the bank's own limits (cells, region and
+    bend-line sizes) are checked when it is written into a slot."""
+    if not (8 <= cells <= 1_000_000):
+        raise ValueError(f"cells = {cells!r} is out of range (8 <= value <= 1000000)")
+    if not (1 <= k <= cells - 1):
+        raise ValueError(f"k = {k!r} is out of range (1 <= value <= {cells - 1})")
+    R = 0 if U is None else len(U)
+    if R >= cells - 2:
+        raise ValueError(f"region points = {R} must be smaller than cells - 2 = {cells - 2}")
+    if not (0 <= n_disp <= K.MAX_DISP):
+        raise ValueError(f"n_disp = {n_disp!r} is out of range (0 <= value <= {K.MAX_DISP})")
+    if bend_len < 0:
+        raise ValueError(f"bend_len = {bend_len!r} is out of range (value >= 0)")
+    if bend_len and not (1.0 <= bend_delay <= bend_len - 3):
+        raise ValueError(f"bend_delay = {bend_delay!r} is out of range (1 <= value <= {bend_len - 3})")
+    ip = np.zeros(K.I_NI, dtype=np.int64)
+    ip[K.I_N] = cells
+    ip[K.I_K] = k
+    ip[K.I_REG_N] = R
+    ip[K.I_SIDE] = side
+    ip[K.I_FILT] = 1 if (lossy or n_disp or bend_len) else 0
+    ip[K.I_NDISP] = int(n_disp)
+    ip[K.I_BLEN] = int(bend_len)
+    ip[K.I_XDELAY] = int(extra_delay)
+    ip[K.I_OUT] = int(out_mode)
+    ip[K.I_PROBE] = -1
+    ip[K.I_CHUNK] = 0 if force_per_sample else K.max_fast_chunk(cells, k, R, out_mode)
+    ip[K.I_HLAST] = -1
+    fp = np.zeros(K.F_NF)
+    fp[K.F_DT] = dt_s
+    fp[K.F_B0] = b0
+    fp[K.F_B0T] = b0
+    fp[K.F_B0S] = 1.0 - math.exp(-dt_s / glide_s)
+    fp[K.F_A1] = a1
+    fp[K.F_ETA] = eta
+    fp[K.F_GAIN] = gain
+    fp[K.F_TDX] = tension_over_dx
+    fp[K.F_ADISP] = a_disp
+    fp[K.F_BDT] = bend_delay
+    fp[K.F_BDS] = 1.0 - math.exp(-dt_s / bend_glide_s)
+    Uc = None if U is None else np.array(U, dtype=float)
+    return SlotTemplate(ip, fp, Uc, float(bend_delay))
+
+
+def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: float,
+                    alpha_or_gamma: float, tau0_s: float, tension_n: float, c_m_per_s: float,
+                    dt_s: float, max_flight_s: float = 0.05,
+                    release_s: float = 0.004) -> HammerTemplate:
+    """Validate a felt hammer once (parameters as :meth:`StringBank.start_hammer`)."""
+    if law not in (4, 5):
+        raise ValueError(f"law = {law!r} is not allowed (4: three-parameter, 5: four-parameter)")
+    if not (mass_kg > 0 and stiffness > 0 and exponent >= 1 and tension_n > 0 and c_m_per_s > 0):
+        raise ValueError(f"hammer: mass_kg = {mass_kg!r}, stiffness = {stiffness!r}, "
+                         f"exponent = {exponent!r}, tension_n = {tension_n!r}, c_m_per_s = "
+                         f"{c_m_per_s!r} are out of range (all > 0, exponent >= 1)")
+    if law == 5 and not tau0_s > 0:
+        raise ValueError(f"tau0_s = {tau0_s!r} is out of range (value > 0)")
+    tau0 = tau0_s if law == 5 else 1.0
+    v = np.zeros(len(_HAMMER_COLS))
+    vals = {K.F_HM: mass_kg, K.F_HQ: stiffness, K.F_HP: exponent, K.F_HA: alpha_or_gamma,
+            K.F_HT: tau0, K.F_TEN: tension_n, K.F_C: c_m_per_s,
+            K.F_HREL: max(1.0, round(release_s / dt_s)), K.F_HE: math.exp(-dt_s / tau0),
+            K.F_HK: c_m_per_s / (2.0 * tension_n),
+            K.F_HMC: 2.0 * tension_n / (c_m_per_s * mass_kg)}
+    for i, col in enumerate(_HAMMER_COLS):
+        v[i] = vals[int(col)]
+    return HammerTemplate(int(law), v, max(1, int(round(max_flight_s / dt_s))), float(dt_s))
 
 
 class StringBank:
@@ -126,53 +234,43 @@ class StringBank:
         cells : N, 8 .. max_cells.  k : excitation/pickup point, 1 .. N-1.
         U : profile at points 1..R (m), +-inf where no contact, or None for
         the ideal rigid end (the region code then does not run at all).
+        (Voices that configure at note-on build a :func:`slot_template`
+        once and call :meth:`configure_from`.)
         """
-        if not (8 <= cells <= self.max_cells):
+        t = slot_template(cells=cells, k=k, dt_s=dt_s, U=U, side=side, out_mode=out_mode,
+                          gain=gain, tension_over_dx=tension_over_dx, b0=b0, a1=a1, eta=eta,
+                          extra_delay=extra_delay, lossy=lossy,
+                          force_per_sample=force_per_sample, n_disp=n_disp, a_disp=a_disp,
+                          bend_len=bend_len, bend_delay=bend_delay,
+                          glide_s=self.LOSS_GLIDE_S, bend_glide_s=self.BEND_GLIDE_S)
+        self.configure_from(s, t, probe_row)
+
+    def configure_from(self, s: int, t: SlotTemplate, probe_row: int = -1) -> None:
+        """Set up slot s from a template (zero state, no excitation)."""
+        cells = int(t.ipar[K.I_N])
+        if cells > self.max_cells:
             raise ValueError(f"cells = {cells!r} is out of range (8 <= value <= {self.max_cells})")
-        if not (1 <= k <= cells - 1):
-            raise ValueError(f"k = {k!r} is out of range (1 <= value <= {cells - 1})")
-        R = 0 if U is None else len(U)
+        R = int(t.ipar[K.I_REG_N])
         if R > self.max_region:
             raise ValueError(f"region points = {R} is out of range (0 <= value <= {self.max_region})")
-        if R >= cells - 2:
-            raise ValueError(f"region points = {R} must be smaller than cells - 2 = {cells - 2}")
-        ip = self.ipar[s]
+        blen = int(t.ipar[K.I_BLEN])
+        if blen > self.max_bend:
+            raise ValueError(f"bend_len = {blen!r} is out of range (0 <= value <= {self.max_bend})")
         self.clear(s)                  # (free when the slot is already clean)
-        ip[K.I_N] = cells
-        ip[K.I_K] = k
-        ip[K.I_REG_N] = R
-        ip[K.I_SIDE] = side
-        if R:
-            self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = U
-        if not (0 <= n_disp <= K.MAX_DISP):
-            raise ValueError(f"n_disp = {n_disp!r} is out of range (0 <= value <= {K.MAX_DISP})")
-        ip[K.I_FILT] = 1 if (lossy or n_disp or bend_len) else 0
-        ip[K.I_NDISP] = int(n_disp)
-        if not (0 <= bend_len <= self.max_bend):
-            raise ValueError(f"bend_len = {bend_len!r} is out of range (0 <= value <= {self.max_bend})")
-        if bend_len and not (1.0 <= bend_delay <= bend_len - 3):
-            raise ValueError(f"bend_delay = {bend_delay!r} is out of range (1 <= value <= {bend_len - 3})")
-        ip[K.I_BLEN] = int(bend_len)
-        if bend_len:
-            self.U[ip[K.I_BOFF]: ip[K.I_BOFF] + bend_len] = 0.0
-        self.fst[s, K.S_BD] = bend_delay
-        ip[K.I_XDELAY] = int(extra_delay)
-        ip[K.I_OUT] = int(out_mode)
+        ip = self.ipar[s]
+        keep = [int(ip[c]) for c in _SLOT_COLS]
+        ip[:] = t.ipar
+        for c, v in zip(_SLOT_COLS, keep):
+            ip[c] = v
         ip[K.I_PROBE] = int(probe_row)
-        chunk = 0 if force_per_sample else K.max_fast_chunk(cells, k, R, out_mode)
-        ip[K.I_CHUNK] = min(chunk, self.max_block)
-        fp = self.fpar[s]
-        fp[K.F_DT] = dt_s
-        fp[K.F_B0] = b0
-        fp[K.F_B0T] = b0
-        fp[K.F_B0S] = 1.0 - math.exp(-dt_s / self.LOSS_GLIDE_S)
-        fp[K.F_A1] = a1
-        fp[K.F_ETA] = eta
-        fp[K.F_GAIN] = gain
-        fp[K.F_TDX] = tension_over_dx
-        fp[K.F_ADISP] = a_disp
-        fp[K.F_BDT] = bend_delay
-        fp[K.F_BDS] = 1.0 - math.exp(-dt_s / self.BEND_GLIDE_S)
+        if ip[K.I_CHUNK] > self.max_block:
+            ip[K.I_CHUNK] = self.max_block
+        self.fpar[s, :] = t.fpar
+        if R:
+            self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = t.U
+        if blen:
+            self.U[ip[K.I_BOFF]: ip[K.I_BOFF] + blen] = 0.0
+        self.fst[s, K.S_BD] = t.bend_delay
 
     def set_loss(self, s: int, b0: float) -> None:
         """New loss filter gain b0 for slot s (a damper falling or lifting):
@@ -250,38 +348,44 @@ class StringBank:
             ``tau0_s``).
         The hammer starts touching the string where it is now (w = 0) and
         flies until it has been out of contact for ``release_s`` (it may hit
-        again before that) or ``max_flight_s`` has passed.
+        again before that) or ``max_flight_s`` has passed.  (Voices that
+        strike at note-on build a :func:`hammer_template` once and call
+        :meth:`start_hammer_from`.)
         """
-        if law not in (4, 5):
-            raise ValueError(f"law = {law!r} is not allowed (4: three-parameter, 5: four-parameter)")
+        t = hammer_template(law=law, mass_kg=mass_kg, stiffness=stiffness, exponent=exponent,
+                            alpha_or_gamma=alpha_or_gamma, tau0_s=tau0_s, tension_n=tension_n,
+                            c_m_per_s=c_m_per_s, dt_s=float(self.fpar[s, K.F_DT]),
+                            max_flight_s=max_flight_s, release_s=release_s)
+        self.start_hammer_from(s, t, speed_m_per_s)
+
+    def start_hammer_from(self, s: int, t: HammerTemplate, speed_m_per_s: float,
+                          stiffness_factor: float = 1.0) -> None:
+        """Strike slot s with the hammer ``t`` at ``speed_m_per_s`` (m/s,
+        0 < value <= 20), its felt stiffness scaled by ``stiffness_factor``
+        (0 < value <= 1: the soft pedal)."""
         if not (0.0 < speed_m_per_s <= 20.0):
             raise ValueError(f"speed_m_per_s = {speed_m_per_s!r} is out of range (0 < value <= 20)")
+        if not (0.0 < stiffness_factor <= 1.0):
+            raise ValueError(f"stiffness_factor = {stiffness_factor!r} is out of range (0 < value <= 1)")
         ip, fp, st = self.ipar[s], self.fpar[s], self.fst[s]
+        if fp[K.F_DT] != t.dt_s:
+            raise ValueError(f"hammer template dt_s = {t.dt_s!r} does not match slot {s}'s "
+                             f"time step {fp[K.F_DT]!r}")
         if ip[K.I_EXC] != 0:
             self._end_excitation(s)
-        dt = float(fp[K.F_DT])
         u_now = self.displacement_at_excitation(s)
-        fp[K.F_HM] = mass_kg
+        fp[_HAMMER_COLS] = t.values
         fp[K.F_HV] = speed_m_per_s
-        fp[K.F_HQ] = stiffness
-        fp[K.F_HP] = exponent
-        fp[K.F_HA] = alpha_or_gamma
-        fp[K.F_HT] = tau0_s if law == 5 else 1.0
-        fp[K.F_HE] = math.exp(-dt / fp[K.F_HT])
-        fp[K.F_HK] = c_m_per_s / (2.0 * tension_n)
-        fp[K.F_HMC] = 2.0 * tension_n / (c_m_per_s * mass_kg)
-        fp[K.F_TEN] = tension_n
-        fp[K.F_C] = c_m_per_s
-        fp[K.F_HREL] = max(1.0, round(release_s / dt))
+        fp[K.F_HQ] *= stiffness_factor
         st[K.S_HZ] = u_now
         st[K.S_HY] = 0.0
         st[K.S_HPHI] = 0.0
         st[K.S_HW] = 0.0
         st[K.S_HDG] = 0.0
         st[K.S_HDG2] = 0.0
-        ip[K.I_EXC] = law
+        ip[K.I_EXC] = t.law
         ip[K.I_EXC_M] = 0
-        ip[K.I_EXC_END] = max(1, int(round(max_flight_s / dt)))
+        ip[K.I_EXC_END] = t.e_end
         ip[K.I_HLAST] = -1
 
     # -- probes ---------------------------------------------------------------

@@ -41,7 +41,7 @@ The soundboard is a modal bank on the decimated mix
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -49,7 +49,7 @@ from ..kernels import strings as K
 from ..physics import piano as P
 from ..physics.dispersion import tune_stiff_loop
 from ..physics.profiles import Termination, capo
-from .bank import StringBank
+from .bank import HammerTemplate, SlotTemplate, StringBank, hammer_template, slot_template
 
 #: per-key string designs, by (preset, internal rate)
 _DESIGNS: dict = {}
@@ -75,6 +75,8 @@ class GrandStringSetup:
     tension_n: float
     c_m_per_s: float
     f1_hz: float
+    slot: SlotTemplate | None = None        # the bank configuration, validated once
+    hammer: HammerTemplate | None = None    # its hammer (speed and soft pedal per strike)
 
 
 class GrandPianoInstrument:
@@ -161,7 +163,21 @@ class GrandPianoInstrument:
             out.append(GrandStringSetup(cells, k, dt, U, loop.b0, loop.a1, loop.eta,
                                         loop.extra_delay, loop.M, loop.a_disp,
                                         gs.tension_n, gs.c_m_per_s, fj))
-        self._keys[key] = tuple(out)
+        # validated bank rows, so that a note-on in the audio thread only
+        # copies them (~10 us per key instead of ~35)
+        full = []
+        for su in out:
+            slot = slot_template(cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=1,
+                                 out_mode=1, gain=pre.output.gain,
+                                 tension_over_dx=su.tension_n / (su.c_m_per_s * su.dt_s),
+                                 b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
+                                 lossy=True, n_disp=su.n_disp, a_disp=su.a_disp,
+                                 glide_s=StringBank.LOSS_GLIDE_S,
+                                 bend_glide_s=StringBank.BEND_GLIDE_S)
+            hp = self._hammer(key, len(out), su, 1.0, 0.0)
+            del hp["speed_m_per_s"]
+            full.append(replace(su, slot=slot, hammer=hammer_template(dt_s=su.dt_s, **hp)))
+        self._keys[key] = tuple(full)
         return self._keys[key]
 
     def hammer_speed(self, velocity: float) -> float:
@@ -198,18 +214,15 @@ class GrandPianoInstrument:
         n = len(sus)
         struck = n - 1 if (soft >= 0.5 and n >= 2) else n
         V = self.hammer_speed(velocity) if speed_m_per_s is None else float(speed_m_per_s)
-        out_gain = self.preset.output.gain
+        a = self.preset.action
+        stiff = 1.0 - (1.0 - a.soft_stiffness) * min(max(soft, 0.0), 1.0)
         for j, (slot, su) in enumerate(zip(slots, sus)):
             if not restrike or not bank.is_active(slot):
-                bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=1,
-                               out_mode=1, gain=out_gain, tension_over_dx=su.tension_n / (su.c_m_per_s * su.dt_s),
-                               b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
-                               lossy=True, n_disp=su.n_disp, a_disp=su.a_disp,
-                               probe_row=probe_row if j == 0 else -1)
+                bank.configure_from(slot, su.slot, probe_row if j == 0 else -1)
             else:
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
             if j < struck:
-                bank.start_hammer(slot, **self._hammer(key, n, su, V, soft))
+                bank.start_hammer_from(slot, su.hammer, V, stiff)
                 bank.activate(slot)
 
     def release_t60_s(self, key: int) -> float:
