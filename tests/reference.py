@@ -47,6 +47,49 @@ def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=()):
     return out, shapes
 
 
+def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
+                       extra_delay=0, n_disp=0, a_disp=0.0):
+    """``naive_string`` with the musical far end: the wave arriving at x = L
+    goes through [unit delay], the one-pole loss y = b0 x - a1 y1, ``n_disp``
+    first-order allpasses (a + z^-1)/(1 + a z^-1) and the tuning allpass
+    (eta), and leaves inverted: u_l(L) = -y.  g is injected every step,
+    held at its last value forever (no folding).  Returns u_k per step."""
+    g = np.asarray(g, float)
+    n_steps = len(g) if n_steps is None else n_steps
+    ur = np.zeros(N + 1)
+    ul = np.zeros(N + 1)
+    out = np.zeros(n_steps)
+    R = 0 if U is None else len(U)
+    xd = lp = apx = apy = 0.0
+    dx1 = np.zeros(n_disp)
+    dy1 = np.zeros(n_disp)
+    for m in range(n_steps):
+        gm = g[m] if m < len(g) else g[-1]
+        ur[1:] = ur[:-1].copy()
+        ul[:-1] = ul[1:].copy()
+        ur[0] = -ul[0]
+        ur[k] += gm
+        ul[k] += gm
+        for n in range(1, R + 1):
+            u = ur[n] + ul[n] - (gm if n == k else 0.0)
+            if side * (u - U[n - 1]) > 0:
+                ur[n] += U[n - 1] - u
+        x = ur[N]
+        if extra_delay:
+            x, xd = xd, x
+        lp = b0 * x - a1 * lp
+        y = lp
+        for d in range(n_disp):
+            yd = a_disp * y + dx1[d] - a_disp * dy1[d]
+            dx1[d], dy1[d] = y, yd
+            y = yd
+        yo = eta * y + apx - eta * apy
+        apx, apy = y, yo
+        ul[N] = -yo
+        out[m] = ur[k] + ul[k] - gm
+    return out
+
+
 def closed_form_uk(g, N, k):
     """Publication I eq. (4) on the grid (delays 2iL/c = 2iN samples,
     2aL/c = 2k, 2bL/c = 2(N-k)): u(l, m) for g[m], m = 0.."""

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from reference import closed_form_uk, naive_string
+from reference import closed_form_uk, naive_lossy_string, naive_string
 from synth.kernels import strings as K
 from synth.physics.plucks import biwa_g, sitar_g
 from synth.voices.bank import StringBank
@@ -218,3 +218,25 @@ def test_biwa_force_integrates_to_the_outgoing_wave():
     g = c / (2 * T) * np.concatenate([[0.0], np.cumsum(0.5 * (F[1:] + F[:-1]) * np.diff(t))])
     assert np.max(np.abs(g[:-1] - biwa_g(t[:-1], A, alpha, t0))) < 1e-9
     assert abs(np.max(F) * np.e - 0.96) < 1e-6      # F0 alpha t e^(-alpha t) peaks at F0 / e
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+@pytest.mark.parametrize("side,model", [(1, 1), (-1, 2)])
+def test_ended_pluck_on_a_lossy_string_equals_injecting_it_forever(per_sample, side, model):
+    """When a pluck ends, the kernel folds its constant g into the loop
+    segment through x = 0 and stops injecting; on a lossy, dispersive string
+    with a termination that is the naive scheme injecting g forever, to
+    round-off, long after the fold (the far end never sees it)."""
+    rng = np.random.default_rng(3)
+    N, k, R = 300, 225, 20
+    dx, dt = 1e-3, 1e-5
+    U = _random_profile(rng, R, side, dx)
+    A, t0, alpha = side * 0.004, 0.0008, 4000.0
+    far = dict(b0=0.985, a1=-0.01, eta=0.2, extra_delay=1, n_disp=3, a_disp=-0.3)
+    n = 12 * N
+    y, b = run_bank(N, k, model, A, t0, alpha, dt, n, U=U, side=side, per_sample=per_sample,
+                    block=257, lossy=True, **far)
+    assert b.ipar[0, K.I_EXC] == 0 and b.fst[0, K.S_G] == 0.0     # folded
+    ref = naive_lossy_string(N, k, pluck_g(model, n, dt, A, t0, alpha), U=U, side=side,
+                             **far)
+    assert np.max(np.abs(y - ref)) < 1e-12 * np.max(np.abs(ref))

@@ -20,16 +20,19 @@ Per time step, in the order of physics notes sections 1-3:
   4. far end x = L: identity (ideal) or the loss/tuning filter of a musical
      string, applied in place to the sample turning round at q = N.
 
-When a pluck has ended, g stays constant (= G) forever.  On a lossless
-string, rather than keep injecting +G and -G every sample, the constant
-offset field is subtracted once from the loop positions k .. 2N-k-1 and
-injection stops: exact (the offsets cancel in u and commute with the clamp).
-On a lossy string that shortcut is wrong: the loop filter's DC gain is below
-1 and its allpasses ring on a step, so the cancellation itself would strike
-the string with a broadband transient proportional to G.  There G is held
-(``S_GHOLD``) and injected every sample, as the physics says; the loop's
-steady state then carries -G on both rails between 2N-k and k (through
-x = 0), which cancels in u and commutes with the clamp.
+When an excitation has ended, g stays constant (= G) forever.  Rather than
+keep injecting +G and -G every sample, the change of variables ring' = ring
++ G on the loop positions 2N-k .. 2N-1, 0 .. k-1 (the segment through x = 0
+that holds the termination region) is made once and injection stops.  It is
+exact on every string, lossy or not, at any time (not only in a steady
+state): a value crossing k on either rail changes segment exactly when it
+would have been injected; both rails of every region point carry the same
+offset, which cancels in u and commutes with the clamp; and the far-end
+filter never sees it.  (The opposite segment, through the far end, must not
+be used on a lossy string: the loop filter would see a step of G and strike
+the string with a broadband transient.)  With no excitation running, the
+excitation point is no operation point, so the fast path's chunks may be
+longer (``I_CHUNK_FREE``).
 
 Fast path (no probe, termination region entirely below the excitation
 point): the chunk of C samples is processed operation by operation instead
@@ -69,7 +72,7 @@ I_FILT = 9       # 0 ideal far end, 1 loss + tuning filter
 I_XDELAY = 10    # extra unit delay in the far-end filter (0 or 1)
 I_OUT = 11       # output signal: 0 displacement u(k), 1 bridge force at x = L
 I_PROBE = 12     # row in probe arrays, or -1
-I_CHUNK = 13     # longest exact fast-path chunk (samples); 0 forces per-sample
+I_CHUNK = 13     # longest exact fast-path chunk (samples) while an excitation runs; 0: per-sample
 I_EXC_END = 14   # first excitation sample with t > t0 (g constant from there);
                  #   g table: its length; hammer: latest end of the hammer's flight
 I_GT_OFF = 15    # offset of the g table in the flat table array (kind 3)
@@ -77,7 +80,8 @@ I_HLAST = 16     # state: excitation sample of the hammer's last contact (-1: no
 I_NDISP = 17     # dispersion: number M of identical first-order allpass sections (0..MAX_DISP)
 I_BOFF = 18      # offset of the pitch-bend delay line in the flat table array
 I_BLEN = 19      # its length (0: no bend line)
-I_NI = 20
+I_CHUNK_FREE = 20  # the same with no excitation running (0 forces per-sample)
+I_NI = 21
 
 # ---- float parameter columns (fpar[s, :]) -----------------------------------
 F_DT = 0         # time step dt (s)
@@ -120,11 +124,10 @@ S_HZ = 6         # hammer position z (m)
 S_HY = 7         # felt y = w_mm^p at the last step
 S_HPHI = 8       # 4-par: memory integral Phi (mm^p s)
 S_HW = 9         # felt compression w at the last step (m)
-S_GHOLD = 10     # g of ended excitations, still injected (lossy strings, see below)
-S_BD = 11        # pitch bend: current delay of the bend line (samples)
-S_BW = 12        # its write position
-S_HDG = 13       # hammer: g increment of the last step (Newton's predictor)
-S_D0 = 14        # dispersion sections' states: x1, y1 per section
+S_BD = 10        # pitch bend: current delay of the bend line (samples)
+S_BW = 11        # its write position
+S_HDG = 12       # hammer: g increment of the last step (Newton's predictor)
+S_D0 = 13        # dispersion sections' states: x1, y1 per section
 MAX_DISP = 16
 S_HDG2 = S_D0 + 2 * MAX_DISP   # hammer: g increment of the step before the last
 S_NS = S_HDG2 + 1
@@ -300,15 +303,17 @@ def _hammer_step(law, I1, g0, dt, fp, st):
 
 
 @njit(**JIT_OPTS)
-def _remove_offset(ring, off, P, pm, k, G):
-    """Subtract G from loop positions k .. P-k-1 at the time whose position
-    index is pm (slots (pm - q) mod P)."""
-    # positions q = k..P-k-1  ->  slots pm-k down to pm-(P-k-1) = pm+k+1-P
-    for q in range(k, P - k):
+def _fold_offset(ring, off, P, pm, k, G):
+    """End a constant injection G at k: add G to the loop positions
+    P-k .. P-1, 0 .. k-1 at the time whose position index is pm (slots
+    (pm - q) mod P); see the module notes."""
+    for q in range(-k, k):
         j = pm - q
         if j < 0:
             j += P
-        ring[off + j] -= G
+        elif j >= P:
+            j -= P
+        ring[off + j] += G
 
 
 @njit(**JIT_OPTS)
@@ -426,17 +431,12 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     e_end = ipar[s, I_EXC_END]
     hlast = ipar[s, I_HLAST]
     g = st[S_G]
-    gh = st[S_GHOLD]
     peak = st[S_PEAK]
     for i in range(n):
         if exc == -1:
-            # the excitation ended on the previous sample: hold its g (lossy
-            # string) or cancel its offset field (lossless), before this
-            # sample, exactly where the fast path does
-            if filt == 1:
-                gh += g
-            else:
-                _remove_offset(ring, off, P, pm, k, g)
+            # the excitation ended on the previous sample: fold its constant
+            # g into the ring before this sample, where the fast path does
+            _fold_offset(ring, off, P, pm, k, g)
             g = 0.0
             exc = 0
         pm += 1
@@ -460,14 +460,14 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
                 if e >= e_end - 1:
                     exc = -1
             else:
-                I1 = ring[off + j1] - ring[off + j2] + gh
+                I1 = ring[off + j1] - ring[off + j2]
                 g, F, w, contact = _hammer_step(exc, I1, g, dt, fp, st)
                 if contact:
                     hlast = e
                 if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):
                     exc = -1          # the hammer is gone
             e += 1
-        gt = g + gh                   # everything injected at k this sample
+        gt = g                        # injected at k this sample
         if gt != 0.0:
             ring[off + j1] += gt
             ring[off + j2] -= gt
@@ -529,7 +529,6 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     ipar[s, I_HLAST] = hlast
     fp[F_B0] = b0
     st[S_G] = g
-    st[S_GHOLD] = gh
     st[S_PEAK] = peak
 
 
@@ -547,17 +546,13 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
     st = fst[s]
     m0 = ipar[s, I_POS]
     exc = ipar[s, I_EXC]
-    # gbuf holds the injected g per sample while an excitation runs or a
-    # lossy string holds ended ones; otherwise nothing is injected (an ended
-    # pluck's offset field has been cancelled).  Within a chunk the incoming
+    # gbuf holds the injected g per sample.  Within a chunk the incoming
     # wave at k does not depend on this chunk's injections (they leave k and
     # come back after 2k samples through the region, or 2(N-k) through the
     # far end, both longer than the chunk), so a hammer runs here exactly as
     # in the per-sample path.  An excitation that ends inside the chunk
     # (a hammer gone) keeps its last g for the rest of it, as the per-sample
-    # path does (held), or until the next chunk cancels it (lossless: the
-    # offset field cancels in u and commutes with the clamp).
-    gh = st[S_GHOLD]
+    # path does, until the next chunk folds it into the ring.
     if exc != 0:
         fp = fpar[s]
         dt = fp[F_DT]
@@ -584,7 +579,7 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
             wmax = -np.inf
             w = 0.0
             for i in range(C):
-                w = z0 + (i + 1) * dt * vz - (ring[off + j1] - ring[off + j2] + gh) - g
+                w = z0 + (i + 1) * dt * vz - (ring[off + j1] - ring[off + j2]) - g
                 wmax = max(wmax, w)
                 j1 += 1
                 if j1 == P:
@@ -593,7 +588,7 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
                 if j2 == P:
                     j2 = 0
             if wmax <= 0.0:
-                gt = g + gh
+                gt = g
                 j1 = (m0 + 1 - k) % P
                 j2 = (m0 + 1 + k) % P
                 for i in range(C):
@@ -634,16 +629,16 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
                     if e >= e_end - 1:
                         exc = -1
                 else:
-                    I1 = ring[off + j1] - ring[off + j2] + gh
+                    I1 = ring[off + j1] - ring[off + j2]
                     g, F, w, contact = _hammer_step(exc, I1, g, dt, fp, st)
                     if contact:
                         hlast = e
                     if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):
                         exc = -1     # the hammer is gone
                 e += 1
-            ring[off + j1] += g + gh
-            ring[off + j2] -= g + gh
-            gbuf[i] = g + gh
+            ring[off + j1] += g
+            ring[off + j2] -= g
+            gbuf[i] = g
         ipar[s, I_EXC] = exc
         ipar[s, I_EXC_M] = e
         ipar[s, I_HLAST] = hlast
@@ -652,7 +647,8 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
 
 @njit(**JIT_OPTS)
 def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
-    """C samples (C <= ipar[s, I_CHUNK]) of string s, operation by operation."""
+    """C samples of string s, operation by operation (C <= ipar[s, I_CHUNK]
+    while an excitation runs, else <= ipar[s, I_CHUNK_FREE])."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
@@ -663,35 +659,16 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
     gbuf = scratch[0:C]
     exc = ipar[s, I_EXC]
     if exc == -1:
-        # the pluck ended on the last sample of the previous chunk: hold its
-        # g (lossy) or cancel its offset field (lossless) now, between
-        # chunks, so no output of that chunk sees the change
-        if ipar[s, I_FILT] == 1:
-            st[S_GHOLD] += st[S_G]
-        else:
-            _remove_offset(ring, off, P, m0, k, st[S_G])
+        # the excitation ended on the last sample of the previous chunk: fold
+        # its constant g into the ring now, between chunks
+        _fold_offset(ring, off, P, m0, k, st[S_G])
         st[S_G] = 0.0
         exc = 0
         ipar[s, I_EXC] = 0
     # ---- 2. excitation -------------------------------------------------------
-    gh = st[S_GHOLD]
-    plucking = exc != 0 or gh != 0.0
-    if exc != 0:
+    plucking = exc != 0
+    if plucking:
         _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
-    elif gh != 0.0:
-        # ended excitations of a lossy string: keep injecting their g
-        j1 = (m0 + 1 - k) % P
-        j2 = (m0 + 1 + k) % P
-        for i in range(C):
-            ring[off + j1] += gh
-            ring[off + j2] -= gh
-            gbuf[i] = gh
-            j1 += 1
-            if j1 == P:
-                j1 = 0
-            j2 += 1
-            if j2 == P:
-                j2 = 0
     # ---- 3. termination region: min/max along right-going characteristics --
     if R > 0:
         roff = ipar[s, I_REG_OFF]
@@ -835,10 +812,11 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     """
     for a in range(n_active):
         s = active[a]
-        if ipar[s, I_PROBE] >= 0 or ipar[s, I_CHUNK] <= 0:
+        exc = ipar[s, I_EXC]
+        cmax = ipar[s, I_CHUNK] if exc > 0 else ipar[s, I_CHUNK_FREE]
+        if ipar[s, I_PROBE] >= 0 or cmax <= 0:
             _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
         else:
-            cmax = ipar[s, I_CHUNK]
             done = 0
             while done < n:
                 C = n - done
@@ -850,6 +828,8 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                         C = left
                 _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch)
                 done += C
+                if ipar[s, I_EXC] <= 0:
+                    cmax = ipar[s, I_CHUNK_FREE]
 
 
 def max_fast_chunk(N: int, k: int, R: int, out_mode: int) -> int:
@@ -865,6 +845,19 @@ def max_fast_chunk(N: int, k: int, R: int, out_mode: int) -> int:
     c = min(k - R, N - k, N - R) - 1
     if out_mode == 1:
         c = min(c, N - R - 2)
+    return max(c, 0)
+
+
+def max_free_chunk(N: int, k: int, R: int, out_mode: int) -> int:
+    """Longest exact chunk with no excitation running: the excitation point
+    is then no operation point, except as the pickup of ``out_mode`` 0 (u
+    at k is read after the chunk's region and far-end steps)."""
+    if out_mode == 0:
+        if R > 0 and k <= R + 1:
+            return 0
+        c = min(k - R, N - k, N - R) - 1
+    else:
+        c = N - R - 2
     return max(c, 0)
 
 

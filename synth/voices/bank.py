@@ -82,6 +82,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     ip[K.I_OUT] = int(out_mode)
     ip[K.I_PROBE] = -1
     ip[K.I_CHUNK] = 0 if force_per_sample else K.max_fast_chunk(cells, k, R, out_mode)
+    ip[K.I_CHUNK_FREE] = 0 if force_per_sample else K.max_free_chunk(cells, k, R, out_mode)
     ip[K.I_HLAST] = -1
     fp = np.zeros(K.F_NF)
     fp[K.F_DT] = dt_s
@@ -265,6 +266,8 @@ class StringBank:
         ip[K.I_PROBE] = int(probe_row)
         if ip[K.I_CHUNK] > self.max_block:
             ip[K.I_CHUNK] = self.max_block
+        if ip[K.I_CHUNK_FREE] > self.max_block:
+            ip[K.I_CHUNK_FREE] = self.max_block
         self.fpar[s, :] = t.fpar
         if R:
             self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = t.U
@@ -305,19 +308,18 @@ class StringBank:
 
     def _end_excitation(self, s: int) -> None:
         """Freeze a running excitation at its current g and, as the kernel
-        does when a pluck ends, hold it (lossy string) or cancel its offset
-        field (lossless), so that a new excitation can start from g = 0."""
+        does when one ends, fold that constant g into the ring (add it on the
+        loop segment through x = 0; exact for lossy and lossless strings, see
+        :mod:`synth.kernels.strings`), so that a new one can start from g = 0."""
         ip, st = self.ipar[s], self.fst[s]
         G = st[K.S_G]
-        if ip[K.I_FILT] == 1:
-            st[K.S_GHOLD] += G          # lossy string: keep injecting it
-        else:
+        if G != 0.0:
             N = int(ip[K.I_N])
             P = 2 * N
             k = int(ip[K.I_K])
-            q = np.arange(k, P - k)
+            q = np.arange(-k, k)
             idx = ip[K.I_OFF] + (int(ip[K.I_POS]) - q) % P
-            self.ring[idx] -= G
+            self.ring[idx] += G
         st[K.S_G] = 0.0
         ip[K.I_EXC] = 0
 
@@ -425,12 +427,12 @@ class StringBank:
         P = 2 * int(ip[K.I_N])
         off, pm, k = int(ip[K.I_OFF]), int(ip[K.I_POS]), int(ip[K.I_K])
         return float(self.ring[off + (pm - k) % P] - self.ring[off + (pm + k) % P]
-                     - self.fst[s, K.S_G] - self.fst[s, K.S_GHOLD])
+                     - self.fst[s, K.S_G])
 
     def displacement(self, s: int) -> np.ndarray:
         """u(x) at grid points 0..N (m) at the last processed time."""
         ur, ul = self.rails(s)
         u = ur + ul
         k = int(self.ipar[s, K.I_K])
-        u[k] -= self.fst[s, K.S_G] + self.fst[s, K.S_GHOLD]
+        u[k] -= self.fst[s, K.S_G]
         return u
