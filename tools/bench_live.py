@@ -27,13 +27,13 @@ a fraction of the budget, blocks over budget, the underruns a device holding
 two periods would have had (a slow block eats into the buffered period, fast
 ones refill it), and the most voices sounding.
 
-Each performance is played ``--repeats`` times.  The renders are
-deterministic, so a block's cost is the *minimum* of its times over the
+Each performance is played ``--repeats`` times (at least 3).  The renders
+are deterministic, so a block's cost is the *median* of its times over the
 repeats; the host's stalls (first line of the output: a constant numba loop
 timed the same way stalls at random for up to 10-20x its time on a shared
-vCPU) do not come back at the same block.  The table gives the statistics
-of those per-block minima, and the underruns of every single repeat beside
-them ("per repeat").
+vCPU) do not come back at the same block in most repeats.  The table gives
+the statistics of those per-block medians, and the underruns of every
+single repeat beside them ("per repeat").
 """
 
 from __future__ import annotations
@@ -165,11 +165,13 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--blocks", default="64,128,256")
     ap.add_argument("--repeats", type=int, default=3,
-                    help="plays of each performance; a block's cost is its fastest (default 3)")
+                    help="plays of each performance (>= 3); a block's cost is its median time")
     ap.add_argument("--seconds", type=float, default=None,
                     help="limit each performance to this many seconds (default: whole)")
     a = ap.parse_args(argv)
     blocks = [int(b) for b in a.blocks.split(",")]
+    if a.repeats < 3:
+        ap.error(f"--repeats = {a.repeats} is out of range (value >= 3)")
     import numba
 
     cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo")
@@ -202,7 +204,7 @@ def main(argv=None) -> int:
         for b in blocks:
             runs = [drive(preset, evs, dur, b, poly) for _ in range(a.repeats)]
             budget = b / 48000
-            r = stats(np.min([t for t, _, _ in runs], axis=0), budget)
+            r = stats(np.median([t for t, _, _ in runs], axis=0), budget)
             each = ",".join(str(stats(t, budget)["underruns"]) for t, _, _ in runs)
             most = max(m for _, m, _ in runs)
             print(f"| {label} | {b} | {r['worst'] * 100:.0f}% | {r['p99'] * 100:.0f}% | "

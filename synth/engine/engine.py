@@ -154,19 +154,25 @@ class Engine:
         live = [v for v, vo in self.voices.items() if not vo.dying]
         if len(live) >= self.polyphony:
             rel = [v for v in live if self.voices[v].released]
-            self._fade(min(rel or live, key=self._level))
+            self._fade(self._quietest(rel or live))
             self.n_stolen += 1
         for v in range(self.n_index):
             if v not in self.voices:
                 return v
         # every index busy (fading voices too): cut the quietest fading one
-        v = min((v for v, vo in self.voices.items() if vo.dying), key=self._level)
+        v = self._quietest([v for v, vo in self.voices.items() if vo.dying])
         self._free(v)
         return v
 
-    def _level(self, v: int) -> float:
-        """Last block's peak output of voice v (the loudest of its strings)."""
-        return float(max(self._last_peak[s] for s in self._slots(v)))
+    def _levels(self) -> np.ndarray:
+        """Last block's peak output of every voice index (the loudest of its
+        strings), in one array operation (a note-on with the pool full must
+        not cost Python work per voice)."""
+        return self._last_peak.reshape(self.n_index, self.spv).max(axis=1)
+
+    def _quietest(self, candidates: list) -> int:
+        lv = self._levels()
+        return min(candidates, key=lv.__getitem__)
 
     def _fade(self, v: int, t60_s: float = 0.01) -> None:
         """Fade voice v out (its strings' loss rises to T60 = ``t60_s``)."""
@@ -184,7 +190,8 @@ class Engine:
     def shed(self, n: int) -> int:
         """Fade out the ``n`` quietest sounding voices (CPU overload); returns
         how many were shed."""
-        live = sorted((v for v, vo in self.voices.items() if not vo.dying), key=self._level)
+        lv = self._levels()
+        live = sorted((v for v, vo in self.voices.items() if not vo.dying), key=lv.__getitem__)
         for v in live[:n]:
             self._fade(v)
         self.n_shed += len(live[:n])

@@ -385,6 +385,7 @@ class StringBank:
         st[K.S_HW] = 0.0
         st[K.S_HDG] = 0.0
         st[K.S_HDG2] = 0.0
+        st[K.S_HDG3] = 0.0
         ip[K.I_EXC] = t.law
         ip[K.I_EXC_M] = 0
         ip[K.I_EXC_END] = t.e_end
