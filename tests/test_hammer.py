@@ -248,3 +248,25 @@ def test_hammer_on_the_fast_path_equals_the_per_sample_path(key, strikes, law, b
     scale = np.max(np.abs(slow))
     assert scale > 0
     assert np.max(np.abs(fast - slow)) <= 1e-11 * scale
+
+
+def test_templates_are_checked_against_the_bank_and_the_string():
+    """A template validated once still meets the bank's limits and the
+    slot's time step when written: one-line errors naming the value."""
+    from synth.voices.bank import hammer_template, slot_template
+
+    t = slot_template(cells=500, k=60, dt_s=1e-5, U=None)
+    small = StringBank(1, 300, 4, 4096)
+    with pytest.raises(ValueError, match=r"cells = 500 is out of range \(8 <= value <= 300\)"):
+        small.configure_from(0, t)
+    b = StringBank(1, 600, 4, 4096)
+    b.configure_from(0, t)
+    assert b.ipar[0, K.I_N] == 500 and b.ipar[0, K.I_OFF] == 0
+    h = hammer_template(dt_s=2e-5, **{k: v for k, v in A7.items()})
+    with pytest.raises(ValueError, match="does not match slot 0's time step"):
+        b.start_hammer_from(0, h, 3.0)
+    h = hammer_template(dt_s=1e-5, **{k: v for k, v in A7.items()})
+    with pytest.raises(ValueError, match=r"speed_m_per_s = 30.0 is out of range"):
+        b.start_hammer_from(0, h, 30.0)
+    with pytest.raises(ValueError, match=r"law = 3 is not allowed"):
+        hammer_template(dt_s=1e-5, **dict(A7, law=3))

@@ -11,7 +11,12 @@ Prints, medians over ``--runs`` repetitions (each after a warm-up render):
    render 2 s of it through the whole engine (bank, decimator, soundboard),
    as a fraction of real time, and the number of such notes one core plays in
    real time;
-3. the fixed cost of the engine with no note (decimation + soundboard).
+3. the fixed cost of the engine with no note (decimation + soundboard);
+4. the attack of a 10-note chord (C2 .. E5, velocity 0.8, 27 strings) in
+   0.25 ms steps: ns per string-sample of the whole engine while the
+   hammers press the strings (0.25-1 ms), while they fly off (3.5-4.5 ms)
+   and after they have gone (8-12 ms), and the block in which the ten
+   note-ons land.
 """
 
 from __future__ import annotations
@@ -93,6 +98,34 @@ def chord(runs: int, n_notes: int = 64):
     return float(np.median(out)), len(set(keys.tolist()))
 
 
+def attack(runs: int):
+    """Engine time per 0.25 ms step after a 10-note chord (medians over runs)."""
+    from synth.kernels import strings as K
+
+    keys = (36, 43, 48, 52, 55, 60, 64, 67, 72, 76)
+    steps = 48
+    res = []
+    for _ in range(runs + 1):                   # the first one designs the keys
+        e = make_engine(64)
+        e.render_block(12)
+        e.schedule([Event(e.time_in / e.fs_in_exact, "note_on", k, 0.8) for k in keys])
+        t = np.zeros(steps)
+        for b in range(steps):
+            t0 = time.perf_counter()
+            e.render_block(12)
+            t[b] = time.perf_counter() - t0
+        res.append(t)
+    t = np.median(res[1:], axis=0)
+    n_str = e.bank.n_active
+    assert int(np.sum(e.bank.ipar[e.bank.active[:n_str], K.I_EXC] > 0)) == 0  # hammers gone
+    per = t / (n_str * 0.25e-3 * e.fs_in) * 1e9
+
+    def span(a_ms, b_ms):
+        return float(np.mean(per[int(a_ms / 0.25):int(b_ms / 0.25)]))
+
+    return n_str, t[0], span(0.25, 1.0), span(3.5, 4.5), span(8.0, 12.0)
+
+
 def idle(runs: int) -> float:
     return float(np.median([time_blocks(make_engine(4), 1.0) for _ in range(runs)]))
 
@@ -122,6 +155,10 @@ def main(argv=None) -> int:
     print(f"\n{n}-note chord over the keyboard, sustain pedal down, whole engine: "
           f"{frac * 100:.1f} % of real time -> about {n / frac:.0f} such notes in real time "
           f"on one core.")
+    n_str, first, contact, flight, free = attack(a.runs)
+    print(f"\n10-note chord ({n_str} strings), whole engine, ns per string-sample: hammers "
+          f"pressing {contact:.0f}, flying off {flight:.0f}, gone {free:.0f}; the 0.25 ms step "
+          f"with the ten note-ons: {first * 1e6:.0f} us.")
     return 0
 
 

@@ -1,7 +1,7 @@
 """Stress the real-time callback: per-block render time against the budget.
 
     NUMBA_NUM_THREADS=1 python tools/bench_live.py [--blocks 64,128,256] [--repeats 3]
-                                                   [--seconds S]
+                                                   [--seconds S] [--host-seconds S] [--host-only]
 
 Drives :class:`synth.engine.realtime.Realtime` exactly as the audio device
 would (``callback(outdata, frames, ...)``), as fast as it can, and times every
@@ -104,7 +104,7 @@ def host_noise(seconds=10.0, block_s=128 / 48000, load=0.5):
     """The host's own stalls: a constant numba loop calibrated to ``load`` of
     a block's budget, timed ``seconds / block_s`` times like the callback.
     Returns (blocks over budget, underruns of a 2-period device, worst /
-    median time)."""
+    median wall time, worst / median thread CPU time)."""
     from numba import njit
 
     @njit(nogil=True)
@@ -121,11 +121,15 @@ def host_noise(seconds=10.0, block_s=128 / 48000, load=0.5):
     n = max(1, int(n * load * block_s / (time.perf_counter() - t)))
     m = int(seconds / block_s)
     times = np.zeros(m)
+    cpu = np.zeros(m)
     for b in range(m):
         t = time.perf_counter()
+        c = time.thread_time()
         spin(n)
+        cpu[b] = time.thread_time() - c
         times[b] = time.perf_counter() - t
-    return int(np.sum(times > block_s)), device_underruns(times, block_s, 2), times.max() / np.median(times)
+    return (int(np.sum(times > block_s)), device_underruns(times, block_s, 2),
+            times.max() / np.median(times), cpu.max() / np.median(times))
 
 
 def dense_chords(seconds=12.0, every_s=0.125, size=8, seed=7):
@@ -166,6 +170,10 @@ def main(argv=None) -> int:
     ap.add_argument("--blocks", default="64,128,256")
     ap.add_argument("--repeats", type=int, default=3,
                     help="plays of each performance (>= 3); a block's cost is its median time")
+    ap.add_argument("--host-seconds", type=float, default=10.0,
+                    help="length of the host-noise probe (s, default 10)")
+    ap.add_argument("--host-only", action="store_true",
+                    help="run only the host-noise probe")
     ap.add_argument("--seconds", type=float, default=None,
                     help="limit each performance to this many seconds (default: whole)")
     a = ap.parse_args(argv)
@@ -181,9 +189,12 @@ def main(argv=None) -> int:
     # warm-up: compile/load every kernel before timing
     drive("grand-piano", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8)
     drive("sitar", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8)
-    over, und, worst = host_noise()
-    print(f"# host: a constant loop at 50 % of a 128-sample budget, 10 s: {over} blocks over "
-          f"budget, {und} underruns, worst {worst:.1f}x its median")
+    over, und, worst, worst_cpu = host_noise(a.host_seconds)
+    print(f"# host: a constant loop at 50 % of a 128-sample budget, {a.host_seconds:g} s: {over} "
+          f"blocks over budget, {und} underruns, worst {worst:.1f}x its median "
+          f"(in the thread's own CPU time: {worst_cpu:.1f}x)")
+    if a.host_only:
+        return 0
     # 128 voices in the sitar's range: its 32 keys (43-74) on 4 MIDI channels
     cluster = [Event(0.0004 * i, "note_on", 43 + i % 32, 0.8, i // 32) for i in range(128)]
     perfs = [

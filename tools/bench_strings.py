@@ -283,7 +283,8 @@ def main():
           f"{K.max_fast_chunk(N_IDEAL, K_IDEAL, 0, 0)} (R=0); musical: N={tl.cells}, "
           f"k={round(0.75 * tl.cells)}, b0={tl.b0:.4f}, a1={tl.a1:.4f}, eta={tl.eta:.4f}, "
           f"extra_delay={tl.extra_delay}, fast chunk "
-          f"{K.max_fast_chunk(tl.cells, round(0.75 * tl.cells), 32, 1)} (R=32)")
+          f"{K.max_fast_chunk(tl.cells, round(0.75 * tl.cells), 32, 1)} (R=32) while plucking, "
+          f"{K.max_free_chunk(tl.cells, round(0.75 * tl.cells), 32, 1)} after")
     t = time.perf_counter()
     err, amp = check_naive_matches()   # also compiles both
     print(f"# naive vs bank, u(k) over 0.02 s with jawari Case 2: max |diff| = {err:.3g} m "
