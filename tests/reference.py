@@ -12,6 +12,21 @@ from __future__ import annotations
 import numpy as np
 
 
+def _step(ur, ul, k, gm, U, side, R):
+    """One step of the naive scheme except the far end x = L: shift both
+    rails, reflect at x = 0, inject gm at k on both outgoing rails, clamp
+    the region points 1..R (the far end's u_l[N] is set by the caller)."""
+    ur[1:] = ur[:-1].copy()
+    ul[:-1] = ul[1:].copy()
+    ur[0] = -ul[0]
+    ur[k] += gm
+    ul[k] += gm
+    for n in range(1, R + 1):
+        u = ur[n] + ul[n] - (gm if n == k else 0.0)
+        if side * (u - U[n - 1]) > 0:
+            ur[n] += U[n - 1] - u
+
+
 def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=()):
     """Run the ideal string for ``n_steps`` with outgoing wave samples ``g``
     (g[m] used at step m = 1..n_steps; g beyond its length stays at g[-1]).
@@ -29,16 +44,8 @@ def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=()):
     R = 0 if U is None else len(U)
     for m in range(n_steps):
         gm = g[m] if m < len(g) else g[-1]
-        ur[1:] = ur[:-1].copy()
-        ul[:-1] = ul[1:].copy()
+        _step(ur, ul, k, gm, U, side, R)
         ul[N] = -ur[N]
-        ur[0] = -ul[0]
-        ur[k] += gm
-        ul[k] += gm
-        for n in range(1, R + 1):
-            u = ur[n] + ul[n] - (gm if n == k else 0.0)
-            if side * (u - U[n - 1]) > 0:
-                ur[n] += U[n - 1] - u
         out[m] = ur[k] + ul[k] - gm
         if m in record_shape_at:
             u = ur + ul
@@ -65,15 +72,7 @@ def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
     dy1 = np.zeros(n_disp)
     for m in range(n_steps):
         gm = g[m] if m < len(g) else g[-1]
-        ur[1:] = ur[:-1].copy()
-        ul[:-1] = ul[1:].copy()
-        ur[0] = -ul[0]
-        ur[k] += gm
-        ul[k] += gm
-        for n in range(1, R + 1):
-            u = ur[n] + ul[n] - (gm if n == k else 0.0)
-            if side * (u - U[n - 1]) > 0:
-                ur[n] += U[n - 1] - u
+        _step(ur, ul, k, gm, U, side, R)
         x = ur[N]
         if extra_delay:
             x, xd = xd, x
