@@ -196,3 +196,53 @@ def test_key_up_does_not_click(name, key):
     before = d2[int(0.25 * FS):int(0.299 * FS)].max()
     around = d2[int(0.299 * FS):int(0.32 * FS)].max()
     assert around < 3.0 * before, (around, before)   # the click was ~50x
+
+
+def _damped_b0_reference(inst, key, pedal):
+    """The damper law written out per string (slow reference of
+    StringBank.apply_dampers for the grand)."""
+    import math
+    sus = inst.setup(key)
+    gs = P.grand_string(key)
+    if not gs.has_damper:
+        return [su.b0 for su in sus]
+    d = inst.preset.dampers
+    lift = min(max((pedal - d.half_pedal_low) / (d.half_pedal_high - d.half_pedal_low), 0.0), 1.0)
+    t_nat = gs.t60_low_s * inst.preset.strings.t60_scale
+    t_d = min(inst.release_t60_s(key), t_nat)
+    t_eff = math.exp((1 - lift) * math.log(t_d) + lift * math.log(t_nat))
+    sigma = max(math.log(1000) / t_eff - math.log(1000) / t_nat, 0.0)
+    return [su.b0 * math.exp(-sigma / su.f1_hz) for su in sus]
+
+
+def test_pedal_damps_every_released_voice_at_once_and_spares_the_fading():
+    """A sustain-pedal change sets the loss of all released voices in one
+    array operation, to the damper law of each key (half pedal included,
+    keys without dampers untouched); a voice stolen and fading out is not
+    revived by it."""
+    from synth.kernels import strings as K
+
+    e = engine("grand-piano", ["play.polyphony=6"])
+    keys = [33, 57, 69, 84, 100]                  # 100: no damper
+    e.schedule([Event(0.0, "control", 64, 1.0)]
+               + [Event(0.01 * i, "note_on", k, 0.7) for i, k in enumerate(keys)]
+               + [Event(0.2, "note_off", k, 0.0) for k in keys]
+               + [Event(0.3, "note_on", 40, 0.7), Event(0.3, "note_on", 45, 0.7)])  # steals one
+    for _ in range(int(0.31 * 48000 / 128)):
+        e.render_block(128)
+    dying = [v for v, vo in e.voices.items() if vo.dying]
+    assert len(dying) == 1
+    b0_dying = e.bank.fpar[list(e.voices[dying[0]].slots), K.F_B0T].copy()
+    for pedal in (0.0, 0.45, 1.0, 0.3):
+        e.schedule([Event(e.time_in / e.fs_in_exact, "control", 64, pedal)])
+        e.render_block(16)
+        for v, vo in e.voices.items():
+            if vo.dying or not vo.released:
+                continue
+            n = len(e.inst.setup(vo.key_arg))
+            got = e.bank.fpar[list(vo.slots[:n]), K.F_B0T]
+            want = _damped_b0_reference(e.inst, vo.key_arg, pedal)
+            assert np.allclose(got, want, rtol=1e-12, atol=0), (vo.key_arg, pedal)
+        if dying[0] in e.voices:
+            now = e.bank.fpar[list(e.voices[dying[0]].slots), K.F_B0T]
+            assert np.array_equal(now, b0_dying)      # still fading

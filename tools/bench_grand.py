@@ -16,7 +16,9 @@ Prints, medians over ``--runs`` repetitions (each after a warm-up render):
    0.25 ms steps: ns per string-sample of the whole engine while the
    hammers press the strings (0.25-1 ms), while they fly off (3.5-4.5 ms)
    and after they have gone (8-12 ms), and the block in which the ten
-   note-ons land.
+   note-ons land;
+5. a sustain-pedal change (CC64) with 64 released voices held by the
+   pedal: the engine's time to apply the event (the dampers of all of them).
 """
 
 from __future__ import annotations
@@ -126,6 +128,25 @@ def attack(runs: int):
     return n_str, t[0], span(0.25, 1.0), span(3.5, 4.5), span(8.0, 12.0)
 
 
+def pedal_event(runs: int) -> float:
+    """Median time (s) to apply one CC64 with 64 released voices sounding."""
+    e = make_engine(64)
+    keys = list(range(30, 94))
+    e.schedule([Event(0.0, "control", 64, 1.0)]
+               + [Event(0.001 * i, "note_on", k, 0.7) for i, k in enumerate(keys)]
+               + [Event(0.2, "note_off", k, 0.0) for k in keys])
+    time_blocks(e, 0.3)
+    assert int(e._released.sum()) == 64
+    evs = (Event(0.0, "control", 64, 0.0), Event(0.0, "control", 64, 1.0))
+    out = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        for i in range(100):
+            e._apply(evs[i % 2], e.time_in)
+        out.append((time.perf_counter() - t) / 100)
+    return float(np.median(out))
+
+
 def idle(runs: int) -> float:
     return float(np.median([time_blocks(make_engine(4), 1.0) for _ in range(runs)]))
 
@@ -159,6 +180,8 @@ def main(argv=None) -> int:
     print(f"\n10-note chord ({n_str} strings), whole engine, ns per string-sample: hammers "
           f"pressing {contact:.0f}, flying off {flight:.0f}, gone {free:.0f}; the 0.25 ms step "
           f"with the ten note-ons: {first * 1e6:.0f} us.")
+    print(f"A sustain-pedal change with 64 released voices: {pedal_event(a.runs) * 1e6:.0f} us "
+          f"to apply.")
     return 0
 
 

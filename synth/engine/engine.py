@@ -125,6 +125,10 @@ class Engine:
         self.bend = {}                       # pitch bend per channel, -1..1
         self._quiet = np.zeros(self.n_index * self.spv, dtype=np.int64)
         self._last_peak = np.zeros(self.n_index * self.spv)
+        # voice indices whose key is up and which are not fading out: the
+        # sustain pedal damps exactly these (one array operation per CC64)
+        self._released = np.zeros(self.n_index, dtype=bool)
+        self._spv_range = np.arange(self.spv)
         self._done = np.zeros(self.n_index * self.spv, dtype=np.int64)
         self._out = np.zeros(self.MAX_BLOCK_OUT)
         self.n_stolen = 0                    # voices faded out to make room
@@ -178,6 +182,7 @@ class Engine:
         """Fade voice v out (its strings' loss rises to T60 = ``t60_s``)."""
         vo = self.voices[v]
         vo.dying = vo.released = True
+        self._released[v] = False       # the pedal no longer touches it
         if self.by_key.get(vo.key) == v:
             del self.by_key[vo.key]
         for s in vo.slots:
@@ -201,6 +206,7 @@ class Engine:
         return tuple(range(v * self.spv, (v + 1) * self.spv))
 
     def _free(self, v: int) -> None:
+        self._released[v] = False
         vo = self.voices.pop(v, None)
         if vo is not None and self.by_key.get(vo.key) == v:
             del self.by_key[vo.key]
@@ -230,6 +236,7 @@ class Engine:
                 self.inst.note_on(self.bank, vo.slots, key, ev.value, f0_hz=ev.f0_hz,
                                   restrike=True, **self._extra(ev))
                 vo.start, vo.released = at, False
+                self._released[v] = False
             else:
                 v = self._alloc()
                 slots = self._slots(v)
@@ -245,6 +252,7 @@ class Engine:
                         self.bank.deactivate(s)
                     return
                 self.voices[v] = _Voice(vk, at, slots, key, ev.f0_hz)
+                self._released[v] = False
                 self.by_key[vk] = v
                 if self.bend.get(ev.channel) and hasattr(self.inst, "bend"):
                     self.inst.bend(self.bank, slots, key, ev.f0_hz, self.bend[ev.channel])
@@ -264,9 +272,12 @@ class Engine:
             cc = int(ev.key)
             if cc == CC_SUSTAIN:
                 self.pedal = float(ev.value)
-                for v, vo in self.voices.items():
-                    if vo.released:
-                        self._damp(vo)
+                # every released voice's dampers at once (a continuous pedal
+                # sends many of these; a loop over voices cost ~5 us each)
+                idx = np.flatnonzero(self._released)
+                if idx.size:
+                    slots = (idx[:, None] * self.spv + self._spv_range).ravel()
+                    self.bank.apply_dampers(slots, self.inst.damper_lift(self.pedal))
             elif cc == CC_SOFT:
                 self.soft = float(ev.value)
             elif cc == CC_ALL_NOTES_OFF:
@@ -286,6 +297,7 @@ class Engine:
         if vo.released:
             return
         vo.released = True
+        self._released[v] = True
         self._damp(vo)
 
     # -- rendering ----------------------------------------------------------------

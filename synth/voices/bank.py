@@ -16,6 +16,7 @@ import numpy as np
 
 from ..kernels import strings as K
 
+_LN1000 = math.log(1000.0)     # 60 dB of amplitude
 #: per-slot columns of ``ipar`` that a template does not carry
 _SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF)
 #: ``fpar`` columns a hammer template sets (speed F_HV is per strike)
@@ -176,6 +177,10 @@ class StringBank:
         self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable + self.max_bend)))
         # fast-path chunks never exceed max_block; scratch holds g, acc, window
         self.scratch = np.zeros(3 * (self.max_block + self.max_region) + 8)
+        # dampers, per slot: loss b0 undamped, loop frequency f1 (Hz), T60 with
+        # the damper down and T60 free (s; inf: no free decay to keep)
+        self.damper = np.zeros((self.capacity, 4))
+        self.damper[:, :] = (1.0, 1.0, math.inf, math.inf)
         self.active = np.zeros(self.capacity, dtype=np.int64)
         self.n_active = 0
         self._is_active = np.zeros(self.capacity, dtype=bool)
@@ -279,6 +284,30 @@ class StringBank:
         """New loss filter gain b0 for slot s (a damper falling or lifting):
         reached smoothly within a few ``LOSS_GLIDE_S``."""
         self.fpar[s, K.F_B0T] = b0
+
+    def set_damper(self, s: int, row) -> None:
+        """Slot s's damper: ``row`` = (b0 undamped, f1_hz, t60_damped_s,
+        t60_free_s) (see :meth:`apply_dampers`)."""
+        self.damper[s, :] = row
+
+    def apply_dampers(self, slots, lift: float) -> None:
+        """Set the loss of ``slots`` for dampers lifted by ``lift`` (0: on
+        the strings .. 1: off), all at once: the T60 moves geometrically
+        from the damped to the free value with the lift, and the extra
+        decay rate sigma = ln(1000)/T60 - ln(1000)/T60_free (1/s, >= 0) scales the
+        loop gain, b0 = b0_undamped exp(-sigma / f1) (a pure gain: the
+        tuning does not move).  Glided to like :meth:`set_loss`."""
+        d = self.damper[slots]
+        td = d[:, 2]
+        tf = d[:, 3]
+        if lift <= 0.0:
+            t = td
+        elif lift >= 1.0:
+            t = tf
+        else:
+            t = np.exp((1.0 - lift) * np.log(td) + lift * np.log(tf))
+        sigma = np.maximum(_LN1000 / t - _LN1000 / tf, 0.0)
+        self.fpar[slots, K.F_B0T] = d[:, 0] * np.exp(-sigma / d[:, 1])
 
     def set_bend_delay(self, s: int, delay: float) -> None:
         """New delay (samples) of slot s's pitch-bend line, glided to."""

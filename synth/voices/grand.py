@@ -77,6 +77,7 @@ class GrandStringSetup:
     f1_hz: float
     slot: SlotTemplate | None = None        # the bank configuration, validated once
     hammer: HammerTemplate | None = None    # its hammer (speed and soft pedal per strike)
+    damper: tuple | None = None             # its damper row (StringBank.set_damper)
 
 
 class GrandPianoInstrument:
@@ -176,7 +177,13 @@ class GrandPianoInstrument:
                                  bend_glide_s=StringBank.BEND_GLIDE_S)
             hp = self._hammer(key, len(out), su, 1.0, 0.0)
             del hp["speed_m_per_s"]
-            full.append(replace(su, slot=slot, hammer=hammer_template(dt_s=su.dt_s, **hp)))
+            # the damper's felt: T60 from the damped value (release_t60_s, at
+            # most the free one) to the free one as the pedal lifts it; keys
+            # without dampers ring on (damped = free)
+            t_nat = gs.t60_low_s * sp.t60_scale
+            t_damped = min(self.release_t60_s(key), t_nat) if gs.has_damper else t_nat
+            full.append(replace(su, slot=slot, hammer=hammer_template(dt_s=su.dt_s, **hp),
+                                damper=(su.b0, su.f1_hz, t_damped, t_nat)))
         self._keys[key] = tuple(full)
         return self._keys[key]
 
@@ -219,6 +226,7 @@ class GrandPianoInstrument:
         for j, (slot, su) in enumerate(zip(slots, sus)):
             if not restrike or not bank.is_active(slot):
                 bank.configure_from(slot, su.slot, probe_row if j == 0 else -1)
+                bank.set_damper(slot, su.damper)
             else:
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
             if j < struck:
@@ -230,22 +238,20 @@ class GrandPianoInstrument:
         x = (key - self.KEY_LOW) / (self.KEY_HIGH - self.KEY_LOW)
         return math.exp((1 - x) * math.log(d.release_t60_bass_s) + x * math.log(d.release_t60_treble_s))
 
+    def damper_lift(self, pedal: float) -> float:
+        """How far the sustain pedal (0..1) lifts the dampers: 0 below
+        ``dampers.half_pedal_low``, 1 above ``half_pedal_high``, linear
+        between (half pedal)."""
+        d = self.preset.dampers
+        return min(max((pedal - d.half_pedal_low) / (d.half_pedal_high - d.half_pedal_low), 0.0), 1.0)
+
     def damp(self, bank: StringBank, slots, key, f0_hz, pedal: float) -> None:
         """Key up: the damper falls on the strings, as far as the sustain
-        pedal lets it (half pedal: partly); keys without dampers ring on."""
+        pedal lets it (half pedal: partly; the felt resting more or less
+        firmly moves the T60 geometrically between the damped and the free
+        value, :meth:`StringBank.apply_dampers`); keys without dampers ring
+        on."""
         if key is None or not (self.KEY_LOW <= int(round(key)) <= self.KEY_HIGH):
             return
-        key = int(round(key))
-        if not P.grand_string(key).has_damper:
-            return
-        d = self.preset.dampers
-        lift = min(max((pedal - d.half_pedal_low) / (d.half_pedal_high - d.half_pedal_low), 0.0), 1.0)
-        t_rel = self.release_t60_s(key)
-        gs = P.grand_string(key)
-        t_nat = gs.t60_low_s * self.preset.strings.t60_scale
-        # the damper's felt resting more or less firmly: the fundamental's T60
-        # moves from the damped to the free value geometrically with the lift
-        t_eff = math.exp((1.0 - lift) * math.log(min(t_rel, t_nat)) + lift * math.log(t_nat))
-        sigma = max(6.907755 / t_eff - 6.907755 / t_nat, 0.0)   # extra decay rate, 1/s
-        for slot, su in zip(slots, self.setup(key)):
-            bank.set_loss(slot, su.b0 * math.exp(-sigma / su.f1_hz))
+        n = len(self.setup(int(round(key))))
+        bank.apply_dampers(np.asarray(slots[:n], dtype=np.int64), self.damper_lift(pedal))

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..kernels import strings as K
 from ..physics import plucks, profiles
-from ..physics.losses import allpass_for_phase_delay, tune_loop, loop_gain_from_t60
+from ..physics.losses import allpass_for_phase_delay, tune_loop
 from ..physics.string import IdealString, fretted_string, midi_key_to_hz
 from .bank import StringBank
 
@@ -241,6 +241,9 @@ class PluckedInstrument:
                        b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
                        lossy=su.lossy, probe_row=probe_row, bend_len=su.bend_len,
                        bend_delay=su.bend_delay)
+        # the thesis's strings are lossless and never damped
+        t_damped = math.inf if self.study else self.preset.loss.release_t60_s
+        bank.set_damper(slot, (su.b0, su.f0_hz, t_damped, math.inf))
 
     def max_bend_len(self) -> int:
         """Longest pitch-bend line any playable note needs (samples)."""
@@ -280,14 +283,14 @@ class PluckedInstrument:
         bank.start_pluck(slot, model, self.pluck_amplitude_m(velocity, su.string), pl.duration_s, alpha)
         bank.activate(slot)
 
+    def damper_lift(self, pedal: float) -> float:
+        """How far the sustain pedal (0..1) keeps the damping off: fully
+        from 0.5 up, else not at all."""
+        return 1.0 if pedal >= 0.5 else 0.0
+
     def damp(self, bank: StringBank, slots, key: float | None, f0_hz: float | None,
              pedal: float) -> None:
         """The key is up: damp the string (loop gain down to the release T60,
         a pure gain on the loss filter so the tuning does not move) unless
         the sustain pedal is down (>= 0.5)."""
-        if self.study:
-            return  # the thesis's strings are lossless and never damped
-        su = self.setup(key, f0_hz)
-        rel = 1.0 if pedal >= 0.5 else loop_gain_from_t60(su.f0_hz, self.preset.loss.release_t60_s)
-        for slot in slots:
-            bank.set_loss(slot, su.b0 * rel)
+        bank.apply_dampers(np.asarray(slots, dtype=np.int64), self.damper_lift(pedal))
