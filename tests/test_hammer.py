@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from helpers import engine
 from reference import closed_form_uk, hammer_on_ideal_string
@@ -270,3 +271,20 @@ def test_templates_are_checked_against_the_bank_and_the_string():
         b.start_hammer_from(0, h, 30.0)
     with pytest.raises(ValueError, match=r"law = 3 is not allowed"):
         hammer_template(dt_s=1e-5, **dict(A7, law=3))
+
+
+@settings(max_examples=20, deadline=None)
+@given(key=st.integers(21, 86), speeds=st.lists(st.floats(0.2, 8.0), min_size=1, max_size=3),
+       gap_ms=st.floats(0.3, 12.0), law=st.sampled_from([4, 5]), block=st.integers(1, 900))
+def test_random_strikes_fast_path_equals_per_sample_and_stay_finite(key, speeds, gap_ms, law,
+                                                                    block):
+    """Random keys, speeds, restrikes (even while the hammer still flies)
+    and block sizes: the fast path equals the per-sample reference and every
+    sample is finite."""
+    strikes = [(i * gap_ms * 1e-3, v) for i, v in enumerate(speeds)]
+    slow, _, _ = _grand_strike(key, strikes, law, True, block)
+    fast, _, _ = _grand_strike(key, strikes, law, False, block)
+    assert np.all(np.isfinite(slow)) and np.all(np.isfinite(fast))
+    scale = np.max(np.abs(slow))
+    assert scale > 0
+    assert np.max(np.abs(fast - slow)) <= 1e-10 * scale
