@@ -2,6 +2,7 @@
 
     NUMBA_NUM_THREADS=1 python tools/bench_live.py [--blocks 64,128,256] [--repeats 3]
                                                    [--seconds S] [--host-seconds S] [--host-only]
+    NUMBA_NUM_THREADS=1 python tools/bench_live.py --program-change
 
 Drives :class:`synth.engine.realtime.Realtime` exactly as the audio device
 would (``callback(outdata, frames, ...)``), as fast as it can, and times every
@@ -21,6 +22,13 @@ full performance's cost.  Performances:
 4. a 128-note cluster on ``sitar``: its 32 playable keys on 4 MIDI channels,
    all struck within 50 ms and held (polyphony 128), i.e. 128 terminated
    plucked voices with their loop filters and pitch-bend lines.
+
+``--program-change`` instead measures a program change while playing: 48
+sitar voices sound, paced by the clock as a device would (block 128), and
+after 0.27 s a background thread builds ``grand-piano`` from scratch (its
+88 key designs, as the live player does on a program change), at Python's
+default thread switch interval (5 ms), at 0.5 ms and at the live player's
+(``synth.io.live.SWITCH_INTERVAL_S``); 3 plays of 4 s each.
 
 For each and each block size: worst, 99th-percentile and mean block time as
 a fraction of the budget, blocks over budget, the underruns a device holding
@@ -132,6 +140,49 @@ def host_noise(seconds=10.0, block_s=128 / 48000, load=0.5):
             times.max() / np.median(times), cpu.max() / np.median(times))
 
 
+def program_change(switch_s: float, seconds: float = 4.0) -> np.ndarray:
+    """Block times / budget of a sitar performance, paced in real time, with
+    ``grand-piano`` built in a background thread from its 100th block."""
+    import threading
+
+    import synth.voices.grand as grand
+    from synth.io.live import ready_engine
+
+    old = sys.getswitchinterval()
+    sys.setswitchinterval(switch_s)
+    try:
+        inst = instrument_for(load_preset("sitar"))
+        inst.warm()
+        eng = Engine(inst, polyphony=64)
+        clock = Clock()
+        rt = Realtime(eng, block=128, clock=clock, overload=None)
+        rt.start(0.0)
+        for i in range(48):
+            rt.push(Event(0.0, "note_on", 43 + i % 32, 0.8, i // 32), 0.0)
+        out = np.zeros((128, 1), dtype=np.float32)
+        n = int(seconds * 48000 / 128)
+        times = np.zeros(n)
+        th = None
+        t_start = time.perf_counter()
+        for b in range(n):
+            clock.t = b * 128 / 48000
+            if b == 100:
+                grand._DESIGNS.clear()           # design every key again
+                th = threading.Thread(target=ready_engine, args=("grand-piano",), daemon=True)
+                th.start()
+            t = time.perf_counter()
+            rt.callback(out, 128, None, None)
+            times[b] = time.perf_counter() - t
+            while time.perf_counter() - t_start < (b + 1) * 128 / 48000:
+                time.sleep(0.0002)               # the device's clock
+        rt.stop()
+        if th is not None:
+            th.join()
+    finally:
+        sys.setswitchinterval(old)
+    return times
+
+
 def dense_chords(seconds=12.0, every_s=0.125, size=8, seed=7):
     """Pedal down, then a chord of ``size`` random keys every ``every_s``."""
     rng = np.random.default_rng(seed)
@@ -174,6 +225,8 @@ def main(argv=None) -> int:
                     help="length of the host-noise probe (s, default 10)")
     ap.add_argument("--host-only", action="store_true",
                     help="run only the host-noise probe")
+    ap.add_argument("--program-change", action="store_true",
+                    help="measure a program change built in the background while playing")
     ap.add_argument("--seconds", type=float, default=None,
                     help="limit each performance to this many seconds (default: whole)")
     a = ap.parse_args(argv)
@@ -194,6 +247,21 @@ def main(argv=None) -> int:
           f"blocks over budget, {und} underruns, worst {worst:.1f}x its median "
           f"(in the thread's own CPU time: {worst_cpu:.1f}x)")
     if a.host_only:
+        return 0
+    if a.program_change:
+        from synth.io.live import SWITCH_INTERVAL_S
+
+        budget = 128 / 48000
+        print("\n| switch interval | worst | 99th pct | mean | blocks over budget | "
+              "underruns, 2-period device | per play (3) |")
+        print("|---|---|---|---|---|---|---|")
+        for sw in (0.005, 0.0005, SWITCH_INTERVAL_S):
+            runs = [program_change(sw) for _ in range(3)]
+            r = stats(np.median(runs, axis=0), budget)
+            each = ",".join(str(stats(t, budget)["underruns"]) for t in runs)
+            print(f"| {sw * 1e3:g} ms | {r['worst'] * 100:.0f}% | {r['p99'] * 100:.0f}% | "
+                  f"{r['mean'] * 100:.0f}% | {r['over']} of {r['blocks']} | {r['underruns']} | "
+                  f"{each} |", flush=True)
         return 0
     # 128 voices in the sitar's range: its 32 keys (43-74) on 4 MIDI channels
     cluster = [Event(0.0004 * i, "note_on", 43 + i % 32, 0.8, i // 32) for i in range(128)]

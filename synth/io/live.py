@@ -41,6 +41,7 @@ from synth.io.midi import normalise_message
 
 __all__ = [
     "FS_OUT",
+    "SWITCH_INTERVAL_S",
     "INSTALL_LIVE",
     "PORTAUDIO_MISSING",
     "NO_MIDI_PORT",
@@ -59,6 +60,10 @@ __all__ = [
 
 #: Output rate of the live stream (Hz): the engine's.
 FS_OUT = 48_000
+#: the interpreter's thread switch interval while streaming (s): the audio
+#: callback waits at most about this long for the GIL when another thread
+#: (a program change being built) runs Python
+SWITCH_INTERVAL_S = 0.0001
 
 INSTALL_LIVE = 'pip install -e ".[live]"'
 PORTAUDIO_MISSING = ("PortAudio library not found: install it (Debian/Ubuntu: apt-get install "
@@ -608,9 +613,10 @@ class Player:
             self.warm_s = time.perf_counter() - t_call
             self.rt = Realtime(eng, block=self.block, latency_s=self.latency_s)
             # the audio thread must get the GIL quickly even while a program
-            # change is built in the background (default switch interval: 5 ms)
+            # change is built in the background (default switch interval: 5 ms;
+            # tools/bench_live.py --program-change measures the difference)
             self._switch = sys.getswitchinterval()
-            sys.setswitchinterval(min(self._switch, 0.0005))
+            sys.setswitchinterval(min(self._switch, SWITCH_INTERVAL_S))
             try:
                 with _quiet_c_stderr():
                     self.stream = self.sd.OutputStream(
