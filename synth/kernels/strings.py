@@ -34,16 +34,20 @@ the string with a broadband transient.)  With no excitation running, the
 excitation point is no operation point, so the fast path's chunks may be
 longer (``I_CHUNK_FREE``).
 
-Fast path (no probe, termination region entirely below the excitation
-point): the chunk of C samples is processed operation by operation instead
-of sample by sample.  With C no longer than the loop distance between any
-two operation points, no sample meets two operations within one chunk, so
-this is exact.  In the region each right-going characteristic (a ring slot)
+Fast path (no probe; while an excitation runs, the termination region
+entirely below the excitation point): the chunk of C samples is processed
+operation by operation instead of sample by sample.  With C no longer than
+the loop distance between any two operation points, no sample meets two
+operations within one chunk, so this is exact.  The excitation is one of
+them only while it runs (``I_CHUNK``; afterwards ``I_CHUNK_FREE``), and a
+hammer steps inside the chunk like a pluck: the wave arriving at k during
+the chunk was already in the ring at its start.  In the region each right-going characteristic (a ring slot)
 leaves with ``min`` (side +1; ``max`` for side -1) of its entry value and
 ``U(n) + vl(n)`` along its path, the left-going values being untouched in
 the chunk; the reduction runs point by point over contiguous scratch copies
 and vectorises.  The per-sample path is the plain reference for it and
-handles excitation inside the region and diagnostics (probe, contacts).
+handles an excitation running inside or next to the region and
+diagnostics (probe, contacts).
 
 Parameter tables (columns below) are written by the voice layer at note-on;
 the kernel only reads ``ipar``/``fpar`` and updates ``fst`` and the rings.
