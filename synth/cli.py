@@ -6,7 +6,8 @@
                [--internal-rate HZ] [--set PATH=VALUE ...] -o OUT.wav [--probe OUT.npy]
     synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] -o OUT.wav
     synth play --preset PRESET [--midi-port NAME] [--audio-device NAME] [--block N]
-               [--latency-ms X] [--program-map 0=PRESET,...] [--stats] | --list-ports
+               [--latency-ms X] [--program-map 0=PRESET,...] [--set PATH=VALUE ...]
+               [--stats] | --list-ports
 
 MIDI values (0-127) are normalised here, once; everything below works in SI
 units and [0, 1].  User errors print one line (``synth: error: ...``) and
@@ -220,7 +221,7 @@ def cmd_play(args) -> int:
     player = live.Player(args.preset, programs, block=args.block,
                          latency_s=None if args.latency_ms is None else args.latency_ms / 1e3,
                          audio_device=args.audio_device, midi_port=args.midi_port,
-                         stats=args.stats)
+                         stats=args.stats, overrides=args.set)
     player.start()
     player.run()
     return 0
@@ -314,6 +315,9 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--program-map", metavar="P=PRESET,...",
                     help="presets for MIDI program changes, e.g. 0=grand-piano,1=sitar,24=biwa "
                          "(programs 0-127; default: 0=the --preset)")
+    pl.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                    help="override a value of --preset, e.g. --set play.polyphony=32 "
+                         "(repeatable)")
     pl.add_argument("--stats", action="store_true",
                     help="show block time, voices and underruns once a second")
     pl.add_argument("--list-ports", action="store_true",

@@ -249,7 +249,9 @@ def test_play_argument_errors_come_before_any_device(capsys):
              (["play", "--preset", "sitar", "--program-map", "200=biwa"], "program = 200"),
              (["play", "--preset", "sitar", "--block", "8"], "--block = 8 is out of range"),
              (["play", "--preset", "sitar", "--latency-ms", "1"], "--latency-ms = 1 is out of range"),
-             (["play", "--preset", "sitar", "--latency-ms", "-3"], "--latency-ms = -3")]
+             (["play", "--preset", "sitar", "--latency-ms", "-3"], "--latency-ms = -3"),
+             (["play", "--preset", "sitar", "--set", "play.polyphony=0"], "play.polyphony"),
+             (["play", "--preset", "sitar", "--set", "nosuch.key=1"], "nosuch")]
     for argv, frag in cases:
         rc = main(argv)
         err = capsys.readouterr().err
@@ -485,3 +487,11 @@ def test_virtual_midi_port_into_synth_play(null_home):  # pragma: no cover - nee
     assert proc.returncode == 0, err
     assert "Traceback" not in err
     assert "4 MIDI messages, 2 notes" in rest and "blocks of 128 at 48000 Hz" in rest
+
+
+def test_set_overrides_the_first_preset_of_live_play():
+    """``synth play --set`` reaches the engine the stream plays."""
+    from synth.io.live import ready_engine
+
+    assert ready_engine("sitar", overrides=["play.polyphony=7"]).polyphony == 7
+    assert ready_engine("sitar").polyphony != 7

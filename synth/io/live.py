@@ -458,7 +458,8 @@ def _warm_phrase(preset) -> list:
     return ev
 
 
-def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = None):
+def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = None,
+                 overrides=()):
     """Build the engine for a preset, warmed for live play.
 
     The instrument designs every key now (its ``warm()``), then a throwaway
@@ -475,6 +476,8 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
     instruments : dict or None
         Cache of instruments by preset name (a program change back to a
         preset reuses its designs).
+    overrides : sequence of str
+        ``PATH=VALUE`` preset overrides (``--set``), validated like the file.
 
     Raises
     ------
@@ -487,7 +490,7 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
 
     inst = None if instruments is None else instruments.get(preset_name)
     if inst is None:
-        preset = load_preset(preset_name)
+        preset = load_preset(preset_name, overrides)
         try:
             inst = instrument_for(preset)
         except ValueError as e:
@@ -548,12 +551,15 @@ class Player:
         Print the meter once a second while playing.
     out : file
         Where status lines, the meter and the report go (stdout).
+    overrides : sequence of str
+        ``PATH=VALUE`` overrides (``--set``) of ``preset``, wherever the
+        program map plays it (e.g. ``play.polyphony=32``).
     """
 
     def __init__(self, preset: str, program_map: ProgramMap | None = None, block: int = 128,
                  latency_s: float | None = None, audio_device: str | None = None,
                  midi_port: str | None = None, midi: bool = True, stats: bool = False,
-                 out=None):
+                 out=None, overrides=()):
         from synth.engine.engine import Engine
         from synth.io.presets import load_preset
 
@@ -566,7 +572,9 @@ class Player:
             raise SynthError(f"--latency-ms = {latency_s * 1e3:g} is out of range ({lo_ms:.2f} <= "
                              f"value <= 1000: at least one block of {self.block} samples)")
         self.latency_s = latency_s
-        load_preset(preset)                                  # a bad name fails now
+        self.overrides = tuple(overrides)
+        self._first = preset
+        load_preset(preset, self.overrides)                  # a bad name or --set fails now
         self.program_map = program_map or ProgramMap({0: preset})
         self.preset_name = preset
         self.stats = stats
@@ -602,6 +610,9 @@ class Player:
         self._switch = None
 
     # -- start and stop -------------------------------------------------------------
+    def _overrides_for(self, name: str) -> tuple:
+        return self.overrides if name == self._first else ()
+
     def start(self) -> None:
         """Build and warm the engine, open the audio stream, then the MIDI
         input; prints the latency budget and ``ready in X s``."""
@@ -609,7 +620,8 @@ class Player:
 
         t_call = time.perf_counter()
         try:
-            eng = ready_engine(self.preset_name, self.block, self.instruments)
+            eng = ready_engine(self.preset_name, self.block, self.instruments,
+                               self._overrides_for(self.preset_name))
             self.warm_s = time.perf_counter() - t_call
             self.rt = Realtime(eng, block=self.block, latency_s=self.latency_s)
             # the audio thread must get the GIL quickly even while a program
@@ -801,7 +813,7 @@ class Player:
     def _build_and_swap(self, program: int, name: str, gen: int) -> None:
         try:
             t = time.perf_counter()
-            eng = ready_engine(name, self.block, self.instruments)
+            eng = ready_engine(name, self.block, self.instruments, self._overrides_for(name))
         except Exception as e:
             self.handler_errors += 1
             self._say(f"\nprogram {program}: {name} failed: {_one_line(e)}")
