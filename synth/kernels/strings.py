@@ -97,14 +97,14 @@ F_A1 = 5         # one-pole a1   (y = b0 x - a1 y1)
 F_ETA = 6        # allpass coefficient
 F_GAIN = 7       # output gain (signal units -> mix units)
 F_TDX = 8        # T / dx (N/m), bridge force scale
-F_HM = 9         # hammer mass m (kg)
+F_HMC = 9        # hammer: 2T / (c m) (1/s): its deceleration per unit g (mass m, string T, c)
 F_HV = 10        # hammer speed V at first contact (m/s)
 F_HQ = 11        # felt stiffness Q0 (3-par) or F0 (4-par), N/mm^p
 F_HP = 12        # felt exponent p
 F_HA = 13        # 3-par: alpha (s); 4-par: gamma
 F_HT = 14        # 4-par: tau0 (s)
-F_TEN = 15       # string tension T (N)
-F_C = 16         # wave speed c (m/s)
+F_HK = 15        # hammer: c / 2T (m per N s): g increment per unit felt impulse
+F_HE = 16        # 4-par hammer: exp(-dt / tau0)
 F_HREL = 17      # samples without contact after which the hammer is gone
 F_ADISP = 18     # dispersion allpass coefficient a (string stiffness)
 F_B0T = 19       # target of the loss filter's b0: dampers and releases glide there
@@ -112,10 +112,7 @@ F_B0S = 20       # glide rate per sample (1 - exp(-dt / 2 ms)); an instant chang
                  #   end's loss would step the bridge force (u(L) = x - y) and click
 F_BDT = 21       # pitch bend: target delay of the bend line (samples, >= 1)
 F_BDS = 22       # its glide rate per sample (20 ms: a pitch wheel moves, it does not jump)
-F_HE = 23        # 4-par hammer: exp(-dt / tau0)
-F_HK = 24        # hammer: c / 2T (m per N s): g increment per unit felt impulse
-F_HMC = 25       # hammer: 2T / (c m) (1/s): hammer deceleration per unit g
-F_NF = 26
+F_NF = 23
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)

@@ -20,8 +20,8 @@ _LN1000 = math.log(1000.0)     # 60 dB of amplitude
 #: per-slot columns of ``ipar`` that a template does not carry
 _SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF)
 #: ``fpar`` columns a hammer template sets (speed F_HV is per strike)
-_HAMMER_COLS = np.array([K.F_HM, K.F_HQ, K.F_HP, K.F_HA, K.F_HT, K.F_TEN, K.F_C,
-                         K.F_HREL, K.F_HE, K.F_HK, K.F_HMC], dtype=np.int64)
+_HAMMER_COLS = np.array([K.F_HQ, K.F_HP, K.F_HA, K.F_HT, K.F_HREL, K.F_HE, K.F_HK, K.F_HMC],
+                        dtype=np.int64)
 
 
 @dataclass(frozen=True, eq=False)
@@ -116,8 +116,7 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
         raise ValueError(f"tau0_s = {tau0_s!r} is out of range (value > 0)")
     tau0 = tau0_s if law == 5 else 1.0
     v = np.zeros(len(_HAMMER_COLS))
-    vals = {K.F_HM: mass_kg, K.F_HQ: stiffness, K.F_HP: exponent, K.F_HA: alpha_or_gamma,
-            K.F_HT: tau0, K.F_TEN: tension_n, K.F_C: c_m_per_s,
+    vals = {K.F_HQ: stiffness, K.F_HP: exponent, K.F_HA: alpha_or_gamma, K.F_HT: tau0,
             K.F_HREL: max(1.0, round(release_s / dt_s)), K.F_HE: math.exp(-dt_s / tau0),
             K.F_HK: c_m_per_s / (2.0 * tension_n),
             K.F_HMC: 2.0 * tension_n / (c_m_per_s * mass_kg)}
