@@ -3,6 +3,7 @@
     NUMBA_NUM_THREADS=1 python tools/bench_live.py [--blocks 64,128,256] [--repeats 3]
                                                    [--seconds S] [--host-seconds S] [--host-only]
     NUMBA_NUM_THREADS=1 python tools/bench_live.py --program-change
+    NUMBA_NUM_THREADS=1 python tools/bench_live.py --shedding
 
 Drives :class:`synth.engine.realtime.Realtime` exactly as the audio device
 would (``callback(outdata, frames, ...)``), as fast as it can, and times every
@@ -22,6 +23,11 @@ full performance's cost.  Performances:
 4. a 128-note cluster on ``sitar``: its 32 playable keys on 4 MIDI channels,
    all struck within 50 ms and held (polyphony 128), i.e. 128 terminated
    plucked voices with their loop filters and pitch-bend lines.
+
+``--shedding`` instead plays each performance once at block 128 with the
+live player's default overload rule (``Realtime``'s defaults) and prints
+how many voices it shed, and how many the rule sheds without its lateness
+condition (``max_late=0``: two slow blocks in a row are enough).
 
 ``--program-change`` instead measures a program change while playing: 48
 sitar voices sound, paced by the clock as a device would (block 128), and
@@ -75,12 +81,17 @@ class Clock:
         return self.t
 
 
-def drive(preset: str, events, seconds: float, block: int, polyphony: int):
+def drive(preset: str, events, seconds: float, block: int, polyphony: int,
+          shedding: bool = False, **rt_kw):
+    """Play ``events`` through the callback; returns (block times, most
+    voices, callback errors[, voices shed]).  ``shedding``: with the live
+    player's default overload rule instead of none."""
     inst = instrument_for(load_preset(preset))
     inst.warm()                      # as the live player does before the stream opens
     eng = Engine(inst, polyphony=polyphony)
     clock = Clock()
-    rt = Realtime(eng, block=block, clock=clock, overload=None)
+    rt = Realtime(eng, block=block, clock=clock, **rt_kw) if shedding else \
+        Realtime(eng, block=block, clock=clock, overload=None)
     rt.start(0.0)
     events = sorted(events, key=lambda e: e.time_s)
     out = np.zeros((block, 1), dtype=np.float32)
@@ -98,6 +109,8 @@ def drive(preset: str, events, seconds: float, block: int, polyphony: int):
         times[b] = time.perf_counter() - t
         most = max(most, eng.n_voices)
     rt.stop()
+    if shedding:
+        return times, most, rt.stats.errors, rt.stats.shed_voices
     return times, most, rt.stats.errors
 
 
@@ -225,6 +238,8 @@ def main(argv=None) -> int:
                     help="length of the host-noise probe (s, default 10)")
     ap.add_argument("--host-only", action="store_true",
                     help="run only the host-noise probe")
+    ap.add_argument("--shedding", action="store_true",
+                    help="count the voices the default overload rule sheds, block 128")
     ap.add_argument("--program-change", action="store_true",
                     help="measure a program change built in the background while playing")
     ap.add_argument("--seconds", type=float, default=None,
@@ -273,6 +288,18 @@ def main(argv=None) -> int:
          dense_chords(), 64),
         ("128-note cluster, sitar (128 voices)", "sitar", cluster, 128),
     ]
+    if a.shedding:
+        print("\n| performance | voices shed, block 128, default overload rule | "
+              "the same without the lateness condition (max_late=0) | blocks |")
+        print("|---|---|---|---|")
+        for label, preset, evs, poly in perfs:
+            dur = max(e.time_s for e in evs) + 1.0 if preset != "sitar" else 5.0
+            if a.seconds:
+                dur = min(dur, a.seconds)
+            t, _, _, shed = drive(preset, evs, dur, 128, poly, shedding=True)
+            _, _, _, shed0 = drive(preset, evs, dur, 128, poly, shedding=True, max_late=0.0)
+            print(f"| {label} | {shed} | {shed0} | {len(t)} |", flush=True)
+        return 0
     print(f"\n| performance | block | worst | 99th pct | mean | blocks over budget | "
           f"underruns, 2-period device | per repeat ({a.repeats}) | most voices |")
     print("|---|---|---|---|---|---|---|---|---|")

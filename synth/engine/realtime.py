@@ -22,10 +22,15 @@ The callback
 one block into a preallocated buffer and copies it to the float32 output.
 It does no per-voice Python work and allocates no arrays: the engine renders
 all strings with one kernel call per segment, decimates and runs the
-soundboard in place.  Rendering time is measured per block; when a block
-takes more than ``overload`` of its real-time budget the quietest voices are
-faded out (``shed_fraction`` of them) once ``slow_blocks`` blocks in a row
-were that slow, so that a heavy passage thins out instead of dropping out.  Underruns reported by the audio device are counted.
+soundboard in place.  Rendering time is measured per block; when
+``slow_blocks`` blocks in a row take more than ``overload`` of their
+real-time budget *and* the time they ran over has eaten ``max_late`` of the
+device's spare period (slow blocks eat into it, fast ones refill it), the
+quietest voices are faded out (``shed_fraction`` of them), so that a heavy
+passage thins out instead of dropping out.  The attack of a dense chord
+(one or two blocks near or over budget, then fast ones) is absorbed by the
+device's buffer and sheds nothing; a single stall of the machine does not
+shed either.  Underruns reported by the audio device are counted.
 
 Program changes swap the instrument: a new engine (built and warmed outside
 the callback) takes the new notes while the old one renders until its
@@ -90,11 +95,17 @@ class Realtime:
         Share of the sounding voices faded out at an overload (0..1).
     slow_blocks : int
         Consecutive blocks over the threshold before voices are shed.
+    max_late : float
+        Accumulated lateness (in blocks, 0 .. 1: the share of one spare
+        device period eaten) that must also be reached before voices are
+        shed; 0 sheds on ``slow_blocks`` alone.  Lateness grows by
+        (block time / budget - 1) per block, never below 0, and starts again
+        from 0 once it passes a whole period (the device has then run dry).
     """
 
     def __init__(self, engine: Engine, block: int = 128, latency_s: float | None = None,
                  clock=time.monotonic, overload: float = 0.9, shed_fraction: float = 0.25,
-                 slow_blocks: int = 2):
+                 slow_blocks: int = 2, max_late: float = 0.5):
         if not (16 <= int(block) <= Engine.MAX_BLOCK_OUT):
             raise ValueError(f"block = {block!r} is out of range (16 <= value <= {Engine.MAX_BLOCK_OUT})")
         if overload is not None and not (0.0 < overload <= 2.0):
@@ -107,7 +118,11 @@ class Realtime:
         self.overload = None if overload is None else float(overload)
         self.shed_fraction = float(shed_fraction)
         self.slow_blocks = max(1, int(slow_blocks))
+        if not (0.0 <= max_late <= 1.0):
+            raise ValueError(f"max_late = {max_late!r} is out of range (0 <= value <= 1)")
+        self.max_late = float(max_late)
         self._slow = 0
+        self._late = 0.0               # blocks of lateness the device buffer absorbs now
         self.budget_s = self.block / self.fs
         self._queue: collections.deque = collections.deque()
         self._buf = np.zeros(Engine.MAX_BLOCK_OUT)
@@ -216,12 +231,16 @@ class Realtime:
         st.block_times_s.append(dt * self.block / frames)
         if frac > st.worst_fraction:
             st.worst_fraction = frac
+        late = self._late + frac - 1.0
+        self._late = 0.0 if (late < 0.0 or late > 1.0) else late
         if self.overload is not None and frac > self.overload:
             st.overloads += 1
             self._slow += 1
             # one slow block is often the machine, not the music (another
-            # process, a page fault): shed only when the overload lasts
-            if self._slow >= self.slow_blocks:
+            # process, a page fault), and a chord's attack is absorbed by the
+            # device's spare period: shed only when the overload lasts and
+            # has eaten into that period
+            if self._slow >= self.slow_blocks and self._late >= self.max_late:
                 n = int(np.ceil(self.shed_fraction * self.engine.n_live))
                 if n:
                     st.shed_voices += self.engine.shed(n)
