@@ -209,7 +209,7 @@ def _grand_strike(key, strikes, law, per_sample, block, lossy=True):
     at = [int(round(t / su.dt_s)) for t, _ in strikes] + [n]
     mix = np.zeros(n)
     for j, (_, speed) in enumerate(strikes):
-        hp = inst._hammer(key, n_str, su, speed, 0.0)
+        hp = dict(inst._hammer(key, n_str, su), speed_m_per_s=speed)
         if law == 5:
             from synth.physics import piano as P
             f0, p, gamma, tau0 = P.hammer_four_param(key)

@@ -84,8 +84,8 @@ class Clock:
 def drive(preset: str, events, seconds: float, block: int, polyphony: int,
           shedding: bool = False, **rt_kw):
     """Play ``events`` through the callback; returns (block times, most
-    voices, callback errors[, voices shed]).  ``shedding``: with the live
-    player's default overload rule instead of none."""
+    voices, callback errors, voices shed).  ``shedding``: with the live
+    player's default overload rule (``rt_kw`` changing it) instead of none."""
     inst = instrument_for(load_preset(preset))
     inst.warm()                      # as the live player does before the stream opens
     eng = Engine(inst, polyphony=polyphony)
@@ -109,9 +109,7 @@ def drive(preset: str, events, seconds: float, block: int, polyphony: int,
         times[b] = time.perf_counter() - t
         most = max(most, eng.n_voices)
     rt.stop()
-    if shedding:
-        return times, most, rt.stats.errors, rt.stats.shed_voices
-    return times, most, rt.stats.errors
+    return times, most, rt.stats.errors, rt.stats.shed_voices
 
 
 def stats(times, budget):
@@ -310,9 +308,9 @@ def main(argv=None) -> int:
         for b in blocks:
             runs = [drive(preset, evs, dur, b, poly) for _ in range(a.repeats)]
             budget = b / 48000
-            r = stats(np.median([t for t, _, _ in runs], axis=0), budget)
-            each = ",".join(str(stats(t, budget)["underruns"]) for t, _, _ in runs)
-            most = max(m for _, m, _ in runs)
+            r = stats(np.median([r[0] for r in runs], axis=0), budget)
+            each = ",".join(str(stats(r[0], budget)["underruns"]) for r in runs)
+            most = max(r[1] for r in runs)
             print(f"| {label} | {b} | {r['worst'] * 100:.0f}% | {r['p99'] * 100:.0f}% | "
                   f"{r['mean'] * 100:.0f}% | {r['over']} of {r['blocks']} | {r['underruns']} | "
                   f"{each} | {most} |", flush=True)

@@ -105,17 +105,8 @@ def lp_lag(w, a1):
     return np.arctan2(-a1 * np.sin(w), 1 + a1 * np.cos(w))
 
 
-def lp_gd(w, a1):
-    """Group delay of b0/(1 + a1 z^-1) (samples)."""
-    return -(a1 * a1 + a1 * np.cos(w)) / (1 + 2 * a1 * np.cos(w) + a1 * a1)
-
-
 def eta_of_rem(rem, w1):
     return np.sin((1 - rem) * w1 / 2) / np.sin((1 + rem) * w1 / 2)
-
-
-def deta_drem(rem, w1):
-    return -(w1 / 2) * math.sin(w1) / np.sin((1 + rem) * w1 / 2) ** 2
 
 
 # ---------------------------------------------------------------------------
@@ -170,65 +161,42 @@ class Problem:
             return C, dth, dR, da
         return C
 
-    def cents(self, th, R, m1=0, a=0.0, Dint=None):
+    def cents(self, th, R, m1=0, a=0.0):
         """Linearised cents errors of partials 1..K (+ = sharp), and tuning."""
         C = self.cascade(th, R, m1, a)
         Dt, N, extra, rem = self.tuning(float(C[0]))
-        if Dint is not None:
-            rem = rem + Dt - Dint
-            Dt = Dint
         eta = float(eta_of_rem(rem, self.w1))
         lag = Dt * self.w + self.lpl + fo_lag(self.w, eta) + C
         return self.scale * (lag - TWO_PI * self.n), (N, extra, eta)
 
     # -- AVS initial design
-    def avs(self, M, c=2.0, n_top=None, fallback=False, m1=0, a0=None):
+    def avs(self, M, c=2.0, m1=0, a0=None):
         """Pole angles where the desired cascade phase crosses (k - 1/2) 2 pi,
-        radii R = exp(-c * half-spacing).  The desired cascade phase is
-        2 pi n(w) - lp_lag(w) - L w with L such that it is 2 pi M at n_top."""
+        radii R = exp(-c * half-spacing).  The desired biquad phase is
+        2 pi n(w) - lp_lag(w) - L w (- the first-order section's lag, pole
+        ``a0``, when m1 = 1) with L such that it is 2 pi M at n = K + 1/2;
+        when that is not increasing (too few sections for the whole band) L
+        is the smallest group delay and the pole targets are scaled to the
+        phase left."""
         f0, B, fs = self.f0, self.B, self.fs
-        if n_top is None:
-            n_top = self.K + 0.5
-        f_top = float(D.stiff_partials(f0, B, n_top))
-        w_top = TWO_PI * f_top / fs
-        if m1 and a0 is not None:
-            tot = TWO_PI * M + m1 * float(fo_lag(np.array([w_top]), a0)[0])
-        else:
-            tot = TWO_PI * M + math.pi * m1           # phase the cascade supplies at n_top
+        n_top = self.K + 0.5
+        w_top = TWO_PI * float(D.stiff_partials(f0, B, n_top)) / fs
+        fo_top = m1 * float(fo_lag(np.array([w_top]), a0)[0]) if m1 else 0.0
+        tot = TWO_PI * M + fo_top
         L = (TWO_PI * n_top - float(lp_lag(np.array([w_top]), self.a1)[0]) - tot) / w_top
-        ng = 512
-        wg = np.linspace(0.0, w_top, ng)
+        wg = np.linspace(0.0, w_top, 512)
         ngr = D.partial_number(wg * fs / TWO_PI, f0, B)
-        phi = TWO_PI * ngr - lp_lag(wg, self.a1) - L * wg
-        if m1 and a0 is not None:
-            phi = phi - m1 * fo_lag(wg, a0)            # biquads supply the rest
-            targets = TWO_PI * (np.arange(1, M + 1) - 0.5)
-        else:
-            targets = math.pi * m1 + TWO_PI * (np.arange(1, M + 1) - 0.5)
+        base = TWO_PI * ngr - lp_lag(wg, self.a1)
+        fo = m1 * fo_lag(wg, a0) if m1 else 0.0
+        phi = base - L * wg - fo
+        targets = TWO_PI * (np.arange(1, M + 1) - 0.5)
         if np.any(np.diff(phi) <= 0):
-            # too few sections for the whole band: keep the delay's slope at
-            # the smallest group delay (phase still rising), and share the
-            # phase that is left among M sections
-            if not fallback:
-                return None
-            ngr_d = np.gradient(TWO_PI * ngr - lp_lag(wg, self.a1), wg)
-            L = float(ngr_d.min()) * (1 - 1e-3)
-            phi = TWO_PI * ngr - lp_lag(wg, self.a1) - L * wg
-            if m1 and a0 is not None:
-                phi = phi - m1 * fo_lag(wg, a0)
-                tot = phi[-1]
-            targets = targets * (phi[-1] / tot)
+            L = float(np.gradient(base, wg).min()) * (1 - 1e-3)
+            phi = base - L * wg - fo
+            targets = targets * (phi[-1] / (phi[-1] if m1 else tot))
         th = np.interp(targets, phi, wg)
         ext = np.concatenate(([-th[0]], th, [2 * th[-1] - th[-2] if M > 1 else 2 * th[0]]))
-        half = 0.5 * (ext[2:] - ext[:-2])
-        R = np.exp(-c * half)
-        if m1 and a0 is not None:
-            return th, R, a0
-        if m1:
-            # one first-order section (a + z^-1)/(1 + a z^-1) whose lag is
-            # pi/2 where the desired phase is pi/2: pole p = -a = 1/(sin wc + cos wc)
-            wc = float(np.interp(0.5 * math.pi, phi, wg))
-            return th, R, -1.0 / (math.sin(wc) + math.cos(wc))
+        R = np.exp(-c * 0.5 * (ext[2:] - ext[:-2]))
         return th, R
 
     # -- refinement
@@ -278,38 +246,6 @@ class Problem:
         return th, R, aa, sol
 
 
-def design(pb: Problem, tol=2.0, u_max=32, c=0.7, r_fo=2.0, max_nfev=40, allow_fo=True):
-    """Cheapest cascade (cost units U = 2 M + m1: M biquads, m1 in {0, 1}
-    first-order sections) whose refined design keeps partials 1..K within
-    ``tol`` cents (linearised).  Returns a dict (the best one tried if none
-    meets tol)."""
-    K = pb.K
-    if K < 2 or pb.B == 0:
-        return dict(M=0, m1=0, th=np.zeros(0), R=np.zeros(0), a=0.0, worst=0.0,
-                    tuning=pb.tuning(0.0)[1:3] + (0.0,), nfev=0, tried=0)
-    best = None
-    tried = 0
-    for U in range(2, u_max + 1):
-        M, m1 = U // 2, U % 2
-        if m1 and not allow_fo:
-            continue
-        a0 = -1.0 + r_fo * pb.w1 if m1 else None      # FO pole at 1 - r_fo w1
-        init = pb.avs(M, c, m1=m1, a0=a0)
-        if init is None:                                 # phase not monotone: too few
-            continue
-        tried += 1
-        th, R, aa, sol = pb.refine(init[0], init[1], m1, a0 if m1 else 0.0, max_nfev=max_nfev)
-        cents, tun = pb.cents(th, R, m1, aa)
-        worst = float(np.max(np.abs(cents)))
-        rec = dict(M=M, m1=m1, th=th, R=R, a=aa, worst=worst, cents=cents, tuning=tun,
-                   nfev=sol.nfev, tried=tried)
-        if best is None or worst < best["worst"]:
-            best = rec
-        if worst <= tol:
-            return rec
-    return best
-
-
 def lawson(pb: Problem, th, R, m1, a, passes=6, nfev=20):
     """Towards minimax: Lawson reweighting, w_n <- w_n |e_n| (normalised),
     each pass a weighted Levenberg-Marquardt warm-started from the last."""
@@ -328,7 +264,7 @@ def lawson(pb: Problem, th, R, m1, a, passes=6, nfev=20):
     return th, R, a
 
 
-def design2(pb: Problem, tol=2.0, u_max=32, c=0.7, r_fo=2.0, max_nfev=40, passes=6,
+def design_sos(pb: Problem, tol=2.0, u_max=32, c=0.7, r_fo=2.0, max_nfev=40, passes=6,
             skip_factor=2.2):
     """Cheapest cascade (U = 2 M + m1 first-order-section units) whose
     LS + Lawson (near-minimax) design keeps partials 1..K within ``tol``.
@@ -336,16 +272,17 @@ def design2(pb: Problem, tol=2.0, u_max=32, c=0.7, r_fo=2.0, max_nfev=40, passes
     slope = smallest group delay) when the phase is not monotone."""
     K = pb.K
     if K < 2 or pb.B == 0:
-        return design(pb, tol)
+        return dict(M=0, m1=0, th=np.zeros(0), R=np.zeros(0), a=0.0, worst=0.0,
+                    tuning=pb.tuning(0.0)[1:3] + (0.0,), nfev=0, tried=0)
     u0 = max(2, int(math.ceil(D.phase_budget_sections(pb.f0, pb.B, K) - 1e-9)))
     best = None
     tried = 0
     for U in range(u0, u_max + 1):
         M, m1 = U // 2, U % 2
         a0 = -1.0 + r_fo * pb.w1 if m1 else None
-        init = pb.avs(M, c, m1=m1, a0=a0, fallback=True)
+        th, R = pb.avs(M, c, m1=m1, a0=a0)
         tried += 1
-        th, R, aa, sol = pb.refine(init[0], init[1], m1, a0 if m1 else 0.0, max_nfev=max_nfev)
+        th, R, aa, sol = pb.refine(th, R, m1, a0 if m1 else 0.0, max_nfev=max_nfev)
         w_ls = float(np.max(np.abs(pb.cents(th, R, m1, aa)[0])))
         if w_ls > tol and w_ls <= skip_factor * tol and passes:
             th, R, aa = lawson(pb, th, R, m1, aa, passes)
@@ -439,30 +376,16 @@ def bh4(n):
 
 
 def peak_freq(xw, fs, f_guess, half_width):
-    """Frequency of the largest |DTFT| of xw within f_guess +- half_width (golden section)."""
+    """Frequency of the largest |DTFT| of xw within f_guess +- half_width:
+    a 41-point grid, then golden section (dispersion's) around its best."""
     t = np.arange(len(xw)) / fs
 
     def mag(f):
         return -abs(np.dot(xw, np.exp(-2j * np.pi * f * t)))
 
-    # coarse grid then golden section
     fg = np.linspace(f_guess - half_width, f_guess + half_width, 41)
-    m = np.array([mag(f) for f in fg])
-    i = int(np.argmin(m))
-    lo, hi = fg[max(i - 1, 0)], fg[min(i + 1, 40)]
-    g = (math.sqrt(5) - 1) / 2
-    a, b = hi - g * (hi - lo), lo + g * (hi - lo)
-    fa, fb = mag(a), mag(b)
-    for _ in range(40):
-        if fa <= fb:
-            hi, b, fb = b, a, fa
-            a = hi - g * (hi - lo)
-            fa = mag(a)
-        else:
-            lo, a, fa = a, b, fb
-            b = lo + g * (hi - lo)
-            fb = mag(b)
-    return 0.5 * (lo + hi)
+    i = int(np.argmin([mag(f) for f in fg]))
+    return D._golden(mag, fg[max(i - 1, 0)], fg[min(i + 1, 40)], 40)[0]
 
 
 
@@ -484,7 +407,7 @@ def table(keys, tol, reps):
         for _ in range(reps):
             t0 = time.perf_counter()
             pb = Problem(f1, B, FS, tlo, f1, thi, fh)
-            d = design2(pb, tol=tol)
+            d = design_sos(pb, tol=tol)
             ts.append(time.perf_counter() - t0)
         to = []
         for _ in range(3):
@@ -504,7 +427,7 @@ def simulate(keys, seconds, tol):
     for key in keys:
         f1, B, tlo, thi, fh = string_args(key)
         pb = Problem(f1, B, FS, tlo, f1, thi, fh)
-        d = design2(pb, tol=tol)
+        d = design_sos(pb, tol=tol)
         N, extra, eta = d["tuning"]
         c1, c2 = sos_coeffs(d["th"], d["R"])
         nsamp = int(seconds * FS)

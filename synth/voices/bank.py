@@ -115,13 +115,10 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
     if law == 5 and not tau0_s > 0:
         raise ValueError(f"tau0_s = {tau0_s!r} is out of range (value > 0)")
     tau0 = tau0_s if law == 5 else 1.0
-    v = np.zeros(len(_HAMMER_COLS))
-    vals = {K.F_HQ: stiffness, K.F_HP: exponent, K.F_HA: alpha_or_gamma, K.F_HT: tau0,
-            K.F_HREL: max(1.0, round(release_s / dt_s)), K.F_HE: math.exp(-dt_s / tau0),
-            K.F_HK: c_m_per_s / (2.0 * tension_n),
-            K.F_HMC: 2.0 * tension_n / (c_m_per_s * mass_kg)}
-    for i, col in enumerate(_HAMMER_COLS):
-        v[i] = vals[int(col)]
+    # in the order of _HAMMER_COLS
+    v = np.array([stiffness, exponent, alpha_or_gamma, tau0, max(1.0, round(release_s / dt_s)),
+                  math.exp(-dt_s / tau0), c_m_per_s / (2.0 * tension_n),
+                  2.0 * tension_n / (c_m_per_s * mass_kg)])
     return HammerTemplate(int(law), v, max(1, int(round(max_flight_s / dt_s))), float(dt_s))
 
 

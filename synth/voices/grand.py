@@ -175,8 +175,7 @@ class GrandPianoInstrument:
                                  lossy=True, n_disp=su.n_disp, a_disp=su.a_disp,
                                  glide_s=StringBank.LOSS_GLIDE_S,
                                  bend_glide_s=StringBank.BEND_GLIDE_S)
-            hp = self._hammer(key, len(out), su, 1.0, 0.0)
-            del hp["speed_m_per_s"]
+            hp = self._hammer(key, len(out), su)
             # the damper's felt: T60 from the damped value (release_t60_s, at
             # most the free one) to the free one as the pedal lifts it; keys
             # without dampers ring on (damped = free)
@@ -194,19 +193,21 @@ class GrandPianoInstrument:
         return a.speed_min_m_per_s + (a.speed_max_m_per_s - a.speed_min_m_per_s) * v ** (
             self.preset.play.velocity_exponent)
 
-    def _hammer(self, key: int, n_strings: int, su: GrandStringSetup, speed: float, soft: float) -> dict:
+    def _hammer(self, key: int, n_strings: int, su: GrandStringSetup) -> dict:
+        """The key's felt hammer for one of its ``n_strings`` strings
+        (:func:`synth.voices.bank.hammer_template` arguments but dt; the
+        speed and the soft pedal's stiffness factor come per strike)."""
         a = self.preset.action
-        stiff = 1.0 - (1.0 - a.soft_stiffness) * min(max(soft, 0.0), 1.0)
         mass = P.hammer_mass_kg(key, n_strings)
         if a.law == "three-parameter":
             q0, p, alpha = P.hammer_three_param(key)
-            return dict(law=4, mass_kg=mass, speed_m_per_s=speed, stiffness=q0 * stiff, exponent=p,
-                        alpha_or_gamma=alpha, tau0_s=0.0, tension_n=su.tension_n,
-                        c_m_per_s=su.c_m_per_s, max_flight_s=0.05)
+            return dict(law=4, mass_kg=mass, stiffness=q0, exponent=p, alpha_or_gamma=alpha,
+                        tau0_s=0.0, tension_n=su.tension_n, c_m_per_s=su.c_m_per_s,
+                        max_flight_s=0.05)
         f0, p, gamma, tau0 = P.hammer_four_param(key)
-        return dict(law=5, mass_kg=mass, speed_m_per_s=speed, stiffness=f0 * stiff, exponent=p,
-                    alpha_or_gamma=gamma, tau0_s=tau0, tension_n=su.tension_n,
-                    c_m_per_s=su.c_m_per_s, max_flight_s=0.05)
+        return dict(law=5, mass_kg=mass, stiffness=f0, exponent=p, alpha_or_gamma=gamma,
+                    tau0_s=tau0, tension_n=su.tension_n, c_m_per_s=su.c_m_per_s,
+                    max_flight_s=0.05)
 
     # -- voice contract -----------------------------------------------------------
     def note_on(self, bank: StringBank, slots, key, velocity: float, f0_hz=None,
