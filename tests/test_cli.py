@@ -20,14 +20,14 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-import synth
 from synth.analysis import cents, estimate_f0
 from synth.cli import main
 from synth.physics.plucks import sitar_g
 
 from helpers import shared_dir
 
-REPO_PRESETS = Path(synth.__file__).resolve().parents[1] / "presets"
+# the checkout's presets (package data, shipped in the wheel)
+REPO_PRESETS = Path(__file__).resolve().parents[1] / "synth" / "presets"
 MIDI_DIR = shared_dir() / "midi"
 SONG = MIDI_DIR / "HerGoldenHairWasCurlingDown.mid"
 MALFORMED = sorted(p for p in (MIDI_DIR / "malformed").glob("*") if p.is_file()) \
@@ -45,7 +45,7 @@ STUDY_GAIN = 50.0
 
 @pytest.fixture(autouse=True)
 def _isolated(tmp_path, monkeypatch):
-    """Run every test in its own directory with only the repository's presets."""
+    """Run every test in its own directory with only the shipped presets."""
     monkeypatch.delenv("SYNTH_PRESET_PATH", raising=False)
     monkeypatch.chdir(tmp_path)
 

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import glob
+import importlib.resources
 import math
+import os
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -21,7 +25,7 @@ from synth.io.presets import (
     validate_dict,
 )
 
-SRC = "presets/sitar.toml"
+SRC = "synth/presets/sitar.toml"
 
 
 def musical() -> dict:
@@ -225,14 +229,14 @@ def test_position_just_inside_is_fine():
 def test_message_examples_of_the_schema():
     d = musical()
     d["pluck"]["position"] = 1.5
-    assert error_of(d) == "presets/sitar.toml: pluck.position = 1.5 is out of range (0 < value < 1)"
+    assert error_of(d) == "synth/presets/sitar.toml: pluck.position = 1.5 is out of range (0 < value < 1)"
     d = musical()
     d["pluck"]["positon"] = 0.5
-    assert error_of(d) == ("presets/sitar.toml: unknown key 'pluck.positon' "
+    assert error_of(d) == ("synth/presets/sitar.toml: unknown key 'pluck.positon' "
                            "(allowed: model, position, amplitude_m, duration_s, alpha_per_s)")
     d = musical()
     del d["string"]["tension_n"]
-    assert error_of(d) == "presets/sitar.toml: missing key 'string.tension_n'"
+    assert error_of(d) == "synth/presets/sitar.toml: missing key 'string.tension_n'"
 
 
 def test_unknown_top_level_key_and_section():
@@ -527,15 +531,15 @@ def _write(path: Path, raw: dict) -> Path:
 
 
 @pytest.fixture
-def fake_repo(tmp_path, monkeypatch):
-    """Point preset_dirs()' repository entry at tmp_path/repo/presets (not created)."""
-    repo = tmp_path / "repo"
-    monkeypatch.setattr(synth, "__file__", str(repo / "synth" / "__init__.py"))
-    return repo / "presets"
+def fake_shipped(tmp_path, monkeypatch):
+    """Point preset_dirs()' shipped entry at tmp_path/shipped/presets (not created)."""
+    d = tmp_path / "shipped" / "presets"
+    monkeypatch.setattr(P, "shipped_preset_dir", lambda: d)
+    return d
 
 
 @pytest.fixture
-def preset_dir(tmp_path, monkeypatch, fake_repo):
+def preset_dir(tmp_path, monkeypatch, fake_shipped):
     d = tmp_path / "presets"
     _write(d / "sitar.toml", musical())
     s = study()
@@ -545,17 +549,23 @@ def preset_dir(tmp_path, monkeypatch, fake_repo):
     return d
 
 
-def test_preset_dirs_env_first_then_repo(tmp_path, monkeypatch):
-    import os
+def test_preset_dirs_env_first_then_shipped(tmp_path, monkeypatch):
     a, b = tmp_path / "a", tmp_path / "b"
     monkeypatch.setenv("SYNTH_PRESET_PATH", f"{a}{os.pathsep}{os.pathsep}{b}")
     dirs = preset_dirs()
-    repo = Path(synth.__file__).resolve().parents[1] / "presets"
-    assert repo == Path(__file__).resolve().parents[1] / "presets"
+    shipped = P.shipped_preset_dir()
     assert dirs[:2] == [a, b]
-    assert dirs[-1] == repo and len(dirs) == 3
+    assert dirs[-1] == shipped and len(dirs) == 3
     monkeypatch.delenv("SYNTH_PRESET_PATH")
-    assert preset_dirs() == [repo]
+    assert preset_dirs() == [shipped]
+
+
+def test_shipped_presets_are_the_package_data_folder():
+    """Inside the imported package (package data, so a wheel carries it), not beside it."""
+    shipped = P.shipped_preset_dir()
+    assert shipped == importlib.resources.files("synth") / "presets"
+    assert shipped.resolve() == Path(synth.__file__).resolve().parent / "presets"
+    assert shipped.is_dir() and any(shipped.rglob("*.toml"))
 
 
 def test_load_by_name_and_subdirectory_name(preset_dir):
@@ -588,8 +598,7 @@ def test_list_presets_survives_a_broken_file(preset_dir):
     assert listing["sitar"] == "Sitar with a case-1 jawari"
 
 
-def test_env_directory_wins_over_a_later_one(preset_dir, tmp_path, monkeypatch, fake_repo):
-    import os
+def test_env_directory_wins_over_a_later_one(preset_dir, tmp_path, monkeypatch, fake_shipped):
     other = tmp_path / "other"
     d = musical()
     d["description"] = "shadowed"
@@ -597,15 +606,15 @@ def test_env_directory_wins_over_a_later_one(preset_dir, tmp_path, monkeypatch, 
     monkeypatch.setenv("SYNTH_PRESET_PATH", f"{preset_dir}{os.pathsep}{other}")
     assert dict(list_presets())["sitar"] == "Sitar with a case-1 jawari"
     assert load_preset("sitar").description == "Sitar with a case-1 jawari"
-    # ... and over the repository's presets/
-    d["description"] = "repository version"
-    _write(fake_repo / "sitar.toml", d)
-    _write(fake_repo / "only-in-repo.toml", d)
+    # ... and over the shipped presets (synth/presets)
+    d["description"] = "shipped version"
+    _write(fake_shipped / "sitar.toml", d)
+    _write(fake_shipped / "only-shipped.toml", d)
     monkeypatch.setenv("SYNTH_PRESET_PATH", str(preset_dir))
     assert load_preset("sitar").description == "Sitar with a case-1 jawari"
-    assert load_preset("only-in-repo").description == "repository version"
+    assert load_preset("only-shipped").description == "shipped version"
     monkeypatch.delenv("SYNTH_PRESET_PATH")
-    assert load_preset("sitar").description == "repository version"
+    assert load_preset("sitar").description == "shipped version"
 
 
 def test_unknown_name_lists_available(preset_dir):
@@ -806,10 +815,11 @@ def test_preset_error_is_a_synth_error():
 
 
 # --------------------------------------------------------------------------
-# The presets shipped in the repository validate
+# The presets shipped in the checkout (synth/presets) validate, and a wheel carries them
 # --------------------------------------------------------------------------
 
-_REPO_PRESETS = Path(synth.__file__).resolve().parents[1] / "presets"
+_ROOT = Path(__file__).resolve().parents[1]
+_REPO_PRESETS = _ROOT / "synth" / "presets"
 _SHIPPED = sorted(_REPO_PRESETS.rglob("*.toml")) if _REPO_PRESETS.is_dir() else []
 
 
@@ -818,6 +828,57 @@ _SHIPPED = sorted(_REPO_PRESETS.rglob("*.toml")) if _REPO_PRESETS.is_dir() else 
 def test_shipped_preset_is_valid(path):
     p = load_preset(str(path))
     assert p.description and p.name == path.relative_to(_REPO_PRESETS).with_suffix("").as_posix()
+
+
+def _package_data_files(package_dir: Path, patterns) -> set[Path]:
+    """The files setuptools' build_py takes for `patterns` (glob, recursive ``**``)."""
+    out: set[Path] = set()
+    for pat in patterns:
+        out |= {Path(f).resolve() for f in glob.glob(str(package_dir / pat), recursive=True)
+                if os.path.isfile(f)}
+    return out
+
+
+def test_package_data_declares_every_shipped_preset():
+    """pyproject.toml's [tool.setuptools.package-data] must match every
+    synth/presets/**/*.toml: a preset it misses (say in a new subfolder that
+    the patterns do not reach) works in a checkout but is absent from a
+    wheel. Nothing is built; the patterns are expanded as setuptools does."""
+    assert _SHIPPED, "no presets shipped"
+    cfg = tomllib.loads((_ROOT / "pyproject.toml").read_text("utf-8"))
+    data = cfg["tool"]["setuptools"].get("package-data", {})
+    patterns = [*data.get("synth", []), *data.get("", [])]
+    declared = _package_data_files(_ROOT / "synth", patterns)
+    missing = [p.relative_to(_ROOT).as_posix() for p in _SHIPPED if p.resolve() not in declared]
+    assert not missing, f"not in [tool.setuptools.package-data] (a wheel would lack them): {missing}"
+
+
+def test_package_data_check_catches_a_preset_in_a_new_subfolder(tmp_path):
+    """The check above is not vacuous: a one-level pattern misses a deeper file."""
+    pkg = tmp_path / "synth"
+    top = _write(pkg / "presets" / "a.toml", musical())
+    deep = _write(pkg / "presets" / "new" / "deeper" / "b.toml", musical())
+    assert _package_data_files(pkg, ["presets/*.toml"]) == {top.resolve()}
+    assert _package_data_files(pkg, ["presets/*.toml", "presets/**/*.toml"]) == {
+        top.resolve(), deep.resolve()}
+
+
+def test_every_shipped_preset_is_found_through_importlib_resources(monkeypatch):
+    """Each file is reached from importlib.resources.files("synth") and listed by name."""
+    monkeypatch.delenv("SYNTH_PRESET_PATH", raising=False)
+    root = importlib.resources.files("synth") / "presets"
+
+    def walk(node, prefix=""):
+        for child in node.iterdir():
+            if child.is_dir():
+                yield from walk(child, f"{prefix}{child.name}/")
+            elif child.name.endswith(".toml"):
+                yield prefix + child.name[:-len(".toml")]
+
+    via_resources = sorted(walk(root))
+    in_checkout = sorted(p.relative_to(_REPO_PRESETS).with_suffix("").as_posix() for p in _SHIPPED)
+    assert via_resources == in_checkout
+    assert [n for n, _ in list_presets()] == in_checkout
 
 
 def test_schema_rows_document_themselves():

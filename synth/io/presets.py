@@ -1,8 +1,22 @@
 """Presets: TOML files describing one instrument voice (schema version 1).
 
-A preset is a TOML file under ``presets/`` (or a directory listed in
-``$SYNTH_PRESET_PATH``); its *name* is its path relative to that directory
-without ``.toml``, e.g. ``"sitar"`` or ``"paper/sitar-case1"``.
+A preset is a TOML file in a directory listed in ``$SYNTH_PRESET_PATH`` or
+in the shipped ``synth/presets/`` folder; its *name* is its path relative to
+that directory without ``.toml``, e.g. ``"sitar"`` or ``"paper/sitar-case1"``.
+
+The shipped presets are package data so a wheel carries them: they live
+inside the ``synth`` package, are declared in ``pyproject.toml``
+(``[tool.setuptools.package-data]``) and are found with
+``importlib.resources.files("synth") / "presets"``, which names the package's
+own directory whether it was installed editable (the checkout's
+``synth/presets``), from a wheel or by a plain ``pip install .`` (the copy in
+``site-packages/synth/presets``). A folder beside the package (the old
+``presets/`` at the top of the checkout, found by ``__file__`` arithmetic)
+exists only in a checkout, so an installed wheel had no presets. The folder
+is not a Python package (no ``__init__.py``); pip always unpacks wheels onto
+the file system, so the resource is a real directory and presets keep real
+paths (for error messages and ``Preset.path``); an import from a zip file,
+where it would not be one, is not supported and finds no shipped presets.
 
 The schema is declared once, as data, in :data:`SCHEMA_FIELDS` and
 :data:`SECTIONS`: every key has a type, a range or a set of choices, a short
@@ -17,9 +31,9 @@ new section, one frozen dataclass.
 Validation raises :class:`~synth.io.errors.PresetError` whose message is a
 single line naming the file, the dotted key, the value and what is allowed::
 
-    presets/sitar.toml: pluck.position = 1.5 is out of range (0 < value < 1)
-    presets/sitar.toml: unknown key 'pluck.positon' (allowed: model, ...)
-    presets/sitar.toml: missing key 'string.tension_n'
+    synth/presets/sitar.toml: pluck.position = 1.5 is out of range (0 < value < 1)
+    synth/presets/sitar.toml: unknown key 'pluck.positon' (allowed: model, ...)
+    synth/presets/sitar.toml: missing key 'string.tension_n'
 
 The validated result is an immutable, hashable :class:`Preset` built from
 plain ``int``/``float``/``str``/``tuple`` fields (keys that are absent for
@@ -32,6 +46,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import difflib
+import importlib.resources
 import json
 import math
 import os
@@ -61,6 +76,7 @@ __all__ = [
     "SCHEMA_FIELDS",
     "SECTIONS",
     "preset_dirs",
+    "shipped_preset_dir",
     "list_presets",
     "load_preset",
     "validate_dict",
@@ -925,20 +941,33 @@ def _apply_overrides(raw: dict[str, Any], overrides: Sequence[str], source: str
 # --------------------------------------------------------------------------
 
 
+def shipped_preset_dir() -> Path:
+    """The presets shipped with the package: ``synth/presets`` (package data).
+
+    Found through :mod:`importlib.resources`, so it is the installed package's
+    directory for editable, non-editable and wheel installs alike (see the
+    module notes). If the package is not on the file system (a zip import),
+    the returned path does not exist and no shipped preset is found.
+    """
+    res = importlib.resources.files("synth").joinpath("presets")
+    if isinstance(res, Path):
+        return res
+    return Path(str(res))  # not a real directory: callers skip it
+
+
 def preset_dirs() -> list[Path]:
     """Directories searched for presets, in priority order.
 
     The entries of ``$SYNTH_PRESET_PATH`` (``os.pathsep``-separated, empty
-    entries ignored) come first, then the repository's ``presets/`` folder.
-    Directories that do not exist are included (callers skip them).
+    entries ignored) come first, then the shipped presets
+    (:func:`shipped_preset_dir`). Directories that do not exist are included
+    (callers skip them).
     """
-    import synth
-
     dirs: list[Path] = []
     for entry in os.environ.get(ENV_PRESET_PATH, "").split(os.pathsep):
         if entry.strip():
             dirs.append(Path(entry).expanduser())
-    dirs.append(Path(synth.__file__).resolve().parents[1] / "presets")
+    dirs.append(shipped_preset_dir())
     unique: list[Path] = []
     seen: set[Path] = set()
     for d in dirs:
