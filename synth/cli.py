@@ -65,9 +65,14 @@ def _write(path: str, audio: np.ndarray, fs: int, pcm24: bool) -> str:
 
 # ---------------------------------------------------------------------------
 def cmd_presets(args) -> int:
-    from .io.presets import list_presets
+    from .io.presets import ENV_PRESET_PATH, list_presets, preset_dirs
 
     items = list_presets()
+    if not items:
+        # an install without its package data, or an empty SYNTH_PRESET_PATH
+        # directory and no shipped presets: say so, do not list nothing and succeed
+        where = ", ".join(str(d) for d in preset_dirs())
+        _fail(f"no presets found (looked in: {where}; add directories with ${ENV_PRESET_PATH})")
     w = max((len(n) for n, _ in items), default=0)
     for name, desc in items:
         print(f"{name:<{w}}  {desc}")

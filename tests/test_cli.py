@@ -95,6 +95,28 @@ def test_presets_lists_every_preset_with_its_description(capsys):
     assert "paper/sitar-ideal" in listed and "sitar" in listed and "biwa" in listed
 
 
+def test_presets_with_none_found_is_an_error(capsys, tmp_path, monkeypatch):
+    """An install without its package data must not list nothing and succeed:
+    one error line naming every directory searched, status 2."""
+    from synth.io import presets as P
+
+    shipped, extra = tmp_path / "site-packages" / "synth" / "presets", tmp_path / "mine"
+    shipped.mkdir(parents=True)
+    extra.mkdir()
+    monkeypatch.setattr(P, "shipped_preset_dir", lambda: shipped)
+    rc, out, err = run(capsys, "presets")
+    assert out == ""
+    assert_user_error(rc, err, "no presets found", str(shipped), "SYNTH_PRESET_PATH")
+    monkeypatch.setenv("SYNTH_PRESET_PATH", str(extra))
+    rc, out, err = run(capsys, "presets")
+    assert out == ""
+    assert_user_error(rc, err, "no presets found", f"{extra}, {shipped}")
+    # ... and the demo says where it looked, too
+    rc, out, err = run(capsys, "demo", "-o", str(tmp_path / "demo.wav"))
+    assert_user_error(rc, err, "unknown preset", str(shipped))
+    assert not (tmp_path / "demo.wav").exists()
+
+
 # --------------------------------------------------------------------------
 # synth note
 # --------------------------------------------------------------------------
