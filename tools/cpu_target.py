@@ -258,13 +258,15 @@ def describe(prefix: str = "# ") -> str:
     model = info.get("model name") or platform.processor() or "unknown"
     cpu_level = isa_level_cpu(flags) if flags else "?"
     avx512 = "yes" if "avx512f" in flags else ("no" if flags else "?")
+    n_cpu = os.cpu_count()
     try:
-        n_cpu = len(os.sched_getaffinity(0))
+        n_aff = len(os.sched_getaffinity(0))
     except (AttributeError, OSError):
-        n_cpu = os.cpu_count()
+        n_aff = n_cpu
+    cpus = f"{n_cpu} CPUs" + (f" ({n_aff} usable by this process)" if n_aff != n_cpu else "")
     cpu = (f"{model} (family {info.get('cpu family', '?')}, model {info.get('model', '?')}, "
            f"{info.get('cpu MHz', '?')} MHz, cache {info.get('cache size', '?')}), "
-           f"{n_cpu} CPUs usable; x86-64-{cpu_level}, AVX-512 {avx512}")
+           f"{cpus}; x86-64-{cpu_level}, AVX-512 {avx512}")
     name, feats = codegen_in_effect()
     level, code512 = code_isa(name, feats)
     from numba.core import config
