@@ -1,18 +1,25 @@
 """Quick timing of the streaming decimator.
 
 Usage:  python tools/bench_decimator.py [--seconds 1] [--block 64] [--runs 7]
+                                       [--cpu-name {host,haswell,generic,all}]
 
 For each internal rate, pushes ``--seconds`` of noise through a fresh
 Decimator in engine-like blocks (``inputs_needed(block)`` inputs for ``block``
 outputs at a time) and prints the median over ``--runs`` runs of: ns per
 output sample, and ms of CPU per second of audio.
+
+``--cpu-name`` picks numba's code-generation target (``tools/cpu_target.py``:
+host, haswell = AVX2 only, generic = SSE2, or all three in turn); the header
+names the CPU and the target in effect.
 """
 
 import argparse
+import sys
 import time
 
 import numpy as np
 
+import cpu_target  # tools/, on sys.path when run as a script
 from synth.engine.decimator import Decimator
 
 
@@ -45,13 +52,20 @@ def main():
     ap.add_argument("--seconds", type=float, default=1.0)
     ap.add_argument("--block", type=int, default=64)
     ap.add_argument("--runs", type=int, default=7)
+    cpu_target.add_cpu_option(ap)
     a = ap.parse_args()
+    rc = cpu_target.dispatch(a.cpu_name)
+    if rc is not None:
+        return rc
+    print(f"# command: {' '.join(['python'] + sys.argv)}")
+    print(cpu_target.describe())
     for fs in (325000, 336000, 324800):
         dec, ns, ms = bench(fs, a.seconds, a.block, a.runs)
         print(f"fs_in={fs:7d}  L/M={dec.L}/{dec.M:<4d} taps/phase={dec.taps_per_phase}  "
               f"latency={dec.latency_s * 1e3:.3f} ms  {ns:7.1f} ns/output  "
               f"{ms:6.2f} ms per s of audio  (block {a.block} outputs)")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,6 +1,7 @@
 """Cost of grand-piano notes at the default 325 kHz internal rate, one core.
 
     NUMBA_NUM_THREADS=1 python tools/bench_grand.py [--runs 5]
+                                                    [--cpu-name {host,haswell,generic,all}]
 
 Prints, medians over ``--runs`` repetitions (each after a warm-up render):
 
@@ -19,13 +20,16 @@ Prints, medians over ``--runs`` repetitions (each after a warm-up render):
    note-ons land;
 5. a sustain-pedal change (CC64) with 64 released voices held by the
    pedal: the engine's time to apply the event (the dampers of all of them).
+
+``--cpu-name`` picks numba's code-generation target (``tools/cpu_target.py``:
+host, haswell = AVX2 only, generic = SSE2, or all three in turn); the header
+names the CPU and the target in effect.
 """
 
 from __future__ import annotations
 
 import argparse
 import os
-import platform
 import sys
 import time
 
@@ -33,21 +37,12 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
 from synth.engine.engine import Engine, Event  # noqa: E402
 from synth.io.presets import load_preset  # noqa: E402
 from synth.voices import instrument_for  # noqa: E402
 
 KEYS = (21, 33, 45, 57, 60, 69, 81, 93, 105, 108)
-
-
-def cpu_name() -> str:
-    try:
-        for line in open("/proc/cpuinfo"):
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
 
 
 def make_engine(polyphony=96):
@@ -154,12 +149,15 @@ def idle(runs: int) -> float:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--runs", type=int, default=5)
+    cpu_target.add_cpu_option(ap)
     a = ap.parse_args(argv)
-    import numba
+    rc = cpu_target.dispatch(a.cpu_name, argv)
+    if rc is not None:
+        return rc
 
-    print(f"# {time.strftime('%Y-%m-%d %H:%M')}  {cpu_name()}  numba {numba.__version__}  "
-          f"NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')}")
+    print(f"# {time.strftime('%Y-%m-%d %H:%M')}  NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')}")
     print(f"# command: {' '.join([os.path.basename(sys.executable)] + sys.argv)}")
+    print(cpu_target.describe())
     # warm-up (compilation, caches)
     e = make_engine(4)
     e.schedule([Event(0.0, "note_on", 60, 0.8)])

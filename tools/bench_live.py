@@ -4,6 +4,7 @@
                                                    [--seconds S] [--host-seconds S] [--host-only]
     NUMBA_NUM_THREADS=1 python tools/bench_live.py --program-change
     NUMBA_NUM_THREADS=1 python tools/bench_live.py --shedding
+    (each also with --cpu-name {host,haswell,generic,all})
 
 Drives :class:`synth.engine.realtime.Realtime` exactly as the audio device
 would (``callback(outdata, frames, ...)``), as fast as it can, and times every
@@ -43,11 +44,15 @@ ones refill it), and the most voices sounding.
 
 Each performance is played ``--repeats`` times (at least 3).  The renders
 are deterministic, so a block's cost is the *median* of its times over the
-repeats; the host's stalls (first line of the output: a constant numba loop
+repeats; the host's stalls (the line after the header: a constant numba loop
 timed the same way stalls at random for up to 10-20x its time on a shared
 vCPU) do not come back at the same block in most repeats.  The table gives
 the statistics of those per-block medians, and the underruns of every
 single repeat beside them ("per repeat").
+
+``--cpu-name`` picks numba's code-generation target (``tools/cpu_target.py``:
+host, haswell = AVX2 only, generic = SSE2, or all three in turn); the header
+names the CPU and the target in effect.
 """
 
 from __future__ import annotations
@@ -62,6 +67,7 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
 from synth.cli import midi_to_events  # noqa: E402
 from synth.engine.engine import Engine, Event  # noqa: E402
 from synth.engine.realtime import Realtime  # noqa: E402
@@ -242,16 +248,18 @@ def main(argv=None) -> int:
                     help="measure a program change built in the background while playing")
     ap.add_argument("--seconds", type=float, default=None,
                     help="limit each performance to this many seconds (default: whole)")
+    cpu_target.add_cpu_option(ap)
     a = ap.parse_args(argv)
     blocks = [int(b) for b in a.blocks.split(",")]
     if a.repeats < 3:
         ap.error(f"--repeats = {a.repeats} is out of range (value >= 3)")
-    import numba
+    rc = cpu_target.dispatch(a.cpu_name, argv)
+    if rc is not None:
+        return rc
 
-    cpu = next((ln.split(":", 1)[1].strip() for ln in open("/proc/cpuinfo")
-                if ln.startswith("model name")), "?")
-    print(f"# {time.strftime('%Y-%m-%d %H:%M')}  {cpu}  numba {numba.__version__}  one core")
+    print(f"# {time.strftime('%Y-%m-%d %H:%M')}  one core")
     print(f"# command: python {' '.join(sys.argv)}")
+    print(cpu_target.describe())
     # warm-up: compile/load every kernel before timing
     drive("grand-piano", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8)
     drive("sitar", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8)

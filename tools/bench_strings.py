@@ -2,6 +2,7 @@
 
 Usage:  NUMBA_NUM_THREADS=1 python tools/bench_strings.py [--runs 7]
             [--banks 1,64,256] [--work 1e7] [--slow-work 2e6] [--seconds-warm 0.01]
+            [--cpu-name {host,haswell,generic,all}]
 
 For banks of 1, 64 and 256 identical strings (sitar-like: L = 0.8 m,
 N = 812 cells, fs = 324800 Hz; the musical string is tuned to 200 Hz at
@@ -33,6 +34,10 @@ The naive scheme is checked against the bank (same pluck, u at k over
 
 Everything runs on one core: NUMBA_NUM_THREADS is set to 1 before numba is
 imported and the process is pinned to one CPU.
+
+``--cpu-name`` picks numba's code-generation target (``tools/cpu_target.py``:
+host, haswell = AVX2 only, generic = SSE2, or all three in turn); the header
+names the CPU and the target in effect.
 """
 
 from __future__ import annotations
@@ -43,14 +48,14 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import datetime  # noqa: E402
-import platform  # noqa: E402
 import shlex  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 
-import numba  # noqa: E402
 import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
+
+import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
 
 from synth.kernels import strings as K  # noqa: E402
 from synth.kernels.config import FASTMATH  # noqa: E402
@@ -226,22 +231,6 @@ def dispatch_overhead_us(reps=2000):
     return (time.perf_counter() - t) / reps * 1e6
 
 
-def cpu_model():
-    try:
-        with open("/proc/cpuinfo") as f:
-            info = f.read()
-    except OSError:
-        return platform.processor() or "unknown"
-    get = {}
-    for line in info.splitlines():
-        if ":" in line:
-            key, val = (x.strip() for x in line.split(":", 1))
-            get.setdefault(key, val)
-    return (f"{get.get('model name', '?')} (family {get.get('cpu family', '?')}, "
-            f"model {get.get('model', '?')}, {get.get('cpu MHz', '?')} MHz, "
-            f"cache {get.get('cache size', '?')})")
-
-
 CASES = ["lossless", "lossless+J2/25", "lossless+J1/25", "musical", "musical+J2/32",
          "per-sample+J2/25", "naive+J2/25", "naive/none"]
 
@@ -255,11 +244,15 @@ def main():
     ap.add_argument("--slow-work", type=float, default=2e6,
                     help="string-samples per timed repetition (per-sample path, naive scheme)")
     ap.add_argument("--seconds-warm", type=float, default=0.01)
+    cpu_target.add_cpu_option(ap)
     a = ap.parse_args()
     if a.runs < 1:
         raise ValueError(f"--runs = {a.runs} is out of range (>= 1)")
     if a.seconds_warm < 0.01:
         raise ValueError(f"--seconds-warm = {a.seconds_warm} is out of range (>= 0.01; the pluck lasts 4 ms)")
+    rc = cpu_target.dispatch(a.cpu_name)
+    if rc is not None:
+        return rc
     banks = [int(x) for x in a.banks.split(",")]
     try:
         cpu = sorted(os.sched_getaffinity(0))[0]
@@ -271,9 +264,8 @@ def main():
            + " ".join(shlex.quote(x) for x in [os.path.basename(sys.executable)] + sys.argv))
     print(f"# string bank benchmark  {datetime.datetime.now().isoformat(timespec='seconds')}")
     print(f"# command : {cmd}")
-    print(f"# cpu     : {cpu_model()}; {pinned}")
-    print(f"# python {platform.python_version()}, numpy {np.__version__}, numba {numba.__version__}, "
-          f"NUMBA_NUM_THREADS={numba.config.NUMBA_NUM_THREADS}")
+    print(cpu_target.describe())
+    print(f"# process : {pinned}")
     print(f"# runs={a.runs} (median [min..max] ns per string-sample), work={a.work:g} "
           f"string-samples/rep (per-sample and naive {a.slow_work:g}), warm-up {a.seconds_warm} s, "
           f"segments of {SEG} samples, max_block {MAX_BLOCK}")
@@ -317,7 +309,8 @@ def main():
         for S in banks:
             ok = "met" if res[case, S] <= target else "MISSED"
             print(f"  {case:<{w}} bank {S:>3}: {res[case, S]:6.2f} ns  {ok}")
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())
