@@ -11,8 +11,9 @@ from synth.voices.bank import StringBank
 
 
 def run_bank(N, k, g_model, A, t0, alpha, dt, n, U=None, side=1, per_sample=False,
-             probe=False, block=None, lossy=False, **kw):
-    b = StringBank(1, N + 2, max(1, 0 if U is None else len(U)), 2048, n_probes=1 if probe else 0)
+             probe=False, block=None, lossy=False, max_bend=0, **kw):
+    b = StringBank(1, N + 2, max(1, 0 if U is None else len(U)), 2048, n_probes=1 if probe else 0,
+                   max_bend=max_bend)
     b.configure(0, cells=N, k=k, dt_s=dt, U=U, side=side, probe_row=0 if probe else -1,
                 force_per_sample=per_sample, lossy=lossy, **kw)
     b.activate(0)
@@ -75,30 +76,39 @@ def test_excitation_inside_region_matches_naive():
     assert np.max(np.abs(y - ref)) < 1e-15
 
 
-@settings(max_examples=25, deadline=None)
+@settings(max_examples=40, deadline=None)
 @given(seed=st.integers(0, 2**31), side=st.sampled_from([1, -1]),
-       N=st.integers(60, 400), R=st.integers(1, 30), frac=st.floats(0.3, 0.9),
+       N=st.integers(60, 400), R=st.integers(0, 30), frac=st.floats(0.3, 0.9),
        block=st.integers(1, 700), model=st.sampled_from([1, 2]),
-       out_mode=st.sampled_from([0, 1]), lossy=st.booleans())
-def test_fast_path_equals_per_sample_path(seed, side, N, R, frac, block, model, out_mode, lossy):
+       out_mode=st.sampled_from([0, 1]), lossy=st.booleans(),
+       n_disp=st.sampled_from([0, 0, 1, 2, 3, 4, 5, 7, 8, 9, 16]),
+       bend=st.booleans())
+def test_fast_path_equals_per_sample_path(seed, side, N, R, frac, block, model, out_mode, lossy,
+                                          n_disp, bend):
     """Fast (min along characteristics, chunked) == per-sample, to round-off,
-    on random profiles, pluck points, block sizes, outputs and far ends."""
+    on random profiles, pluck points, block sizes, outputs and far ends
+    (loss, dispersion sections, a pitch-bend line at rest)."""
     rng = np.random.default_rng(seed)
     k = int(round(frac * N))
     if k <= R + 1 or k >= N - 2 or R >= N - 2:
         return
     dx, dt = 1e-3, 1e-5
-    U = _random_profile(rng, R, side, dx)
+    U = _random_profile(rng, R, side, dx) if R else None
     A = side * rng.uniform(0.002, 0.02)
     n = 4 * N + 300
     kw = dict(out_mode=out_mode, tension_over_dx=40.0 / dx)
     if lossy:
         kw.update(b0=0.97, a1=-0.02, eta=0.1, extra_delay=int(seed % 2))
+    if n_disp:
+        kw.update(n_disp=n_disp, a_disp=-rng.uniform(0.05, 0.6))
+    if bend:
+        blen = int(rng.integers(8, 2 * N + 8))
+        kw.update(bend_len=blen, bend_delay=float(rng.uniform(1.0, blen - 3)))
     fast, bf = run_bank(N, k, model, A, 0.001, 3000.0, dt, n, U=U, side=side, block=block,
-                        lossy=lossy, **kw)
+                        lossy=lossy, max_bend=2 * N + 8, **kw)
     assert bf.ipar[0, K.I_CHUNK] > 0
     slow, _ = run_bank(N, k, model, A, 0.001, 3000.0, dt, n, U=U, side=side, per_sample=True,
-                       lossy=lossy, **kw)
+                       lossy=lossy, max_bend=2 * N + 8, **kw)
     scale = np.max(np.abs(slow)) + 1e-30
     assert np.max(np.abs(fast - slow)) <= 1e-12 * scale
 

@@ -41,13 +41,30 @@ the loop distance between any two operation points, no sample meets two
 operations within one chunk, so this is exact.  The excitation is one of
 them only while it runs (``I_CHUNK``; afterwards ``I_CHUNK_FREE``), and a
 hammer steps inside the chunk like a pluck: the wave arriving at k during
-the chunk was already in the ring at its start.  In the region each right-going characteristic (a ring slot)
-leaves with ``min`` (side +1; ``max`` for side -1) of its entry value and
-``U(n) + vl(n)`` along its path, the left-going values being untouched in
-the chunk; the reduction runs point by point over contiguous scratch copies
-and vectorises.  The per-sample path is the plain reference for it and
-handles an excitation running inside or next to the region and
-diagnostics (probe, contacts).
+the chunk was already in the ring at its start.  In the region each
+right-going characteristic (a ring slot) leaves with ``min`` (side +1;
+``max`` for side -1) of its entry value and ``U(n) + vl(n)`` along its
+path, the left-going values being untouched in the chunk.  The per-sample
+path is the plain reference for it and handles an excitation running
+inside or next to the region and diagnostics (probe, contacts).
+
+How the fast path is written, so that it is fast on every x86-64 target
+(AVX-512, AVX2 and plain SSE2 builds; measured in docs/benchmarks.md):
+
+* every window of the ring a step needs is copied to contiguous scratch
+  with two loops split at the ring's wrap (:func:`_ring_get`,
+  :func:`_ring_put`), never a wrap test per element;
+* inner loops index slice views with the bare loop index (an index of
+  unknown sign gets numba's negative-index fix-up per element, which stops
+  vectorisation);
+* the region takes four points per pass and writes a second buffer
+  (:func:`_region_pass`): in place, LLVM turns "store min(x, a[i]) to a[i]"
+  into a masked store, which AVX2 code emits as ``vmaskmovpd``, microcoded
+  and several times slower on AMD CPUs before Zen 4;
+* the far-end filter runs over the chunk with its state in registers
+  (:func:`_far_chunk`): one multiply-add per recurrence and sample, where
+  state read from and written to the state table every sample put a
+  store-to-load round trip on each recurrence.
 
 Parameter tables (columns below) are written by the voice layer at note-on;
 the kernel only reads ``ipar``/``fpar`` and updates ``fst`` and the rings.
@@ -328,6 +345,8 @@ def _bend_line(y, st, U, boff, blen, bdt, bds):
     w = int(st[S_BW])
     U[boff + w] = y
     D = st[S_BD] + bds * (bdt - st[S_BD])
+    if abs(bdt - D) < 1e-9:
+        D = bdt                   # at rest: the fast path's block FIR takes over
     st[S_BD] = D
     i = int(D)
     f = D - i
@@ -424,7 +443,8 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     nd = ipar[s, I_NDISP]
     ad = fp[F_ADISP]
     b0t = fp[F_B0T]
-    b0s = fp[F_B0S]
+    gk = 1.0 - fp[F_B0S]          # glide b0 <- gk b0 + gc: one multiply-add on
+    gc = fp[F_B0S] * b0t          # its recurrence (b0 += b0s (b0t - b0) has two)
     boff = ipar[s, I_BOFF]
     blen = ipar[s, I_BLEN]
     bdt = fp[F_BDT]
@@ -495,7 +515,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
                 ncont += 1
         # 4. far end
         if filt == 1:
-            b0 += b0s * (b0t - b0)
+            b0 = gk * b0 + gc             # the loss glide toward b0t
             x, y, jn = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st)
             if blen > 0:
                 y = _bend_line(y, st, U, boff, blen, bdt, bds)
@@ -655,9 +675,393 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
 
 
 @njit(**JIT_OPTS)
+def _ring_get(ring, off, P, j, n, dst, d0, sc):
+    """dst[d0:d0+n] = sc * the ring slots j, j+1, ... (mod P); 0 <= j < P,
+    n <= P.  Two contiguous loops (no wrap test per element), so they
+    vectorise; ``sc`` is +-1 (exact)."""
+    n1 = P - j
+    if n1 > n:
+        n1 = n
+    # (loops over slice views with the bare loop index: an index such as
+    # d0 + a, whose sign numba cannot know, gets a negative-index fix-up per
+    # element that stops the loop vectorising)
+    d = dst[d0:d0 + n1]
+    r = ring[off + j:off + j + n1]
+    for a in range(n1):
+        d[a] = sc * r[a]
+    n2 = n - n1
+    d = dst[d0 + n1:d0 + n]
+    r = ring[off:off + n2]
+    for a in range(n2):
+        d[a] = sc * r[a]
+
+
+@njit(**JIT_OPTS)
+def _ring_put(ring, off, P, j, n, src, s0, sc):
+    """The ring slots j, j+1, ... (mod P) = sc * src[s0:s0+n] (see :func:`_ring_get`)."""
+    n1 = P - j
+    if n1 > n:
+        n1 = n
+    d = ring[off + j:off + j + n1]
+    r = src[s0:s0 + n1]
+    for a in range(n1):
+        d[a] = sc * r[a]
+    n2 = n - n1
+    d = ring[off:off + n2]
+    r = src[s0 + n1:s0 + n]
+    for a in range(n2):
+        d[a] = sc * r[a]
+
+
+@njit(**JIT_OPTS)
+def _region_pass(src, dst, vw, W, C, R, n0, n1, n2, n3, U0, U1, U2, U3):
+    """Four region points of the fast path's termination step, ``dst = src``
+    with the points' constraints applied (min; see :func:`_region_chunk`).
+
+    Element i of the window is the right-going characteristic that meets
+    point n where R - n <= i < R - n + C, against the left-going value
+    ``vw[i + 2n - R - 1]``.  Points n0 <= n1 <= n2 <= n3 (one may repeat:
+    min is idempotent).  Reading ``src`` and writing the other buffer
+    ``dst`` keeps the select a plain vector min: in place, LLVM turns
+    "store min(x, a[i]) to a[i]" into a masked store of x, which AMD CPUs
+    before Zen 4 run as microcode (vmaskmovpd: several times slower).
+    """
+    lo0 = R - n0
+    lo1 = R - n1
+    lo2 = R - n2
+    lo3 = R - n3
+    for i in range(lo3):
+        dst[i] = src[i]
+    s = src[lo0 + C:W]
+    o = dst[lo0 + C:W]
+    for t in range(W - lo0 - C):
+        o[t] = s[t]
+    d0 = 2 * n0 - R - 1
+    d1 = 2 * n1 - R - 1
+    d2 = 2 * n2 - R - 1
+    d3 = 2 * n3 - R - 1
+    i0 = lo0                      # every point's window holds [lo0, lo3 + C)
+    i1 = lo3 + C
+    if i1 > i0:
+        m_ = i1 - i0
+        s = src[i0:i1]
+        o = dst[i0:i1]
+        v0 = vw[i0 + d0:i1 + d0]
+        v1 = vw[i0 + d1:i1 + d1]
+        v2 = vw[i0 + d2:i1 + d2]
+        v3 = vw[i0 + d3:i1 + d3]
+        for t in range(m_):
+            m = s[t]
+            x = U0 + v0[t]
+            m = x if x < m else m
+            x = U1 + v1[t]
+            m = x if x < m else m
+            x = U2 + v2[t]
+            m = x if x < m else m
+            x = U3 + v3[t]
+            m = x if x < m else m
+            o[t] = m
+        _region_edge(src, dst, vw, C, lo3, i0, lo0, lo1, lo2, lo3, d0, d1, d2, d3, U0, U1, U2, U3)
+        _region_edge(src, dst, vw, C, i1, lo0 + C, lo0, lo1, lo2, lo3, d0, d1, d2, d3,
+                     U0, U1, U2, U3)
+    else:
+        _region_edge(src, dst, vw, C, lo3, lo0 + C, lo0, lo1, lo2, lo3, d0, d1, d2, d3,
+                     U0, U1, U2, U3)
+
+
+@njit(**JIT_OPTS)
+def _region_edge(src, dst, vw, C, ia, ib, lo0, lo1, lo2, lo3, d0, d1, d2, d3, U0, U1, U2, U3):
+    """Elements ia .. ib-1 of a :func:`_region_pass`, which only some of
+    the four windows hold (a few per pass)."""
+    for i in range(ia, ib):
+        m = src[i]
+        if lo0 <= i < lo0 + C:
+            x = U0 + vw[i + d0]
+            m = x if x < m else m
+        if lo1 <= i < lo1 + C:
+            x = U1 + vw[i + d1]
+            m = x if x < m else m
+        if lo2 <= i < lo2 + C:
+            x = U2 + vw[i + d2]
+            m = x if x < m else m
+        if lo3 <= i < lo3 + C:
+            x = U3 + vw[i + d3]
+            m = x if x < m else m
+        dst[i] = m
+
+
+@njit(**JIT_OPTS)
+def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw):
+    """Step 3 of the fast path: each right-going characteristic leaves the
+    region with the min (side +1; max for side -1) of its entry value and
+    U(n) + vl(n) along its path.  The values are multiplied by ``side`` on
+    the way in and out, so one min serves both sides (max(a, b) =
+    -min(-a, -b), exact); points where the profile is side * inf (no
+    contact) are skipped; the points are taken four at a time
+    (:func:`_region_pass`), ping-ponging between ``acc`` and ``tmp``."""
+    W = C + R - 1
+    sc = float(side)
+    b = m0 + 1 - R                 # first characteristic slot (unwrapped)
+    if b < 0:
+        b += P
+    _ring_get(ring, off, P, b, W, acc, 0, sc)
+    jv = m0 + 2
+    if jv >= P:
+        jv -= P
+    _ring_get(ring, off, P, jv, W, vw, 0, sc)
+    src = acc
+    dst = tmp
+    q = 0
+    n0 = n1 = n2 = n3 = 0
+    U0 = U1 = U2 = U3 = 0.0
+    for r in range(R):
+        Un = sc * U[roff + r]
+        if Un == np.inf:
+            continue
+        nn = r + 1
+        if q == 0:
+            n0 = nn
+            U0 = Un
+        elif q == 1:
+            n1 = nn
+            U1 = Un
+        elif q == 2:
+            n2 = nn
+            U2 = Un
+        else:
+            n3 = nn
+            U3 = Un
+        q += 1
+        if q == 4:
+            _region_pass(src, dst, vw, W, C, R, n0, n1, n2, n3, U0, U1, U2, U3)
+            src, dst = dst, src
+            q = 0
+    if q > 0:
+        if q < 2:
+            n1 = n0
+            U1 = U0
+        if q < 3:
+            n2 = n1
+            U2 = U1
+        n3 = n2
+        U3 = U2
+        _region_pass(src, dst, vw, W, C, R, n0, n1, n2, n3, U0, U1, U2, U3)
+        src = dst
+    _ring_put(ring, off, P, b, W, src, 0, sc)
+
+
+@njit(**JIT_OPTS)
+def _allpass_run(buf, b, n, st, base, cnt, a):
+    """``cnt`` (1..4) of the identical first-order allpasses
+    (a + z^-1)/(1 + a z^-1) over buf[b:b+n], in place, their states
+    (x1, y1 per section, from st[base]) held in registers for the run."""
+    v_ = buf[b:b + n]
+    x0 = st[base]
+    y0 = st[base + 1]
+    if cnt == 1:
+        for i in range(n):
+            v = v_[i]
+            y0 = a * (v - y0) + x0
+            x0 = v
+            v_[i] = y0
+    elif cnt == 2:
+        x1 = st[base + 2]
+        y1 = st[base + 3]
+        for i in range(n):
+            v = v_[i]
+            y0 = a * (v - y0) + x0
+            x0 = v
+            y1 = a * (y0 - y1) + x1
+            x1 = y0
+            v_[i] = y1
+        st[base + 2] = x1
+        st[base + 3] = y1
+    elif cnt == 3:
+        x1 = st[base + 2]
+        y1 = st[base + 3]
+        x2 = st[base + 4]
+        y2 = st[base + 5]
+        for i in range(n):
+            v = v_[i]
+            y0 = a * (v - y0) + x0
+            x0 = v
+            y1 = a * (y0 - y1) + x1
+            x1 = y0
+            y2 = a * (y1 - y2) + x2
+            x2 = y1
+            v_[i] = y2
+        st[base + 2] = x1
+        st[base + 3] = y1
+        st[base + 4] = x2
+        st[base + 5] = y2
+    else:
+        x1 = st[base + 2]
+        y1 = st[base + 3]
+        x2 = st[base + 4]
+        y2 = st[base + 5]
+        x3 = st[base + 6]
+        y3 = st[base + 7]
+        for i in range(n):
+            v = v_[i]
+            y0 = a * (v - y0) + x0
+            x0 = v
+            y1 = a * (y0 - y1) + x1
+            x1 = y0
+            y2 = a * (y1 - y2) + x2
+            x2 = y1
+            y3 = a * (y2 - y3) + x3
+            x3 = y2
+            v_[i] = y3
+        st[base + 2] = x1
+        st[base + 3] = y1
+        st[base + 4] = x2
+        st[base + 5] = y2
+        st[base + 6] = x3
+        st[base + 7] = y3
+    st[base] = x0
+    st[base + 1] = y0
+
+
+@njit(**JIT_OPTS)
+def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, hb):
+    """The pitch-bend line over yb[b:b+n], in place.  While the delay glides,
+    sample by sample (:func:`_bend_line`); at rest (the usual case) its
+    third-order Lagrange read is a fixed four-tap FIR over the line's last
+    samples and the new ones, laid out contiguously in ``hb``."""
+    if st[S_BD] != bdt:
+        for i in range(n):
+            yb[b + i] = _bend_line(yb[b + i], st, U, boff, blen, bdt, bds)
+        return
+    D = bdt
+    iD = int(D)
+    f = D - iD
+    h0 = -f * (f - 1.0) * (f - 2.0) / 6.0
+    h1 = (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0
+    h2 = -(f + 1.0) * f * (f - 2.0) / 2.0
+    h3 = (f + 1.0) * f * (f - 1.0) / 6.0
+    w = int(st[S_BW])
+    H = iD + 2                    # history: the H samples before this run
+    j = w - H
+    if j < 0:
+        j += blen
+    _ring_get(U, boff, blen, j, H, hb, 0, 1.0)
+    y_ = yb[b:b + n]
+    hn = hb[H:H + n]
+    for i in range(n):
+        hn[i] = y_[i]
+    t0 = hb[3:3 + n]
+    t1 = hb[2:2 + n]
+    t2 = hb[1:1 + n]
+    for i in range(n):
+        y_[i] = h0 * t0[i] + h1 * t1[i] + h2 * t2[i] + h3 * hb[i]
+    m = n if n < blen else blen   # the new samples go into the line (its last blen)
+    _ring_put(U, boff, blen, (w + n - m) % blen, m, hb, H + n - m, 1.0)
+    st[S_BW] = (w + n) % blen
+
+
+@njit(**JIT_OPTS)
+def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
+    """Step 4 of the fast path over a chunk: the far-end filter on the C
+    samples turning round at x = L (contiguous ring slots j0 .. j0+C-1),
+    its state in registers; then the bridge-force output (``I_OUT`` 1).
+    Returns the chunk's peak output."""
+    off = ipar[s, I_OFF]
+    N = ipar[s, I_N]
+    P = 2 * N
+    m0 = ipar[s, I_POS]
+    st = fst[s]
+    fp = fpar[s]
+    j0 = m0 + 1 - N
+    if j0 < 0:
+        j0 += P
+    # xb[1 + i] = x_i, the sample arriving at x = L at the chunk's sample i,
+    # for i = 0..C (x_C: its right neighbour at the last sample, u_r(N-1));
+    # xb[0] = the extra-delay register, so the filter's input is
+    # xb[i] (with the unit delay) or xb[1 + i] (without)
+    xb[0] = st[S_XD]
+    _ring_get(ring, off, P, j0, C + 1, xb, 1, 1.0)
+    io = 0 if ipar[s, I_XDELAY] == 1 else 1
+    jp = j0 - 1
+    if jp < 0:
+        jp += P
+    yb[0] = ring[off + jp]          # the previous chunk's last output, vl(N-1)
+    b0 = fp[F_B0]
+    b0t = fp[F_B0T]
+    gk = 1.0 - fp[F_B0S]            # glide: b0 <- gk b0 + gc (toward b0t)
+    gc = fp[F_B0S] * b0t
+    a1 = fp[F_A1]
+    eta = fp[F_ETA]
+    nd = ipar[s, I_NDISP]
+    lp = st[S_LP]
+    xin = xb[io:io + C]             # the filter's input
+    yo = yb[1:1 + C]                # its output
+    if nd == 0:
+        apx = st[S_APX]
+        apy = st[S_APY]
+        for i in range(C):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y = eta * (lp - apy) + apx
+            apx = lp
+            apy = y
+            yo[i] = y
+        st[S_APX] = apx
+        st[S_APY] = apy
+    else:
+        for i in range(C):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            yo[i] = lp
+        ad = fp[F_ADISP]
+        d = 0
+        while d < nd:
+            cnt = nd - d
+            if cnt > 4:
+                cnt = 4
+            _allpass_run(yb, 1, C, st, S_D0 + 2 * d, cnt, ad)
+            d += cnt
+        apx = st[S_APX]
+        apy = st[S_APY]
+        for i in range(C):
+            v = yo[i]
+            y = eta * (v - apy) + apx
+            apx = v
+            apy = y
+            yo[i] = y
+        st[S_APX] = apx
+        st[S_APY] = apy
+    st[S_LP] = lp
+    fp[F_B0] = b0
+    if io == 0:
+        st[S_XD] = xb[C]
+    blen = ipar[s, I_BLEN]
+    if blen > 0:
+        _bend_chunk(yb, 1, C, st, U, ipar[s, I_BOFF], blen, fp[F_BDT], fp[F_BDS], hb)
+    _ring_put(ring, off, P, j0, C, yb, 1, 1.0)
+    peak = 0.0
+    if ipar[s, I_OUT] == 1:
+        # u(N-1) - u(N) = (u_r(N-1) - vl(N-1)) - (x - y); vl(N-1) at sample i
+        # is the filter's output of sample i-1 (yb[i]), u_r(N-1) the next x
+        sc = fp[F_GAIN] * fp[F_TDX]
+        xn = xb[2:2 + C]
+        x_ = xb[1:1 + C]
+        yp = yb[0:C]
+        mo = mix[o0:o0 + C]
+        for i in range(C):
+            v = sc * ((xn[i] - yp[i]) - (x_[i] - yo[i]))
+            mo[i] += v
+            a = abs(v)
+            peak = a if a > peak else peak
+    return peak
+
+
+@njit(**JIT_OPTS)
 def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
     """C samples of string s, operation by operation (C <= ipar[s, I_CHUNK]
-    while an excitation runs, else <= ipar[s, I_CHUNK_FREE])."""
+    while an excitation runs, else <= ipar[s, I_CHUNK_FREE]).
+
+    ``scratch`` (see :func:`scratch_length`) holds the injected g per
+    sample, the region's three windows and the far end's buffers."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
@@ -665,7 +1069,6 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
     R = ipar[s, I_REG_N]
     st = fst[s]
     m0 = ipar[s, I_POS]
-    gbuf = scratch[0:C]
     exc = ipar[s, I_EXC]
     if exc == -1:
         # the excitation ended on the last sample of the previous chunk: fold
@@ -674,135 +1077,80 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
         st[S_G] = 0.0
         exc = 0
         ipar[s, I_EXC] = 0
+    # scratch layout: g | three windows (region: entry values, ping-pong,
+    # left-going values; far end: x, y) | bend history
+    Wm = C + R + 2
+    gbuf = scratch[0:C]
+    w1 = scratch[C:C + Wm]
+    w2 = scratch[C + Wm:C + 2 * Wm]
+    w3 = scratch[C + 2 * Wm:C + 3 * Wm]
+    hb = scratch[C + 3 * Wm:]
     # ---- 2. excitation -------------------------------------------------------
     plucking = exc != 0
     if plucking:
         _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
     # ---- 3. termination region: min/max along right-going characteristics --
     if R > 0:
-        roff = ipar[s, I_REG_OFF]
-        side = ipar[s, I_SIDE]
-        W = C + R - 1
-        acc = scratch[C:C + W]
-        vwin = scratch[C + W:C + 2 * W]
-        b = m0 + 1 - R          # first characteristic slot (unwrapped)
-        j = b % P
-        for a in range(W):       # gather entry values and left-going window
-            acc[a] = ring[off + j]
-            j += 1
-            if j == P:
-                j = 0
-        j = (m0 + 2) % P
-        for a in range(W):
-            vwin[a] = ring[off + j]
-            j += 1
-            if j == P:
-                j = 0
-        for r in range(R):
-            nn = r + 1
-            Un = U[roff + r]
-            if side > 0:
-                if Un == np.inf:
-                    continue
-                lo = R - nn
-                sh = 2 * nn - R - 1
-                # slice views: no aliasing doubt, so LLVM vectorises the select
-                av = acc[lo:lo + C]
-                vv = vwin[lo + sh:lo + sh + C]
-                for a in range(C):
-                    x = Un + vv[a]
-                    y = av[a]
-                    av[a] = x if x < y else y
-            else:
-                if Un == -np.inf:
-                    continue
-                lo = R - nn
-                sh = 2 * nn - R - 1
-                # slice views: no aliasing doubt, so LLVM vectorises the select
-                av = acc[lo:lo + C]
-                vv = vwin[lo + sh:lo + sh + C]
-                for a in range(C):
-                    x = Un + vv[a]
-                    y = av[a]
-                    av[a] = x if x > y else y
-        j = b % P
-        for a in range(W):
-            ring[off + j] = acc[a]
-            j += 1
-            if j == P:
-                j = 0
+        _region_chunk(ring, off, P, m0, C, U, ipar[s, I_REG_OFF], R, ipar[s, I_SIDE],
+                      w1, w2, w3)
     # ---- 4. far end, and the output ----------------------------------------
     gain = fpar[s, F_GAIN]
     peak = st[S_PEAK]
     outm = ipar[s, I_OUT]
     if ipar[s, I_FILT] == 1:
-        b0 = fpar[s, F_B0]
-        a1 = fpar[s, F_A1]
-        eta = fpar[s, F_ETA]
-        xdel = ipar[s, I_XDELAY]
-        tdx = fpar[s, F_TDX]
-        nd = ipar[s, I_NDISP]
-        ad = fpar[s, F_ADISP]
-        b0t = fpar[s, F_B0T]
-        b0s = fpar[s, F_B0S]
-        boff = ipar[s, I_BOFF]
-        blen = ipar[s, I_BLEN]
-        bdt = fpar[s, F_BDT]
-        bds = fpar[s, F_BDS]
-        pm = m0
-        for i in range(C):
-            pm += 1
-            if pm == P:
-                pm = 0
-            b0 += b0s * (b0t - b0)
-            x, y, jn = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st)
-            if blen > 0:
-                y = _bend_line(y, st, U, boff, blen, bdt, bds)
-                ring[off + jn] = y
-            if outm == 1:
-                ja = pm - N + 1
-                if ja < 0:
-                    ja += P
-                jb = pm - N - 1
-                if jb < 0:
-                    jb += P
-                v = gain * tdx * ((ring[off + ja] - ring[off + jb]) - (x - y))
-                mix[o0 + i] += v
-                if abs(v) > peak:
-                    peak = abs(v)
-        fpar[s, F_B0] = b0
+        pk = _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, w1, w2, hb)
+        peak = pk if pk > peak else peak
     elif outm == 1:
-        tdx = fpar[s, F_TDX]
-        ja = (m0 + 1 - N + 1) % P
-        jb = (m0 + 1 - N - 1) % P
+        # ideal far end: u(N-1) - u(N) = u_r(N-1) - vl(N-1)
+        sc = gain * fpar[s, F_TDX]
+        ja = m0 + 2 - N
+        if ja < 0:
+            ja += P
+        jb = m0 - N
+        if jb < 0:
+            jb += P
+        _ring_get(ring, off, P, ja, C, w1, 0, 1.0)
+        _ring_get(ring, off, P, jb, C, w2, 0, 1.0)
+        mo = mix[o0:o0 + C]
         for i in range(C):
-            v = gain * tdx * (ring[off + ja] - ring[off + jb])
-            mix[o0 + i] += v
-            if abs(v) > peak:
-                peak = abs(v)
-            ja += 1
-            if ja == P:
-                ja = 0
-            jb += 1
-            if jb == P:
-                jb = 0
+            v = sc * (w1[i] - w2[i])
+            mo[i] += v
+            a = abs(v)
+            peak = a if a > peak else peak
     if outm == 0:
-        j1 = (m0 + 1 - k) % P
-        j2 = (m0 + 1 + k) % P
-        for i in range(C):
-            gi = gbuf[i] if plucking else 0.0
-            v = gain * (ring[off + j1] - ring[off + j2] - gi)
-            mix[o0 + i] += v
-            if abs(v) > peak:
-                peak = abs(v)
-            j1 += 1
-            if j1 == P:
-                j1 = 0
-            j2 += 1
-            if j2 == P:
-                j2 = 0
+        j1 = m0 + 1 - k
+        if j1 < 0:
+            j1 += P
+        j2 = m0 + 1 + k
+        if j2 >= P:
+            j2 -= P
+        _ring_get(ring, off, P, j1, C, w1, 0, 1.0)
+        _ring_get(ring, off, P, j2, C, w2, 0, 1.0)
+        mo = mix[o0:o0 + C]
+        if plucking:
+            for i in range(C):
+                v = gain * (w1[i] - w2[i] - gbuf[i])
+                mo[i] += v
+                a = abs(v)
+                peak = a if a > peak else peak
+        else:
+            for i in range(C):
+                v = gain * (w1[i] - w2[i])
+                mo[i] += v
+                a = abs(v)
+                peak = a if a > peak else peak
     st[S_PEAK] = peak
-    ipar[s, I_POS] = (m0 + C) % P
+    m1 = m0 + C
+    if m1 >= P:
+        m1 -= P
+    ipar[s, I_POS] = m1
+
+
+def scratch_length(max_block: int, max_region: int, max_bend: int) -> int:
+    """Samples of ``scratch`` that :func:`render_bank` needs for chunks of
+    at most ``max_block`` samples, regions of at most ``max_region`` points
+    and pitch-bend lines of at most ``max_bend`` samples."""
+    return max_block + 3 * (max_block + max_region + 2) + max_bend + max_block + 8
 
 
 @njit(**JIT_OPTS)

@@ -171,8 +171,8 @@ class StringBank:
         self.max_bend = int(max_bend)
         # region profiles, g tables and pitch-bend lines, in one flat table array
         self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable + self.max_bend)))
-        # fast-path chunks never exceed max_block; scratch holds g, acc, window
-        self.scratch = np.zeros(3 * (self.max_block + self.max_region) + 8)
+        # fast-path chunks never exceed max_block (the kernel's scratch layout)
+        self.scratch = np.zeros(K.scratch_length(self.max_block, self.max_region, self.max_bend))
         # dampers, per slot: loss b0 undamped, loop frequency f1 (Hz), T60 with
         # the damper down and T60 free (s; inf: no free decay to keep)
         self.damper = np.zeros((self.capacity, 4))
