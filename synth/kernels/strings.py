@@ -75,7 +75,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .config import JIT_OPTS
+from .config import JIT_OPTS, SERIAL_OPTS
 
 # ---- integer parameter columns (ipar[s, :]) ---------------------------------
 I_OFF = 0        # ring offset in the flat ring array
@@ -850,76 +850,171 @@ def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw):
     _ring_put(ring, off, P, b, W, src, 0, sc)
 
 
-@njit(**JIT_OPTS)
-def _allpass_run(buf, b, n, st, base, cnt, a):
-    """``cnt`` (1..4) of the identical first-order allpasses
-    (a + z^-1)/(1 + a z^-1) over buf[b:b+n], in place, their states
-    (x1, y1 per section, from st[base]) held in registers for the run."""
-    v_ = buf[b:b + n]
-    x0 = st[base]
-    y0 = st[base + 1]
+@njit(**SERIAL_OPTS)
+def _sections(v_, n, st, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
+    """``cnt`` (1..4) first-order allpasses (c + z^-1)/(1 + c z^-1) in a row
+    over v_[0:n], in place.  Section j has coefficient c_j and its state
+    (x1, y1) at st[s_j], st[s_j + 1]; the states stay in registers for the
+    run.  Written y = c x + x1 - c y1 and compiled without re-association,
+    so the recurrence on y1 is one multiply-add (4 cycles a sample);
+    re-associated to c (x - y1) + x1 it is a subtraction and a
+    multiply-add."""
+    x0 = st[s0]
+    y0 = st[s0 + 1]
     if cnt == 1:
         for i in range(n):
             v = v_[i]
-            y0 = a * (v - y0) + x0
+            y0 = c0 * v + x0 - c0 * y0
             x0 = v
             v_[i] = y0
     elif cnt == 2:
-        x1 = st[base + 2]
-        y1 = st[base + 3]
+        x1 = st[s1]
+        y1 = st[s1 + 1]
         for i in range(n):
             v = v_[i]
-            y0 = a * (v - y0) + x0
+            y0 = c0 * v + x0 - c0 * y0
             x0 = v
-            y1 = a * (y0 - y1) + x1
+            y1 = c1 * y0 + x1 - c1 * y1
             x1 = y0
             v_[i] = y1
-        st[base + 2] = x1
-        st[base + 3] = y1
+        st[s1] = x1
+        st[s1 + 1] = y1
     elif cnt == 3:
-        x1 = st[base + 2]
-        y1 = st[base + 3]
-        x2 = st[base + 4]
-        y2 = st[base + 5]
+        x1 = st[s1]
+        y1 = st[s1 + 1]
+        x2 = st[s2]
+        y2 = st[s2 + 1]
         for i in range(n):
             v = v_[i]
-            y0 = a * (v - y0) + x0
+            y0 = c0 * v + x0 - c0 * y0
             x0 = v
-            y1 = a * (y0 - y1) + x1
+            y1 = c1 * y0 + x1 - c1 * y1
             x1 = y0
-            y2 = a * (y1 - y2) + x2
+            y2 = c2 * y1 + x2 - c2 * y2
             x2 = y1
             v_[i] = y2
-        st[base + 2] = x1
-        st[base + 3] = y1
-        st[base + 4] = x2
-        st[base + 5] = y2
+        st[s1] = x1
+        st[s1 + 1] = y1
+        st[s2] = x2
+        st[s2 + 1] = y2
     else:
-        x1 = st[base + 2]
-        y1 = st[base + 3]
-        x2 = st[base + 4]
-        y2 = st[base + 5]
-        x3 = st[base + 6]
-        y3 = st[base + 7]
+        x1 = st[s1]
+        y1 = st[s1 + 1]
+        x2 = st[s2]
+        y2 = st[s2 + 1]
+        x3 = st[s3]
+        y3 = st[s3 + 1]
         for i in range(n):
             v = v_[i]
-            y0 = a * (v - y0) + x0
+            y0 = c0 * v + x0 - c0 * y0
             x0 = v
-            y1 = a * (y0 - y1) + x1
+            y1 = c1 * y0 + x1 - c1 * y1
             x1 = y0
-            y2 = a * (y1 - y2) + x2
+            y2 = c2 * y1 + x2 - c2 * y2
             x2 = y1
-            y3 = a * (y2 - y3) + x3
+            y3 = c3 * y2 + x3 - c3 * y3
             x3 = y2
             v_[i] = y3
-        st[base + 2] = x1
-        st[base + 3] = y1
-        st[base + 4] = x2
-        st[base + 5] = y2
-        st[base + 6] = x3
-        st[base + 7] = y3
-    st[base] = x0
-    st[base + 1] = y0
+        st[s1] = x1
+        st[s1 + 1] = y1
+        st[s2] = x2
+        st[s2 + 1] = y2
+        st[s3] = x3
+        st[s3 + 1] = y3
+    st[s0] = x0
+    st[s0 + 1] = y0
+
+
+@njit(**SERIAL_OPTS)
+def _head(xin, yo, n, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
+    """The far end's first pass over a chunk: the loss glide
+    (b0 <- gk b0 + gc, toward F_B0T), the one-pole loss
+    y = b0 x - a1 y1, then ``cnt`` (1..4) allpass sections as in
+    :func:`_sections`, from xin[0:n] into yo[0:n]."""
+    b0 = fp[F_B0]
+    gk = 1.0 - fp[F_B0S]
+    gc = fp[F_B0S] * fp[F_B0T]
+    a1 = fp[F_A1]
+    lp = st[S_LP]
+    x0 = st[s0]
+    y0 = st[s0 + 1]
+    if cnt == 1:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            yo[i] = y0
+    elif cnt == 2:
+        x1 = st[s1]
+        y1 = st[s1 + 1]
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            yo[i] = y1
+        st[s1] = x1
+        st[s1 + 1] = y1
+    elif cnt == 3:
+        x1 = st[s1]
+        y1 = st[s1 + 1]
+        x2 = st[s2]
+        y2 = st[s2 + 1]
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            y2 = c2 * y1 + x2 - c2 * y2
+            x2 = y1
+            yo[i] = y2
+        st[s1] = x1
+        st[s1 + 1] = y1
+        st[s2] = x2
+        st[s2 + 1] = y2
+    else:
+        x1 = st[s1]
+        y1 = st[s1 + 1]
+        x2 = st[s2]
+        y2 = st[s2 + 1]
+        x3 = st[s3]
+        y3 = st[s3 + 1]
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            y2 = c2 * y1 + x2 - c2 * y2
+            x2 = y1
+            y3 = c3 * y2 + x3 - c3 * y3
+            x3 = y2
+            yo[i] = y3
+        st[s1] = x1
+        st[s1 + 1] = y1
+        st[s2] = x2
+        st[s2 + 1] = y2
+        st[s3] = x3
+        st[s3 + 1] = y3
+    st[s0] = x0
+    st[s0 + 1] = y0
+    st[S_LP] = lp
+    fp[F_B0] = b0
+
+
+@njit(**JIT_OPTS)
+def _section_at(j, nd, ad, eta):
+    """State column and coefficient of the far end's allpass section j:
+    the nd dispersion sections, then the tuning allpass."""
+    if j < nd:
+        return S_D0 + 2 * j, ad
+    return S_APX, eta
 
 
 @njit(**JIT_OPTS)
@@ -985,53 +1080,31 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
     if jp < 0:
         jp += P
     yb[0] = ring[off + jp]          # the previous chunk's last output, vl(N-1)
-    b0 = fp[F_B0]
-    b0t = fp[F_B0T]
-    gk = 1.0 - fp[F_B0S]            # glide: b0 <- gk b0 + gc (toward b0t)
-    gc = fp[F_B0S] * b0t
-    a1 = fp[F_A1]
-    eta = fp[F_ETA]
-    nd = ipar[s, I_NDISP]
-    lp = st[S_LP]
     xin = xb[io:io + C]             # the filter's input
     yo = yb[1:1 + C]                # its output
-    if nd == 0:
-        apx = st[S_APX]
-        apy = st[S_APY]
-        for i in range(C):
-            b0 = gk * b0 + gc
-            lp = b0 * xin[i] - a1 * lp
-            y = eta * (lp - apy) + apx
-            apx = lp
-            apy = y
-            yo[i] = y
-        st[S_APX] = apx
-        st[S_APY] = apy
-    else:
-        for i in range(C):
-            b0 = gk * b0 + gc
-            lp = b0 * xin[i] - a1 * lp
-            yo[i] = lp
-        ad = fp[F_ADISP]
-        d = 0
-        while d < nd:
-            cnt = nd - d
-            if cnt > 4:
-                cnt = 4
-            _allpass_run(yb, 1, C, st, S_D0 + 2 * d, cnt, ad)
-            d += cnt
-        apx = st[S_APX]
-        apy = st[S_APY]
-        for i in range(C):
-            v = yo[i]
-            y = eta * (v - apy) + apx
-            apx = v
-            apy = y
-            yo[i] = y
-        st[S_APX] = apx
-        st[S_APY] = apy
-    st[S_LP] = lp
-    fp[F_B0] = b0
+    # the allpass sections (dispersion, then tuning): the first four run in
+    # the loss's pass, the rest four per pass (states in registers)
+    nd = ipar[s, I_NDISP]
+    ad = fp[F_ADISP]
+    eta = fp[F_ETA]
+    ns = nd + 1
+    cnt = ns if ns < 4 else 4
+    s0, c0 = _section_at(0, nd, ad, eta)
+    s1, c1 = _section_at(1, nd, ad, eta)
+    s2, c2 = _section_at(2, nd, ad, eta)
+    s3, c3 = _section_at(3, nd, ad, eta)
+    _head(xin, yo, C, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3)
+    j = cnt
+    while j < ns:
+        cnt = ns - j
+        if cnt > 4:
+            cnt = 4
+        s0, c0 = _section_at(j, nd, ad, eta)
+        s1, c1 = _section_at(j + 1, nd, ad, eta)
+        s2, c2 = _section_at(j + 2, nd, ad, eta)
+        s3, c3 = _section_at(j + 3, nd, ad, eta)
+        _sections(yo, C, st, cnt, s0, s1, s2, s3, c0, c1, c2, c3)
+        j += cnt
     if io == 0:
         st[S_XD] = xb[C]
     blen = ipar[s, I_BLEN]
