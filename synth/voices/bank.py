@@ -19,9 +19,14 @@ from ..kernels import strings as K
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
 #: per-slot columns of ``ipar`` that a template does not carry
 _SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF)
-#: ``fpar`` columns a hammer template sets (speed F_HV is per strike)
-_HAMMER_COLS = np.array([K.F_HQ, K.F_HP, K.F_HA, K.F_HT, K.F_HREL, K.F_HE, K.F_HK, K.F_HMC],
+#: ``fpar`` columns a hammer template sets (speed F_HV and F_HDTV are per strike)
+_HAMMER_COLS = np.array([K.F_HQ, K.F_HP, K.F_HA, K.F_HT, K.F_HREL, K.F_HE, K.F_HK, K.F_HMC,
+                         K.F_HDZ, K.F_HD, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F_HPE,
+                         K.F_HP1, K.F_HP0, K.F_HFA, K.F_HFB, K.F_HFPHI, K.F_HC2, K.F_HC3],
                         dtype=np.int64)
+#: those proportional to the felt stiffness (scaled by the soft pedal)
+_HAMMER_Q_COLS = np.array([K.F_HQ, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F_HFA, K.F_HFB,
+                           K.F_HFPHI], dtype=np.int64)
 
 
 @dataclass(frozen=True, eq=False)
@@ -115,10 +120,32 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
     if law == 5 and not tau0_s > 0:
         raise ValueError(f"tau0_s = {tau0_s!r} is out of range (value > 0)")
     tau0 = tau0_s if law == 5 else 1.0
+    dt, Q, p, A = float(dt_s), float(stiffness), float(exponent), float(alpha_or_gamma)
+    Kk = c_m_per_s / (2.0 * tension_n)            # g per unit felt impulse (m / (N s))
+    mc = 2.0 * tension_n / (c_m_per_s * mass_kg)  # deceleration per unit g (1/s)
+    dz = 0.5 * dt * mc
+    E = math.exp(-dt / tau0)
+    # the felt impulse over a step, K int F dt = K (ca y1 + cby y0 + cbp Phi0),
+    # Phi1 = pe Phi0 + p1 y1 + p0 y0 and F1 = fa y1 + fb y0 + fphi Phi1
+    # (synth.kernels.strings._hammer_step: eq. 1.5 and Pub. III eq. 3)
+    if law == 4:
+        ca, cby, cbp = Q * (0.5 * dt + A), Q * (0.5 * dt - A), 0.0
+        pe = p1 = p0 = 0.0
+        fa, fb, fphi = Q * (1.0 + A / dt), -Q * A / dt, 0.0
+    else:
+        h = dt / tau0
+        qq = (1.0 - E) / h
+        c1, c0 = 1.0 - qq, qq - E
+        ca = Q * ((1.0 - A) * 0.5 * dt + A * tau0 * c1)
+        cby = Q * ((1.0 - A) * 0.5 * dt + A * tau0 * c0)
+        cbp = -Q * A * (1.0 - E)
+        pe, p1, p0 = E, tau0 * c1, tau0 * c0
+        fa, fb, fphi = Q, 0.0, -Q * A / tau0
+    D = 1.0 + dz
     # in the order of _HAMMER_COLS
-    v = np.array([stiffness, exponent, alpha_or_gamma, tau0, max(1.0, round(release_s / dt_s)),
-                  math.exp(-dt_s / tau0), c_m_per_s / (2.0 * tension_n),
-                  2.0 * tension_n / (c_m_per_s * mass_kg)])
+    v = np.array([Q, p, A, tau0, max(1.0, round(release_s / dt_s)), E, Kk, mc,
+                  dz, D, Kk * ca, Kk * cby, Kk * cbp, Kk * ca * D * p, pe, p1, p0, fa, fb, fphi,
+                  0.5 * p * (p - 1.0), p * (p - 1.0) * (p - 2.0) / 6.0])
     return HammerTemplate(int(law), v, max(1, int(round(max_flight_s / dt_s))), float(dt_s))
 
 
@@ -403,7 +430,9 @@ class StringBank:
         u_now = self.displacement_at_excitation(s)
         fp[_HAMMER_COLS] = t.values
         fp[K.F_HV] = speed_m_per_s
-        fp[K.F_HQ] *= stiffness_factor
+        fp[K.F_HDTV] = t.dt_s * speed_m_per_s
+        if stiffness_factor != 1.0:
+            fp[_HAMMER_Q_COLS] *= stiffness_factor
         st[K.S_HZ] = u_now
         st[K.S_HY] = 0.0
         st[K.S_HPHI] = 0.0
