@@ -288,3 +288,65 @@ def test_random_strikes_fast_path_equals_per_sample_and_stay_finite(key, speeds,
     scale = np.max(np.abs(slow))
     assert scale > 0
     assert np.max(np.abs(fast - slow)) <= 1e-10 * scale
+
+
+def _grand_bank(keys, strikes, law, per_sample, block):
+    """Strings of several grand keys in one bank, struck at ``strikes``
+    [(time_s, string index, speed), ...] (a string struck again restrikes
+    it), rendered to 20 ms after the last strike through the fast path
+    (hammered strings stepped together in groups) or the per-sample path.
+    Returns (output, every string's (u_r, u_l) at the end)."""
+    from synth.io.presets import load_preset
+    from synth.physics import piano as P
+    from synth.voices import instrument_for
+
+    inst = instrument_for(load_preset("grand-piano"))
+    sus = [inst.setup(k)[0] for k in keys]
+    R = max(0 if su.U is None else len(su.U) for su in sus)
+    b = StringBank(len(keys), max(su.cells for su in sus) + 2, max(1, R), 4096)
+    for s, su in enumerate(sus):
+        b.configure(s, cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=1, out_mode=1,
+                    tension_over_dx=su.tension_n / (su.c_m_per_s * su.dt_s), b0=su.b0,
+                    a1=su.a1, eta=su.eta, extra_delay=su.extra_delay, lossy=True,
+                    n_disp=su.n_disp, a_disp=su.a_disp, force_per_sample=per_sample,
+                    gain=1.0 + 0.37 * s)
+        b.activate(s)
+    dt = sus[0].dt_s
+    n = int((max(t for t, _, _ in strikes) + 0.02) / dt)
+    events = sorted((int(round(t / dt)), s, v) for t, s, v in strikes)
+    mix = np.zeros(n)
+    done = 0
+    for at, s, v in events + [(n, -1, 0.0)]:
+        while done < at:
+            c = min(block, at - done)
+            b.render(mix, done, c)
+            done += c
+        if s >= 0:
+            hp = dict(inst._hammer(keys[s], len(inst.setup(keys[s])), sus[s]), speed_m_per_s=v)
+            if law == 5:
+                f0, p, gamma, tau0 = P.hammer_four_param(keys[s])
+                hp.update(law=5, stiffness=f0, exponent=p, alpha_or_gamma=gamma, tau0_s=tau0)
+            b.start_hammer(s, **hp)
+    return mix, [b.rails(s) for s in range(len(keys))]
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 2**31), law=st.sampled_from([4, 5]), block=st.integers(1, 2000))
+def test_hammers_stepped_together_equal_the_per_sample_path(seed, law, block):
+    """Several strings struck at once and again (more than one group of
+    hammers, some strikes while others fly): the grouped fast path gives the
+    per-sample reference's output and final string shapes to round-off."""
+    rng = np.random.default_rng(seed)
+    keys = [int(k) for k in rng.choice(np.arange(21, 86), size=6, replace=False)]
+    strikes = [(0.0, s, float(rng.uniform(0.5, 7.0))) for s in range(6)]
+    strikes += [(float(rng.uniform(0.0005, 0.012)), int(rng.integers(0, 6)),
+                 float(rng.uniform(0.2, 7.0))) for _ in range(4)]
+    slow, rails_slow = _grand_bank(keys, strikes, law, True, block)
+    fast, rails_fast = _grand_bank(keys, strikes, law, False, block)
+    assert np.all(np.isfinite(fast))
+    scale = np.max(np.abs(slow))
+    assert scale > 0
+    assert np.max(np.abs(fast - slow)) <= 1e-10 * scale
+    for (a, b_), (c, d) in zip(rails_slow, rails_fast):
+        amp = np.max(np.abs(a)) + np.max(np.abs(b_)) + 1e-30
+        assert np.max(np.abs(a - c)) <= 1e-10 * amp and np.max(np.abs(b_ - d)) <= 1e-10 * amp

@@ -147,7 +147,8 @@ F_HFPHI = 34
 F_HDTV = 35      # dt V (m): the hammer's free travel per step
 F_HC2 = 36       # p (p - 1) / 2 and p (p - 1) (p - 2) / 6: Taylor terms of w^p
 F_HC3 = 37
-F_NF = 38
+F_HB4 = 38       # binomial coefficients C(p, 4) .. C(p, 10) (F_HB4 + j = C(p, 4 + j))
+F_NF = 45
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -167,7 +168,8 @@ S_D0 = 13        # dispersion sections' states: x1, y1 per section
 MAX_DISP = 16
 S_HDG2 = S_D0 + 2 * MAX_DISP   # hammer: g increment of the step before the last
 S_HDG3 = S_HDG2 + 1   # and the one before that
-S_NS = S_HDG3 + 1
+S_HIW = S_HDG3 + 1    # hammer: 1 / w at the last step (1/m; 0 out of contact)
+S_NS = S_HIW + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -196,8 +198,94 @@ def _g_at(kind, e, dt, A, t0, alpha):
         return A * (1.0 - (1.0 + alpha * t) * np.exp(-alpha * t))
 
 
+@njit(inline="always", **SERIAL_OPTS)
+def _hammer_steady(I1, g0, fp, st):
+    """The hammer step (:func:`_hammer_general`) in steady contact, short
+    and branch-free, or nothing.
+
+    When the last three steps pressed the string, w^p is continued from the
+    last step's w0 by its binomial series in e0 = w / w0 - 1 (to
+    C(p, 10) e0^10: error < 1e-18 for |e0| < 0.05) instead of a power, and
+    two Halley corrections follow, the second with w^p by a fifth-order
+    Taylor step (error < 1e-16 for a first correction below 1e-3).  One
+    test at the end says whether the result is the solution to round-off;
+    if not (contact starting or ending, a jump of the incoming wave),
+    nothing has been written and the last return value is False: the caller
+    takes the general step.  Kept small so that it inlines and the steps of
+    several hammers overlap in the CPU (:func:`_excite_group`).  Returns
+    (g1, F1, w1, done).
+    """
+    y0 = st[S_HY]
+    h3 = st[S_HDG3]
+    if not (h3 > 0.0 and y0 > 0.0):
+        return g0, 0.0, 0.0, False
+    dz = fp[F_HDZ]
+    D = fp[F_HD]
+    z0 = st[S_HZ]
+    phi0 = st[S_HPHI]
+    zc = z0 + fp[F_HDTV] - dz * g0
+    W0 = zc - I1 - D * g0
+    p = fp[F_HP]
+    c2 = fp[F_HC2]
+    c3 = fp[F_HC3]
+    Kca = fp[F_HKCA]
+    kcd = fp[F_HKCD]
+    kh = kcd * D * (p - 1.0)
+    Kcb = fp[F_HKCBY] * y0 + fp[F_HKCBP] * phi0
+    h1 = st[S_HDG]
+    h2 = st[S_HDG2]
+    x = 3.0 * (h1 - h2) + h3
+    w = W0 - D * x
+    e0 = (w - st[S_HW]) * st[S_HIW]
+    q = fp[F_HB4 + 6]
+    q = q * e0 + fp[F_HB4 + 5]
+    q = q * e0 + fp[F_HB4 + 4]
+    q = q * e0 + fp[F_HB4 + 3]
+    q = q * e0 + fp[F_HB4 + 2]
+    q = q * e0 + fp[F_HB4 + 1]
+    q = q * e0 + fp[F_HB4]
+    q = q * e0 + c3
+    q = q * e0 + c2
+    q = q * e0 + p
+    q = q * e0 + 1.0
+    y = y0 * q
+    imp = Kca * y + Kcb
+    r = x - imp
+    Aw = w + kcd * y
+    inv = 1.0 / (2.0 * Aw * Aw + r * kh * y)
+    x1 = x - 2.0 * r * w * Aw * inv
+    e1 = 2.0 * D * r * Aw * inv
+    w = W0 - D * x1
+    y = y * (1.0 + e1 * (p + e1 * (c2 + e1 * (c3 + e1 * (fp[F_HB4] + e1 * fp[F_HB4 + 1])))))
+    imp2 = Kca * y + Kcb
+    r = x1 - imp2
+    Aw = w + kcd * y
+    inv = 1.0 / (2.0 * Aw * Aw + r * kh * y)
+    x2 = x1 - 2.0 * r * w * Aw * inv
+    e2 = 2.0 * D * r * Aw * inv
+    if (-0.05 < e0 < 0.05 and -1e-3 < e1 < 1e-3 and -1e-5 < e2 < 1e-5
+            and imp > 0.0 and imp2 > 0.0 and w > 0.0 and x2 > 0.0):
+        y1 = y * (1.0 + e2 * (p + e2 * (c2 + e2 * c3)))
+        st[S_HDG3] = h2
+        st[S_HDG2] = h1
+        st[S_HDG] = x2
+        g1 = g0 + x2
+        w1 = W0 - D * x2
+        phi1 = fp[F_HPE] * phi0 + fp[F_HP1] * y1 + fp[F_HP0] * y0
+        F1 = fp[F_HFA] * y1 + fp[F_HFB] * y0 + fp[F_HFPHI] * phi1
+        if F1 < 0.0:
+            F1 = 0.0
+        st[S_HPHI] = phi1
+        st[S_HZ] = zc - dz * g1
+        st[S_HY] = y1
+        st[S_HW] = w1
+        st[S_HIW] = 1.0 / w1
+        return g1, F1, w1, True
+    return g0, 0.0, 0.0, False
+
+
 @njit(**SERIAL_OPTS)
-def _hammer_step(I1, g0, fp, st):
+def _hammer_general(I1, g0, fp, st):
     """Advance the hammer-string contact (eq. 1.4) by one step.
 
     Unknown: g1 = g(t_{n+1}), written g1 = g0 + x.  With the incoming
@@ -246,6 +334,7 @@ def _hammer_step(I1, g0, fp, st):
         st[S_HZ] = zc - dz * g0
         st[S_HY] = 0.0
         st[S_HW] = W0
+        st[S_HIW] = 0.0
         return g0, 0.0, W0, False
     p = fp[F_HP]
     c2 = fp[F_HC2]
@@ -255,7 +344,10 @@ def _hammer_step(I1, g0, fp, st):
     kh = kcd * D * (p - 1.0)
     Kcb = fp[F_HKCBY] * y0 + fp[F_HKCBP] * phi0
     # predictor: the increments change slowly from one sample to the next
-    x = 3.0 * (st[S_HDG] - st[S_HDG2]) + st[S_HDG3]
+    h1 = st[S_HDG]
+    h2 = st[S_HDG2]
+    h3 = st[S_HDG3]
+    x = 3.0 * (h1 - h2) + h3
     if x < 0.0:
         x = 0.0
     y = 0.0
@@ -314,8 +406,8 @@ def _hammer_step(I1, g0, fp, st):
             w = W0 - D * x
             y = np.exp(p * np.log(1000.0 * w)) if w > 0.0 else 0.0
             break
-    st[S_HDG3] = st[S_HDG2]
-    st[S_HDG2] = st[S_HDG]
+    st[S_HDG3] = h2
+    st[S_HDG2] = h1
     st[S_HDG] = x
     g1 = g0 + x
     # state update at t_{n+1}
@@ -330,7 +422,18 @@ def _hammer_step(I1, g0, fp, st):
     st[S_HZ] = zc - dz * g1
     st[S_HY] = y1
     st[S_HW] = w1
+    st[S_HIW] = 1.0 / w1 if w1 > 0.0 else 0.0
     return g1, F1, w1, contact
+
+
+@njit(**SERIAL_OPTS)
+def _hammer_step(I1, g0, fp, st):
+    """One hammer step: :func:`_hammer_steady`, else :func:`_hammer_general`.
+    Returns (g1, F1, w1, contact)."""
+    g1, F1, w1, done = _hammer_steady(I1, g0, fp, st)
+    if done:
+        return g1, F1, w1, True
+    return _hammer_general(I1, g0, fp, st)
 
 
 @njit(**JIT_OPTS)
@@ -638,6 +741,7 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
                 e += C
                 st[S_HZ] = z0 + C * dt * vz
                 st[S_HW] = w
+                st[S_HIW] = 0.0
                 st[S_HDG2] = 0.0
                 st[S_HDG3] = 0.0
                 st[S_HDG] = 0.0
@@ -668,7 +772,10 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
                         exc = -1
                 else:
                     I1 = ring[off + j1] - ring[off + j2]
-                    g, F, w, contact = _hammer_step(I1, g, fp, st)
+                    g1, F, w, contact = _hammer_steady(I1, g, fp, st)
+                    if not contact:
+                        g1, F, w, contact = _hammer_general(I1, g, fp, st)
+                    g = g1
                     if contact:
                         hlast = e
                     if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):
@@ -1137,6 +1244,16 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
     return peak
 
 
+#: hammered strings the fast path steps together (:func:`_render_group`)
+GROUP = 4
+#: their chunks' longest length (samples)
+GROUP_CHUNK = 512
+#: scratch samples before the per-chunk windows (the group's g and I1 rows)
+_SCRATCH_GROUP = 2 * GROUP * GROUP_CHUNK + GROUP + 8
+#: int64 work samples :func:`render_bank` needs besides the string list
+IWORK_EXTRA = 6 * GROUP
+
+
 @njit(**JIT_OPTS)
 def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
     """C samples of string s, operation by operation (C <= ipar[s, I_CHUNK]
@@ -1144,6 +1261,31 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
 
     ``scratch`` (see :func:`scratch_length`) holds the injected g per
     sample, the region's three windows and the far end's buffers."""
+    N = ipar[s, I_N]
+    P = 2 * N
+    exc = ipar[s, I_EXC]
+    if exc == -1:
+        # the excitation ended on the last sample of the previous chunk: fold
+        # its constant g into the ring now, between chunks
+        _fold_offset(ring, ipar[s, I_OFF], P, ipar[s, I_POS], ipar[s, I_K], fst[s, S_G])
+        fst[s, S_G] = 0.0
+        exc = 0
+        ipar[s, I_EXC] = 0
+    gbuf = scratch[_SCRATCH_GROUP:_SCRATCH_GROUP + C]
+    # ---- 2. excitation -------------------------------------------------------
+    plucking = exc != 0
+    if plucking:
+        _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
+    _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch[_SCRATCH_GROUP + C:], gbuf,
+                plucking)
+
+
+@njit(**JIT_OPTS)
+def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking):
+    """Steps 3 and 4 of the fast path over a chunk whose excitation (step 2)
+    has been injected (g per sample in ``gbuf`` if ``plucking``): the
+    termination region, the far end and the output; ``work`` holds their
+    windows."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
@@ -1151,26 +1293,13 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
     R = ipar[s, I_REG_N]
     st = fst[s]
     m0 = ipar[s, I_POS]
-    exc = ipar[s, I_EXC]
-    if exc == -1:
-        # the excitation ended on the last sample of the previous chunk: fold
-        # its constant g into the ring now, between chunks
-        _fold_offset(ring, off, P, m0, k, st[S_G])
-        st[S_G] = 0.0
-        exc = 0
-        ipar[s, I_EXC] = 0
-    # scratch layout: g | three windows (region: entry values, ping-pong,
+    # work layout: three windows (region: entry values, ping-pong,
     # left-going values; far end: x, y) | bend history
     Wm = C + R + 2
-    gbuf = scratch[0:C]
-    w1 = scratch[C:C + Wm]
-    w2 = scratch[C + Wm:C + 2 * Wm]
-    w3 = scratch[C + 2 * Wm:C + 3 * Wm]
-    hb = scratch[C + 3 * Wm:]
-    # ---- 2. excitation -------------------------------------------------------
-    plucking = exc != 0
-    if plucking:
-        _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
+    w1 = work[0:Wm]
+    w2 = work[Wm:2 * Wm]
+    w3 = work[2 * Wm:3 * Wm]
+    hb = work[3 * Wm:]
     # ---- 3. termination region: min/max along right-going characteristics --
     if R > 0:
         _region_chunk(ring, off, P, m0, C, U, ipar[s, I_REG_OFF], R, ipar[s, I_SIDE],
@@ -1232,12 +1361,214 @@ def scratch_length(max_block: int, max_region: int, max_bend: int) -> int:
     """Samples of ``scratch`` that :func:`render_bank` needs for chunks of
     at most ``max_block`` samples, regions of at most ``max_region`` points
     and pitch-bend lines of at most ``max_bend`` samples."""
-    return max_block + 3 * (max_block + max_region + 2) + max_bend + max_block + 8
+    return (_SCRATCH_GROUP + max_block + 3 * (max_block + max_region + 2) + max_bend
+            + max_block + 8)
+
+
+@njit(**JIT_OPTS)
+def _ring_add(ring, off, P, j, n, src, s0, sc):
+    """The ring slots j, j+1, ... (mod P) += sc * src[s0:s0+n] (see
+    :func:`_ring_get`)."""
+    n1 = P - j
+    if n1 > n:
+        n1 = n
+    d = ring[off + j:off + j + n1]
+    r = src[s0:s0 + n1]
+    for a in range(n1):
+        d[a] += sc * r[a]
+    n2 = n - n1
+    d = ring[off:off + n2]
+    r = src[s0 + n1:s0 + n]
+    for a in range(n2):
+        d[a] += sc * r[a]
+
+
+@njit(**JIT_OPTS)
+def _excite_group(ring, ipar, fpar, fst, C, mem, G, scratch, ist):
+    """Step 2 of the fast path for G (<= GROUP) strings struck by hammers,
+    over the same C samples, their hammer steps interleaved.
+
+    A hammer step is a chain of dependent operations (a power or a series,
+    divisions, a Newton or Halley solve: ~100 cycles); stepping several
+    independent hammers in one loop lets the CPU overlap their chains.  The
+    incoming displacement at k over the chunk is in the ring at its start
+    (see :func:`_excite_chunk`), so it is gathered first; the injections
+    follow as whole windows.  Member m's g per sample goes to
+    ``scratch[m * GROUP_CHUNK:][:C]``; ``ist`` holds the members' integer
+    state during the loop.
+    """
+    GC = GROUP_CHUNK
+    ib0 = GROUP * GC                  # I1 rows
+    gm0 = 2 * GROUP * GC              # current g per member
+    for m in range(G):
+        s = mem[m]
+        off = ipar[s, I_OFF]
+        P = 2 * ipar[s, I_N]
+        k = ipar[s, I_K]
+        m0 = ipar[s, I_POS]
+        j1 = m0 + 1 - k
+        if j1 < 0:
+            j1 += P
+        j2 = m0 + 1 + k
+        if j2 >= P:
+            j2 -= P
+        # I1_i = u_r(k) + u_l(k) before the injection at sample i
+        _ring_get(ring, off, P, j1, C, scratch, ib0 + m * GC, 1.0)
+        _ring_get(ring, off, P, j2, C, scratch, m * GC, 1.0)
+        row = scratch[ib0 + m * GC:ib0 + m * GC + C]
+        tmp = scratch[m * GC:m * GC + C]
+        for i in range(C):
+            row[i] -= tmp[i]
+        st = fst[s]
+        fp = fpar[s]
+        g = st[S_G]
+        scratch[gm0 + m] = g
+        e = ipar[s, I_EXC_M]
+        hlast = ipar[s, I_HLAST]
+        e_end = ipar[s, I_EXC_END]
+        hrel = int(fp[F_HREL])
+        run = 1
+        if hlast >= 0 and st[S_HY] == 0.0 and st[S_HPHI] == 0.0:
+            # free flight after a contact (felt relaxed): if w = z - u(k) - g
+            # stays <= 0 over the chunk, nothing touches the string
+            vz = fp[F_HV] - fp[F_HMC] * g
+            z0 = st[S_HZ]
+            dt = fp[F_DT]
+            wmax = -np.inf
+            w = 0.0
+            for i in range(C):
+                w = z0 + (i + 1) * dt * vz - row[i] - g
+                wmax = w if w > wmax else wmax
+            if wmax <= 0.0:
+                run = 0
+                gr = scratch[m * GC:m * GC + C]
+                for i in range(C):
+                    gr[i] = g
+                e += C
+                st[S_HZ] = z0 + C * dt * vz
+                st[S_HW] = w
+                st[S_HIW] = 0.0
+                st[S_HDG2] = 0.0
+                st[S_HDG3] = 0.0
+                st[S_HDG] = 0.0
+                if e - 1 >= e_end or (e - 1 - hlast > hrel and w < 0.0):
+                    ipar[s, I_EXC] = -1      # the hammer is gone
+        ist[m] = run
+        ist[GROUP + m] = e
+        ist[2 * GROUP + m] = hlast
+        ist[3 * GROUP + m] = e_end
+        ist[4 * GROUP + m] = hrel
+    # the interleaved steps
+    for i in range(C):
+        for m in range(G):
+            if ist[m] != 0:
+                s = mem[m]
+                st = fst[s]
+                fp = fpar[s]
+                I1 = scratch[ib0 + m * GC + i]
+                g = scratch[gm0 + m]
+                g1, F, w, contact = _hammer_steady(I1, g, fp, st)
+                if not contact:
+                    g1, F, w, contact = _hammer_general(I1, g, fp, st)
+                scratch[gm0 + m] = g1
+                e = ist[GROUP + m]
+                if contact:
+                    ist[2 * GROUP + m] = e
+                hl = ist[2 * GROUP + m]
+                if e >= ist[3 * GROUP + m] or (hl >= 0 and e - hl > ist[4 * GROUP + m]
+                                               and w < 0.0):
+                    ist[m] = 0               # the hammer is gone: g stays
+                    ipar[s, I_EXC] = -1
+                ist[GROUP + m] = e + 1
+                scratch[m * GC + i] = g1
+            elif ipar[mem[m], I_EXC] == -1:
+                scratch[m * GC + i] = scratch[gm0 + m]
+    # state back, and the injections: outgoing = incoming + g on both rails
+    for m in range(G):
+        s = mem[m]
+        ipar[s, I_EXC_M] = ist[GROUP + m]
+        ipar[s, I_HLAST] = ist[2 * GROUP + m]
+        fst[s, S_G] = scratch[gm0 + m]
+        off = ipar[s, I_OFF]
+        P = 2 * ipar[s, I_N]
+        k = ipar[s, I_K]
+        m0 = ipar[s, I_POS]
+        j1 = m0 + 1 - k
+        if j1 < 0:
+            j1 += P
+        j2 = m0 + 1 + k
+        if j2 >= P:
+            j2 -= P
+        _ring_add(ring, off, P, j1, C, scratch, m * GC, 1.0)
+        _ring_add(ring, off, P, j2, C, scratch, m * GC, -1.0)
+
+
+@njit(**JIT_OPTS)
+def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch):
+    """n samples of string s into mix[o0:o0+n]: the per-sample path or
+    fast-path chunks."""
+    exc = ipar[s, I_EXC]
+    cmax = ipar[s, I_CHUNK] if exc > 0 else ipar[s, I_CHUNK_FREE]
+    if ipar[s, I_PROBE] >= 0 or cmax <= 0:
+        _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
+        return
+    done = 0
+    while done < n:
+        C = n - done
+        if C > cmax:
+            C = cmax
+        if ipar[s, I_EXC] > 0:
+            left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
+            if C > left:
+                C = left
+        _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch)
+        done += C
+        if ipar[s, I_EXC] <= 0:
+            cmax = ipar[s, I_CHUNK_FREE]
+
+
+@njit(**JIT_OPTS)
+def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ist):
+    """n samples of G (<= GROUP) strings whose hammers are running, in
+    lockstep chunks (the shortest any of them allows) so that their hammer
+    steps interleave (:func:`_excite_group`); a string whose hammer has gone
+    renders the rest of the block alone.  ``mem`` (the strings) is
+    reordered in place."""
+    done = 0
+    live = G
+    while done < n and live > 0:
+        C = n - done
+        if C > GROUP_CHUNK:
+            C = GROUP_CHUNK
+        for m in range(live):
+            s = mem[m]
+            c = ipar[s, I_CHUNK]
+            left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
+            if left < c:
+                c = left
+            if c < C:
+                C = c
+        _excite_group(ring, ipar, fpar, fst, C, mem, live, scratch, ist)
+        work = scratch[_SCRATCH_GROUP:]
+        for m in range(live):
+            _chunk_rest(mem[m], ring, ipar, fpar, fst, U, C, o0 + done, mix, work,
+                        scratch[m * GROUP_CHUNK:m * GROUP_CHUNK + C], True)
+        done += C
+        j = 0
+        for m in range(live):
+            s = mem[m]
+            if ipar[s, I_EXC] > 0:
+                mem[j] = s
+                j += 1
+            elif done < n:
+                _render_string(s, ring, ipar, fpar, fst, U, n - done, o0 + done, mix, probe,
+                               scratch)
+        live = j
 
 
 @njit(**JIT_OPTS)
 def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
-                probe, scratch):
+                probe, scratch, iwork):
     """Render ``n`` internal samples of every active string into
     ``mix[o0:o0+n]`` (accumulating).
 
@@ -1247,28 +1578,39 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     active : int64[:]         string indices; the first ``n_active`` are used
     probe : 3-D               per-sample diagnostics [row, channel P_*, n] for
                               strings with ``ipar[s, I_PROBE] >= 0``
-    scratch : float64[:]      >= 3 * (max chunk + max R) samples
+    scratch : float64[:]      :func:`scratch_length` samples
+    iwork : int64[:]          n_active + IWORK_EXTRA samples (work space)
+
+    Strings whose hammer is running on the fast path render GROUP at a
+    time (:func:`_render_group`), the others one by one.
     """
+    nh = 0
     for a in range(n_active):
         s = active[a]
-        exc = ipar[s, I_EXC]
-        cmax = ipar[s, I_CHUNK] if exc > 0 else ipar[s, I_CHUNK_FREE]
-        if ipar[s, I_PROBE] >= 0 or cmax <= 0:
-            _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
+        if ipar[s, I_EXC] >= 4 and ipar[s, I_PROBE] < 0 and ipar[s, I_CHUNK] > 0:
+            iwork[nh] = s
+            nh += 1
         else:
-            done = 0
-            while done < n:
-                C = n - done
-                if C > cmax:
-                    C = cmax
-                if ipar[s, I_EXC] > 0:
-                    left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
-                    if C > left:
-                        C = left
-                _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch)
-                done += C
-                if ipar[s, I_EXC] <= 0:
-                    cmax = ipar[s, I_CHUNK_FREE]
+            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch)
+    # strings with similar chunk lengths together (a group's chunk is the
+    # shortest any member allows): insertion sort by I_CHUNK
+    for a in range(1, nh):
+        s = iwork[a]
+        c = ipar[s, I_CHUNK]
+        b = a - 1
+        while b >= 0 and ipar[iwork[b], I_CHUNK] > c:
+            iwork[b + 1] = iwork[b]
+            b -= 1
+        iwork[b + 1] = s
+    ist = iwork[iwork.shape[0] - IWORK_EXTRA:]
+    g0 = 0
+    while g0 < nh:
+        G = nh - g0
+        if G > GROUP:
+            G = GROUP
+        _render_group(iwork[g0:g0 + G], G, ring, ipar, fpar, fst, U, n, o0, mix, probe,
+                      scratch, ist)
+        g0 += G
 
 
 def max_fast_chunk(N: int, k: int, R: int, out_mode: int) -> int:

@@ -22,8 +22,8 @@ _SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF)
 #: ``fpar`` columns a hammer template sets (speed F_HV and F_HDTV are per strike)
 _HAMMER_COLS = np.array([K.F_HQ, K.F_HP, K.F_HA, K.F_HT, K.F_HREL, K.F_HE, K.F_HK, K.F_HMC,
                          K.F_HDZ, K.F_HD, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F_HPE,
-                         K.F_HP1, K.F_HP0, K.F_HFA, K.F_HFB, K.F_HFPHI, K.F_HC2, K.F_HC3],
-                        dtype=np.int64)
+                         K.F_HP1, K.F_HP0, K.F_HFA, K.F_HFB, K.F_HFPHI, K.F_HC2, K.F_HC3]
+                        + [K.F_HB4 + j for j in range(7)], dtype=np.int64)
 #: those proportional to the felt stiffness (scaled by the soft pedal)
 _HAMMER_Q_COLS = np.array([K.F_HQ, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F_HFA, K.F_HFB,
                            K.F_HFPHI], dtype=np.int64)
@@ -145,7 +145,8 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
     # in the order of _HAMMER_COLS
     v = np.array([Q, p, A, tau0, max(1.0, round(release_s / dt_s)), E, Kk, mc,
                   dz, D, Kk * ca, Kk * cby, Kk * cbp, Kk * ca * D * p, pe, p1, p0, fa, fb, fphi,
-                  0.5 * p * (p - 1.0), p * (p - 1.0) * (p - 2.0) / 6.0])
+                  0.5 * p * (p - 1.0), p * (p - 1.0) * (p - 2.0) / 6.0]
+                 + [math.prod(p - i for i in range(j)) / math.factorial(j) for j in range(4, 11)])
     return HammerTemplate(int(law), v, max(1, int(round(max_flight_s / dt_s))), float(dt_s))
 
 
@@ -200,6 +201,7 @@ class StringBank:
         self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable + self.max_bend)))
         # fast-path chunks never exceed max_block (the kernel's scratch layout)
         self.scratch = np.zeros(K.scratch_length(self.max_block, self.max_region, self.max_bend))
+        self.iwork = np.zeros(self.capacity + K.IWORK_EXTRA, dtype=np.int64)
         # dampers, per slot: loss b0 undamped, loop frequency f1 (Hz), T60 with
         # the damper down and T60 free (s; inf: no free decay to keep)
         self.damper = np.zeros((self.capacity, 4))
@@ -440,6 +442,7 @@ class StringBank:
         st[K.S_HDG] = 0.0
         st[K.S_HDG2] = 0.0
         st[K.S_HDG3] = 0.0
+        st[K.S_HIW] = 0.0
         ip[K.I_EXC] = t.law
         ip[K.I_EXC_M] = 0
         ip[K.I_EXC_END] = t.e_end
@@ -460,7 +463,7 @@ class StringBank:
             c = min(n - done, self.max_block)
             K.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
                           self.active, self.n_active, c, o0 + done, mix,
-                          self.probe, self.scratch)
+                          self.probe, self.scratch, self.iwork)
             done += c
 
     # -- inspection (tests, analysis) ----------------------------------------
