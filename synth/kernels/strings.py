@@ -53,7 +53,7 @@ How the fast path is written, so that it is fast on every x86-64 target
 
 * every window of the ring a step needs is copied to contiguous scratch
   with two loops split at the ring's wrap (:func:`_ring_get`,
-  :func:`_ring_put`), never a wrap test per element;
+  :func:`_ring_get`), never a wrap test per element;
 * inner loops index slice views with the bare loop index (an index of
   unknown sign gets numba's negative-index fix-up per element, which stops
   vectorisation);
@@ -674,7 +674,7 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
     """Step 2 of the fast path over a chunk of C samples: inject the
     excitation at k and record the injected g per sample in ``gbuf``.
     (Kept out of
-    :func:`_chunk_fast`: with the hammer code inside it, the region's
+    :func:`_chunk_rest`: with the hammer code inside it, the region's
     min/max loops ran 35 % slower.)"""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
@@ -791,42 +791,60 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
 
 
 @njit(**JIT_OPTS)
-def _ring_get(ring, off, P, j, n, dst, d0, sc):
-    """dst[d0:d0+n] = sc * the ring slots j, j+1, ... (mod P); 0 <= j < P,
-    n <= P.  Two contiguous loops (no wrap test per element), so they
-    vectorise; ``sc`` is +-1 (exact)."""
+def _ring_get(ring, off, P, j, dst, sc):
+    """dst = sc * the ring slots j, j+1, ... (mod P); 0 <= j < P,
+    len(dst) <= P; ``sc`` is +-1 (exact).  Two contiguous loops split at
+    the wrap (no wrap test per element), over slice views with the bare
+    loop index: an index such as d0 + a, whose sign numba cannot know, gets
+    a negative-index fix-up per element that stops the loop vectorising.
+    (The ring helpers take no constant arguments: numba compiles a separate
+    copy of a function for every literal constant passed to it.)"""
+    n = dst.shape[0]
     n1 = P - j
     if n1 > n:
         n1 = n
-    # (loops over slice views with the bare loop index: an index such as
-    # d0 + a, whose sign numba cannot know, gets a negative-index fix-up per
-    # element that stops the loop vectorising)
-    d = dst[d0:d0 + n1]
     r = ring[off + j:off + j + n1]
+    d = dst[0:n1]
     for a in range(n1):
         d[a] = sc * r[a]
-    n2 = n - n1
-    d = dst[d0 + n1:d0 + n]
-    r = ring[off:off + n2]
-    for a in range(n2):
+    r = ring[off:off + n - n1]
+    d = dst[n1:n]
+    for a in range(n - n1):
         d[a] = sc * r[a]
 
 
 @njit(**JIT_OPTS)
-def _ring_put(ring, off, P, j, n, src, s0, sc):
-    """The ring slots j, j+1, ... (mod P) = sc * src[s0:s0+n] (see :func:`_ring_get`)."""
+def _ring_put(ring, off, P, j, src, sc):
+    """The ring slots j, j+1, ... (mod P) = sc * src (see :func:`_ring_get`)."""
+    n = src.shape[0]
     n1 = P - j
     if n1 > n:
         n1 = n
-    d = ring[off + j:off + j + n1]
-    r = src[s0:s0 + n1]
+    r = ring[off + j:off + j + n1]
+    d = src[0:n1]
     for a in range(n1):
-        d[a] = sc * r[a]
-    n2 = n - n1
-    d = ring[off:off + n2]
-    r = src[s0 + n1:s0 + n]
-    for a in range(n2):
-        d[a] = sc * r[a]
+        r[a] = sc * d[a]
+    r = ring[off:off + n - n1]
+    d = src[n1:n]
+    for a in range(n - n1):
+        r[a] = sc * d[a]
+
+
+@njit(**JIT_OPTS)
+def _ring_add(ring, off, P, j, src, sc):
+    """The ring slots j, j+1, ... (mod P) += sc * src (see :func:`_ring_get`)."""
+    n = src.shape[0]
+    n1 = P - j
+    if n1 > n:
+        n1 = n
+    r = ring[off + j:off + j + n1]
+    d = src[0:n1]
+    for a in range(n1):
+        r[a] += sc * d[a]
+    r = ring[off:off + n - n1]
+    d = src[n1:n]
+    for a in range(n - n1):
+        r[a] += sc * d[a]
 
 
 @njit(**JIT_OPTS)
@@ -877,33 +895,29 @@ def _region_pass(src, dst, vw, W, C, R, n0, n1, n2, n3, U0, U1, U2, U3):
             x = U3 + v3[t]
             m = x if x < m else m
             o[t] = m
-        _region_edge(src, dst, vw, C, lo3, i0, lo0, lo1, lo2, lo3, d0, d1, d2, d3, U0, U1, U2, U3)
-        _region_edge(src, dst, vw, C, i1, lo0 + C, lo0, lo1, lo2, lo3, d0, d1, d2, d3,
-                     U0, U1, U2, U3)
     else:
-        _region_edge(src, dst, vw, C, lo3, lo0 + C, lo0, lo1, lo2, lo3, d0, d1, d2, d3,
-                     U0, U1, U2, U3)
-
-
-@njit(**JIT_OPTS)
-def _region_edge(src, dst, vw, C, ia, ib, lo0, lo1, lo2, lo3, d0, d1, d2, d3, U0, U1, U2, U3):
-    """Elements ia .. ib-1 of a :func:`_region_pass`, which only some of
-    the four windows hold (a few per pass)."""
-    for i in range(ia, ib):
-        m = src[i]
-        if lo0 <= i < lo0 + C:
-            x = U0 + vw[i + d0]
-            m = x if x < m else m
-        if lo1 <= i < lo1 + C:
-            x = U1 + vw[i + d1]
-            m = x if x < m else m
-        if lo2 <= i < lo2 + C:
-            x = U2 + vw[i + d2]
-            m = x if x < m else m
-        if lo3 <= i < lo3 + C:
-            x = U3 + vw[i + d3]
-            m = x if x < m else m
-        dst[i] = m
+        i0 = lo0 + C              # no interior: everything below is an edge
+        i1 = lo0 + C
+    # the few elements only some of the four windows hold: [lo3, i0) and
+    # [i1, lo0 + C)
+    for part in range(2):
+        ia = lo3 if part == 0 else i1
+        ib = i0 if part == 0 else lo0 + C
+        for i in range(ia, ib):
+            m = src[i]
+            if lo0 <= i < lo0 + C:
+                x = U0 + vw[i + d0]
+                m = x if x < m else m
+            if lo1 <= i < lo1 + C:
+                x = U1 + vw[i + d1]
+                m = x if x < m else m
+            if lo2 <= i < lo2 + C:
+                x = U2 + vw[i + d2]
+                m = x if x < m else m
+            if lo3 <= i < lo3 + C:
+                x = U3 + vw[i + d3]
+                m = x if x < m else m
+            dst[i] = m
 
 
 @njit(**JIT_OPTS)
@@ -920,15 +934,15 @@ def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw):
     b = m0 + 1 - R                 # first characteristic slot (unwrapped)
     if b < 0:
         b += P
-    _ring_get(ring, off, P, b, W, acc, 0, sc)
+    _ring_get(ring, off, P, b, acc[0:W], sc)
     jv = m0 + 2
     if jv >= P:
         jv -= P
-    _ring_get(ring, off, P, jv, W, vw, 0, sc)
+    _ring_get(ring, off, P, jv, vw[0:W], sc)
     src = acc
     dst = tmp
     q = 0
-    n0 = n1 = n2 = n3 = 0
+    n0 = n1 = n2 = n3 = R - R       # (not the constant 0: see _ring_get)
     U0 = U1 = U2 = U3 = 0.0
     for r in range(R):
         Un = sc * U[roff + r]
@@ -963,7 +977,7 @@ def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw):
         U3 = U2
         _region_pass(src, dst, vw, W, C, R, n0, n1, n2, n3, U0, U1, U2, U3)
         src = dst
-    _ring_put(ring, off, P, b, W, src, 0, sc)
+    _ring_put(ring, off, P, b, src[0:W], sc)
 
 
 @njit(**SERIAL_OPTS)
@@ -1125,15 +1139,6 @@ def _head(xin, yo, n, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
 
 
 @njit(**JIT_OPTS)
-def _section_at(j, nd, ad, eta):
-    """State column and coefficient of the far end's allpass section j:
-    the nd dispersion sections, then the tuning allpass."""
-    if j < nd:
-        return S_D0 + 2 * j, ad
-    return S_APX, eta
-
-
-@njit(**JIT_OPTS)
 def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, hb):
     """The pitch-bend line over yb[b:b+n], in place.  While the delay glides,
     sample by sample (:func:`_bend_line`); at rest (the usual case) its
@@ -1155,7 +1160,7 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, hb):
     j = w - H
     if j < 0:
         j += blen
-    _ring_get(U, boff, blen, j, H, hb, 0, 1.0)
+    _ring_get(U, boff, blen, j, hb[0:H], 1.0)
     y_ = yb[b:b + n]
     hn = hb[H:H + n]
     for i in range(n):
@@ -1166,7 +1171,7 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, hb):
     for i in range(n):
         y_[i] = h0 * t0[i] + h1 * t1[i] + h2 * t2[i] + h3 * hb[i]
     m = n if n < blen else blen   # the new samples go into the line (its last blen)
-    _ring_put(U, boff, blen, (w + n - m) % blen, m, hb, H + n - m, 1.0)
+    _ring_put(U, boff, blen, (w + n - m) % blen, hb[H + n - m:H + n], 1.0)
     st[S_BW] = (w + n) % blen
 
 
@@ -1190,7 +1195,7 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
     # xb[0] = the extra-delay register, so the filter's input is
     # xb[i] (with the unit delay) or xb[1 + i] (without)
     xb[0] = st[S_XD]
-    _ring_get(ring, off, P, j0, C + 1, xb, 1, 1.0)
+    _ring_get(ring, off, P, j0, xb[1:C + 2], 1.0)
     io = 0 if ipar[s, I_XDELAY] == 1 else 1
     jp = j0 - 1
     if jp < 0:
@@ -1205,20 +1210,30 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
     eta = fp[F_ETA]
     ns = nd + 1
     cnt = ns if ns < 4 else 4
-    s0, c0 = _section_at(0, nd, ad, eta)
-    s1, c1 = _section_at(1, nd, ad, eta)
-    s2, c2 = _section_at(2, nd, ad, eta)
-    s3, c3 = _section_at(3, nd, ad, eta)
+    # section j: state column and coefficient (the nd dispersion sections,
+    # then the tuning allpass)
+    s0 = S_D0 if 0 < nd else S_APX
+    c0 = ad if 0 < nd else eta
+    s1 = S_D0 + 2 if 1 < nd else S_APX
+    c1 = ad if 1 < nd else eta
+    s2 = S_D0 + 4 if 2 < nd else S_APX
+    c2 = ad if 2 < nd else eta
+    s3 = S_D0 + 6 if 3 < nd else S_APX
+    c3 = ad if 3 < nd else eta
     _head(xin, yo, C, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3)
     j = cnt
     while j < ns:
         cnt = ns - j
         if cnt > 4:
             cnt = 4
-        s0, c0 = _section_at(j, nd, ad, eta)
-        s1, c1 = _section_at(j + 1, nd, ad, eta)
-        s2, c2 = _section_at(j + 2, nd, ad, eta)
-        s3, c3 = _section_at(j + 3, nd, ad, eta)
+        s0 = S_D0 + 2 * j if j < nd else S_APX
+        c0 = ad if j < nd else eta
+        s1 = S_D0 + 2 * j + 2 if j + 1 < nd else S_APX
+        c1 = ad if j + 1 < nd else eta
+        s2 = S_D0 + 2 * j + 4 if j + 2 < nd else S_APX
+        c2 = ad if j + 2 < nd else eta
+        s3 = S_D0 + 2 * j + 6 if j + 3 < nd else S_APX
+        c3 = ad if j + 3 < nd else eta
         _sections(yo, C, st, cnt, s0, s1, s2, s3, c0, c1, c2, c3)
         j += cnt
     if io == 0:
@@ -1226,7 +1241,7 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
     blen = ipar[s, I_BLEN]
     if blen > 0:
         _bend_chunk(yb, 1, C, st, U, ipar[s, I_BOFF], blen, fp[F_BDT], fp[F_BDS], hb)
-    _ring_put(ring, off, P, j0, C, yb, 1, 1.0)
+    _ring_put(ring, off, P, j0, yb[1:C + 1], 1.0)
     peak = 0.0
     if ipar[s, I_OUT] == 1:
         # u(N-1) - u(N) = (u_r(N-1) - vl(N-1)) - (x - y); vl(N-1) at sample i
@@ -1244,7 +1259,7 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
     return peak
 
 
-#: hammered strings the fast path steps together (:func:`_render_group`)
+#: hammered strings the fast path steps together (:func:`render_bank`)
 GROUP = 4
 #: their chunks' longest length (samples)
 GROUP_CHUNK = 512
@@ -1252,32 +1267,6 @@ GROUP_CHUNK = 512
 _SCRATCH_GROUP = 2 * GROUP * GROUP_CHUNK + GROUP + 8
 #: int64 work samples :func:`render_bank` needs besides the string list
 IWORK_EXTRA = 6 * GROUP
-
-
-@njit(**JIT_OPTS)
-def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
-    """C samples of string s, operation by operation (C <= ipar[s, I_CHUNK]
-    while an excitation runs, else <= ipar[s, I_CHUNK_FREE]).
-
-    ``scratch`` (see :func:`scratch_length`) holds the injected g per
-    sample, the region's three windows and the far end's buffers."""
-    N = ipar[s, I_N]
-    P = 2 * N
-    exc = ipar[s, I_EXC]
-    if exc == -1:
-        # the excitation ended on the last sample of the previous chunk: fold
-        # its constant g into the ring now, between chunks
-        _fold_offset(ring, ipar[s, I_OFF], P, ipar[s, I_POS], ipar[s, I_K], fst[s, S_G])
-        fst[s, S_G] = 0.0
-        exc = 0
-        ipar[s, I_EXC] = 0
-    gbuf = scratch[_SCRATCH_GROUP:_SCRATCH_GROUP + C]
-    # ---- 2. excitation -------------------------------------------------------
-    plucking = exc != 0
-    if plucking:
-        _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
-    _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch[_SCRATCH_GROUP + C:], gbuf,
-                plucking)
 
 
 @njit(**JIT_OPTS)
@@ -1320,8 +1309,8 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking):
         jb = m0 - N
         if jb < 0:
             jb += P
-        _ring_get(ring, off, P, ja, C, w1, 0, 1.0)
-        _ring_get(ring, off, P, jb, C, w2, 0, 1.0)
+        _ring_get(ring, off, P, ja, w1[0:C], 1.0)
+        _ring_get(ring, off, P, jb, w2[0:C], 1.0)
         mo = mix[o0:o0 + C]
         for i in range(C):
             v = sc * (w1[i] - w2[i])
@@ -1335,8 +1324,8 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking):
         j2 = m0 + 1 + k
         if j2 >= P:
             j2 -= P
-        _ring_get(ring, off, P, j1, C, w1, 0, 1.0)
-        _ring_get(ring, off, P, j2, C, w2, 0, 1.0)
+        _ring_get(ring, off, P, j1, w1[0:C], 1.0)
+        _ring_get(ring, off, P, j2, w2[0:C], 1.0)
         mo = mix[o0:o0 + C]
         if plucking:
             for i in range(C):
@@ -1363,24 +1352,6 @@ def scratch_length(max_block: int, max_region: int, max_bend: int) -> int:
     and pitch-bend lines of at most ``max_bend`` samples."""
     return (_SCRATCH_GROUP + max_block + 3 * (max_block + max_region + 2) + max_bend
             + max_block + 8)
-
-
-@njit(**JIT_OPTS)
-def _ring_add(ring, off, P, j, n, src, s0, sc):
-    """The ring slots j, j+1, ... (mod P) += sc * src[s0:s0+n] (see
-    :func:`_ring_get`)."""
-    n1 = P - j
-    if n1 > n:
-        n1 = n
-    d = ring[off + j:off + j + n1]
-    r = src[s0:s0 + n1]
-    for a in range(n1):
-        d[a] += sc * r[a]
-    n2 = n - n1
-    d = ring[off:off + n2]
-    r = src[s0 + n1:s0 + n]
-    for a in range(n2):
-        d[a] += sc * r[a]
 
 
 @njit(**JIT_OPTS)
@@ -1413,8 +1384,8 @@ def _excite_group(ring, ipar, fpar, fst, C, mem, G, scratch, ist):
         if j2 >= P:
             j2 -= P
         # I1_i = u_r(k) + u_l(k) before the injection at sample i
-        _ring_get(ring, off, P, j1, C, scratch, ib0 + m * GC, 1.0)
-        _ring_get(ring, off, P, j2, C, scratch, m * GC, 1.0)
+        _ring_get(ring, off, P, j1, scratch[ib0 + m * GC:ib0 + m * GC + C], 1.0)
+        _ring_get(ring, off, P, j2, scratch[m * GC:m * GC + C], 1.0)
         row = scratch[ib0 + m * GC:ib0 + m * GC + C]
         tmp = scratch[m * GC:m * GC + C]
         for i in range(C):
@@ -1499,71 +1470,8 @@ def _excite_group(ring, ipar, fpar, fst, C, mem, G, scratch, ist):
         j2 = m0 + 1 + k
         if j2 >= P:
             j2 -= P
-        _ring_add(ring, off, P, j1, C, scratch, m * GC, 1.0)
-        _ring_add(ring, off, P, j2, C, scratch, m * GC, -1.0)
-
-
-@njit(**JIT_OPTS)
-def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch):
-    """n samples of string s into mix[o0:o0+n]: the per-sample path or
-    fast-path chunks."""
-    exc = ipar[s, I_EXC]
-    cmax = ipar[s, I_CHUNK] if exc > 0 else ipar[s, I_CHUNK_FREE]
-    if ipar[s, I_PROBE] >= 0 or cmax <= 0:
-        _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
-        return
-    done = 0
-    while done < n:
-        C = n - done
-        if C > cmax:
-            C = cmax
-        if ipar[s, I_EXC] > 0:
-            left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
-            if C > left:
-                C = left
-        _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch)
-        done += C
-        if ipar[s, I_EXC] <= 0:
-            cmax = ipar[s, I_CHUNK_FREE]
-
-
-@njit(**JIT_OPTS)
-def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ist):
-    """n samples of G (<= GROUP) strings whose hammers are running, in
-    lockstep chunks (the shortest any of them allows) so that their hammer
-    steps interleave (:func:`_excite_group`); a string whose hammer has gone
-    renders the rest of the block alone.  ``mem`` (the strings) is
-    reordered in place."""
-    done = 0
-    live = G
-    while done < n and live > 0:
-        C = n - done
-        if C > GROUP_CHUNK:
-            C = GROUP_CHUNK
-        for m in range(live):
-            s = mem[m]
-            c = ipar[s, I_CHUNK]
-            left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
-            if left < c:
-                c = left
-            if c < C:
-                C = c
-        _excite_group(ring, ipar, fpar, fst, C, mem, live, scratch, ist)
-        work = scratch[_SCRATCH_GROUP:]
-        for m in range(live):
-            _chunk_rest(mem[m], ring, ipar, fpar, fst, U, C, o0 + done, mix, work,
-                        scratch[m * GROUP_CHUNK:m * GROUP_CHUNK + C], True)
-        done += C
-        j = 0
-        for m in range(live):
-            s = mem[m]
-            if ipar[s, I_EXC] > 0:
-                mem[j] = s
-                j += 1
-            elif done < n:
-                _render_string(s, ring, ipar, fpar, fst, U, n - done, o0 + done, mix, probe,
-                               scratch)
-        live = j
+        _ring_add(ring, off, P, j1, scratch[m * GC:m * GC + C], 1.0)
+        _ring_add(ring, off, P, j2, scratch[m * GC:m * GC + C], -1.0)
 
 
 @njit(**JIT_OPTS)
@@ -1579,21 +1487,37 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     probe : 3-D               per-sample diagnostics [row, channel P_*, n] for
                               strings with ``ipar[s, I_PROBE] >= 0``
     scratch : float64[:]      :func:`scratch_length` samples
-    iwork : int64[:]          n_active + IWORK_EXTRA samples (work space)
+    iwork : int64[:]          3 n_active + IWORK_EXTRA samples (work space)
 
-    Strings whose hammer is running on the fast path render GROUP at a
-    time (:func:`_render_group`), the others one by one.
+    Strings whose hammer is running on the fast path render GROUP at a time
+    in lockstep chunks (the shortest any of them allows), so that their
+    hammer steps interleave (:func:`_excite_group`); one whose hammer has
+    gone renders the rest of the block alone, like the other strings: the
+    per-sample path (probes, an excitation inside or next to the region), or
+    fast-path chunks (:func:`_excite_chunk`, :func:`_chunk_rest`).
+
+    (Written flat on purpose: numba links every callee's code into each
+    caller and compiles it again there, so each level of njit functions
+    above the chunk's steps added its whole compile time; with two more
+    levels the first run of a preset took 16 s instead of 9.)
     """
+    cap = active.shape[0]
+    solo = iwork[cap:2 * cap]          # strings to render alone, from...
+    start = iwork[2 * cap:3 * cap]     # ...this sample of the block
+    ist = iwork[iwork.shape[0] - IWORK_EXTRA:]
     nh = 0
+    ns = 0
     for a in range(n_active):
         s = active[a]
         if ipar[s, I_EXC] >= 4 and ipar[s, I_PROBE] < 0 and ipar[s, I_CHUNK] > 0:
             iwork[nh] = s
             nh += 1
         else:
-            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch)
-    # strings with similar chunk lengths together (a group's chunk is the
-    # shortest any member allows): insertion sort by I_CHUNK
+            solo[ns] = s
+            start[ns] = 0
+            ns += 1
+    # hammered strings, GROUP at a time; similar chunk lengths together (a
+    # group's chunk is the shortest any member allows): insertion sort
     for a in range(1, nh):
         s = iwork[a]
         c = ipar[s, I_CHUNK]
@@ -1602,15 +1526,78 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
             iwork[b + 1] = iwork[b]
             b -= 1
         iwork[b + 1] = s
-    ist = iwork[iwork.shape[0] - IWORK_EXTRA:]
+    work = scratch[_SCRATCH_GROUP:]
     g0 = 0
     while g0 < nh:
-        G = nh - g0
-        if G > GROUP:
-            G = GROUP
-        _render_group(iwork[g0:g0 + G], G, ring, ipar, fpar, fst, U, n, o0, mix, probe,
-                      scratch, ist)
-        g0 += G
+        live = nh - g0
+        if live > GROUP:
+            live = GROUP
+        mem = iwork[g0:g0 + live]
+        g0 += live
+        done = 0
+        while done < n and live > 0:
+            C = n - done
+            if C > GROUP_CHUNK:
+                C = GROUP_CHUNK
+            for m in range(live):
+                s = mem[m]
+                c = ipar[s, I_CHUNK]
+                left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
+                if left < c:
+                    c = left
+                if c < C:
+                    C = c
+            _excite_group(ring, ipar, fpar, fst, C, mem, live, scratch, ist)
+            for m in range(live):
+                _chunk_rest(mem[m], ring, ipar, fpar, fst, U, C, o0 + done, mix, work,
+                            scratch[m * GROUP_CHUNK:m * GROUP_CHUNK + C],
+                            ipar[mem[m], I_EXC] != 0)   # (True; not a constant: see _ring_get)
+            done += C
+            j = 0
+            for m in range(live):
+                s = mem[m]
+                if ipar[s, I_EXC] > 0:
+                    mem[j] = s
+                    j += 1
+                elif done < n:
+                    solo[ns] = s
+                    start[ns] = done
+                    ns += 1
+            live = j
+    # the others
+    for q in range(ns):
+        s = solo[q]
+        done = start[q]
+        exc = ipar[s, I_EXC]
+        cmax = ipar[s, I_CHUNK] if exc > 0 else ipar[s, I_CHUNK_FREE]
+        if ipar[s, I_PROBE] >= 0 or cmax <= 0:
+            _render_per_sample(s, ring, ipar, fpar, fst, U, n - done, o0 + done, mix, probe)
+            continue
+        while done < n:
+            C = n - done
+            if C > cmax:
+                C = cmax
+            exc = ipar[s, I_EXC]
+            if exc > 0:
+                left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
+                if C > left:
+                    C = left
+            elif exc == -1:
+                # the excitation ended on the last sample of the previous
+                # chunk: fold its constant g into the ring now, between chunks
+                _fold_offset(ring, ipar[s, I_OFF], 2 * ipar[s, I_N], ipar[s, I_POS],
+                             ipar[s, I_K], fst[s, S_G])
+                fst[s, S_G] = 0.0
+                ipar[s, I_EXC] = 0
+                exc = 0
+            gbuf = scratch[_SCRATCH_GROUP:_SCRATCH_GROUP + C]
+            if exc != 0:
+                _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
+            _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0 + done, mix,
+                        scratch[_SCRATCH_GROUP + C:], gbuf, exc != 0)
+            done += C
+            if ipar[s, I_EXC] <= 0:
+                cmax = ipar[s, I_CHUNK_FREE]
 
 
 def max_fast_chunk(N: int, k: int, R: int, out_mode: int) -> int:
