@@ -53,7 +53,7 @@ How the fast path is written, so that it is fast on every x86-64 target
 
 * every window of the ring a step needs is copied to contiguous scratch
   with two loops split at the ring's wrap (:func:`_ring_get`,
-  :func:`_ring_get`), never a wrap test per element;
+  :func:`_ring_put`), never a wrap test per element;
 * inner loops index slice views with the bare loop index (an index of
   unknown sign gets numba's negative-index fix-up per element, which stops
   vectorisation);
@@ -674,7 +674,7 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
     """Step 2 of the fast path over a chunk of C samples: inject the
     excitation at k and record the injected g per sample in ``gbuf``.
     (Kept out of
-    :func:`_chunk_rest`: with the hammer code inside it, the region's
+    :func:`_chunk_fast`: with the hammer code inside it, the region's
     min/max loops ran 35 % slower.)"""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
@@ -895,29 +895,33 @@ def _region_pass(src, dst, vw, W, C, R, n0, n1, n2, n3, U0, U1, U2, U3):
             x = U3 + v3[t]
             m = x if x < m else m
             o[t] = m
+        _region_edge(src, dst, vw, C, lo3, i0, lo0, lo1, lo2, lo3, d0, d1, d2, d3, U0, U1, U2, U3)
+        _region_edge(src, dst, vw, C, i1, lo0 + C, lo0, lo1, lo2, lo3, d0, d1, d2, d3,
+                     U0, U1, U2, U3)
     else:
-        i0 = lo0 + C              # no interior: everything below is an edge
-        i1 = lo0 + C
-    # the few elements only some of the four windows hold: [lo3, i0) and
-    # [i1, lo0 + C)
-    for part in range(2):
-        ia = lo3 if part == 0 else i1
-        ib = i0 if part == 0 else lo0 + C
-        for i in range(ia, ib):
-            m = src[i]
-            if lo0 <= i < lo0 + C:
-                x = U0 + vw[i + d0]
-                m = x if x < m else m
-            if lo1 <= i < lo1 + C:
-                x = U1 + vw[i + d1]
-                m = x if x < m else m
-            if lo2 <= i < lo2 + C:
-                x = U2 + vw[i + d2]
-                m = x if x < m else m
-            if lo3 <= i < lo3 + C:
-                x = U3 + vw[i + d3]
-                m = x if x < m else m
-            dst[i] = m
+        _region_edge(src, dst, vw, C, lo3, lo0 + C, lo0, lo1, lo2, lo3, d0, d1, d2, d3,
+                     U0, U1, U2, U3)
+
+
+@njit(**JIT_OPTS)
+def _region_edge(src, dst, vw, C, ia, ib, lo0, lo1, lo2, lo3, d0, d1, d2, d3, U0, U1, U2, U3):
+    """Elements ia .. ib-1 of a :func:`_region_pass`, which only some of
+    the four windows hold (a few per pass)."""
+    for i in range(ia, ib):
+        m = src[i]
+        if lo0 <= i < lo0 + C:
+            x = U0 + vw[i + d0]
+            m = x if x < m else m
+        if lo1 <= i < lo1 + C:
+            x = U1 + vw[i + d1]
+            m = x if x < m else m
+        if lo2 <= i < lo2 + C:
+            x = U2 + vw[i + d2]
+            m = x if x < m else m
+        if lo3 <= i < lo3 + C:
+            x = U3 + vw[i + d3]
+            m = x if x < m else m
+        dst[i] = m
 
 
 @njit(**JIT_OPTS)
@@ -1259,7 +1263,7 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
     return peak
 
 
-#: hammered strings the fast path steps together (:func:`render_bank`)
+#: hammered strings the fast path steps together (:func:`_render_group`)
 GROUP = 4
 #: their chunks' longest length (samples)
 GROUP_CHUNK = 512
@@ -1267,6 +1271,32 @@ GROUP_CHUNK = 512
 _SCRATCH_GROUP = 2 * GROUP * GROUP_CHUNK + GROUP + 8
 #: int64 work samples :func:`render_bank` needs besides the string list
 IWORK_EXTRA = 6 * GROUP
+
+
+@njit(**JIT_OPTS)
+def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
+    """C samples of string s, operation by operation (C <= ipar[s, I_CHUNK]
+    while an excitation runs, else <= ipar[s, I_CHUNK_FREE]).
+
+    ``scratch`` (see :func:`scratch_length`) holds the injected g per
+    sample, the region's three windows and the far end's buffers."""
+    N = ipar[s, I_N]
+    P = 2 * N
+    exc = ipar[s, I_EXC]
+    if exc == -1:
+        # the excitation ended on the last sample of the previous chunk: fold
+        # its constant g into the ring now, between chunks
+        _fold_offset(ring, ipar[s, I_OFF], P, ipar[s, I_POS], ipar[s, I_K], fst[s, S_G])
+        fst[s, S_G] = 0.0
+        exc = 0
+        ipar[s, I_EXC] = 0
+    gbuf = scratch[_SCRATCH_GROUP:_SCRATCH_GROUP + C]
+    # ---- 2. excitation -------------------------------------------------------
+    plucking = exc != 0
+    if plucking:
+        _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
+    _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch[_SCRATCH_GROUP + C:], gbuf,
+                plucking)
 
 
 @njit(**JIT_OPTS)
@@ -1475,6 +1505,70 @@ def _excite_group(ring, ipar, fpar, fst, C, mem, G, scratch, ist):
 
 
 @njit(**JIT_OPTS)
+def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch):
+    """n samples of string s into mix[o0:o0+n]: the per-sample path or
+    fast-path chunks."""
+    exc = ipar[s, I_EXC]
+    cmax = ipar[s, I_CHUNK] if exc > 0 else ipar[s, I_CHUNK_FREE]
+    if ipar[s, I_PROBE] >= 0 or cmax <= 0:
+        _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
+        return
+    done = 0
+    while done < n:
+        C = n - done
+        if C > cmax:
+            C = cmax
+        if ipar[s, I_EXC] > 0:
+            left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
+            if C > left:
+                C = left
+        _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch)
+        done += C
+        if ipar[s, I_EXC] <= 0:
+            cmax = ipar[s, I_CHUNK_FREE]
+
+
+@njit(**JIT_OPTS)
+def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ist):
+    """n samples of G (<= GROUP) strings whose hammers are running, in
+    lockstep chunks (the shortest any of them allows) so that their hammer
+    steps interleave (:func:`_excite_group`); a string whose hammer has gone
+    renders the rest of the block alone.  ``mem`` (the strings) is
+    reordered in place."""
+    done = 0
+    live = G
+    while done < n and live > 0:
+        C = n - done
+        if C > GROUP_CHUNK:
+            C = GROUP_CHUNK
+        for m in range(live):
+            s = mem[m]
+            c = ipar[s, I_CHUNK]
+            left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
+            if left < c:
+                c = left
+            if c < C:
+                C = c
+        _excite_group(ring, ipar, fpar, fst, C, mem, live, scratch, ist)
+        work = scratch[_SCRATCH_GROUP:]
+        for m in range(live):
+            _chunk_rest(mem[m], ring, ipar, fpar, fst, U, C, o0 + done, mix, work,
+                        scratch[m * GROUP_CHUNK:m * GROUP_CHUNK + C],
+                        ipar[mem[m], I_EXC] != 0)   # (True; not a constant: see _ring_get)
+        done += C
+        j = 0
+        for m in range(live):
+            s = mem[m]
+            if ipar[s, I_EXC] > 0:
+                mem[j] = s
+                j += 1
+            elif done < n:
+                _render_string(s, ring, ipar, fpar, fst, U, n - done, o0 + done, mix, probe,
+                               scratch)
+        live = j
+
+
+@njit(**JIT_OPTS)
 def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                 probe, scratch, iwork):
     """Render ``n`` internal samples of every active string into
@@ -1487,37 +1581,21 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     probe : 3-D               per-sample diagnostics [row, channel P_*, n] for
                               strings with ``ipar[s, I_PROBE] >= 0``
     scratch : float64[:]      :func:`scratch_length` samples
-    iwork : int64[:]          3 n_active + IWORK_EXTRA samples (work space)
+    iwork : int64[:]          n_active + IWORK_EXTRA samples (work space)
 
-    Strings whose hammer is running on the fast path render GROUP at a time
-    in lockstep chunks (the shortest any of them allows), so that their
-    hammer steps interleave (:func:`_excite_group`); one whose hammer has
-    gone renders the rest of the block alone, like the other strings: the
-    per-sample path (probes, an excitation inside or next to the region), or
-    fast-path chunks (:func:`_excite_chunk`, :func:`_chunk_rest`).
-
-    (Written flat on purpose: numba links every callee's code into each
-    caller and compiles it again there, so each level of njit functions
-    above the chunk's steps added its whole compile time; with two more
-    levels the first run of a preset took 16 s instead of 9.)
+    Strings whose hammer is running on the fast path render GROUP at a
+    time (:func:`_render_group`), the others one by one.
     """
-    cap = active.shape[0]
-    solo = iwork[cap:2 * cap]          # strings to render alone, from...
-    start = iwork[2 * cap:3 * cap]     # ...this sample of the block
-    ist = iwork[iwork.shape[0] - IWORK_EXTRA:]
     nh = 0
-    ns = 0
     for a in range(n_active):
         s = active[a]
         if ipar[s, I_EXC] >= 4 and ipar[s, I_PROBE] < 0 and ipar[s, I_CHUNK] > 0:
             iwork[nh] = s
             nh += 1
         else:
-            solo[ns] = s
-            start[ns] = 0
-            ns += 1
-    # hammered strings, GROUP at a time; similar chunk lengths together (a
-    # group's chunk is the shortest any member allows): insertion sort
+            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch)
+    # strings with similar chunk lengths together (a group's chunk is the
+    # shortest any member allows): insertion sort by I_CHUNK
     for a in range(1, nh):
         s = iwork[a]
         c = ipar[s, I_CHUNK]
@@ -1526,78 +1604,15 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
             iwork[b + 1] = iwork[b]
             b -= 1
         iwork[b + 1] = s
-    work = scratch[_SCRATCH_GROUP:]
+    ist = iwork[iwork.shape[0] - IWORK_EXTRA:]
     g0 = 0
     while g0 < nh:
-        live = nh - g0
-        if live > GROUP:
-            live = GROUP
-        mem = iwork[g0:g0 + live]
-        g0 += live
-        done = 0
-        while done < n and live > 0:
-            C = n - done
-            if C > GROUP_CHUNK:
-                C = GROUP_CHUNK
-            for m in range(live):
-                s = mem[m]
-                c = ipar[s, I_CHUNK]
-                left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
-                if left < c:
-                    c = left
-                if c < C:
-                    C = c
-            _excite_group(ring, ipar, fpar, fst, C, mem, live, scratch, ist)
-            for m in range(live):
-                _chunk_rest(mem[m], ring, ipar, fpar, fst, U, C, o0 + done, mix, work,
-                            scratch[m * GROUP_CHUNK:m * GROUP_CHUNK + C],
-                            ipar[mem[m], I_EXC] != 0)   # (True; not a constant: see _ring_get)
-            done += C
-            j = 0
-            for m in range(live):
-                s = mem[m]
-                if ipar[s, I_EXC] > 0:
-                    mem[j] = s
-                    j += 1
-                elif done < n:
-                    solo[ns] = s
-                    start[ns] = done
-                    ns += 1
-            live = j
-    # the others
-    for q in range(ns):
-        s = solo[q]
-        done = start[q]
-        exc = ipar[s, I_EXC]
-        cmax = ipar[s, I_CHUNK] if exc > 0 else ipar[s, I_CHUNK_FREE]
-        if ipar[s, I_PROBE] >= 0 or cmax <= 0:
-            _render_per_sample(s, ring, ipar, fpar, fst, U, n - done, o0 + done, mix, probe)
-            continue
-        while done < n:
-            C = n - done
-            if C > cmax:
-                C = cmax
-            exc = ipar[s, I_EXC]
-            if exc > 0:
-                left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
-                if C > left:
-                    C = left
-            elif exc == -1:
-                # the excitation ended on the last sample of the previous
-                # chunk: fold its constant g into the ring now, between chunks
-                _fold_offset(ring, ipar[s, I_OFF], 2 * ipar[s, I_N], ipar[s, I_POS],
-                             ipar[s, I_K], fst[s, S_G])
-                fst[s, S_G] = 0.0
-                ipar[s, I_EXC] = 0
-                exc = 0
-            gbuf = scratch[_SCRATCH_GROUP:_SCRATCH_GROUP + C]
-            if exc != 0:
-                _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
-            _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0 + done, mix,
-                        scratch[_SCRATCH_GROUP + C:], gbuf, exc != 0)
-            done += C
-            if ipar[s, I_EXC] <= 0:
-                cmax = ipar[s, I_CHUNK_FREE]
+        G = nh - g0
+        if G > GROUP:
+            G = GROUP
+        _render_group(iwork[g0:g0 + G], G, ring, ipar, fpar, fst, U, n, o0, mix, probe,
+                      scratch, ist)
+        g0 += G
 
 
 def max_fast_chunk(N: int, k: int, R: int, out_mode: int) -> int:

@@ -201,7 +201,7 @@ class StringBank:
         self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable + self.max_bend)))
         # fast-path chunks never exceed max_block (the kernel's scratch layout)
         self.scratch = np.zeros(K.scratch_length(self.max_block, self.max_region, self.max_bend))
-        self.iwork = np.zeros(3 * self.capacity + K.IWORK_EXTRA, dtype=np.int64)
+        self.iwork = np.zeros(self.capacity + K.IWORK_EXTRA, dtype=np.int64)
         # dampers, per slot: loss b0 undamped, loop frequency f1 (Hz), T60 with
         # the damper down and T60 free (s; inf: no free decay to keep)
         self.damper = np.zeros((self.capacity, 4))
