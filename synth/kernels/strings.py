@@ -129,7 +129,7 @@ F_B0S = 20       # glide rate per sample (1 - exp(-dt / 2 ms)); an instant chang
                  #   end's loss would step the bridge force (u(L) = x - y) and click
 F_BDT = 21       # pitch bend: target delay of the bend line (samples, >= 1)
 F_BDS = 22       # its glide rate per sample (20 ms: a pitch wheel moves, it does not jump)
-# hammer constants of the step (:func:`_hammer_step`), set at each strike by
+# hammer constants of the step (:func:`_hammer_general`), set at each strike by
 # the voice layer (synth.voices.bank.hammer_template): both felt laws in one
 # form, the felt impulse over a step K int F dt = KCA y1 + KCBY y0 + KCBP Phi0
 F_HDZ = 23       # dt T / (c m): z1 = z0 + dt V - dz (g0 + g1)
@@ -426,16 +426,6 @@ def _hammer_general(I1, g0, fp, st):
     return g1, F1, w1, contact
 
 
-@njit(**SERIAL_OPTS)
-def _hammer_step(I1, g0, fp, st):
-    """One hammer step: :func:`_hammer_steady`, else :func:`_hammer_general`.
-    Returns (g1, F1, w1, contact)."""
-    g1, F1, w1, done = _hammer_steady(I1, g0, fp, st)
-    if done:
-        return g1, F1, w1, True
-    return _hammer_general(I1, g0, fp, st)
-
-
 @njit(**JIT_OPTS)
 def _fold_offset(ring, off, P, pm, k, G):
     """End a constant injection G at k: add G to the loop positions
@@ -598,7 +588,9 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
                     exc = -1
             else:
                 I1 = ring[off + j1] - ring[off + j2]
-                g, F, w, contact = _hammer_step(I1, g, fp, st)
+                # the general step only: the reference does not take the
+                # steady-contact shortcut of the fast path
+                g, F, w, contact = _hammer_general(I1, g, fp, st)
                 if contact:
                     hlast = e
                 if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):

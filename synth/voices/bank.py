@@ -127,7 +127,7 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
     E = math.exp(-dt / tau0)
     # the felt impulse over a step, K int F dt = K (ca y1 + cby y0 + cbp Phi0),
     # Phi1 = pe Phi0 + p1 y1 + p0 y0 and F1 = fa y1 + fb y0 + fphi Phi1
-    # (synth.kernels.strings._hammer_step: eq. 1.5 and Pub. III eq. 3)
+    # (synth.kernels.strings._hammer_general: eq. 1.5 and Pub. III eq. 3)
     if law == 4:
         ca, cby, cbp = Q * (0.5 * dt + A), Q * (0.5 * dt - A), 0.0
         pe = p1 = p0 = 0.0

@@ -7,7 +7,7 @@ speed V at first contact) compresses the felt by w = z - u(l, t); the felt
 force F (three-parameter law eq. 1.5, or the four-parameter law of
 Publication III eq. 3 by recursive convolution) sends the outgoing wave g
 (dg/dt = c F / 2T) into both directions, every internal sample, and the felt
-reads the string's u(l, t) back.  The integrator (kernel ``_hammer_step``)
+reads the string's u(l, t) back.  The integrator (kernel ``_hammer_general``)
 is implicit and second order: see :mod:`synth.kernels.strings`.
 
 With a termination (the capo d'astro bar), ``hammer.capo_coupling`` chooses
