@@ -1259,8 +1259,16 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
 GROUP = 4
 #: their chunks' longest length (samples)
 GROUP_CHUNK = 512
+#: distance (samples) between the group's rows: 4288 bytes, 192 more than a
+#: page, so that member m's row and member m+1's are not 4 KiB apart (a load
+#: whose address matches an earlier store's in its low 12 bits waits for it:
+#: "4K aliasing")
+_GROW = GROUP_CHUNK + 24
+#: the rows of incoming waves start here (1088 bytes past a page multiple
+#: from the g rows)
+_GIB = GROUP * _GROW + 40
 #: scratch samples before the per-chunk windows (the group's g and I1 rows)
-_SCRATCH_GROUP = 2 * GROUP * GROUP_CHUNK + GROUP + 8
+_SCRATCH_GROUP = _GIB + GROUP * _GROW + GROUP + 8
 #: int64 work samples :func:`render_bank` needs besides the string list
 IWORK_EXTRA = 6 * GROUP
 
@@ -1306,7 +1314,13 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking):
     m0 = ipar[s, I_POS]
     # work layout: three windows (region: entry values, ping-pong,
     # left-going values; far end: x, y) | bend history
+    # (windows Wm samples apart with Wm = 168 mod 512: 1344 and 2688 bytes
+    # apart modulo a 4 KiB page whatever the chunk, so that no load of one
+    # window waits on a store to another at the same low 12 address bits,
+    # "4K aliasing": with C + R + 2 apart the plain-x86-64 build of the region
+    # ran at 6.7 or 16 ns per sample depending on the chunk length)
     Wm = C + R + 2
+    Wm += (168 - Wm) % 512
     w1 = work[0:Wm]
     w2 = work[Wm:2 * Wm]
     w3 = work[2 * Wm:3 * Wm]
@@ -1372,7 +1386,7 @@ def scratch_length(max_block: int, max_region: int, max_bend: int) -> int:
     """Samples of ``scratch`` that :func:`render_bank` needs for chunks of
     at most ``max_block`` samples, regions of at most ``max_region`` points
     and pitch-bend lines of at most ``max_bend`` samples."""
-    return (_SCRATCH_GROUP + max_block + 3 * (max_block + max_region + 2) + max_bend
+    return (_SCRATCH_GROUP + max_block + 3 * (max_block + max_region + 2 + 512) + max_bend
             + max_block + 8)
 
 
@@ -1387,12 +1401,12 @@ def _excite_group(ring, ipar, fpar, fst, C, mem, G, scratch, ist):
     incoming displacement at k over the chunk is in the ring at its start
     (see :func:`_excite_chunk`), so it is gathered first; the injections
     follow as whole windows.  Member m's g per sample goes to
-    ``scratch[m * GROUP_CHUNK:][:C]``; ``ist`` holds the members' integer
+    ``scratch[m * _GROW:][:C]``; ``ist`` holds the members' integer
     state during the loop.
     """
-    GC = GROUP_CHUNK
-    ib0 = GROUP * GC                  # I1 rows
-    gm0 = 2 * GROUP * GC              # current g per member
+    GC = _GROW                        # member m: g row at m GC, I1 row at ib0 + m GC
+    ib0 = _GIB
+    gm0 = _GIB + GROUP * _GROW        # current g per member
     for m in range(G):
         s = mem[m]
         off = ipar[s, I_OFF]
@@ -1545,7 +1559,7 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
         work = scratch[_SCRATCH_GROUP:]
         for m in range(live):
             _chunk_rest(mem[m], ring, ipar, fpar, fst, U, C, o0 + done, mix, work,
-                        scratch[m * GROUP_CHUNK:m * GROUP_CHUNK + C],
+                        scratch[m * _GROW:m * _GROW + C],
                         ipar[mem[m], I_EXC] != 0)   # (True; not a constant: see _ring_get)
         done += C
         j = 0
