@@ -64,7 +64,17 @@ How the fast path is written, so that it is fast on every x86-64 target
 * the far-end filter runs over the chunk with its state in registers
   (:func:`_far_chunk`): one multiply-add per recurrence and sample, where
   state read from and written to the state table every sample put a
-  store-to-load round trip on each recurrence.
+  store-to-load round trip on each recurrence;
+* strings whose hammer is running are rendered four at a time in lockstep
+  chunks, their hammer steps interleaved (:func:`_render_group`,
+  :func:`_excite_group`; in steady contact the step is short and
+  branch-free, :func:`_hammer_steady`), so the CPU overlaps four ~100-cycle
+  dependency chains instead of waiting on one;
+* scratch windows are spaced so that no two sit a multiple of 4 KiB apart
+  (a load whose low 12 address bits match an earlier store's waits for it);
+* no call passes a literal constant (numba compiles a separate copy of the
+  callee for each), and ``_nrt=False`` (synth.kernels.config) keeps slice
+  views free of reference counting.
 
 Parameter tables (columns below) are written by the voice layer at note-on;
 the kernel only reads ``ipar``/``fpar`` and updates ``fst`` and the rings.
