@@ -42,17 +42,11 @@ def _check_output(path: str, option: str) -> None:
 
 
 def _engine_for(preset_name: str, overrides, internal_rate=None, probe=False, low_key=None):
-    from .engine.engine import Engine
-    from .io.presets import load_preset
-    from .voices import instrument_for
+    from .io.factory import build_engine
 
-    preset = load_preset(preset_name, overrides)
-    try:
-        inst = instrument_for(preset, internal_rate)
-        eng = Engine(inst, probe=probe, extra_low_key=low_key)
-    except ValueError as e:
-        _fail(f"{preset_name}: {e}")
-    return preset, inst, eng
+    eng = build_engine(preset_name, overrides, fs_internal=internal_rate, probe=probe,
+                       extra_low_key=low_key)
+    return eng.inst.preset, eng.inst, eng
 
 
 def _write(path: str, audio: np.ndarray, fs: int, pcm24: bool) -> str:
@@ -81,7 +75,6 @@ def cmd_presets(args) -> int:
 
 def cmd_note(args) -> int:
     from .engine.engine import Event
-    from .physics.string import midi_key_to_hz
 
     if args.key is not None and args.f0 is not None:
         _fail("--key and --f0 are exclusive: give one of them")
@@ -125,12 +118,7 @@ def cmd_note(args) -> int:
     y = eng.render([ev], duration_s=args.seconds)
     el = time.perf_counter() - t
     info = _write(args.output, y, eng.fs_out, args.pcm24)
-    if f0:
-        pitch = f0
-    elif args.key is not None:
-        pitch = inst.tuning_hz(args.key) if hasattr(inst, "tuning_hz") else midi_key_to_hz(args.key)
-    else:
-        pitch = inst.open_string.f0_hz
+    pitch = inst.pitch_hz(args.key, f0)
     print(f"{args.output}: {args.seconds:g} s of {args.preset} at {pitch:.2f} Hz, "
           f"internal rate {inst.fs:.1f} Hz, {info}, rendered in {el:.2f} s")
     if args.probe:
@@ -151,7 +139,7 @@ def _write_hammer_log(path: str, inst, eng) -> None:
     from .io.wav import write_text_atomic
     from .kernels import strings as K
 
-    ch = getattr(inst, "last_strike_log", None)
+    ch = inst.strike_log()
     src = "the first-stage strike on the ideally supported string (injected g)"
     if ch is None:
         ch = eng.probe_channels()

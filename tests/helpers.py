@@ -1,13 +1,11 @@
-"""Shared test helpers: build instruments and engines from presets."""
+"""Shared test helpers: build engines from presets (through the one factory)."""
 
-from synth.engine.engine import Engine, Event
-from synth.io.presets import load_preset
-from synth.voices import instrument_for
+from synth.engine.engine import Event
+from synth.io.factory import build_engine
 
 
 def engine(name, overrides=(), probe=False, **kw):
-    inst = instrument_for(load_preset(name, overrides))
-    return Engine(inst, probe=probe, **kw)
+    return build_engine(name, overrides, probe=probe, **kw)
 
 
 def note(key, t=0.0, vel=0.8, off=None):

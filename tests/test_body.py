@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy.signal import lfilter
 
-from synth.engine.body import Body
+from synth.dsp.body import Body
 from synth.kernels.body import body_process
 from synth.physics import soundboard as sb
 

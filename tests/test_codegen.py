@@ -24,7 +24,7 @@ import cpu_target  # noqa: E402
 RENDER = textwrap.dedent("""
     import numpy as np
     from synth.kernels import strings as K
-    from synth.voices.bank import StringBank
+    from synth.dsp.bank import StringBank
 
     # every fast-path stage: a region on each side, loss + dispersion, a bend line, a hammer
     b = StringBank(3, 400, 16, 512, max_bend=64)

@@ -1,4 +1,4 @@
-"""Tests of the streaming polyphase decimator (synth.engine.decimator).
+"""Tests of the streaming polyphase decimator (synth.dsp.decimator).
 
 Reference: the slow, obvious definition of rational decimation, "zero-stuff
 by L, np.convolve with the prototype h, keep every M-th sample".
@@ -9,7 +9,7 @@ import time
 import numpy as np
 import pytest
 
-from synth.engine.decimator import Decimator, design_prototype
+from synth.dsp.decimator import Decimator, design_prototype
 from synth.kernels.decimator import decimate
 
 RATES = [325000, 336000, 324800]

@@ -9,7 +9,7 @@ from reference import closed_form_uk, hammer_on_ideal_string
 from synth.analysis import free_mode_energies, struck_mode_energies
 from synth.engine.engine import Event
 from synth.kernels import strings as K
-from synth.voices.bank import StringBank
+from synth.dsp.bank import StringBank
 
 # the A7 study (note 85): physics notes section 4
 L, T, MU = 0.061, 774.6, 0.0042
@@ -188,10 +188,9 @@ def _grand_strike(key, strikes, law, per_sample, block, lossy=True):
     one restrikes the sounding string); renders to 30 ms after the last.
     Returns (output, separate contacts (runs of w > 0 on the per-sample
     probe, else -1), the hammer state at the end)."""
-    from synth.io.presets import load_preset
-    from synth.voices import instrument_for
+    from synth.io.factory import build_voice
 
-    inst = instrument_for(load_preset("grand-piano"))
+    inst = build_voice("grand-piano")
     su = inst.setup(key)[0]
     n_str = len(inst.setup(key))
     R = 0 if su.U is None else len(su.U)
@@ -254,7 +253,7 @@ def test_hammer_on_the_fast_path_equals_the_per_sample_path(key, strikes, law, b
 def test_templates_are_checked_against_the_bank_and_the_string():
     """A template validated once still meets the bank's limits and the
     slot's time step when written: one-line errors naming the value."""
-    from synth.voices.bank import hammer_template, slot_template
+    from synth.dsp.bank import hammer_template, slot_template
 
     t = slot_template(cells=500, k=60, dt_s=1e-5, U=None)
     small = StringBank(1, 300, 4, 4096)
@@ -296,11 +295,10 @@ def _grand_bank(keys, strikes, law, per_sample, block):
     it), rendered to 20 ms after the last strike through the fast path
     (hammered strings stepped together in groups) or the per-sample path.
     Returns (output, every string's (u_r, u_l) at the end)."""
-    from synth.io.presets import load_preset
+    from synth.io.factory import build_voice
     from synth.physics import piano as P
-    from synth.voices import instrument_for
 
-    inst = instrument_for(load_preset("grand-piano"))
+    inst = build_voice("grand-piano")
     sus = [inst.setup(k)[0] for k in keys]
     R = max(0 if su.U is None else len(su.U) for su in sus)
     b = StringBank(len(keys), max(su.cells for su in sus) + 2, max(1, R), 4096)

@@ -7,7 +7,7 @@ from hypothesis import given, settings, strategies as st
 from reference import closed_form_uk, naive_lossy_string, naive_string
 from synth.kernels import strings as K
 from synth.physics.plucks import biwa_g, sitar_g
-from synth.voices.bank import StringBank
+from synth.dsp.bank import StringBank
 
 
 def run_bank(N, k, g_model, A, t0, alpha, dt, n, U=None, side=1, per_sample=False,

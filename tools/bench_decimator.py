@@ -20,7 +20,7 @@ import time
 import numpy as np
 
 import cpu_target  # tools/, on sys.path when run as a script
-from synth.engine.decimator import Decimator
+from synth.dsp.decimator import Decimator
 
 
 def bench(fs_in, seconds, block, runs):

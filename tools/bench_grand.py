@@ -39,15 +39,13 @@ import numpy as np  # noqa: E402
 
 import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
 from synth.engine.engine import Engine, Event  # noqa: E402
-from synth.io.presets import load_preset  # noqa: E402
-from synth.voices import instrument_for  # noqa: E402
+from synth.io.factory import build_engine  # noqa: E402
 
 KEYS = (21, 33, 45, 57, 60, 69, 81, 93, 105, 108)
 
 
 def make_engine(polyphony=96):
-    inst = instrument_for(load_preset("grand-piano"))
-    return Engine(inst, polyphony=polyphony)
+    return build_engine("grand-piano", polyphony=polyphony)
 
 
 def time_blocks(e: Engine, seconds: float, block: int = 256) -> float:

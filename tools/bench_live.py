@@ -69,11 +69,10 @@ import numpy as np  # noqa: E402
 
 import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
 from synth.cli import midi_to_events  # noqa: E402
-from synth.engine.engine import Engine, Event  # noqa: E402
+from synth.engine.engine import Event  # noqa: E402
 from synth.engine.realtime import Realtime  # noqa: E402
 from synth.io.midi import read_midi_file  # noqa: E402
-from synth.io.presets import load_preset  # noqa: E402
-from synth.voices import instrument_for  # noqa: E402
+from synth.io.factory import build_engine  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 if not SHARED.is_dir():
@@ -92,9 +91,8 @@ def drive(preset: str, events, seconds: float, block: int, polyphony: int,
     """Play ``events`` through the callback; returns (block times, most
     voices, callback errors, voices shed).  ``shedding``: with the live
     player's default overload rule (``rt_kw`` changing it) instead of none."""
-    inst = instrument_for(load_preset(preset))
-    inst.warm()                      # as the live player does before the stream opens
-    eng = Engine(inst, polyphony=polyphony)
+    # warmed as the live player does before the stream opens
+    eng = build_engine(preset, polyphony=polyphony, warm=True, block=block)
     clock = Clock()
     rt = Realtime(eng, block=block, clock=clock, **rt_kw) if shedding else \
         Realtime(eng, block=block, clock=clock, overload=None)
@@ -168,9 +166,7 @@ def program_change(switch_s: float, seconds: float = 4.0) -> np.ndarray:
     old = sys.getswitchinterval()
     sys.setswitchinterval(switch_s)
     try:
-        inst = instrument_for(load_preset("sitar"))
-        inst.warm()
-        eng = Engine(inst, polyphony=64)
+        eng = build_engine("sitar", polyphony=64, warm=True)
         clock = Clock()
         rt = Realtime(eng, block=128, clock=clock, overload=None)
         rt.start(0.0)

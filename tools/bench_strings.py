@@ -61,7 +61,7 @@ from synth.kernels import strings as K  # noqa: E402
 from synth.kernels.config import FASTMATH  # noqa: E402
 from synth.physics.losses import tune_loop  # noqa: E402
 from synth.physics.profiles import Termination, jawari_case1, jawari_case2  # noqa: E402
-from synth.voices.bank import StringBank  # noqa: E402
+from synth.dsp.bank import StringBank  # noqa: E402
 
 # ---- the string of the benchmark --------------------------------------------
 L_M = 0.8                 # string length (m)

@@ -25,18 +25,17 @@ import numpy as np
 
 from synth.analysis import (aperiodic_end, episode_times, f0_track, free_mode_energies,
                             mode_energies)
-from synth.engine.engine import Engine, Event
-from synth.io.presets import load_preset
+from synth.engine.engine import Event
 from synth.kernels import strings as K
-from synth.voices import instrument_for
+from synth.io.factory import build_engine
 
 FS_PAPER = 324800.0
 L, T, MU = 0.8, 38.4, 0.000375
 
 
 def probe_run(name: str, seconds: float):
-    inst = instrument_for(load_preset(name))
-    e = Engine(inst, probe=True)
+    e = build_engine(name, probe=True)
+    inst = e.inst
     e.render([Event(0.0, "note_on", -1, 1.0)], duration_s=seconds, compensate_latency=False)
     u, c = e.probe_signals()
     n = int(round(seconds * inst.fs))
@@ -45,8 +44,8 @@ def probe_run(name: str, seconds: float):
 
 def shapes_at(name: str, times_s):
     """(u, v) on the grid at the given times, by running the bank directly."""
-    inst = instrument_for(load_preset(name))
-    e = Engine(inst)
+    e = build_engine(name)
+    inst = e.inst
     e.schedule([Event(0.0, "note_on", -1, 1.0)])
     e.render_block(1)  # applies the note-on
     b = e.bank
@@ -72,8 +71,8 @@ def shapes_at(name: str, times_s):
 def a7_run(name, sets=(), times_s=(), probe_s=0.0065):
     """A7 strike: probe channels over ``probe_s`` and two snapshots (u at t
     and t + dt) at each of ``times_s``."""
-    inst = instrument_for(load_preset(name, sets))
-    e = Engine(inst, probe=True)
+    e = build_engine(name, sets, probe=True)
+    inst = e.inst
     e.schedule([Event(0.0, "note_on", -1, 1.0)])
     e.render_block(1)
     b, s = e.bank, int(e.bank.active[0])

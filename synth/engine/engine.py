@@ -18,9 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..dsp.bank import StringBank
+from ..dsp.body import Body
+from ..dsp.decimator import Decimator
 from ..kernels import strings as K
-from ..voices.bank import StringBank
-from .decimator import Decimator
 
 NOTE_ON = "note_on"
 NOTE_OFF = "note_off"
@@ -70,8 +71,9 @@ class Engine:
 
     Parameters
     ----------
-    instrument : PluckedInstrument
-        Supplies string setups and the voice contract.
+    instrument : synth.voices.base.Voice
+        The voice: it writes its notes into the engine's string bank
+        (the contract of :mod:`synth.voices.base`).
     fs_out : int
         Output rate (Hz), 48 000 by default.
     polyphony : int or None
@@ -102,18 +104,17 @@ class Engine:
         #: voices fading out after being stolen or shed use spare indices
         self.n_spare = max(4, self.polyphony // 4)
         self.n_index = self.polyphony + self.n_spare
+        sizes = instrument.sizes(extra_low_key)
         #: strings per voice (a grand piano note has up to three)
-        self.spv = int(getattr(instrument, "strings_per_voice", 1))
+        self.spv = int(sizes.strings_per_voice)
         max_in = self.dec.inputs_needed(self.MAX_BLOCK_OUT) + 16
-        R = instrument.max_region_points() if hasattr(instrument, "max_region_points") else (
-            0 if instrument.termination is None else instrument.termination.region_points)
-        gt = instrument.gtable_length() if hasattr(instrument, "gtable_length") else 0
-        mb = instrument.max_bend_len() if hasattr(instrument, "max_bend_len") else 0
-        self.bank = StringBank(self.n_index * self.spv, instrument.max_cells(extra_low_key),
-                               max_region=max(R, 1), max_block=4096,
-                               n_probes=1 if probe else 0, max_gtable=gt, max_bend=mb)
+        self.bank = StringBank(self.n_index * self.spv, sizes.max_cells,
+                               max_region=max(sizes.max_region, 1), max_block=4096,
+                               n_probes=1 if probe else 0, max_gtable=sizes.max_gtable,
+                               max_bend=sizes.max_bend)
         #: the body (soundboard) stage after decimation, if the instrument has one
-        self.body = instrument.make_body(fs_out) if hasattr(instrument, "make_body") else None
+        design = instrument.body()
+        self.body = None if design is None else Body.from_design(fs_out, design)
         self.mix = np.zeros(max_in)
         self.probe = probe
         self._probe: list[np.ndarray] = []
@@ -123,13 +124,10 @@ class Engine:
         self.pedal = 0.0                     # sustain pedal CC64, 0..1 (half pedal between)
         self.soft = 0.0                      # soft pedal CC67, 0..1
         self.bend = {}                       # pitch bend per channel, -1..1
-        self._quiet = np.zeros(self.n_index * self.spv, dtype=np.int64)
-        self._last_peak = np.zeros(self.n_index * self.spv)
         # voice indices whose key is up and which are not fading out: the
         # sustain pedal damps exactly these (one array operation per CC64)
         self._released = np.zeros(self.n_index, dtype=bool)
         self._spv_range = np.arange(self.spv)
-        self._done = np.zeros(self.n_index * self.spv, dtype=np.int64)
         self._out = np.zeros(self.MAX_BLOCK_OUT)
         self.n_stolen = 0                    # voices faded out to make room
         self.n_shed = 0                      # voices faded out under CPU overload
@@ -172,7 +170,7 @@ class Engine:
         """Last block's peak output of every voice index (the loudest of its
         strings), in one array operation (a note-on with the pool full must
         not cost Python work per voice)."""
-        return self._last_peak.reshape(self.n_index, self.spv).max(axis=1)
+        return self.bank.last_peak.reshape(self.n_index, self.spv).max(axis=1)
 
     def _quietest(self, candidates: list) -> int:
         lv = self._levels()
@@ -186,11 +184,7 @@ class Engine:
         if self.by_key.get(vo.key) == v:
             del self.by_key[vo.key]
         for s in vo.slots:
-            if self.bank.is_active(s):
-                P = 2 * int(self.bank.ipar[s, K.I_N])
-                self.bank.set_loss(s, float(self.bank.fpar[s, K.F_B0T])
-                                   * 10.0 ** (-3.0 * P / (self.fs_in_exact * t60_s)))
-                self.bank.ipar[s, K.I_FILT] = 1
+            self.bank.fade(s, t60_s, self.fs_in_exact)
 
     def shed(self, n: int) -> int:
         """Fade out the ``n`` quietest sounding voices (CPU overload); returns
@@ -212,7 +206,6 @@ class Engine:
             del self.by_key[vo.key]
         for s in self._slots(v):
             self.bank.deactivate(s)
-            self._quiet[s] = 0
 
     @staticmethod
     def _voice_key(ev: Event):
@@ -254,20 +247,19 @@ class Engine:
                 self.voices[v] = _Voice(vk, at, slots, key, ev.f0_hz)
                 self._released[v] = False
                 self.by_key[vk] = v
-                if self.bend.get(ev.channel) and hasattr(self.inst, "bend"):
-                    self.inst.bend(self.bank, slots, key, ev.f0_hz, self.bend[ev.channel])
+                if self.bend.get(ev.channel):
+                    self.inst.pitch_bend(self.bank, slots, key, ev.f0_hz, self.bend[ev.channel])
             for s in self._slots(v):
-                self._quiet[s] = 0
+                self.bank.reset_quiet(s)
         elif ev.kind in (NOTE_OFF, NOTE_ON):
             v = self.by_key.get(vk)
             if v is not None:
                 self._release(v)
         elif ev.kind == PITCH_BEND:
             self.bend[ev.channel] = float(ev.value)
-            if hasattr(self.inst, "bend"):
-                for vo in self.voices.values():
-                    if vo.key[0] == ev.channel and not vo.dying:
-                        self.inst.bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, ev.value)
+            for vo in self.voices.values():
+                if vo.key[0] == ev.channel and not vo.dying:
+                    self.inst.pitch_bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, ev.value)
         elif ev.kind == CONTROL:
             cc = int(ev.key)
             if cc == CC_SUSTAIN:
@@ -288,7 +280,7 @@ class Engine:
                     self._free(v)
 
     def _damp(self, vo: _Voice) -> None:
-        self.inst.damp(self.bank, vo.slots, vo.key_arg, vo.f0_hz, self.pedal)
+        self.inst.note_off(self.bank, vo.slots, vo.key_arg, vo.f0_hz, self.pedal)
 
     def _release(self, v: int) -> None:
         """Key up: the instrument damps the strings as far as the sustain
@@ -345,14 +337,13 @@ class Engine:
                 for v in list(self.voices):
                     self._free(v)
             return
-        nd = K.scan_silence(bank.active, bank.n_active, bank.ipar, bank.fst, self._quiet,
-                            self._last_peak, n_in, self.silence_level,
-                            int(0.02 * self.fs_in), self._done)
-        if nd == 0 or self.inst.study:
+        done = bank.reap(n_in, self.silence_level, int(0.02 * self.fs_in))
+        if len(done) == 0 or self.inst.study:
             return
-        for s in self._done[:nd].tolist():
+        done = done.tolist()
+        for s in done:
             bank.deactivate(s)
-        for v in {s // self.spv for s in self._done[:nd].tolist()}:
+        for v in {s // self.spv for s in done}:
             if v in self.voices and not any(bank.is_active(s) for s in self._slots(v)):
                 self._free(v)
 

@@ -437,35 +437,12 @@ class ProgramMap:
 # --------------------------------------------------------------------------
 
 
-def _warm_phrase(preset) -> list:
-    """Events that take the engine through every path a performance uses:
-    note-ons across the range, a restrike, releases with and without the
-    sustain pedal, the soft pedal."""
-    from synth.engine.engine import Event
-
-    if preset.kind == "musical" and preset.play is not None:
-        lo, hi = preset.play.key_low, preset.play.key_high
-        keys = sorted({lo, (lo + hi) // 2, hi})
-    else:
-        keys = [-1]
-    ev = [Event(0.0, "control", 67, 0.5)]
-    ev += [Event(0.001 * i, "note_on", k, 0.8) for i, k in enumerate(keys)]
-    ev += [Event(0.012, "note_on", keys[len(keys) // 2], 0.6),
-           Event(0.015, "control", 64, 1.0)]
-    ev += [Event(0.020, "note_off", k, 0.5) for k in keys]
-    ev += [Event(0.025, "control", 64, 0.0), Event(0.026, "control", 67, 0.0),
-           Event(0.030, "pitch_bend", -1, 0.5)]
-    return ev
-
-
 def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = None,
                  overrides=()):
-    """Build the engine for a preset, warmed for live play.
-
-    The instrument designs every key now (its ``warm()``), then a throwaway
-    engine renders a short phrase block by block (compiling or loading the
-    numba kernels, faulting the buffers in), and a fresh engine on the same
-    instrument is returned, so the warm-up leaves no sound behind.
+    """Build the engine for a preset, warmed for live play
+    (:func:`synth.io.factory.build_engine` with ``warm=True``: every key
+    designed, the kernels compiled or loaded on a throwaway engine, so the
+    warm-up leaves no sound behind).
 
     Parameters
     ----------
@@ -474,46 +451,27 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
     block : int
         Output block size of the stream (samples).
     instruments : dict or None
-        Cache of instruments by preset name (a program change back to a
-        preset reuses its designs).
+        Cache of voices by preset name (a program change back to a preset
+        reuses its designs).
     overrides : sequence of str
         ``PATH=VALUE`` preset overrides (``--set``), validated like the file.
 
     Raises
     ------
     SynthError
-        The preset does not load or its instrument cannot be built.
+        The preset does not load or its voice cannot be built.
     """
-    from synth.engine.engine import Engine
-    from synth.io.presets import load_preset
-    from synth.voices import instrument_for
+    from synth.io.factory import build_engine, build_voice
 
-    inst = None if instruments is None else instruments.get(preset_name)
-    if inst is None:
-        preset = load_preset(preset_name, overrides)
-        try:
-            inst = instrument_for(preset)
-        except ValueError as e:
-            raise SynthError(f"{preset_name}: {e}") from None
-        warm = getattr(inst, "warm", None)
-        if warm is not None:
-            warm()
+    voice = None if instruments is None else instruments.get(preset_name)
+    if voice is None:
+        voice = build_voice(preset_name, overrides)
         if instruments is not None:
-            instruments[preset_name] = inst
-    else:
-        preset = inst.preset
+            instruments[preset_name] = voice
     # a keyboard may send any key: size the strings for key 0 (study presets
     # otherwise only hold their own string's length; musical ones already do)
-    try:
-        scratch = Engine(inst, fs_out=FS_OUT, extra_low_key=0)
-    except ValueError as e:
-        raise SynthError(f"{preset_name}: {e}") from None
-    scratch.schedule(_warm_phrase(preset))
-    for _ in range(int(0.05 * FS_OUT / block) + 1):
-        scratch.render_block(block)
-    scratch.shed(1)
-    scratch.render_block(block)
-    return Engine(inst, fs_out=FS_OUT, extra_low_key=0)
+    return build_engine(preset_name, voice=voice, fs_out=FS_OUT, extra_low_key=0, warm=True,
+                        block=block)
 
 
 # --------------------------------------------------------------------------

@@ -76,8 +76,14 @@ How the fast path is written, so that it is fast on every x86-64 target
   callee for each), and ``_nrt=False`` (synth.kernels.config) keeps slice
   views free of reference counting.
 
-Parameter tables (columns below) are written by the voice layer at note-on;
-the kernel only reads ``ipar``/``fpar`` and updates ``fst`` and the rings.
+Parameter tables (columns below) are written at note-on by the string bank
+(:class:`synth.dsp.bank.StringBank`, the only code outside this module that
+indexes them).  The kernel reads them and writes back only its running
+state: the rings, every ``fst`` column, the ``ipar`` state columns
+``I_POS``, ``I_EXC`` (an excitation ending: ``EXC_ENDED``, then
+``EXC_NONE``), ``I_EXC_M`` and ``I_HLAST``, and the ``fpar`` column ``F_B0``
+(the loss gain gliding towards ``F_B0T``); :func:`scan_silence` also resets
+``fst[:, S_PEAK]`` and writes its own outputs.
 """
 
 from __future__ import annotations
@@ -92,9 +98,8 @@ I_OFF = 0        # ring offset in the flat ring array
 I_N = 1          # cells N (ring length 2N)
 I_POS = 2        # state: (time index of the last processed sample) mod 2N
 I_K = 3          # excitation / pickup grid point k (1 .. N-1)
-I_EXC = 4        # state: 0 none/ended, -1 ended (offset to cancel), 1 sitar g (eq. 1.13),
-                 #   2 biwa g (eq. 1.11), 3 g from a table, 4 hammer 3-parameter felt
-                 #   (eq. 1.5), 5 hammer 4-parameter felt (Pub. III eq. 3)
+I_EXC = 4        # state: excitation kind, EXC_* below (0 none/ended, -1 ended with its
+                 #   offset still to fold, 1-2 plucks, 3 g table, 4-5 felt hammers)
 I_EXC_M = 5      # state: samples since excitation start (t = I_EXC_M * dt)
 I_REG_OFF = 6    # offset of U(1..R) in the flat profile array
 I_REG_N = 7      # R, points in the termination region (0: ideal rigid end)
@@ -113,6 +118,16 @@ I_BOFF = 18      # offset of the pitch-bend delay line in the flat table array
 I_BLEN = 19      # its length (0: no bend line)
 I_CHUNK_FREE = 20  # the same with no excitation running (0 forces per-sample)
 I_NI = 21
+
+# ---- excitation kinds (ipar[s, I_EXC]); the only place they are defined: the
+# bank (synth.dsp.bank) and the voices' exciters use these names --------------
+EXC_ENDED = -1   # ended on the last sample: its constant g is folded into the ring next
+EXC_NONE = 0     # no excitation running
+EXC_SITAR = 1    # kinematic pluck g(t) (eq. 1.13)
+EXC_BIWA = 2     # force pluck g(t) (eq. 1.11); kinds <= EXC_BIWA have a closed-form g
+EXC_GTABLE = 3   # g(t) from a table (the injected strike of Publication I)
+EXC_HAMMER3 = 4  # felt hammer, three-parameter law (eq. 1.5); kinds >= EXC_HAMMER3 are hammers
+EXC_HAMMER4 = 5  # felt hammer, four-parameter law (Pub. III eq. 3)
 
 # ---- float parameter columns (fpar[s, :]) -----------------------------------
 F_DT = 0         # time step dt (s)
@@ -197,7 +212,7 @@ def _g_at(kind, e, dt, A, t0, alpha):
     if e < 0:
         return 0.0
     t = e * dt
-    if kind == 1:
+    if kind == EXC_SITAR:
         if t > t0:
             return A
         r = t / t0
@@ -570,12 +585,12 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     g = st[S_G]
     peak = st[S_PEAK]
     for i in range(n):
-        if exc == -1:
+        if exc == EXC_ENDED:
             # the excitation ended on the previous sample: fold its constant
             # g into the ring before this sample, where the fast path does
             _fold_offset(ring, off, P, pm, k, g)
             g = 0.0
-            exc = 0
+            exc = EXC_NONE
         pm += 1
         if pm == P:
             pm = 0
@@ -587,15 +602,15 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
         if j2 >= P:
             j2 -= P
         F = 0.0
-        if exc != 0:
-            if exc <= 2:
+        if exc != EXC_NONE:
+            if exc <= EXC_BIWA:
                 g = _g_at(exc, e, dt, A, t0, alpha)
                 if e >= e_end:
-                    exc = -1
-            elif exc == 3:
+                    exc = EXC_ENDED
+            elif exc == EXC_GTABLE:
                 g = U[goff + e]
                 if e >= e_end - 1:
-                    exc = -1
+                    exc = EXC_ENDED
             else:
                 I1 = ring[off + j1] - ring[off + j2]
                 # the general step only: the reference does not take the
@@ -604,7 +619,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
                 if contact:
                     hlast = e
                 if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):
-                    exc = -1          # the hammer is gone
+                    exc = EXC_ENDED          # the hammer is gone
             e += 1
         gt = g                        # injected at k this sample
         if gt != 0.0:
@@ -692,7 +707,7 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
     # in the per-sample path.  An excitation that ends inside the chunk
     # (a hammer gone) keeps its last g for the rest of it, as the per-sample
     # path does, until the next chunk folds it into the ring.
-    if exc != 0:
+    if exc != EXC_NONE:
         fp = fpar[s]
         dt = fp[F_DT]
         A = fp[F_A]
@@ -706,7 +721,7 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
         pm = m0
         g = st[S_G]
         n_step = C               # samples left to step one by one
-        if exc >= 4 and hlast >= 0 and st[S_HY] == 0.0 and st[S_HPHI] == 0.0:
+        if exc >= EXC_HAMMER3 and hlast >= 0 and st[S_HY] == 0.0 and st[S_HPHI] == 0.0:
             # a hammer in free flight after a contact (felt relaxed): if its
             # compression w = z - u(k) stays <= 0 over the whole chunk, no
             # step touches the string and the chunk is a constant injection
@@ -748,7 +763,7 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
                 st[S_HDG3] = 0.0
                 st[S_HDG] = 0.0
                 if e - 1 >= e_end or (e - 1 - hlast > hrel and w < 0.0):
-                    exc = -1         # the hammer is gone
+                    exc = EXC_ENDED         # the hammer is gone
                 n_step = 0
         for i in range(n_step):   # the caller ends the chunk at e_end at the latest
             pm += 1
@@ -760,18 +775,18 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
             j2 = pm + k
             if j2 >= P:
                 j2 -= P
-            if exc > 0:
+            if exc > EXC_NONE:
                 # (the same dispatch as the per-sample path's, written out:
                 # as a shared function returning a tuple it cost 35 % more
                 # per string-sample in hammer contact, 76 -> 103 ns)
-                if exc <= 2:
+                if exc <= EXC_BIWA:
                     g = _g_at(exc, e, dt, A, t0, alpha)
                     if e >= e_end:
-                        exc = -1     # ended: folded at the start of the next chunk
-                elif exc == 3:
+                        exc = EXC_ENDED     # ended: folded at the start of the next chunk
+                elif exc == EXC_GTABLE:
                     g = U[goff + e]
                     if e >= e_end - 1:
-                        exc = -1
+                        exc = EXC_ENDED
                 else:
                     I1 = ring[off + j1] - ring[off + j2]
                     g1, F, w, contact = _hammer_steady(I1, g, fp, st)
@@ -781,7 +796,7 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
                     if contact:
                         hlast = e
                     if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):
-                        exc = -1     # the hammer is gone
+                        exc = EXC_ENDED     # the hammer is gone
                 e += 1
             ring[off + j1] += g
             ring[off + j2] -= g
@@ -1293,16 +1308,16 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
     N = ipar[s, I_N]
     P = 2 * N
     exc = ipar[s, I_EXC]
-    if exc == -1:
+    if exc == EXC_ENDED:
         # the excitation ended on the last sample of the previous chunk: fold
         # its constant g into the ring now, between chunks
         _fold_offset(ring, ipar[s, I_OFF], P, ipar[s, I_POS], ipar[s, I_K], fst[s, S_G])
         fst[s, S_G] = 0.0
-        exc = 0
-        ipar[s, I_EXC] = 0
+        exc = EXC_NONE
+        ipar[s, I_EXC] = EXC_NONE
     gbuf = scratch[_SCRATCH_GROUP:_SCRATCH_GROUP + C]
     # ---- 2. excitation -------------------------------------------------------
-    plucking = exc != 0
+    plucking = exc != EXC_NONE
     if plucking:
         _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
     _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch[_SCRATCH_GROUP + C:], gbuf,
@@ -1469,7 +1484,7 @@ def _excite_group(ring, ipar, fpar, fst, C, mem, G, scratch, ist):
                 st[S_HDG3] = 0.0
                 st[S_HDG] = 0.0
                 if e - 1 >= e_end or (e - 1 - hlast > hrel and w < 0.0):
-                    ipar[s, I_EXC] = -1      # the hammer is gone
+                    ipar[s, I_EXC] = EXC_ENDED      # the hammer is gone
         ist[m] = run
         ist[GROUP + m] = e
         ist[2 * GROUP + m] = hlast
@@ -1495,10 +1510,10 @@ def _excite_group(ring, ipar, fpar, fst, C, mem, G, scratch, ist):
                 if e >= ist[3 * GROUP + m] or (hl >= 0 and e - hl > ist[4 * GROUP + m]
                                                and w < 0.0):
                     ist[m] = 0               # the hammer is gone: g stays
-                    ipar[s, I_EXC] = -1
+                    ipar[s, I_EXC] = EXC_ENDED
                 ist[GROUP + m] = e + 1
                 scratch[m * GC + i] = g1
-            elif ipar[mem[m], I_EXC] == -1:
+            elif ipar[mem[m], I_EXC] == EXC_ENDED:
                 scratch[m * GC + i] = scratch[gm0 + m]
     # state back, and the injections: outgoing = incoming + g on both rails
     for m in range(G):
@@ -1525,7 +1540,7 @@ def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch):
     """n samples of string s into mix[o0:o0+n]: the per-sample path or
     fast-path chunks."""
     exc = ipar[s, I_EXC]
-    cmax = ipar[s, I_CHUNK] if exc > 0 else ipar[s, I_CHUNK_FREE]
+    cmax = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
     if ipar[s, I_PROBE] >= 0 or cmax <= 0:
         _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
         return
@@ -1534,13 +1549,13 @@ def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch):
         C = n - done
         if C > cmax:
             C = cmax
-        if ipar[s, I_EXC] > 0:
+        if ipar[s, I_EXC] > EXC_NONE:
             left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
             if C > left:
                 C = left
         _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch)
         done += C
-        if ipar[s, I_EXC] <= 0:
+        if ipar[s, I_EXC] <= EXC_NONE:
             cmax = ipar[s, I_CHUNK_FREE]
 
 
@@ -1570,12 +1585,12 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
         for m in range(live):
             _chunk_rest(mem[m], ring, ipar, fpar, fst, U, C, o0 + done, mix, work,
                         scratch[m * _GROW:m * _GROW + C],
-                        ipar[mem[m], I_EXC] != 0)   # (True; not a constant: see _ring_get)
+                        ipar[mem[m], I_EXC] != EXC_NONE)   # (True; not a constant: see _ring_get)
         done += C
         j = 0
         for m in range(live):
             s = mem[m]
-            if ipar[s, I_EXC] > 0:
+            if ipar[s, I_EXC] > EXC_NONE:
                 mem[j] = s
                 j += 1
             elif done < n:
@@ -1605,7 +1620,7 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     nh = 0
     for a in range(n_active):
         s = active[a]
-        if ipar[s, I_EXC] >= 4 and ipar[s, I_PROBE] < 0 and ipar[s, I_CHUNK] > 0:
+        if ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_PROBE] < 0 and ipar[s, I_CHUNK] > 0:
             iwork[nh] = s
             nh += 1
         else:
@@ -1676,7 +1691,7 @@ def scan_silence(active, n_active, ipar, fst, quiet, last_peak, n_in, level, min
         pk = fst[s, S_PEAK]
         last_peak[s] = pk
         fst[s, S_PEAK] = 0.0
-        if pk < level and ipar[s, I_EXC] == 0:
+        if pk < level and ipar[s, I_EXC] == EXC_NONE:
             quiet[s] += n_in
         else:
             quiet[s] = 0

@@ -9,9 +9,6 @@ from __future__ import annotations
 
 import numpy as np
 
-SITAR = 1
-BIWA = 2
-
 
 def sitar_g(t_s, amplitude_m: float, duration_s: float) -> np.ndarray:
     """Sitar pluck, eq. 1.13: g = A (t/t0)^2 exp(2 (1 - t/t0)) for 0 <= t <= t0,

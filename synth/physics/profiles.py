@@ -7,6 +7,16 @@ contact.  Cases follow thesis eqs. 1.12, 1.14-1.16 and physics notes
 section 2 (Case 2 continuous: ``+ k x_b`` on the parabola).
 
 Every profile function takes ``x`` in metres (array) and returns U in metres.
+
+Registry.  Each profile a preset can name (``termination.profile``) is
+registered with :func:`register_profile`: its name, the termination-section
+keys it takes (as keyword arguments, in SI units) and the function that
+builds it.  :func:`termination_from_spec` builds any registered profile from
+a preset's ``[termination]`` section, so a voice never lists profiles.  A new
+profile is its function here (or in any module imported by the package) with
+``@register_profile(...)``, plus its rows in the preset schema
+(``synth/io/presets/sections.py``: the name in ``PROFILES`` and one row per
+parameter); ``tests/test_profiles_registry.py`` checks the two agree.
 """
 
 from __future__ import annotations
@@ -19,12 +29,40 @@ import numpy as np
 Profile = Callable[[np.ndarray], np.ndarray]
 
 
+@dataclass(frozen=True)
+class ProfileKind:
+    """A registered profile: ``build(**params)`` returns a :data:`Profile`;
+    ``params`` are the ``[termination]`` keys it takes (``side`` included
+    when the profile needs it)."""
+
+    name: str
+    params: tuple[str, ...]
+    build: Callable[..., Profile]
+
+
+#: name -> ProfileKind, in registration order ("none", the ideal rigid end, is not a profile)
+PROFILES: dict[str, ProfileKind] = {}
+
+
+def register_profile(name: str, *params: str):
+    """Decorator: register ``build`` as the profile ``name`` taking the
+    termination keys ``params``."""
+    def deco(build):
+        if name in PROFILES or name == "none":
+            raise ValueError(f"profile {name!r} is registered twice")
+        PROFILES[name] = ProfileKind(name, tuple(params), build)
+        return build
+    return deco
+
+
+@register_profile("capo", "radius_m")
 def capo(radius_m: float) -> Profile:
     """Capo d'astro bar: U = x^2 / (2R) (side +1)."""
     R = float(radius_m)
     return lambda x: np.asarray(x, float) ** 2 / (2.0 * R)
 
 
+@register_profile("sawari", "radius_m", "extent_m")
 def sawari(radius_m: float, extent_m: float) -> Profile:
     """Biwa sawari, eq. 1.12: U = -x^2/(2R) for x <= s, else -inf (side -1)."""
     R, s = float(radius_m), float(extent_m)
@@ -36,6 +74,7 @@ def sawari(radius_m: float, extent_m: float) -> Profile:
     return U
 
 
+@register_profile("jawari-case1", "slope", "x_c_m")
 def jawari_case1(slope: float, x_c_m: float) -> Profile:
     """Jawari Case 1, eq. 1.14: U = k x for x <= x_c, else +inf (side +1)."""
     k, xc = float(slope), float(x_c_m)
@@ -47,6 +86,7 @@ def jawari_case1(slope: float, x_c_m: float) -> Profile:
     return U
 
 
+@register_profile("jawari-case2", "slope", "x_b_m", "radius_m")
 def jawari_case2(slope: float, x_b_m: float, radius_m: float) -> Profile:
     """Jawari Case 2, eq. 1.15 made continuous (notes section 2):
     U = k x (x <= x_b), else (x - x_b)^2/(2R) + k x_b (side +1)."""
@@ -59,6 +99,7 @@ def jawari_case2(slope: float, x_b_m: float, radius_m: float) -> Profile:
     return U
 
 
+@register_profile("jawari-case3", "slope", "x_a_m", "x_b_m", "radius_m", "step_m")
 def jawari_case3(slope: float, x_a_m: float, x_b_m: float, radius_m: float,
                  step_m: float) -> Profile:
     """Jawari Case 3, eq. 1.16: k x (x <= x_a); k x + y (x_a < x <= x_b);
@@ -73,6 +114,7 @@ def jawari_case3(slope: float, x_a_m: float, x_b_m: float, radius_m: float,
     return U
 
 
+@register_profile("table", "points", "side")
 def table(points, side: int) -> Profile:
     """User profile from (x_m, U_m) points, linearly interpolated; beyond the
     last point there is no contact (+inf for side +1, -inf for side -1)."""
@@ -119,3 +161,19 @@ class Termination:
         # an obstacle on the wrong side of infinity never touches either
         U[np.isinf(U)] = none
         return U
+
+
+def termination_from_spec(spec) -> Termination | None:
+    """The :class:`Termination` a preset's ``[termination]`` section
+    describes (any object with its keys as attributes: ``profile``,
+    ``side``, ``region_points`` and the profile's parameters), or None for
+    the ideal rigid end (``profile = "none"``)."""
+    name = spec.profile
+    if name == "none":
+        return None
+    kind = PROFILES.get(name)
+    if kind is None:
+        raise ValueError(f"termination.profile = {name!r} is not a registered profile "
+                         f"(registered: {', '.join(PROFILES)})")
+    prof = kind.build(**{p: getattr(spec, p) for p in kind.params})
+    return Termination(prof, int(spec.side), int(spec.region_points))

@@ -13,7 +13,7 @@ one resonance per plate mode: frequency ``f_k``, half-power bandwidth
 ``B_k = eta_k f_k`` in Hz (loss factor eta), peak gain ``g_k`` at ``f_k``. This module
 chooses the set {f_k, T60_k, g_k} (the "mode set": data and the laws that
 make it) and the discrete realisation of each mode; the kernel
-(:mod:`synth.kernels.body`) runs it and :class:`synth.engine.body.Body`
+(:mod:`synth.kernels.body`) runs it and :class:`synth.dsp.body.Body`
 wraps it.
 
 Why a modal bank and not a convolution
@@ -28,7 +28,7 @@ latency, streams trivially (two state values per mode) and its parameters
 are physical (mode frequencies, loss factors) and can be scaled (``size``)
 or tilted (``brightness``). Measured cost: ~16 ns per sample for K = 96
 in the kernel, ~20 ns through the wrapper in 1024-sample blocks (~0.1 % of
-one core at 48 kHz; see :mod:`synth.engine.body`).
+one core at 48 kHz; see :mod:`synth.dsp.body`).
 
 The laws
 --------
@@ -95,6 +95,8 @@ vectorises (a (K, 3) layout measured 7x slower).
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import math
 import numbers
 
@@ -137,6 +139,25 @@ GAIN_SPREAD_DB = 3.0
 SIZE_RANGE = (0.5, 2.0)
 BRIGHTNESS_RANGE_DB = (-12.0, 12.0)
 MIN_FS = 8000
+
+
+@dataclass(frozen=True)
+class BodyDesign:
+    """What an instrument says of its body; the engine builds the filter
+    (:meth:`synth.dsp.body.Body.from_design`) on its own output rate.
+
+    wet : float         share of the body in the output, 0 .. 1
+    n_modes : int       number of modes, 1 .. 1024
+    size : float        board size factor (mode frequencies divide by it)
+    brightness : float  spectral tilt, dB per octave re 1 kHz
+    seed : int          seed of the mode set's random draws (same seed, same board)
+    """
+
+    wet: float
+    n_modes: int = DEFAULT_N_MODES
+    size: float = 1.0
+    brightness: float = 0.0
+    seed: int = DEFAULT_SEED
 
 
 def _int_param(name, value, lo, hi):

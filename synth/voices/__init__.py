@@ -1,17 +1,19 @@
-"""Voices: physics at note-on, kernels per block (via the string bank)."""
+"""Voices: physics at note-on, kernels per block (through the string bank).
 
-from .grand import GrandPianoInstrument
-from .hammered import HammeredStringInstrument
-from .plucked import PluckedInstrument
+Every voice follows the contract of :mod:`synth.voices.base` and registers
+itself (:mod:`synth.voices.registry`).  Importing this package imports each
+of its modules, so a new voice module is found without editing any list;
+:func:`voice_for` builds the voice a preset names.
+"""
 
+import importlib
+import pkgutil
 
-def instrument_for(preset, fs_internal=None):
-    """The instrument that plays ``preset``'s voice at the internal rate
-    ``fs_internal`` (Hz; None: the voice's default)."""
-    if preset.voice == "plucked":
-        return PluckedInstrument(preset, fs_internal)
-    if preset.voice == "piano":
-        return HammeredStringInstrument(preset, fs_internal)
-    if preset.voice == "grand":
-        return GrandPianoInstrument(preset, fs_internal)
-    raise ValueError(f"voice = {preset.voice!r} has no instrument")
+from .base import BankSizes, Voice
+from .registry import exciter_for, voice_class, voice_for, voice_names
+
+for _m in pkgutil.iter_modules(__path__):
+    importlib.import_module(f"{__name__}.{_m.name}")
+del _m
+
+__all__ = ["BankSizes", "Voice", "exciter_for", "voice_class", "voice_for", "voice_names"]

@@ -34,8 +34,9 @@ Soft pedal: at 0.5 and above the hammer misses one string of a two- or
 three-string unison (una corda shift); the felt gets softer continuously
 (stiffness times 1 - (1 - soft_stiffness) * soft).
 
-The soundboard is a modal bank on the decimated mix
-(:mod:`synth.engine.body`).
+The soundboard is a modal bank on the decimated mix: the voice describes it
+(:meth:`GrandPianoInstrument.body`, from ``[body]``) and the engine builds
+it (:class:`synth.dsp.body.Body`).
 """
 
 from __future__ import annotations
@@ -45,11 +46,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from ..dsp.bank import HammerTemplate, SlotTemplate, StringBank, hammer_template, slot_template
 from ..kernels import strings as K
 from ..physics import piano as P
 from ..physics.dispersion import tune_stiff_loop
 from ..physics.profiles import Termination, capo
-from .bank import HammerTemplate, SlotTemplate, StringBank, hammer_template, slot_template
+from ..physics.soundboard import BodyDesign
+from .base import BankSizes, Voice
+from .registry import register_voice
 
 #: per-key string designs, by (preset, internal rate)
 _DESIGNS: dict = {}
@@ -80,21 +84,15 @@ class GrandStringSetup:
     damper: tuple | None = None             # its damper row (StringBank.set_damper)
 
 
-class GrandPianoInstrument:
+@register_voice("grand")
+class GrandPianoInstrument(Voice):
     """The 88-key grand (voice ``grand``)."""
 
-    VOICES = ("grand",)
-    DEFAULT_RATE = 325_000
     KEY_LOW, KEY_HIGH = 21, 108
     strings_per_voice = 3
-    study = False
-    termination = None
 
     def __init__(self, preset, fs_internal: float | None = None):
-        if preset.voice not in self.VOICES:
-            raise ValueError(f"voice = {preset.voice!r} is not handled by {type(self).__name__}")
-        self.preset = preset
-        self.fs = float(fs_internal or self.DEFAULT_RATE)
+        super().__init__(preset, fs_internal)
         if not (100_000 <= self.fs <= 2_000_000):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (100000 <= value <= 2000000)")
         # per-key designs are shared by every instrument of the same preset
@@ -111,10 +109,6 @@ class GrandPianoInstrument:
             self.setup(key)
 
     # -- sizes for the engine -----------------------------------------------------
-    @property
-    def polyphony(self) -> int:
-        return self.preset.play.polyphony
-
     def max_cells(self, key_low: int | None = None) -> int:
         return int(self.fs / P.et_f0_hz(self.KEY_LOW, 400.0) / 2) + 4
 
@@ -122,18 +116,27 @@ class GrandPianoInstrument:
         c_min = min(g.c_m_per_s for g in P.grand_piano_strings() if g.has_capo)
         return int(math.ceil(self.preset.strings.capo_region_m * self.fs / c_min)) + 1
 
-    def make_body(self, fs_out: int):
-        from ..engine.body import Body
+    def sizes(self, extra_low_key: int | None = None) -> BankSizes:
+        return BankSizes(strings_per_voice=self.strings_per_voice,
+                         max_cells=self.max_cells(extra_low_key),
+                         max_region=self.max_region_points())
 
+    def body(self) -> BodyDesign:
         b = self.preset.body
-        return Body(fs_out, n_modes=b.modes, seed=b.seed, wet=b.wet, size=b.size,
-                    brightness=b.brightness)
+        return BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
+                          seed=b.seed)
 
     # -- physics at note-on -------------------------------------------------------
     def tuning_hz(self, key: int) -> float:
         """Partial-1 frequency this preset tunes ``key`` to (Hz)."""
         t = self.preset.tuning
         return P.stretched_f0_hz(key, None, a4_hz=t.a4_hz, stretch=t.stretch)
+
+    def pitch_hz(self, key: float | None = None, f0_hz: float | None = None) -> float:
+        """Partial-1 frequency of ``key`` as tuned (Hz), or ``f0_hz``."""
+        if f0_hz is not None:
+            return float(f0_hz)
+        return self.tuning_hz(int(round(key)))
 
     def setup(self, key: int) -> tuple[GrandStringSetup, ...]:
         key = int(key)
@@ -195,22 +198,22 @@ class GrandPianoInstrument:
 
     def _hammer(self, key: int, n_strings: int, su: GrandStringSetup) -> dict:
         """The key's felt hammer for one of its ``n_strings`` strings
-        (:func:`synth.voices.bank.hammer_template` arguments but dt; the
+        (:func:`synth.dsp.bank.hammer_template` arguments but dt; the
         speed and the soft pedal's stiffness factor come per strike)."""
         a = self.preset.action
         mass = P.hammer_mass_kg(key, n_strings)
         if a.law == "three-parameter":
             q0, p, alpha = P.hammer_three_param(key)
-            return dict(law=4, mass_kg=mass, stiffness=q0, exponent=p, alpha_or_gamma=alpha,
+            return dict(law=K.EXC_HAMMER3, mass_kg=mass, stiffness=q0, exponent=p, alpha_or_gamma=alpha,
                         tau0_s=0.0, tension_n=su.tension_n, c_m_per_s=su.c_m_per_s,
                         max_flight_s=0.05)
         f0, p, gamma, tau0 = P.hammer_four_param(key)
-        return dict(law=5, mass_kg=mass, stiffness=f0, exponent=p, alpha_or_gamma=gamma,
+        return dict(law=K.EXC_HAMMER4, mass_kg=mass, stiffness=f0, exponent=p, alpha_or_gamma=gamma,
                     tau0_s=tau0, tension_n=su.tension_n, c_m_per_s=su.c_m_per_s,
                     max_flight_s=0.05)
 
     # -- voice contract -----------------------------------------------------------
-    def note_on(self, bank: StringBank, slots, key, velocity: float, f0_hz=None,
+    def note_on(self, bank: StringBank, slots, key, velocity: float, *, f0_hz=None,
                 probe_row: int = -1, restrike: bool = False, speed_m_per_s: float | None = None,
                 soft: float = 0.0) -> None:
         """Strike the key's strings (all of them, or all but one with the
@@ -246,7 +249,7 @@ class GrandPianoInstrument:
         d = self.preset.dampers
         return min(max((pedal - d.half_pedal_low) / (d.half_pedal_high - d.half_pedal_low), 0.0), 1.0)
 
-    def damp(self, bank: StringBank, slots, key, f0_hz, pedal: float) -> None:
+    def note_off(self, bank: StringBank, slots, key, f0_hz, pedal: float) -> None:
         """Key up: the damper falls on the strings, as far as the sustain
         pedal lets it (half pedal: partly; the felt resting more or less
         firmly moves the T60 geometrically between the damped and the free

@@ -1,25 +1,30 @@
-"""Plucked string voices: sitar (jawari) and biwa (sawari).
+"""One string per note, with any exciter and any termination.
 
-Plucked voice
-=============
-One waveguide string per note, plucked at ``pluck.position`` of its length
-by the thesis's plucks (sitar: kinematic g(t), eq. 1.13; biwa: force pluck,
-eqs. 1.10-1.11), buzzing against the preset's termination at x = 0.
+One-string voice (preset ``voice = "plucked"`` or ``"piano"``)
+==============================================================
+One waveguide string per note, excited at ``position`` of its length by the
+exciter its preset describes (:mod:`synth.voices.exciters`: ``[pluck]``, the
+thesis's plucks, eq. 1.13 sitar and eqs. 1.10-1.11 biwa; ``[hammer]``, the
+hereditary felt hammer of eq. 1.4), and touching the preset's termination
+at x = 0 (``[termination]``: any registered profile of
+:mod:`synth.physics.profiles`, or the ideal rigid end).
 
 * Study presets (``kind = "study"``) are the thesis's experiments: lossless,
-  on the paper grid (c dt = dx, ``grid.cells`` cells), pluck amplitude
-  exactly ``pluck.amplitude_m`` whatever the velocity.  With an explicit key
-  or f0 the string is fretted to that pitch and the remaining fractional
-  delay is a lossless allpass at x = L.
+  on the paper grid (c dt = dx, ``grid.cells`` cells), pluck amplitude or
+  hammer speed exactly the preset's whatever the velocity.  With an
+  explicit key or f0 the string is fretted to that pitch and the remaining
+  fractional delay is a lossless allpass at x = L.
 * Musical presets (``kind = "musical"``) tune every key exactly (loop filter
   from two T60 values plus a fractional-delay allpass, see
-  :mod:`synth.physics.losses`), scale the pluck amplitude with velocity, and
+  :mod:`synth.physics.losses`), scale the excitation with velocity, and
   damp the string at note-off (``loss.release_t60_s``).  The string is
   fretted (shorter, same tension) above its open pitch and retuned below it
-  (:func:`synth.physics.string.fretted_string`).
+  (:func:`synth.physics.string.fretted_string`).  Pitch bend moves a delay
+  line in the loop (``play.pitch_bend_semitones``).
 
-Contract (STK-like): ``note_on(slot, key|f0, velocity)``, ``note_off(slot)``,
-``control(...)``; rendering is the bank's job.
+The voice names are the preset schema's: ``plucked`` presets carry
+``[pluck]``, ``piano`` presets (the A7 study of Publication I) ``[hammer]``.
+The playable 88-key piano is :mod:`synth.voices.grand`.
 """
 
 from __future__ import annotations
@@ -29,34 +34,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..kernels import strings as K
-from ..physics import plucks, profiles
+from ..dsp.bank import StringBank
 from ..physics.losses import allpass_for_phase_delay, tune_loop
+from ..physics.profiles import termination_from_spec
 from ..physics.string import IdealString, fretted_string, midi_key_to_hz
-from .bank import StringBank
-
-
-def termination_from_spec(spec) -> profiles.Termination | None:
-    """Build a :class:`~synth.physics.profiles.Termination` from a preset's
-    ``[termination]`` section, or None for the ideal rigid end."""
-    p = spec.profile
-    if p == "none":
-        return None
-    if p == "capo":
-        prof = profiles.capo(spec.radius_m)
-    elif p == "sawari":
-        prof = profiles.sawari(spec.radius_m, spec.extent_m)
-    elif p == "jawari-case1":
-        prof = profiles.jawari_case1(spec.slope, spec.x_c_m)
-    elif p == "jawari-case2":
-        prof = profiles.jawari_case2(spec.slope, spec.x_b_m, spec.radius_m)
-    elif p == "jawari-case3":
-        prof = profiles.jawari_case3(spec.slope, spec.x_a_m, spec.x_b_m, spec.radius_m, spec.step_m)
-    elif p == "table":
-        prof = profiles.table(spec.points, spec.side)
-    else:  # pragma: no cover - the preset validator rejects it first
-        raise ValueError(f"termination.profile = {p!r} is not a known profile")
-    return profiles.Termination(prof, int(spec.side), int(spec.region_points))
+from .base import BankSizes, Voice
+from .registry import exciter_for, register_voice
 
 
 @dataclass(frozen=True)
@@ -79,13 +62,14 @@ class StringSetup:
     bend_delay: float = 0.0    # its rest delay (samples)
 
 
-class PluckedInstrument:
-    """A preset turned into string setups and plucks.
+@register_voice("plucked", "piano")
+class OneStringVoice(Voice):
+    """A preset turned into string setups and excitations.
 
     Parameters
     ----------
     preset : synth.io.presets.Preset
-        Validated preset with ``voice == "plucked"``.
+        Validated preset with ``voice`` ``"plucked"`` or ``"piano"``.
     fs_internal : float or None
         Internal rate (Hz).  None: the study grid's own rate
         (``cells * c / L``) for study presets, 325 000 Hz for musical ones.
@@ -93,13 +77,8 @@ class PluckedInstrument:
         cells = round(L fs / c) and the rate becomes cells c / L exactly.
     """
 
-    DEFAULT_RATE = 325_000
-    VOICES = ("plucked",)
-
     def __init__(self, preset, fs_internal: float | None = None):
-        if preset.voice not in self.VOICES:
-            raise ValueError(f"voice = {preset.voice!r} is not handled by {type(self).__name__}")
-        self.preset = preset
+        super().__init__(preset, fs_internal)
         sp = preset.string
         self.open_string = IdealString(sp.length_m, sp.tension_n, sp.linear_density_kg_per_m)
         self.study = preset.kind == "study"
@@ -116,6 +95,7 @@ class PluckedInstrument:
         if not (20_000 <= self.fs <= 2_000_000):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (20000 <= value <= 2000000)")
         self.termination = termination_from_spec(preset.termination)
+        self.exciter = exciter_for(preset, self.fs)
         self._setups: dict = {}
 
     def warm(self, keys=range(128)) -> None:
@@ -130,11 +110,7 @@ class PluckedInstrument:
     @property
     def excitation_position(self) -> float:
         """Pluck (or strike) point as a fraction of the string length."""
-        return self.preset.pluck.position
-
-    @property
-    def polyphony(self) -> int:
-        return self.preset.play.polyphony if self.preset.play else 8
+        return self.exciter.position
 
     def nominal_f0(self, key: float | None = None, f0_hz: float | None = None) -> float:
         if f0_hz is not None:
@@ -144,6 +120,10 @@ class PluckedInstrument:
         if self.study:
             return self.open_string.f0_hz
         raise ValueError("key or f0_hz is required for a musical preset")
+
+    def pitch_hz(self, key: float | None = None, f0_hz: float | None = None) -> float:
+        """Nominal pitch of a note (Hz); a study string's own without key or f0."""
+        return self.nominal_f0(key, f0_hz)
 
     def setup(self, key: float | None = None, f0_hz: float | None = None) -> StringSetup:
         """The string for a note (cached per pitch)."""
@@ -202,20 +182,6 @@ class PluckedInstrument:
         self._setups[ck] = s
         return s
 
-    def pluck_amplitude_m(self, velocity: float, string: IdealString | None = None) -> float:
-        """Pluck amplitude A (m) for a normalised velocity in (0, 1].
-
-        Study presets: exactly ``pluck.amplitude_m``.  Musical presets:
-        ``amplitude_m * velocity**velocity_exponent``, scaled with the
-        speaking length so that a fretted string is plucked at the same
-        slope (the same depth of buzz) as the open one.
-        """
-        A = self.preset.pluck.amplitude_m
-        if self.study:
-            return A
-        scale = 1.0 if string is None else string.length_m / self.open_string.length_m
-        return A * scale * float(velocity) ** self.preset.play.velocity_exponent
-
     def max_cells(self, key_low: int | None = None) -> int:
         """Largest N any playable note needs (for sizing the bank)."""
         if self.study:
@@ -229,8 +195,14 @@ class PluckedInstrument:
         lo = 0 if key_low is None else min(key_low, 0)
         return int(self.fs / midi_key_to_hz(lo) / 2) + 2
 
-    # -- voice contract ------------------------------------------------------------
-    strings_per_voice = 1
+    def sizes(self, extra_low_key: int | None = None) -> BankSizes:
+        R = 0 if self.termination is None else self.termination.region_points
+        return BankSizes(strings_per_voice=1, max_cells=self.max_cells(extra_low_key),
+                         max_region=R, max_gtable=self.exciter.max_gtable(),
+                         max_bend=self.max_bend_len())
+
+    def strike_log(self):
+        return self.exciter.strike_log
 
     def _configure(self, bank: StringBank, slot: int, su: StringSetup, probe_row: int) -> None:
         pre = self.preset
@@ -254,7 +226,8 @@ class PluckedInstrument:
         return int(math.ceil(loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0
                              + loop * (2.0 ** (r / 12.0) - 1.0))) + 6
 
-    def bend(self, bank: StringBank, slots, key, f0_hz, value: float) -> None:
+    # -- voice contract ------------------------------------------------------------
+    def pitch_bend(self, bank: StringBank, slots, key, f0_hz, value: float) -> None:
         """Pitch bend, ``value`` in [-1, 1] of ``play.pitch_bend_semitones``:
         the string's loop is shortened or lengthened (as a player deflecting
         the string raises its tension) through the bend line's delay."""
@@ -266,31 +239,23 @@ class PluckedInstrument:
         for slot in slots:
             bank.set_bend_delay(slot, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0))
 
-    def note_on(self, bank: StringBank, slots, key: float | None, velocity: float,
+    def note_on(self, bank: StringBank, slots, key: float | None, velocity: float, *,
                 f0_hz: float | None = None, probe_row: int = -1, restrike: bool = False,
-                soft: float = 0.0) -> None:
-        """Pluck the voice's string (configuring it for the pitch unless
-        ``restrike``: a sounding string is plucked again where it is)."""
+                speed_m_per_s: float | None = None, soft: float = 0.0) -> None:
+        """Excite the voice's string (configuring it for the pitch unless
+        ``restrike``: a sounding string is excited again where it is)."""
         slot = slots[0]
         su = self.setup(key, f0_hz)
         if restrike:
             bank.set_loss(slot, su.b0)           # undo a release damping
         else:
             self._configure(bank, slot, su, probe_row)
-        pl = self.preset.pluck
-        model = plucks.SITAR if pl.model == "sitar" else plucks.BIWA
-        alpha = pl.alpha_per_s if pl.model == "biwa" else 0.0
-        bank.start_pluck(slot, model, self.pluck_amplitude_m(velocity, su.string), pl.duration_s, alpha)
+        self.exciter.start(bank, slot, su, self.open_string.length_m, velocity, speed_m_per_s)
         bank.activate(slot)
 
-    def damper_lift(self, pedal: float) -> float:
-        """How far the sustain pedal (0..1) keeps the damping off: fully
-        from 0.5 up, else not at all."""
-        return 1.0 if pedal >= 0.5 else 0.0
-
-    def damp(self, bank: StringBank, slots, key: float | None, f0_hz: float | None,
-             pedal: float) -> None:
+    def note_off(self, bank: StringBank, slots, key: float | None, f0_hz: float | None,
+                 pedal: float) -> None:
         """The key is up: damp the string (loop gain down to the release T60,
         a pure gain on the loss filter so the tuning does not move) unless
-        the sustain pedal is down (>= 0.5)."""
+        the sustain pedal is down (>= 0.5, :meth:`Voice.damper_lift`)."""
         bank.apply_dampers(np.asarray(slots, dtype=np.int64), self.damper_lift(pedal))

@@ -1,10 +1,13 @@
 """A bank of waveguide strings in preallocated arrays.
 
 The bank owns every array the string kernel touches (rings, parameter and
-state tables, profiles, scratch, probes).  Voices claim string slots, write
-their physics into the tables at note-on, and the engine renders all active
-slots with one call of :func:`synth.kernels.strings.render_bank` per
-segment.  Nothing is allocated per block.
+state tables, profiles, scratch, probes).  Voices claim string slots and
+write their physics into them at note-on through the bank's methods; the
+engine renders all active slots with one call of
+:func:`synth.kernels.strings.render_bank` per segment, fades slots out
+(:meth:`StringBank.fade`) and frees the silent ones
+(:meth:`StringBank.reap`).  Nothing outside this module indexes the
+kernel's tables.  Nothing is allocated per block.
 """
 
 from __future__ import annotations
@@ -111,15 +114,16 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
                     dt_s: float, max_flight_s: float = 0.05,
                     release_s: float = 0.004) -> HammerTemplate:
     """Validate a felt hammer once (parameters as :meth:`StringBank.start_hammer`)."""
-    if law not in (4, 5):
-        raise ValueError(f"law = {law!r} is not allowed (4: three-parameter, 5: four-parameter)")
+    if law not in (K.EXC_HAMMER3, K.EXC_HAMMER4):
+        raise ValueError(f"law = {law!r} is not allowed ({K.EXC_HAMMER3}: three-parameter, "
+                         f"{K.EXC_HAMMER4}: four-parameter)")
     if not (mass_kg > 0 and stiffness > 0 and exponent >= 1 and tension_n > 0 and c_m_per_s > 0):
         raise ValueError(f"hammer: mass_kg = {mass_kg!r}, stiffness = {stiffness!r}, "
                          f"exponent = {exponent!r}, tension_n = {tension_n!r}, c_m_per_s = "
                          f"{c_m_per_s!r} are out of range (all > 0, exponent >= 1)")
-    if law == 5 and not tau0_s > 0:
+    if law == K.EXC_HAMMER4 and not tau0_s > 0:
         raise ValueError(f"tau0_s = {tau0_s!r} is out of range (value > 0)")
-    tau0 = tau0_s if law == 5 else 1.0
+    tau0 = tau0_s if law == K.EXC_HAMMER4 else 1.0
     dt, Q, p, A = float(dt_s), float(stiffness), float(exponent), float(alpha_or_gamma)
     Kk = c_m_per_s / (2.0 * tension_n)            # g per unit felt impulse (m / (N s))
     mc = 2.0 * tension_n / (c_m_per_s * mass_kg)  # deceleration per unit g (1/s)
@@ -128,7 +132,7 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
     # the felt impulse over a step, K int F dt = K (ca y1 + cby y0 + cbp Phi0),
     # Phi1 = pe Phi0 + p1 y1 + p0 y0 and F1 = fa y1 + fb y0 + fphi Phi1
     # (synth.kernels.strings._hammer_general: eq. 1.5 and Pub. III eq. 3)
-    if law == 4:
+    if law == K.EXC_HAMMER3:
         ca, cby, cbp = Q * (0.5 * dt + A), Q * (0.5 * dt - A), 0.0
         pe = p1 = p0 = 0.0
         fa, fb, fphi = Q * (1.0 + A / dt), -Q * A / dt, 0.0
@@ -211,6 +215,11 @@ class StringBank:
         self._is_active = np.zeros(self.capacity, dtype=bool)
         self.probe = np.zeros((max(n_probes, 1), K.P_NCH, 0))
         self.n_probes = int(n_probes)
+        # silence bookkeeping (:meth:`reap`): samples each slot has been quiet,
+        # its peak output in the last block, the slots found silent
+        self.quiet = np.zeros(self.capacity, dtype=np.int64)
+        self.last_peak = np.zeros(self.capacity)
+        self._done = np.zeros(self.capacity, dtype=np.int64)
         for s in range(self.capacity):
             self.ipar[s, K.I_OFF] = s * 2 * self.max_cells
             self.ipar[s, K.I_REG_OFF] = s * self.max_region
@@ -234,6 +243,7 @@ class StringBank:
             idx = [int(x) for x in self.active[: self.n_active] if x != s]
             self.n_active = len(idx)
             self.active[: self.n_active] = idx
+        self.quiet[s] = 0
         self.clear(s)
 
     def clear(self, s: int) -> None:
@@ -244,7 +254,7 @@ class StringBank:
             self._clean[s] = True
         self.fst[s, :] = 0.0
         self.ipar[s, K.I_POS] = 0
-        self.ipar[s, K.I_EXC] = 0
+        self.ipar[s, K.I_EXC] = K.EXC_NONE
         self.ipar[s, K.I_EXC_M] = 0
         self.ipar[s, K.I_HLAST] = -1
 
@@ -305,6 +315,40 @@ class StringBank:
             self.U[ip[K.I_BOFF]: ip[K.I_BOFF] + blen] = 0.0
         self.fst[s, K.S_BD] = t.bend_delay
 
+    def fade(self, s: int, t60_s: float, fs_hz: float) -> None:
+        """Fade slot s out: its loop loses 60 dB in ``t60_s`` (s) more than
+        it does now (a stolen or shed voice; about 10 ms, never a cut: that
+        clicks).  ``fs_hz`` is the rate the slot runs at (Hz).  The far-end
+        filter is switched on if the string was lossless.  No effect on an
+        inactive slot."""
+        if self._is_active[s]:
+            P = 2 * int(self.ipar[s, K.I_N])
+            self.set_loss(s, float(self.fpar[s, K.F_B0T]) * 10.0 ** (-3.0 * P / (fs_hz * t60_s)))
+            self.ipar[s, K.I_FILT] = 1
+
+    def excitation_running(self, s: int) -> bool:
+        """Whether slot s's excitation (pluck, g table or hammer) still runs."""
+        return bool(self.ipar[s, K.I_EXC] > K.EXC_NONE)
+
+    def reap(self, n_in: int, level: float, min_quiet: int) -> np.ndarray:
+        """Per-block silence bookkeeping of the active slots (one kernel call,
+        :func:`synth.kernels.strings.scan_silence`, no allocation): record
+        each slot's peak output of the block in :attr:`last_peak`, count the
+        samples it has stayed below ``level`` with no excitation running,
+        and return the slots quiet for max(4 periods, ``min_quiet``
+        samples) (a view, valid until the next call; the caller decides
+        whether to :meth:`deactivate` them).  A slot's count restarts at
+        :meth:`deactivate` and :meth:`reset_quiet`."""
+        if self.n_active == 0:
+            return self._done[:0]
+        nd = K.scan_silence(self.active, self.n_active, self.ipar, self.fst, self.quiet,
+                            self.last_peak, n_in, level, min_quiet, self._done)
+        return self._done[:nd]
+
+    def reset_quiet(self, s: int) -> None:
+        """Restart slot s's silence count (a note-on: it sounds again)."""
+        self.quiet[s] = 0
+
     def set_loss(self, s: int, b0: float) -> None:
         """New loss filter gain b0 for slot s (a damper falling or lifting):
         reached smoothly within a few ``LOSS_GLIDE_S``."""
@@ -342,10 +386,14 @@ class StringBank:
 
     def start_pluck(self, s: int, model: int, amplitude_m: float, duration_s: float,
                     alpha_per_s: float = 0.0) -> None:
-        """Begin a kinematic pluck (model 1 sitar eq. 1.13, 2 biwa eq. 1.11) on
-        slot s at its next sample.  A pluck on a sounding string adds to it."""
+        """Begin a kinematic pluck on slot s at its next sample: ``model``
+        ``K.EXC_SITAR`` (g(t) of eq. 1.13) or ``K.EXC_BIWA`` (force pluck,
+        eq. 1.11; ``alpha_per_s``).  A pluck on a sounding string adds to it."""
+        if model not in (K.EXC_SITAR, K.EXC_BIWA):
+            raise ValueError(f"model = {model!r} is not allowed ({K.EXC_SITAR}: sitar g(t), "
+                             f"{K.EXC_BIWA}: biwa force pluck)")
         ip, fp, st = self.ipar[s], self.fpar[s], self.fst[s]
-        if ip[K.I_EXC] != 0:
+        if ip[K.I_EXC] != K.EXC_NONE:
             self._end_excitation(s)
         dt = float(fp[K.F_DT])
         e_end = int(duration_s / dt)
@@ -375,7 +423,7 @@ class StringBank:
             idx = ip[K.I_OFF] + (int(ip[K.I_POS]) - q) % P
             self.ring[idx] += G
         st[K.S_G] = 0.0
-        ip[K.I_EXC] = 0
+        ip[K.I_EXC] = K.EXC_NONE
 
     def start_gtable(self, s: int, g: np.ndarray) -> None:
         """Inject a given outgoing wave g (m, one value per internal sample,
@@ -384,11 +432,11 @@ class StringBank:
         if not (1 <= len(g) <= self.max_gtable):
             raise ValueError(f"g table length = {len(g)} is out of range (1 <= value <= {self.max_gtable})")
         ip = self.ipar[s]
-        if ip[K.I_EXC] != 0:
+        if ip[K.I_EXC] != K.EXC_NONE:
             self._end_excitation(s)
         o = ip[K.I_GT_OFF]
         self.U[o: o + len(g)] = g
-        ip[K.I_EXC] = 3
+        ip[K.I_EXC] = K.EXC_GTABLE
         ip[K.I_EXC_M] = 0
         ip[K.I_EXC_END] = len(g)
 
@@ -398,8 +446,9 @@ class StringBank:
                      max_flight_s: float = 0.05, release_s: float = 0.004) -> None:
         """Strike slot s with a felt hammer (eq. 1.4) from its next sample.
 
-        law : 4 three-parameter felt (eq. 1.5; ``stiffness`` = Q0 in N/mm^p,
-            ``alpha_or_gamma`` = alpha in s), 5 four-parameter felt (Pub. III
+        law : ``K.EXC_HAMMER3``, three-parameter felt (eq. 1.5; ``stiffness``
+            = Q0 in N/mm^p, ``alpha_or_gamma`` = alpha in s), or
+            ``K.EXC_HAMMER4``, four-parameter felt (Pub. III
             eq. 3; ``stiffness`` = F0 in N/mm^p, ``alpha_or_gamma`` = gamma,
             ``tau0_s``).
         The hammer starts touching the string where it is now (w = 0) and
@@ -427,7 +476,7 @@ class StringBank:
         if fp[K.F_DT] != t.dt_s:
             raise ValueError(f"hammer template dt_s = {t.dt_s!r} does not match slot {s}'s "
                              f"time step {fp[K.F_DT]!r}")
-        if ip[K.I_EXC] != 0:
+        if ip[K.I_EXC] != K.EXC_NONE:
             self._end_excitation(s)
         u_now = self.displacement_at_excitation(s)
         fp[_HAMMER_COLS] = t.values

@@ -105,6 +105,13 @@ class Body:
         self._state = np.zeros((2, self.n_modes + 1), dtype=np.float64)
         self.wet = wet
 
+    @classmethod
+    def from_design(cls, fs, design):
+        """The body an instrument describes (a
+        :class:`synth.physics.soundboard.BodyDesign`) at the rate ``fs`` (Hz)."""
+        return cls(fs, n_modes=design.n_modes, seed=design.seed, wet=design.wet,
+                   size=design.size, brightness=design.brightness)
+
     # -- parameters -------------------------------------------------------------
 
     @property

@@ -1,0 +1,174 @@
+"""The voice contract: what the engine may ask of an instrument.
+
+STK's instrument contract is the model (note on, note off, control change,
+render a block), with one difference: a voice does not render.  It writes
+its physics into string slots of the bank (:class:`synth.dsp.bank.StringBank`)
+at note-on and changes them at note-off or on a control; the engine renders
+every active slot of every voice with one kernel call per block segment.
+
+A voice class
+=============
+* subclasses :class:`Voice` and is registered under the preset ``voice``
+  names it plays (:func:`synth.voices.registry.register_voice`);
+* is built as ``cls(preset, fs_internal)`` from a validated preset (the
+  physics is SI; MIDI values arrive normalised to [0, 1]);
+* declares what the engine must allocate (:meth:`Voice.sizes`) and, if it
+  has one, the body the engine puts on its output (:meth:`Voice.body`);
+* implements :meth:`Voice.note_on` and :meth:`Voice.note_off`, and may
+  override the other hooks, whose defaults are given here.
+
+The engine owns the voice pool (which slots belong to which sounding note),
+the pedals' state and the event timing; a voice is told the slots of one
+note and what happened.  Pedals: the engine applies the sustain pedal to the
+released notes' slots through :meth:`Voice.damper_lift` and
+:meth:`synth.dsp.bank.StringBank.apply_dampers`, and passes the soft pedal
+to :meth:`Voice.note_on` (``soft``).  Controllers 120 (all sound off) and
+123 (all notes off) are the engine's.
+
+The doc block of each voice (in its module docstring: what it models, which
+thesis equations, which preset sections it reads) is what ``synth presets``
+users and :doc:`docs/architecture.md` point to.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+from ..dsp.bank import StringBank
+from ..physics.soundboard import BodyDesign
+
+
+@dataclass(frozen=True)
+class BankSizes:
+    """What one engine must allocate for a voice (per string slot).
+
+    strings_per_voice : int  string slots per sounding note (1 .. 3 for a piano key)
+    max_cells : int          largest N (cells) any playable note needs
+    max_region : int         largest termination region (grid points), 0: none
+    max_gtable : int         longest injected g(t) table (samples), 0: none
+    max_bend : int           longest pitch-bend line (samples), 0: none
+    """
+
+    strings_per_voice: int
+    max_cells: int
+    max_region: int = 0
+    max_gtable: int = 0
+    max_bend: int = 0
+
+
+class Voice:
+    """Base class of every voice (see the module docstring).
+
+    Parameters
+    ----------
+    preset : synth.io.presets.Preset
+        A validated preset whose ``voice`` is one of the class's registered
+        names.
+    fs_internal : float or None
+        Internal rate (Hz); None: the voice's default (``DEFAULT_RATE``).
+
+    Attributes
+    ----------
+    preset : Preset
+    fs : float
+        The internal rate the voice's strings run at (Hz).
+    study : bool
+        A study preset (the thesis's experiments): the engine then keeps
+        its strings until the render ends instead of freeing silent ones.
+    """
+
+    #: registered preset ``voice`` names (set by :func:`register_voice`)
+    names: ClassVar[tuple[str, ...]] = ()
+    DEFAULT_RATE: ClassVar[float] = 325_000.0
+    study: bool = False
+
+    def __init__(self, preset, fs_internal: float | None = None):
+        if preset.voice not in self.names:
+            raise ValueError(f"voice = {preset.voice!r} is not handled by {type(self).__name__} "
+                             f"(it plays: {', '.join(self.names)})")
+        self.preset = preset
+        self.fs = float(fs_internal or self.DEFAULT_RATE)
+
+    # -- what the engine allocates ---------------------------------------------
+    @property
+    def polyphony(self) -> int:
+        """Default size of the voice pool (``play.polyphony``, else 8)."""
+        play = getattr(self.preset, "play", None)
+        return play.polyphony if play is not None else 8
+
+    @property
+    def key_range(self) -> tuple[int, int] | None:
+        """Playable MIDI keys (lowest, highest), or None (a study string
+        that plays its own pitch)."""
+        play = getattr(self.preset, "play", None)
+        return None if play is None else (play.key_low, play.key_high)
+
+    def sizes(self, extra_low_key: int | None = None) -> BankSizes:
+        """Sizes for the bank; ``extra_low_key``: a MIDI key below the
+        voice's own range that must still sound (a keyboard or a file may
+        send any key)."""
+        raise NotImplementedError(f"{type(self).__name__} must define sizes()")
+
+    def body(self) -> BodyDesign | None:
+        """The body (soundboard) the engine applies to the voice's mix after
+        decimation, or None (the default: bare strings)."""
+        return None
+
+    def warm(self) -> None:
+        """Derive every note's physics now, so that no note-on in the audio
+        thread has to (called before a live stream opens).  Default: nothing
+        to derive."""
+
+    # -- events ---------------------------------------------------------------
+    def note_on(self, bank: StringBank, slots: tuple[int, ...], key: float | None,
+                velocity: float, *, f0_hz: float | None = None, probe_row: int = -1,
+                restrike: bool = False, speed_m_per_s: float | None = None,
+                soft: float = 0.0) -> None:
+        """Start a note on the bank's ``slots`` (``sizes().strings_per_voice`` of
+        them) and activate the slots that sound.
+
+        key : MIDI key (may be fractional), or None with ``f0_hz`` or for a
+            study string's own pitch.
+        velocity : normalised, 0 < value <= 1.
+        f0_hz : explicit pitch (Hz) instead of the key.
+        probe_row : probe row for the first string, -1: none (study renders).
+        restrike : the note is sounding on these slots and is played again
+            on the same strings (do not reconfigure them).
+        speed_m_per_s : explicit hammer speed (m/s) for struck voices.
+        soft : soft pedal, 0 .. 1.
+
+        Raises ValueError if the pitch cannot be built (the engine then
+        drops the note).
+        """
+        raise NotImplementedError(f"{type(self).__name__} must define note_on()")
+
+    def note_off(self, bank: StringBank, slots: tuple[int, ...], key: float | None,
+                 f0_hz: float | None, pedal: float) -> None:
+        """The key is up: damp the note's strings as far as the sustain pedal
+        (0 .. 1) lets the dampers fall."""
+        raise NotImplementedError(f"{type(self).__name__} must define note_off()")
+
+    def damper_lift(self, pedal: float) -> float:
+        """How far the sustain pedal (0 .. 1) keeps the dampers off the
+        strings, 0 .. 1.  Default: a switch at 0.5 (no half pedal)."""
+        return 1.0 if pedal >= 0.5 else 0.0
+
+    def pitch_bend(self, bank: StringBank, slots: tuple[int, ...], key: float | None,
+                   f0_hz: float | None, value: float) -> None:
+        """Pitch bend of a sounding note, ``value`` in [-1, 1] of the voice's
+        range.  Default: the voice does not bend (a piano)."""
+
+    def pitch_hz(self, key: float | None = None, f0_hz: float | None = None) -> float:
+        """The frequency a note sounds at (Hz): ``f0_hz`` if given, else the
+        voice's tuning of ``key`` (default: equal temperament, A4 = 440 Hz)."""
+        if f0_hz is not None:
+            return float(f0_hz)
+        if key is None:
+            raise ValueError("key or f0_hz is required")
+        return 440.0 * 2.0 ** ((float(key) - 69.0) / 12.0)
+
+    def strike_log(self):
+        """Probe channels of the last excitation computed apart from the
+        bank (the first stage of an injected strike), or None."""
+        return None

@@ -1,0 +1,165 @@
+"""Exciters: what sets a string moving, independent of the string and its end.
+
+Each exciter is configured by one preset section and registered under that
+section's name (:func:`synth.voices.registry.register_exciter`), so a string
+voice takes whichever exciter its preset describes, on any string and any
+termination (the composition of Faust's physmodels).  An exciter:
+
+* has a ``position``: the excitation point as a fraction of the string's
+  length from x = 0;
+* says how long an injected g(t) table it may write (``max_gtable``);
+* starts itself on a bank slot at note-on (``start``) through the bank's
+  methods (:meth:`synth.dsp.bank.StringBank.start_pluck`, ``start_hammer``,
+  ``start_gtable``); the kernel's excitation kinds are the named constants
+  ``EXC_*`` of :mod:`synth.kernels.strings`.
+
+Both excite through the outgoing wave g(t) at x = l (thesis eq. 1.4:
+dg/dt = c F / 2T).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..dsp.bank import StringBank
+from ..kernels import strings as K
+from .registry import register_exciter
+
+#: the preset's ``hammer.law`` names -> the kernel's hammer kinds
+HAMMER_LAWS = {"three-parameter": K.EXC_HAMMER3, "four-parameter": K.EXC_HAMMER4}
+#: the preset's ``pluck.model`` names -> the kernel's pluck kinds
+PLUCK_MODELS = {"sitar": K.EXC_SITAR, "biwa": K.EXC_BIWA}
+
+
+class Exciter:
+    """Base of the exciters (see the module docstring).
+
+    Parameters
+    ----------
+    spec : the preset section that configures the exciter
+    preset : the whole preset (kind and play section)
+    fs : float, the voice's internal rate (Hz)
+    """
+
+    section: str = ""
+
+    def __init__(self, spec, preset, fs: float):
+        self.spec = spec
+        self.study = preset.kind == "study"
+        self.play = preset.play
+        self.fs = float(fs)
+
+    @property
+    def position(self) -> float:
+        """Excitation point as a fraction of the string length (0 < value < 1)."""
+        return self.spec.position
+
+    def max_gtable(self) -> int:
+        """Longest g(t) table this exciter injects (samples); 0: none."""
+        return 0
+
+    def start(self, bank: StringBank, slot: int, su, open_length_m: float, velocity: float,
+              speed_m_per_s: float | None = None) -> None:
+        """Excite slot ``slot`` (configured for the note ``su``, a
+        :class:`synth.voices.one_string.StringSetup`) from its next sample."""
+        raise NotImplementedError
+
+    strike_log = None
+
+
+@register_exciter("pluck")
+class Pluck(Exciter):
+    """The thesis's plucks (``[pluck]``): the sitar's kinematic g(t)
+    (eq. 1.13) or the biwa's force pluck (eqs. 1.10-1.11).
+
+    Study presets pluck with exactly ``pluck.amplitude_m``; musical presets
+    with ``amplitude_m * velocity**velocity_exponent``, scaled with the
+    speaking length so that a fretted string is plucked at the same slope
+    (the same depth of buzz) as the open one.
+    """
+
+    def amplitude_m(self, velocity: float, length_m: float | None = None,
+                    open_length_m: float | None = None) -> float:
+        """Pluck amplitude A (m) for a normalised velocity in (0, 1]."""
+        A = self.spec.amplitude_m
+        if self.study:
+            return A
+        scale = 1.0 if length_m is None else length_m / open_length_m
+        return A * scale * float(velocity) ** self.play.velocity_exponent
+
+    def start(self, bank, slot, su, open_length_m, velocity, speed_m_per_s=None):
+        sp = self.spec
+        alpha = sp.alpha_per_s if sp.model == "biwa" else 0.0
+        bank.start_pluck(slot, PLUCK_MODELS[sp.model],
+                         self.amplitude_m(velocity, su.string.length_m, open_length_m),
+                         sp.duration_s, alpha)
+
+
+@register_exciter("hammer")
+class FeltHammer(Exciter):
+    """A felt hammer (``[hammer]``): the hammer-string system of eq. 1.4 at
+    x = l with the three-parameter felt (eq. 1.5) or the four-parameter one
+    (Publication III eq. 3), integrated by the kernel (implicit, second
+    order: ``_hammer_general`` in :mod:`synth.kernels.strings`).
+
+    On a string with a termination, ``hammer.capo_coupling`` chooses the
+    physically complete "direct" strike on the terminated string, or
+    Publication I's two-stage method, "injected": g(t) is computed on the
+    ideally supported string and injected into the string with the bar.
+    """
+
+    #: longest injected g(t) table (s)
+    MAX_FLIGHT_S = 0.05
+
+    def __init__(self, spec, preset, fs):
+        super().__init__(spec, preset, fs)
+        #: probe channels of the last first-stage (ideal support) strike, if any
+        self.strike_log = None
+
+    def max_gtable(self) -> int:
+        return int(self.MAX_FLIGHT_S * self.fs) + 2
+
+    def speed(self, velocity: float, speed_m_per_s: float | None = None) -> float:
+        """Hammer speed V (m/s): explicit, else the preset's (study), else the
+        preset's speed times velocity**velocity_exponent (musical)."""
+        if speed_m_per_s is not None:
+            return float(speed_m_per_s)
+        V = self.spec.speed_m_per_s
+        if self.study:
+            return V
+        return V * float(velocity) ** self.play.velocity_exponent
+
+    def hammer_kwargs(self, su, speed: float) -> dict:
+        """:meth:`StringBank.start_hammer` arguments for the note ``su``."""
+        h = self.spec
+        law = HAMMER_LAWS[h.law]
+        return dict(law=law, mass_kg=h.mass_kg, speed_m_per_s=speed,
+                    stiffness=h.stiffness_n_per_mm_p, exponent=h.exponent,
+                    alpha_or_gamma=h.alpha_s if law == K.EXC_HAMMER3 else h.gamma,
+                    tau0_s=h.tau0_s if law == K.EXC_HAMMER4 else 0.0,
+                    tension_n=su.string.tension_n, c_m_per_s=su.string.c_m_per_s,
+                    max_flight_s=self.MAX_FLIGHT_S)
+
+    def ideal_support_g(self, su, speed: float) -> np.ndarray:
+        """g(t) (m, per internal sample) of this hammer on the same string with
+        ideal supports, up to its final value (Publication I, first stage)."""
+        b = StringBank(1, su.cells + 2, 1, 4096, n_probes=1)
+        b.configure(0, cells=su.cells, k=su.k, dt_s=su.dt_s, U=None, probe_row=0)
+        b.activate(0)
+        b.start_hammer(0, **self.hammer_kwargs(su, speed))
+        n = self.max_gtable() - 1
+        mix = np.zeros(n)
+        b.render(mix, 0, n)
+        # g is constant after the last contact (the probe's g drops to 0 only
+        # when the kernel cancels that constant offset: not part of g(t))
+        hit = np.flatnonzero(b.probe[0, K.P_F, :n] > 0)
+        last = int(hit[-1]) + 2 if len(hit) else 1
+        self.strike_log = b.probe[0, :, :last].copy()
+        return b.probe[0, K.P_G, :last].copy()
+
+    def start(self, bank, slot, su, open_length_m, velocity, speed_m_per_s=None):
+        V = self.speed(velocity, speed_m_per_s)
+        if su.U is not None and self.spec.capo_coupling == "injected":
+            bank.start_gtable(slot, self.ideal_support_g(su, V))
+        else:
+            bank.start_hammer(slot, **self.hammer_kwargs(su, V))
