@@ -31,7 +31,7 @@ a. ``synth render CASE.mid --preset P --set ... -o OUT.wav`` in a subprocess
    what remains is the render of the interval from ``--short-s`` to
    ``--long-s``.
 b. In this process, the same preset, overrides and note-ons (not the
-   release at T), with the engine built by ``synth.cli._engine_for`` as
+   release at T), with the engine built by ``synth.io.factory.build_engine`` as
    ``synth render`` builds it, rendered in 1024-sample output blocks (as
    ``Engine.render``): untimed to t = ``--short-s``; then timed to t =
    ``--long-s``, counting the voices and strings sounding in every block
@@ -120,7 +120,8 @@ import numpy as np  # noqa: E402
 import soundfile  # noqa: E402
 
 import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
-from synth.cli import _engine_for, midi_to_events  # noqa: E402
+from synth.cli import midi_to_events  # noqa: E402
+from synth.io.factory import build_engine  # noqa: E402
 from synth.io.midi import read_midi_file  # noqa: E402
 from synth.io.presets import load_preset  # noqa: E402
 
@@ -233,8 +234,8 @@ def in_process_case(preset_name: str, overrides: list[str], midi_path: Path, hol
     engine, kernel and no-voice engine over the same windows."""
     events = [e for e in midi_to_events(read_midi_file(midi_path)) if e.time_s < hold_s]
     keys = [int(e.key) for e in events if e.kind == "note_on"]
-    _, _, eng = _engine_for(preset_name, overrides, None, low_key=min(keys))
-    _, _, idle = _engine_for(preset_name, overrides, None, low_key=min(keys))
+    eng = build_engine(preset_name, overrides, extra_low_key=min(keys))
+    idle = build_engine(preset_name, overrides, extra_low_key=min(keys))
     eng.schedule(events)
     bank = eng.bank
     # to the start of (a)'s interval, untimed

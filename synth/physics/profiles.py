@@ -16,7 +16,7 @@ a preset's ``[termination]`` section, so a voice never lists profiles.  A new
 profile is its function here (or in any module imported by the package) with
 ``@register_profile(...)``, plus its rows in the preset schema
 (``synth/io/presets/sections.py``: the name in ``PROFILES`` and one row per
-parameter); ``tests/test_profiles_registry.py`` checks the two agree.
+parameter); ``tests/test_registry.py`` checks the two agree.
 """
 
 from __future__ import annotations
