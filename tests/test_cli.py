@@ -98,12 +98,12 @@ def test_presets_lists_every_preset_with_its_description(capsys):
 def test_presets_with_none_found_is_an_error(capsys, tmp_path, monkeypatch):
     """An install without its package data must not list nothing and succeed:
     one error line naming every directory searched, status 2."""
-    from synth.io import presets as P
+    from synth.io.presets import loader
 
     shipped, extra = tmp_path / "site-packages" / "synth" / "presets", tmp_path / "mine"
     shipped.mkdir(parents=True)
     extra.mkdir()
-    monkeypatch.setattr(P, "shipped_preset_dir", lambda: shipped)
+    monkeypatch.setattr(loader, "shipped_preset_dir", lambda: shipped)
     rc, out, err = run(capsys, "presets")
     assert out == ""
     assert_user_error(rc, err, "no presets found", str(shipped), "SYNTH_PRESET_PATH")

@@ -532,9 +532,11 @@ def _write(path: Path, raw: dict) -> Path:
 
 @pytest.fixture
 def fake_shipped(tmp_path, monkeypatch):
-    """Point preset_dirs()' shipped entry at tmp_path/shipped/presets (not created)."""
+    """Point preset_dirs()' shipped entry at tmp_path/shipped/presets (not created).
+
+    Patched where preset_dirs() looks it up: the loader module, not the package."""
     d = tmp_path / "shipped" / "presets"
-    monkeypatch.setattr(P, "shipped_preset_dir", lambda: d)
+    monkeypatch.setattr(P.loader, "shipped_preset_dir", lambda: d)
     return d
 
 

@@ -1,0 +1,218 @@
+"""The validated, immutable result objects of a preset.
+
+One frozen dataclass per schema section (:mod:`.sections` maps each TOML
+table onto its class) and :class:`Preset`, which holds them. Fields are plain
+``int``/``float``/``str``/``tuple`` values in SI units; keys that are absent
+for the preset's variant are ``None``. A new section brings a new class
+here; the import-time check in :mod:`.validate` makes sure its fields match
+the section's keys and that :class:`Preset` lists the sections in schema
+order.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+__all__ = [
+    "StringSpec",
+    "GridSpec",
+    "PluckSpec",
+    "HammerSpec",
+    "TuningSpec",
+    "ActionSpec",
+    "StringsSpec",
+    "DampersSpec",
+    "BodySpec",
+    "TerminationSpec",
+    "LossSpec",
+    "OutputSpec",
+    "PlaySpec",
+    "Preset",
+]
+
+
+@dataclass(frozen=True)
+class StringSpec:
+    """Physical string: speaking length (m), tension (N), linear density (kg/m)."""
+
+    length_m: float
+    tension_n: float
+    linear_density_kg_per_m: float
+
+
+@dataclass(frozen=True)
+class GridSpec:
+    """Study grid: number of cells N (c*dt = dx exactly, internal rate N*c/L)."""
+
+    cells: int
+
+
+@dataclass(frozen=True)
+class PluckSpec:
+    """Pluck model and its parameters (position is a fraction of L; SI otherwise)."""
+
+    model: str
+    position: float
+    amplitude_m: float
+    duration_s: float
+    alpha_per_s: float | None = None
+
+
+@dataclass(frozen=True)
+class HammerSpec:
+    """A felt hammer striking one string (thesis eqs. 1.4-1.9, Pub. III eq. 3).
+
+    law: "three-parameter" (F = Q0 (w^p + alpha d(w^p)/dt)) or
+    "four-parameter" (F = F0 (w^p - gamma/tau0 int w^p e^((s-t)/tau0) ds));
+    stiffness is Q0 or F0 in N/mm^p; capo_coupling: "direct" (the hammer
+    strikes the string with its termination) or "injected" (g(t) from a strike
+    on the ideally supported string is injected, as Publication I does).
+    """
+
+    law: str
+    position: float
+    mass_kg: float
+    speed_m_per_s: float
+    stiffness_n_per_mm_p: float
+    exponent: float
+    capo_coupling: str
+    alpha_s: float | None = None
+    gamma: float | None = None
+    tau0_s: float | None = None
+
+
+@dataclass(frozen=True)
+class TuningSpec:
+    """Grand piano tuning: A4 (Hz) and octave stretch (0 equal temperament,
+    1 the stretch a tuner sets for the strings' inharmonicity)."""
+
+    a4_hz: float
+    stretch: float
+
+
+@dataclass(frozen=True)
+class ActionSpec:
+    """Grand piano action: felt law of the per-key hammers, hammer speed at
+    velocity 1 and 127 (m/s; play.velocity_exponent shapes the curve), felt
+    stiffness factor with the soft pedal fully down."""
+
+    law: str
+    speed_min_m_per_s: float
+    speed_max_m_per_s: float
+    soft_stiffness: float
+
+
+@dataclass(frozen=True)
+class StringsSpec:
+    """Grand piano strings: scale factors on the per-key data, stiffness
+    filter size, capo d'astro bar of the treble strings."""
+
+    detune_scale: float
+    t60_scale: float
+    dispersion_sections: int
+    capo_radius_m: float
+    capo_region_m: float
+
+
+@dataclass(frozen=True)
+class DampersSpec:
+    """Dampers: T60 of a damped string in the bass and the treble (s), and
+    the sustain-pedal range over which the dampers lift (half pedal)."""
+
+    release_t60_bass_s: float
+    release_t60_treble_s: float
+    half_pedal_low: float
+    half_pedal_high: float
+
+
+@dataclass(frozen=True)
+class BodySpec:
+    """Soundboard: modal bank on the 48 kHz mix (synth.physics.soundboard)."""
+
+    wet: float
+    modes: int
+    size: float
+    brightness: float
+    seed: int
+
+
+@dataclass(frozen=True)
+class TerminationSpec:
+    """Nonlinear termination profile; parameters not used by the profile are None.
+
+    ``points`` (profile ``"table"``) is a tuple of ``(x_m, U_m)`` float pairs.
+    """
+
+    profile: str
+    side: int | None = None
+    region_points: int | None = None
+    radius_m: float | None = None
+    extent_m: float | None = None
+    slope: float | None = None
+    x_c_m: float | None = None
+    x_a_m: float | None = None
+    x_b_m: float | None = None
+    step_m: float | None = None
+    points: tuple[tuple[float, float], ...] | None = None
+
+
+@dataclass(frozen=True)
+class LossSpec:
+    """Frequency-dependent decay: T60 (s) at two frequencies (Hz), release T60 (s)."""
+
+    t60_low_s: float
+    f_low_hz: float
+    t60_high_s: float
+    f_high_hz: float
+    release_t60_s: float
+
+
+@dataclass(frozen=True)
+class OutputSpec:
+    """Output signal ("displacement" in m or "bridge_force" in N) and its gain to full scale."""
+
+    signal: str
+    gain: float
+
+
+@dataclass(frozen=True)
+class PlaySpec:
+    """Musical play range and behaviour."""
+
+    key_low: int
+    key_high: int
+    velocity_exponent: float
+    polyphony: int
+    pitch_bend_semitones: float
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A validated preset.
+
+    ``name`` is the preset name (path relative to its preset directory without
+    ``.toml``, or the file stem for a file outside the preset directories);
+    ``path`` is the source it was read from: the absolute file path (``str``)
+    for :func:`load_preset`, the ``source`` label for :func:`validate_dict`. Sections that are forbidden for
+    the preset's ``kind`` are ``None``.
+    """
+
+    name: str
+    path: str
+    schema: int
+    description: str
+    kind: str
+    voice: str
+    string: StringSpec | None
+    grid: GridSpec | None
+    pluck: PluckSpec | None
+    hammer: HammerSpec | None
+    termination: TerminationSpec | None
+    loss: LossSpec | None
+    tuning: TuningSpec | None
+    action: ActionSpec | None
+    strings: StringsSpec | None
+    dampers: DampersSpec | None
+    body: BodySpec | None
+    output: OutputSpec
+    play: PlaySpec | None

@@ -1,0 +1,215 @@
+"""The schema rows (data only): edit this file to add a voice, a profile or a key.
+
+:data:`SCHEMA_FIELDS` are the top-level keys, validated first;
+:data:`SECTIONS` are the TOML tables, validated in this order. A row is a
+:class:`~.schema.Field`: key name, type, doc with its unit, range
+(``lo``/``hi``, ``lo_open``/``hi_open`` for exclusive bounds) or
+``choices``, and an optional presence condition ``when``. A
+:class:`~.schema.When` names an *earlier* key (dotted, e.g.
+``"termination.profile"``) and the values for which the row applies: the key
+is then required, and forbidden otherwise; no condition means always
+required. One key may have several rows with disjoint conditions on the same
+key (``termination.radius_m``). ``When(..., also=When(...))`` requires both.
+A :class:`~.schema.Section` takes a ``when`` the same way for its whole table.
+
+To add a voice, add its name to :data:`VOICES` and list it in the ``when``
+of the sections it uses; to add a termination profile, add it to
+:data:`PROFILES` and give its keys rows conditioned with ``_prof(...)``. A
+new section also needs a frozen dataclass in :mod:`.model` and a field of
+:class:`~.model.Preset`; :mod:`.validate` checks all this at import time.
+"""
+
+from __future__ import annotations
+
+from .model import (
+    ActionSpec,
+    BodySpec,
+    DampersSpec,
+    GridSpec,
+    HammerSpec,
+    LossSpec,
+    OutputSpec,
+    PlaySpec,
+    PluckSpec,
+    StringSpec,
+    StringsSpec,
+    TerminationSpec,
+    TuningSpec,
+)
+from .schema import Field, OrderCheck, Section, When, _when_not
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "KINDS",
+    "VOICES",
+    "HAMMER_LAWS",
+    "CAPO_COUPLINGS",
+    "PLUCK_MODELS",
+    "PROFILES",
+    "SIGNALS",
+    "SCHEMA_FIELDS",
+    "SECTIONS",
+]
+
+SCHEMA_VERSION = 1
+
+KINDS = ("study", "musical")
+VOICES = ("plucked", "piano", "grand")
+_ONE_STRING = When("voice", ("plucked", "piano"))
+HAMMER_LAWS = ("three-parameter", "four-parameter")
+CAPO_COUPLINGS = ("direct", "injected")
+PLUCK_MODELS = ("sitar", "biwa")
+PROFILES = (
+    "none",
+    "capo",
+    "sawari",
+    "jawari-case1",
+    "jawari-case2",
+    "jawari-case3",
+    "table",
+)
+SIGNALS = ("displacement", "bridge_force")
+
+_PROFILE = "termination.profile"
+
+
+def _prof(*names: str) -> When:
+    return When(_PROFILE, tuple(names))
+
+
+#: Top-level scalar keys, validated first (other rows' conditions refer to them).
+SCHEMA_FIELDS: tuple[Field, ...] = (
+    Field("schema", "int", "schema version of the file", choices=(SCHEMA_VERSION,)),
+    Field("description", "line", "one-line description shown by `synth presets`"),
+    Field("kind", "str", "study: exact paper set-up on a fixed grid; musical: playable instrument",
+          choices=KINDS),
+    Field("voice", "str", "voice model that renders the preset", choices=VOICES),
+)
+
+#: Sections (TOML tables) in validation order.
+SECTIONS: tuple[Section, ...] = (
+    Section("string", "the physical string", StringSpec, (
+        Field("length_m", "float", "speaking length L (musical: of the open string), m", 0.01, 3.0),
+        Field("tension_n", "float", "tension T, N", 1.0, 5000.0),
+        Field("linear_density_kg_per_m", "float", "linear mass density mu, kg/m", 1e-5, 0.1),
+    ), when=_ONE_STRING),
+    Section("grid", "study grid (c*dt = dx exactly)", GridSpec, (
+        Field("cells", "int", "number of cells N; internal rate = N*c/L", 20, 100000),
+    ), when=When("kind", ("study",))),
+    Section("pluck", "excitation", PluckSpec, (
+        Field("model", "str", "sitar: kinematic g(t) (eq. 1.13); biwa: force pluck (eqs. 1.10-1.11)",
+              choices=PLUCK_MODELS),
+        Field("position", "float", "pluck point l as a fraction of L from x=0", 0.0, 1.0,
+              lo_open=True, hi_open=True),
+        Field("amplitude_m", "float", "pluck amplitude A (musical: at velocity 127), m", 1e-6, 0.05),
+        Field("duration_s", "float", "pluck duration t0, s", 1e-4, 0.05),
+        Field("alpha_per_s", "float", "biwa force-pluck rate alpha, 1/s", 1.0, 1e6,
+              when=When("pluck.model", ("biwa",))),
+    ), when=When("voice", ("plucked",))),
+    Section("hammer", "felt hammer striking the string (voice piano)", HammerSpec, (
+        Field("law", "str", "felt law: three-parameter (eq. 1.5) or four-parameter (Pub. III eq. 3)",
+              choices=HAMMER_LAWS),
+        Field("position", "float", "striking point l as a fraction of L from x=0", 0.0, 1.0,
+              lo_open=True, hi_open=True),
+        Field("mass_kg", "float", "hammer mass acting on this string, kg", 1e-4, 0.05),
+        Field("speed_m_per_s", "float", "hammer speed V at first contact (musical: at velocity 127), m/s",
+              0.01, 20.0),
+        Field("stiffness_n_per_mm_p", "float", "felt stiffness Q0 (three-parameter) or F0 "
+              "(four-parameter), N/mm^p", 1.0, 1e9),
+        Field("exponent", "float", "felt nonlinearity exponent p", 1.0, 6.0),
+        Field("capo_coupling", "str", "direct: the hammer strikes the terminated string; injected: "
+              "g(t) of a strike on the ideal string is injected (Publication I)", choices=CAPO_COUPLINGS),
+        Field("alpha_s", "float", "hereditary time alpha, s", 0.0, 0.01,
+              when=When("hammer.law", ("three-parameter",))),
+        Field("gamma", "float", "hereditary amplitude gamma", 0.0, 1.0, hi_open=True,
+              when=When("hammer.law", ("four-parameter",))),
+        Field("tau0_s", "float", "relaxation time tau0, s", 1e-9, 1e-2,
+              when=When("hammer.law", ("four-parameter",))),
+    ), when=When("voice", ("piano",))),
+    Section("termination", "nonlinear contact termination", TerminationSpec, (
+        Field("profile", "str", "obstacle profile at the termination", choices=PROFILES),
+        Field("side", "int", "+1: obstacle above the string (u <= U); -1: below it (u >= U)",
+              choices=(-1, 1),
+              when=_when_not(_PROFILE, PROFILES, ("none",))),
+        Field("region_points", "int", "number of grid points in the contact region", 1, 2000,
+              when=_when_not(_PROFILE, PROFILES, ("none",))),
+        Field("radius_m", "float", "capo bar radius, m", 0.0005, 10.0, when=_prof("capo")),
+        Field("radius_m", "float", "sawari curvature radius, m", 0.01, 100.0, when=_prof("sawari")),
+        Field("radius_m", "float", "jawari curved-part radius, m", 1e-4, 10.0,
+              when=_prof("jawari-case2", "jawari-case3")),
+        Field("extent_m", "float", "sawari extent along the string, m", 1e-4, 0.2,
+              when=_prof("sawari")),
+        Field("slope", "float", "jawari slope (dimensionless)", 0.0, 0.2,
+              when=_prof("jawari-case1", "jawari-case2", "jawari-case3")),
+        Field("x_c_m", "float", "jawari case-1 contact end, m", 1e-4, 0.2,
+              when=_prof("jawari-case1")),
+        Field("x_a_m", "float", "jawari case-3 start of the curved part, m", 1e-4, 0.2,
+              when=_prof("jawari-case3")),
+        Field("x_b_m", "float", "jawari end of the curved part, m", 1e-4, 0.2,
+              when=_prof("jawari-case2", "jawari-case3")),
+        Field("step_m", "float", "jawari case-3 step height, m", 0.0, 0.01,
+              when=_prof("jawari-case3")),
+        Field("points", "points", "obstacle table [[x_m, U_m], ...], x >= 0 strictly increasing",
+              when=_prof("table")),
+    ), when=_ONE_STRING, checks=(OrderCheck("x_a_m", "<", "x_b_m"),)),
+    Section("loss", "frequency-dependent losses of a musical string", LossSpec, (
+        Field("t60_low_s", "float", "T60 decay time at f_low_hz, s", 0.01, 120.0),
+        Field("f_low_hz", "float", "low reference frequency, Hz", 10.0, 2000.0),
+        Field("t60_high_s", "float", "T60 decay time at f_high_hz, s", 0.005, 120.0),
+        Field("f_high_hz", "float", "high reference frequency, Hz", 200.0, 20000.0),
+        Field("release_t60_s", "float", "T60 after note-off (damped by the player), s", 0.005, 10.0),
+    ), when=When("kind", ("musical",), also=_ONE_STRING), checks=(
+        OrderCheck("f_low_hz", "<", "f_high_hz"),
+        OrderCheck("t60_high_s", "<=", "t60_low_s"),
+    )),
+    Section("tuning", "grand piano tuning", TuningSpec, (
+        Field("a4_hz", "float", "frequency of A4 (partial 1), Hz", 380.0, 480.0),
+        Field("stretch", "float", "octave stretch: 0 equal temperament, 1 a tuner's stretch for "
+              "this inharmonicity", 0.0, 1.5),
+    ), when=When("voice", ("grand",))),
+    Section("action", "grand piano hammers", ActionSpec, (
+        Field("law", "str", "felt law of the per-key hammers (thesis eqs. 1.5-1.9 or Pub. III eqs. 3-7)",
+              choices=HAMMER_LAWS),
+        Field("speed_min_m_per_s", "float", "hammer speed at velocity 1, m/s", 0.05, 10.0),
+        Field("speed_max_m_per_s", "float", "hammer speed at velocity 127, m/s", 0.1, 15.0),
+        Field("soft_stiffness", "float", "felt stiffness factor with the soft pedal fully down "
+              "(the hammer meets the strings with a softer part of the felt)", 0.1, 1.0),
+    ), when=When("voice", ("grand",)), checks=(
+        OrderCheck("speed_min_m_per_s", "<", "speed_max_m_per_s"),)),
+    Section("strings", "grand piano strings", StringsSpec, (
+        Field("detune_scale", "float", "factor on the unison detuning of the per-key data", 0.0, 5.0),
+        Field("t60_scale", "float", "factor on the per-key decay times", 0.05, 5.0),
+        Field("dispersion_sections", "int", "largest stiffness allpass cascade per string (cost "
+              "~1.5 ns each per string-sample)", 0, 16),
+        Field("capo_radius_m", "float", "capo d'astro bar radius R, m", 0.0005, 1.0),
+        Field("capo_region_m", "float", "length of string next to the bar that may touch it, m",
+              0.0, 0.05),
+    ), when=When("voice", ("grand",))),
+    Section("dampers", "grand piano dampers and sustain pedal", DampersSpec, (
+        Field("release_t60_bass_s", "float", "T60 of a damped bass string, s", 0.02, 5.0),
+        Field("release_t60_treble_s", "float", "T60 of a damped treble string, s", 0.01, 5.0),
+        Field("half_pedal_low", "float", "pedal value below which the dampers rest fully", 0.0, 1.0),
+        Field("half_pedal_high", "float", "pedal value above which the dampers are fully lifted",
+              0.0, 1.0),
+    ), when=When("voice", ("grand",)), checks=(OrderCheck("half_pedal_low", "<", "half_pedal_high"),)),
+    Section("body", "soundboard", BodySpec, (
+        Field("wet", "float", "share of the soundboard in the output (0: bare strings)", 0.0, 1.0),
+        Field("modes", "int", "number of soundboard modes", 1, 1024),
+        Field("size", "float", "board size factor (divides all mode frequencies)", 0.25, 4.0),
+        Field("brightness", "float", "spectral tilt of the board, dB/octave", -12.0, 12.0),
+        Field("seed", "int", "random seed of the mode set (deterministic)", 0, 2 ** 31 - 1),
+    ), when=When("voice", ("grand",))),
+    Section("output", "what is written to the WAV", OutputSpec, (
+        Field("signal", "str", "displacement u(l,t) at the pluck point (m) or bridge force at x=L (N)",
+              choices=SIGNALS),
+        Field("gain", "float", "linear factor from the signal to WAV full scale (1.0)", 1e-6, 1e9),
+    )),
+    Section("play", "musical play range", PlaySpec, (
+        Field("key_low", "int", "lowest playable MIDI key", 0, 127),
+        Field("key_high", "int", "highest playable MIDI key", 0, 127),
+        Field("velocity_exponent", "float",
+              "amplitude = amplitude_m * (velocity/127)**velocity_exponent", 0.2, 5.0),
+        Field("polyphony", "int", "maximum simultaneous voices", 1, 512),
+        Field("pitch_bend_semitones", "float", "pitch-bend range, semitones", 0.0, 12.0),
+    ), when=When("kind", ("musical",)), checks=(OrderCheck("key_low", "<=", "key_high"),)),
+)
