@@ -58,10 +58,19 @@ class Exciter:
         """Longest g(t) table this exciter injects (samples); 0: none."""
         return 0
 
-    def start(self, bank: StringBank, slot: int, su, open_length_m: float, velocity: float,
-              speed_m_per_s: float | None = None) -> None:
-        """Excite slot ``slot`` (configured for the note ``su``, a
-        :class:`synth.voices.one_string.StringSetup`) from its next sample."""
+    def start(self, bank: StringBank, slot: int, su, velocity: float, *,
+              length_scale: float = 1.0, speed_m_per_s: float | None = None) -> None:
+        """Excite slot ``slot`` from its next sample.
+
+        su : the note's string as configured in the slot: any object with
+            ``string`` (:class:`synth.physics.string.IdealString`), ``cells``,
+            ``k``, ``dt_s`` and ``U`` (profile or None), such as
+            :class:`synth.voices.one_string.StringSetup`.
+        velocity : normalised, 0 < value <= 1.
+        length_scale : the speaking length over the voice's reference
+            length (a fretted string: < 1), for exciters that scale with it.
+        speed_m_per_s : explicit hammer speed (m/s), for hammers.
+        """
         raise NotImplementedError
 
     strike_log = None
@@ -78,20 +87,18 @@ class Pluck(Exciter):
     (the same depth of buzz) as the open one.
     """
 
-    def amplitude_m(self, velocity: float, length_m: float | None = None,
-                    open_length_m: float | None = None) -> float:
-        """Pluck amplitude A (m) for a normalised velocity in (0, 1]."""
+    def amplitude_m(self, velocity: float, length_scale: float = 1.0) -> float:
+        """Pluck amplitude A (m) for a normalised velocity in (0, 1] on a
+        string ``length_scale`` times the reference length."""
         A = self.spec.amplitude_m
         if self.study:
             return A
-        scale = 1.0 if length_m is None else length_m / open_length_m
-        return A * scale * float(velocity) ** self.play.velocity_exponent
+        return A * length_scale * float(velocity) ** self.play.velocity_exponent
 
-    def start(self, bank, slot, su, open_length_m, velocity, speed_m_per_s=None):
+    def start(self, bank, slot, su, velocity, *, length_scale=1.0, speed_m_per_s=None):
         sp = self.spec
         alpha = sp.alpha_per_s if sp.model == "biwa" else 0.0
-        bank.start_pluck(slot, PLUCK_MODELS[sp.model],
-                         self.amplitude_m(velocity, su.string.length_m, open_length_m),
+        bank.start_pluck(slot, PLUCK_MODELS[sp.model], self.amplitude_m(velocity, length_scale),
                          sp.duration_s, alpha)
 
 
@@ -157,7 +164,7 @@ class FeltHammer(Exciter):
         self.strike_log = b.probe[0, :, :last].copy()
         return b.probe[0, K.P_G, :last].copy()
 
-    def start(self, bank, slot, su, open_length_m, velocity, speed_m_per_s=None):
+    def start(self, bank, slot, su, velocity, *, length_scale=1.0, speed_m_per_s=None):
         V = self.speed(velocity, speed_m_per_s)
         if su.U is not None and self.spec.capo_coupling == "injected":
             bank.start_gtable(slot, self.ideal_support_g(su, V))

@@ -250,7 +250,9 @@ class OneStringVoice(Voice):
             bank.set_loss(slot, su.b0)           # undo a release damping
         else:
             self._configure(bank, slot, su, probe_row)
-        self.exciter.start(bank, slot, su, self.open_string.length_m, velocity, speed_m_per_s)
+        self.exciter.start(bank, slot, su, velocity,
+                           length_scale=su.string.length_m / self.open_string.length_m,
+                           speed_m_per_s=speed_m_per_s)
         bank.activate(slot)
 
     def note_off(self, bank: StringBank, slots, key: float | None, f0_hz: float | None,
