@@ -1,0 +1,384 @@
+"""The live player: MIDI messages in, the audio stream out.
+
+* :class:`Player`: builds and warms the engine before the stream opens,
+  stamps each MIDI message with its arrival time, swaps instruments on a
+  program change (built and warmed in a background thread), prints a meter
+  and, at Ctrl-C, the real-time report.
+* :func:`normalise`: live messages are normalised by the same function as
+  the MIDI file reader (:func:`synth.io.midi.normalise_message`).  It lives
+  here, not with the ports in :mod:`synth.io.live.devices`, because it is
+  the first half of the player's MIDI callback (:meth:`Player.handle`) and
+  makes engine events: the device module finds and checks the hardware and
+  never touches the engine, the player is where messages become events.
+
+Latency
+-------
+An event arriving at clock time ``a`` is rendered at stream time
+``a - t0 + latency_s`` (``latency_s``: two blocks by default, 5.3 ms for 128
+samples at 48 kHz), then waits for the device buffer (PortAudio's output
+latency) and the decimator's delay (0.9 ms) before it is heard.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import gc
+import sys
+import threading
+import time
+
+from synth.io.errors import SynthError
+from synth.io.midi import normalise_message
+from synth.io.live.devices import (FS_OUT, _one_line, _quiet_c_stderr, check_audio, check_midi,
+                                   pick_audio_device, pick_midi_port)
+from synth.io.live.engines import ready_engine
+from synth.io.live.programs import ProgramMap
+
+__all__ = ["SWITCH_INTERVAL_S", "normalise", "Player"]
+
+#: the interpreter's thread switch interval while streaming (s): the audio
+#: callback waits at most about this long for the GIL when another thread
+#: (a program change being built) runs Python
+SWITCH_INTERVAL_S = 0.0001
+
+
+# --------------------------------------------------------------------------
+# Messages
+# --------------------------------------------------------------------------
+
+
+def normalise(msg):
+    """A live mido message as an engine :class:`~synth.engine.engine.Event`.
+
+    The values are those of the MIDI file reader (one shared function,
+    :func:`synth.io.midi.normalise_message`): note-on velocity / 127 (a
+    note-on with velocity 0 is a note-off), note-off release velocity / 127,
+    ``control`` value / 127, ``pitch_bend`` in [-1, 1] (key -1; the engine
+    ignores kinds it does not play).  The event's ``time_s`` is 0: the
+    player stamps the arrival time.
+
+    Returns
+    -------
+    Event or None
+        None for program changes (the player handles those) and for
+        messages that are dropped (aftertouch, clock, SysEx, ...).
+    """
+    from synth.engine.engine import Event
+
+    n = normalise_message(msg)
+    if n is None or n[0] == "program":
+        return None
+    kind, channel, key, value = n
+    return Event(0.0, kind, key, value, channel)
+
+
+# --------------------------------------------------------------------------
+# The player
+# --------------------------------------------------------------------------
+
+
+class Player:
+    """Play a preset live: MIDI input -> :class:`Realtime` -> audio output.
+
+    The constructor checks everything that can be missing or wrong (the
+    sounddevice/PortAudio and rtmidi installs, the ports, the device, the
+    presets) before any slow work; :meth:`start` builds and warms the
+    engine and opens the stream and the port; :meth:`run` shows the meter
+    until Ctrl-C (or ``seconds``), closes, and prints the report.
+
+    Parameters
+    ----------
+    preset : str
+        The preset played first (program 0 unless ``program_map`` says otherwise).
+    program_map : ProgramMap or None
+        Presets for program changes; default: program 0 -> ``preset``.
+    block : int
+        Audio block size (samples at 48 kHz), 16 .. 4096.
+    latency_s : float or None
+        Constant delay from a message's arrival to its place in the stream
+        (s), at least one block; default two blocks.
+    audio_device : str or None
+        Output device index or name (part); None: the default output.
+    midi_port : str or None
+        MIDI input port name (part); None: the first real input port.
+    midi : bool
+        Open a MIDI input port (False: messages only via :meth:`handle`).
+    stats : bool
+        Print the meter once a second while playing.
+    out : file
+        Where status lines, the meter and the report go (stdout).
+    overrides : sequence of str
+        ``PATH=VALUE`` overrides (``--set``) of ``preset``, wherever the
+        program map plays it (e.g. ``play.polyphony=32``).
+    """
+
+    def __init__(self, preset: str, program_map: ProgramMap | None = None, block: int = 128,
+                 latency_s: float | None = None, audio_device: str | None = None,
+                 midi_port: str | None = None, midi: bool = True, stats: bool = False,
+                 out=None, overrides=()):
+        from synth.engine.engine import Engine
+        from synth.io.presets import load_preset
+
+        if not (16 <= int(block) <= Engine.MAX_BLOCK_OUT):
+            raise SynthError(f"--block = {block} is out of range (16 <= value <= "
+                             f"{Engine.MAX_BLOCK_OUT})")
+        self.block = int(block)
+        lo_ms = 1e3 * self.block / FS_OUT
+        if latency_s is not None and not (self.block / FS_OUT <= latency_s <= 1.0):
+            raise SynthError(f"--latency-ms = {latency_s * 1e3:g} is out of range ({lo_ms:.2f} <= "
+                             f"value <= 1000: at least one block of {self.block} samples)")
+        self.latency_s = latency_s
+        self.overrides = tuple(overrides)
+        self._first = preset
+        load_preset(preset, self.overrides)                  # a bad name or --set fails now
+        self.program_map = program_map or ProgramMap({0: preset})
+        self.preset_name = preset
+        self.stats = stats
+        self.out = out if out is not None else sys.stdout
+        self.clock = time.monotonic
+        # -- what the outside world offers, checked before any slow work
+        self.sd = check_audio()
+        self.device, self.device_name, self.channels = pick_audio_device(self.sd, audio_device)
+        self.midi_backend = None
+        self.midi_port_name = None
+        if midi:
+            self.midi_backend = check_midi()
+            self.midi_port_name = pick_midi_port(self.midi_backend, midi_port)
+        # -- state
+        self.rt = None
+        self.stream = None
+        self.port = None
+        self.instruments: dict = {}
+        self.ready_s = None            # start(): call to stream running (s)
+        self.warm_s = None             # start(): engine built and warmed (s)
+        self.n_messages = 0
+        self.n_notes = 0
+        self.n_program_changes = 0
+        self.handler_errors = 0
+        self.peak = 0.0                # largest |sample| written to the device
+        self.clipped_blocks = 0
+        self.max_voices = 0
+        self.device_ahead_s = 0.0      # PortAudio: DAC time - callback time, largest seen
+        self._lock = threading.Lock()
+        self._gen = 0
+        self._target = preset
+        self._builders: list[threading.Thread] = []
+        self._switch = None
+
+    # -- start and stop -------------------------------------------------------------
+    def _overrides_for(self, name: str) -> tuple:
+        return self.overrides if name == self._first else ()
+
+    def start(self) -> None:
+        """Build and warm the engine, open the audio stream, then the MIDI
+        input; prints the latency budget and ``ready in X s``."""
+        from synth.engine.realtime import Realtime
+
+        t_call = time.perf_counter()
+        try:
+            eng = ready_engine(self.preset_name, self.block, self.instruments,
+                               self._overrides_for(self.preset_name))
+            self.warm_s = time.perf_counter() - t_call
+            self.rt = Realtime(eng, block=self.block, latency_s=self.latency_s)
+            # the audio thread must get the GIL quickly even while a program
+            # change is built in the background (default switch interval: 5 ms;
+            # tools/bench_live.py --program-change measures the difference)
+            self._switch = sys.getswitchinterval()
+            sys.setswitchinterval(min(self._switch, SWITCH_INTERVAL_S))
+            try:
+                with _quiet_c_stderr():
+                    self.stream = self.sd.OutputStream(
+                        samplerate=FS_OUT, blocksize=self.block, channels=self.channels,
+                        dtype="float32", callback=self._callback, device=self.device,
+                        latency="low")
+            except Exception as e:
+                raise SynthError(f"cannot open audio device {self.device_name!r}: "
+                                 f"{_one_line(e)}") from None
+            # the cyclic collector off while playing (Realtime.start), and the
+            # stream's sample 0 stamped now
+            self.rt.start()
+            self.stream.start()
+            if self.midi_port_name is not None:
+                try:
+                    with _quiet_c_stderr():
+                        self.port = self.midi_backend.open_input(self.midi_port_name,
+                                                                 callback=self.handle)
+                except Exception as e:
+                    raise SynthError(f"cannot open MIDI input port {self.midi_port_name!r}: "
+                                     f"{_one_line(e)}") from None
+        except BaseException:
+            self.close()
+            raise
+        self.ready_s = time.perf_counter() - t_call
+        self._say(self.describe())
+        self._say(f"ready in {self.ready_s:.2f} s (engine built and warmed in {self.warm_s:.2f} s)"
+                  "; Ctrl-C stops")
+
+    def latency_budget_s(self) -> dict:
+        """The parts of the key-to-sound delay (s) that are known: the
+        scheduling latency, the device's output latency (PortAudio's figure),
+        the decimator's delay, and their sum."""
+        sched = self.rt.latency_s
+        dev = float(self.stream.latency) if self.stream is not None else 0.0
+        dec = float(self.rt.engine.dec.latency_s)
+        return {"schedule_s": sched, "device_s": dev, "decimator_s": dec,
+                "total_s": sched + dev + dec}
+
+    def describe(self) -> str:
+        lat = self.latency_budget_s()
+        midi = f"MIDI in {self.midi_port_name!r}" if self.midi_port_name else "no MIDI input"
+        progs = f"; programs {self.program_map}" if len(self.program_map.programs) > 1 else ""
+        return (f"{self.preset_name}: {midi} -> audio out {self.device_name!r} "
+                f"({self.channels} ch, {FS_OUT} Hz, block {self.block} = "
+                f"{1e3 * self.block / FS_OUT:.1f} ms){progs}; latency {lat['total_s'] * 1e3:.1f} ms "
+                f"= schedule {lat['schedule_s'] * 1e3:.1f} + device {lat['device_s'] * 1e3:.1f} "
+                f"+ decimator {lat['decimator_s'] * 1e3:.1f}")
+
+    def close(self) -> None:
+        """Close the MIDI port and the stream (idempotent)."""
+        port, self.port = self.port, None
+        if port is not None:
+            with contextlib.suppress(Exception):
+                port.close()
+        stream, self.stream = self.stream, None
+        if stream is not None:
+            with contextlib.suppress(Exception):
+                stream.stop()
+            with contextlib.suppress(Exception):
+                stream.close()
+        with self._lock:
+            self._gen += 1                  # a program change still building is dropped
+        for th in self._builders:
+            th.join(timeout=10.0)
+        self._builders = []
+        if self._switch is not None:
+            sys.setswitchinterval(self._switch)
+            self._switch = None
+        if self.rt is not None:
+            self.rt.stop()
+
+    def run(self, seconds: float | None = None, interval_s: float = 1.0) -> str:
+        """Play until Ctrl-C (or for ``seconds``), then close and print the
+        report, which is returned.  With ``stats`` the meter is printed once
+        per ``interval_s`` on one line."""
+        if self.stream is None:
+            raise RuntimeError("Player.run() before start()")
+        t_end = None if seconds is None else time.monotonic() + seconds
+        stopped = None
+        try:
+            while True:
+                wait = interval_s if t_end is None else min(interval_s, t_end - time.monotonic())
+                if wait > 0:
+                    time.sleep(wait)
+                gc.collect(0)          # the young generation only, from this thread
+                if self.stats:
+                    print("\r" + self.rt.meter(), end="", file=self.out, flush=True)
+                if not self.stream.active:
+                    stopped = "the audio stream stopped (device gone?)"
+                    break
+                if t_end is not None and time.monotonic() >= t_end:
+                    break
+        except KeyboardInterrupt:
+            pass
+        finally:
+            self.close()
+        if self.stats:
+            print(file=self.out)
+        rep = self.report()
+        if stopped:
+            rep += f"\n{stopped}"
+        self._say(rep)
+        return rep
+
+    def report(self) -> str:
+        """:meth:`Realtime.report` and what the player saw."""
+        peak = f"{20 * math.log10(self.peak):.1f} dBFS" if self.peak > 0 else "silence"
+        clip = f" ({self.clipped_blocks} blocks clipped)" if self.clipped_blocks else ""
+        ready = f"ready in {self.ready_s:.2f} s; " if self.ready_s is not None else ""
+        ahead = (f"; the device played blocks up to {self.device_ahead_s * 1e3:.1f} ms after "
+                 "their callback (PortAudio's timestamps)" if self.device_ahead_s > 0 else "")
+        return (f"{self.rt.report()}\n{ready}{self.n_messages} MIDI messages, {self.n_notes} notes, "
+                f"{self.n_program_changes} program changes, at most {self.max_voices} voices, "
+                f"peak {peak}{clip}, {self.handler_errors} message errors{ahead}")
+
+    def _say(self, text: str) -> None:
+        print(text, file=self.out, flush=True)
+
+    # -- the audio thread -----------------------------------------------------------
+    def _callback(self, outdata, frames, time_info, status) -> None:
+        """The stream's callback: the real-time driver, then the peak and
+        voice meters (scalar reductions, no allocation)."""
+        self.rt.callback(outdata, frames, time_info, status)
+        hi = float(outdata.max())
+        lo = -float(outdata.min())
+        p = hi if hi > lo else lo
+        if p > self.peak:
+            self.peak = p
+        if p > 1.0:
+            self.clipped_blocks += 1
+        n = self.rt.engine.n_voices
+        if n > self.max_voices:
+            self.max_voices = n
+        try:
+            ahead = time_info.outputBufferDacTime - time_info.currentTime
+            if 0.0 < ahead < 1.0 and ahead > self.device_ahead_s:
+                self.device_ahead_s = ahead
+        except AttributeError:
+            pass
+
+    # -- the MIDI thread --------------------------------------------------------------
+    def handle(self, msg, arrival_s: float | None = None) -> None:
+        """A MIDI message arrived (the input port's callback): stamp it now
+        (or at ``arrival_s``, ``time.monotonic`` seconds) and queue it;
+        a program change swaps the instrument.  Never raises."""
+        t = self.clock() if arrival_s is None else float(arrival_s)
+        try:
+            self.n_messages += 1
+            if msg.type == "program_change":
+                self.program_change(msg.program)
+                return
+            ev = normalise(msg)
+            if ev is None or self.rt is None:
+                return
+            if ev.kind == "note_on":
+                self.n_notes += 1
+            self.rt.push(ev, t)
+        except Exception:
+            self.handler_errors += 1
+
+    def program_change(self, program: int) -> None:
+        """Swap to the preset of ``program``: its engine is built and warmed
+        in a background thread, then handed to :meth:`Realtime.swap`.  An
+        unmapped program is reported and ignored; the latest request wins."""
+        name = self.program_map.preset_for(program)
+        if name is None:
+            self._say(f"\nprogram {program} is not in the program map ({self.program_map}); "
+                      f"keeping {self._target}")
+            return
+        with self._lock:
+            if name == self._target:
+                return
+            self._target = name
+            self._gen += 1
+            gen = self._gen
+        th = threading.Thread(target=self._build_and_swap, args=(program, name, gen),
+                              name=f"synth-program-{program}", daemon=True)
+        self._builders = [b for b in self._builders if b.is_alive()] + [th]
+        th.start()
+
+    def _build_and_swap(self, program: int, name: str, gen: int) -> None:
+        try:
+            t = time.perf_counter()
+            eng = ready_engine(name, self.block, self.instruments, self._overrides_for(name))
+        except Exception as e:
+            self.handler_errors += 1
+            self._say(f"\nprogram {program}: {name} failed: {_one_line(e)}")
+            return
+        with self._lock:
+            if gen != self._gen or self.rt is None:
+                return
+            self.rt.swap(eng)
+            self.preset_name = name
+            self.n_program_changes += 1
+        self._say(f"\nprogram {program}: {name} (ready in {time.perf_counter() - t:.2f} s)")
