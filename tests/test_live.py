@@ -1,4 +1,4 @@
-"""Live play (synth/io/live.py, ``synth play``): real components as far as
+"""Live play (synth/io/live/, ``synth play``): real components as far as
 the machine has them.
 
 * The audio path is a real PortAudio stream on ALSA's null device (a

@@ -1,21 +1,15 @@
-"""Live play: a MIDI keyboard in, the audio device out (``synth play``).
+"""The live player: MIDI messages in, the audio stream out.
 
-The offline engine plays live through :class:`synth.engine.realtime.Realtime`.
-This module adds what touches the outside world, all of it optional:
-
-* ``sounddevice`` (PortAudio) for the audio output and ``python-rtmidi``
-  (mido's ``rtmidi`` backend) for the MIDI input, imported only here and only
-  when live play is asked for: importing :mod:`synth` or rendering offline
-  never loads them.  What is missing is reported as one line saying how to
-  get it (:func:`check_audio`, :func:`check_midi`).
-* Port and device choice by name (exact, else case-insensitive substring).
-* :func:`normalise`: live messages are normalised by the same function as
-  the MIDI file reader (:func:`synth.io.midi.normalise_message`).
-* :class:`ProgramMap`: MIDI program number -> preset.
 * :class:`Player`: builds and warms the engine before the stream opens,
   stamps each MIDI message with its arrival time, swaps instruments on a
   program change (built and warmed in a background thread), prints a meter
   and, at Ctrl-C, the real-time report.
+* :func:`normalise`: live messages are normalised by the same function as
+  the MIDI file reader (:func:`synth.io.midi.normalise_message`).  It lives
+  here, not with the ports in :mod:`synth.io.live.devices`, because it is
+  the first half of the player's MIDI callback (:meth:`Player.handle`) and
+  makes engine events: the device module finds and checks the hardware and
+  never touches the engine, the player is where messages become events.
 
 Latency
 -------
@@ -30,306 +24,27 @@ from __future__ import annotations
 import contextlib
 import math
 import gc
-import os
 import sys
-import tempfile
 import threading
 import time
 
 from synth.io.errors import SynthError
 from synth.io.midi import normalise_message
+from synth.io.live.devices import (FS_OUT, _one_line, _quiet_c_stderr, check_audio, check_midi,
+                                   pick_audio_device, pick_midi_port)
+from synth.io.live.engines import ready_engine
+from synth.io.live.programs import ProgramMap
 
-__all__ = [
-    "FS_OUT",
-    "SWITCH_INTERVAL_S",
-    "INSTALL_LIVE",
-    "PORTAUDIO_MISSING",
-    "NO_MIDI_PORT",
-    "check_audio",
-    "check_midi",
-    "midi_input_names",
-    "pick_midi_port",
-    "pick_audio_device",
-    "match_name",
-    "list_ports",
-    "normalise",
-    "ProgramMap",
-    "ready_engine",
-    "Player",
-]
+__all__ = ["SWITCH_INTERVAL_S", "normalise", "Player"]
 
-#: Output rate of the live stream (Hz): the engine's.
-FS_OUT = 48_000
 #: the interpreter's thread switch interval while streaming (s): the audio
 #: callback waits at most about this long for the GIL when another thread
 #: (a program change being built) runs Python
 SWITCH_INTERVAL_S = 0.0001
 
-INSTALL_LIVE = 'pip install -e ".[live]"'
-PORTAUDIO_MISSING = ("PortAudio library not found: install it (Debian/Ubuntu: apt-get install "
-                     "libportaudio2; Fedora: dnf install portaudio; macOS: brew install portaudio)")
-NO_MIDI_PORT = ("no MIDI input port found; connect a keyboard, or on Linux check that the ALSA "
-                "sequencer (/dev/snd/seq) is available")
-_RTMIDI_BACKEND = "mido.backends.rtmidi"
-
 
 # --------------------------------------------------------------------------
-# What is installed
-# --------------------------------------------------------------------------
-
-
-@contextlib.contextmanager
-def _quiet_c_stderr():
-    """Silence file descriptor 2 (the C libraries' ``ALSA lib ...: open
-    /dev/snd/seq failed`` chatter) for the duration; the Python errors that
-    follow carry the same information in one line."""
-    try:
-        sys.stderr.flush()
-        saved = os.dup(2)
-    except (OSError, ValueError, AttributeError):
-        yield
-        return
-    try:
-        with tempfile.TemporaryFile() as sink:
-            os.dup2(sink.fileno(), 2)
-            try:
-                yield
-            finally:
-                os.dup2(saved, 2)
-    finally:
-        os.close(saved)
-
-
-def check_audio():
-    """The ``sounddevice`` module, or a :class:`SynthError` saying what is
-    missing and how to install it.
-
-    Returns
-    -------
-    module
-        ``sounddevice`` (PortAudio loaded).
-
-    Raises
-    ------
-    SynthError
-        ``sounddevice`` is not installed (``pip install -e ".[live]"``), or
-        the PortAudio library is missing (the system package to install).
-    """
-    try:
-        with _quiet_c_stderr():
-            import sounddevice
-    except ImportError as e:
-        if e.name in ("sounddevice", "cffi", "_cffi_backend"):
-            raise SynthError(f"sounddevice is not installed (audio output of synth play): "
-                             f"{INSTALL_LIVE} in the synth checkout, or pip install sounddevice"
-                             ) from None
-        raise SynthError(f"sounddevice cannot be imported ({e}): {INSTALL_LIVE}") from None
-    except OSError as e:
-        if "portaudio" in str(e).lower():
-            raise SynthError(PORTAUDIO_MISSING) from None
-        raise SynthError(f"sounddevice cannot load PortAudio ({e}); {PORTAUDIO_MISSING}") from None
-    return sounddevice
-
-
-def check_midi():
-    """mido's ``rtmidi`` backend (a :class:`mido.Backend`, loaded), or a
-    :class:`SynthError` saying how to install python-rtmidi.
-
-    The backend is not made mido's global default; use its
-    ``get_input_names()`` and ``open_input()``.
-    """
-    import mido
-
-    try:
-        with _quiet_c_stderr():
-            return mido.Backend(_RTMIDI_BACKEND, load=True)
-    except ImportError as e:
-        if e.name == "rtmidi":
-            raise SynthError(f"python-rtmidi is not installed (MIDI input of synth play): "
-                             f"{INSTALL_LIVE} in the synth checkout, or pip install python-rtmidi"
-                             ) from None
-        raise SynthError(f"python-rtmidi cannot be loaded ({e}): {INSTALL_LIVE}") from None
-
-
-def midi_input_names(backend) -> list[str]:
-    """Names of the MIDI input ports the backend sees.
-
-    Raises
-    ------
-    SynthError
-        The MIDI system cannot be opened (no ALSA sequencer): the
-        no-port message with the backend's reason in parentheses.
-    """
-    try:
-        with _quiet_c_stderr():
-            names = backend.get_input_names()
-    except Exception as e:  # rtmidi raises its own SystemError subclasses
-        raise SynthError(f"{NO_MIDI_PORT} ({_one_line(e)})") from None
-    return list(names)
-
-
-def _one_line(e: BaseException) -> str:
-    s = str(e).strip()
-    return s.splitlines()[0] if s else type(e).__name__
-
-
-def match_name(wanted: str, names: list[str], option: str, what: str) -> str:
-    """The one name in ``names`` that ``wanted`` designates: an exact match,
-    else the only one containing it (case-insensitive).
-
-    Parameters
-    ----------
-    wanted : str
-        What the user gave.
-    names : list of str
-        The candidates (non-empty).
-    option : str
-        The option, for the message (``"--midi-port"``).
-    what : str
-        What the names are, for the message (``"MIDI input port"``).
-
-    Raises
-    ------
-    SynthError
-        No name matches (the message lists them all), or several contain
-        ``wanted`` and none equals it (the message lists those).
-    """
-    if wanted in names:
-        return wanted
-    low = wanted.lower()
-    hits = list(dict.fromkeys(n for n in names if low in n.lower()))
-    if len(hits) == 1:
-        return hits[0]
-    if not hits:
-        shown = "; ".join(repr(n) for n in names)
-        raise SynthError(f"{option} {wanted!r} matches no {what} (available: {shown})")
-    shown = "; ".join(repr(n) for n in hits)
-    raise SynthError(f"{option} {wanted!r} matches several {what}s ({shown}): give more of the name")
-
-
-def pick_midi_port(backend, wanted: str | None = None) -> str:
-    """The MIDI input port to play from.
-
-    Parameters
-    ----------
-    backend : mido.Backend
-        From :func:`check_midi`.
-    wanted : str or None
-        ``--midi-port``: an exact name or a case-insensitive part of one;
-        None: the first port that is not ALSA's "Midi Through" (else that).
-
-    Raises
-    ------
-    SynthError
-        No input port at all, or ``wanted`` matches none (all are listed)
-        or several.
-    """
-    names = midi_input_names(backend)
-    if not names:
-        raise SynthError(NO_MIDI_PORT)
-    if wanted is not None:
-        return match_name(wanted, names, "--midi-port", "MIDI input port")
-    real = [n for n in names if not n.lower().startswith("midi through")]
-    return (real or names)[0]
-
-
-def _output_devices(sd) -> list[dict]:
-    return [dict(d, index=i) for i, d in enumerate(sd.query_devices())
-            if d["max_output_channels"] > 0]
-
-
-def _default_output(sd) -> int:
-    try:
-        return int(sd.default.device[1])
-    except Exception:
-        return -1
-
-
-def pick_audio_device(sd, wanted: str | None = None) -> tuple[int, str, int]:
-    """The audio output device and its channel count for the live stream.
-
-    Parameters
-    ----------
-    sd : module
-        ``sounddevice`` (from :func:`check_audio`).
-    wanted : str or None
-        ``--audio-device``: a device index, an exact name or a
-        case-insensitive part of one; None: PortAudio's default output.
-
-    Returns
-    -------
-    (index, name, channels)
-        ``channels`` is 1 when the device takes mono at 48 kHz float32,
-        else 2 (the mono signal on both).
-
-    Raises
-    ------
-    SynthError
-        No output device, no match, or a device that cannot play 48 kHz.
-    """
-    outs = _output_devices(sd)
-    if not outs:
-        raise SynthError("no audio output device found (PortAudio lists none); check the "
-                         "sound card, or on Linux ALSA (aplay -l), PulseAudio/PipeWire or JACK")
-    if wanted is None:
-        idx = _default_output(sd)
-        dev = next((d for d in outs if d["index"] == idx), outs[0])
-    elif wanted.strip().isdigit():
-        dev = next((d for d in outs if d["index"] == int(wanted)), None)
-        if dev is None:
-            shown = "; ".join(f"{d['index']} {d['name']!r}" for d in outs)
-            raise SynthError(f"--audio-device {wanted} is not an output device (available: {shown})")
-    else:
-        name = match_name(wanted, [d["name"] for d in outs], "--audio-device", "audio output device")
-        dev = next(d for d in outs if d["name"] == name)
-    errors = []
-    for ch in (1, 2):
-        if ch > dev["max_output_channels"]:
-            break
-        try:
-            with _quiet_c_stderr():
-                sd.check_output_settings(device=dev["index"], channels=ch, dtype="float32",
-                                         samplerate=FS_OUT)
-            return dev["index"], dev["name"], ch
-        except Exception as e:
-            errors.append(_one_line(e))
-    raise SynthError(f"audio device {dev['name']!r} cannot play {FS_OUT} Hz float32 mono or "
-                     f"stereo ({'; '.join(errors) or 'no output channels'})")
-
-
-def list_ports() -> str:
-    """MIDI input ports and audio output devices (``synth play --list-ports``).
-
-    Works with either part missing: what cannot be listed says why.
-    """
-    lines = ["MIDI input ports (--midi-port):"]
-    try:
-        names = midi_input_names(check_midi())
-    except SynthError as e:
-        lines.append(f"  unavailable: {e}")
-    else:
-        lines += [f"  {n}" for n in names] or [f"  none: {NO_MIDI_PORT}"]
-    lines.append("Audio output devices (--audio-device; * = default):")
-    try:
-        sd = check_audio()
-        outs = _output_devices(sd)
-        default = _default_output(sd)
-        apis = [a["name"] for a in sd.query_hostapis()]
-    except SynthError as e:
-        lines.append(f"  unavailable: {e}")
-    else:
-        if not outs:
-            lines.append("  none: PortAudio lists no output device")
-        for d in outs:
-            mark = "*" if d["index"] == default else " "
-            api = apis[d["hostapi"]] if 0 <= d["hostapi"] < len(apis) else "?"
-            lines.append(f"{mark} {d['index']:2d}  {d['name']}  ({api}, {d['max_output_channels']} "
-                         f"channels, {d['default_samplerate']:.0f} Hz)")
-    return "\n".join(lines)
-
-
-# --------------------------------------------------------------------------
-# Messages and programs
+# Messages
 # --------------------------------------------------------------------------
 
 
@@ -356,122 +71,6 @@ def normalise(msg):
         return None
     kind, channel, key, value = n
     return Event(0.0, kind, key, value, channel)
-
-
-class ProgramMap:
-    """MIDI program number (0-127, as sent in the message) -> preset name.
-
-    Parameters
-    ----------
-    programs : mapping of int to str
-        Program -> preset name (or ``.toml`` path).
-    """
-
-    def __init__(self, programs: dict[int, str]):
-        self.programs = dict(sorted(programs.items()))
-
-    @classmethod
-    def parse(cls, text: str | None, default_preset: str, check: bool = True) -> ProgramMap:
-        """Parse ``--program-map 0=grand-piano,1=sitar,24=biwa``.
-
-        Program 0 plays ``default_preset`` unless the text maps it.  With
-        ``check``, every preset is loaded and validated.
-
-        Raises
-        ------
-        SynthError
-            A malformed entry, a program outside 0..127, a program given
-            twice, or a preset that does not load (the message lists the
-            available presets).
-        """
-        from synth.io.presets import load_preset
-
-        progs: dict[int, str] = {0: default_preset}
-        given: set[int] = set()
-        if text is not None:
-            entries = [e.strip() for e in text.split(",")]
-            if not any(entries):
-                raise SynthError(f"--program-map = {text!r} is empty (e.g. 0=grand-piano,1=sitar)")
-            for entry in entries:
-                if not entry:
-                    continue
-                prog_s, sep, name = (s.strip() for s in entry.partition("="))
-                if not sep or not name or not prog_s:
-                    raise SynthError(f"--program-map entry {entry!r} is not PROGRAM=PRESET "
-                                     "(e.g. 0=grand-piano,1=sitar)")
-                try:
-                    prog = int(prog_s)
-                except ValueError:
-                    raise SynthError(f"--program-map entry {entry!r}: program {prog_s!r} is not an "
-                                     "integer (0 <= value <= 127)") from None
-                if not (0 <= prog <= 127):
-                    raise SynthError(f"--program-map entry {entry!r}: program = {prog} is out of "
-                                     "range (0 <= value <= 127)")
-                if prog in given:
-                    raise SynthError(f"--program-map: program {prog} is given twice")
-                given.add(prog)
-                progs[prog] = name
-        if check:
-            for prog, name in progs.items():
-                try:
-                    load_preset(name)
-                except SynthError as e:
-                    if prog in given:
-                        raise SynthError(f"--program-map entry {prog}={name}: {e}") from None
-                    raise
-        return cls(progs)
-
-    def preset_for(self, program: int) -> str | None:
-        """The preset of ``program``, or None if it is not mapped."""
-        return self.programs.get(int(program))
-
-    def __str__(self) -> str:
-        return ",".join(f"{p}={n}" for p, n in self.programs.items())
-
-    def __repr__(self) -> str:
-        return f"ProgramMap({self.programs!r})"
-
-
-# --------------------------------------------------------------------------
-# Engines
-# --------------------------------------------------------------------------
-
-
-def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = None,
-                 overrides=()):
-    """Build the engine for a preset, warmed for live play
-    (:func:`synth.io.factory.build_engine` with ``warm=True``: every key
-    designed, the kernels compiled or loaded on a throwaway engine, so the
-    warm-up leaves no sound behind).
-
-    Parameters
-    ----------
-    preset_name : str
-        Preset name or ``.toml`` path.
-    block : int
-        Output block size of the stream (samples).
-    instruments : dict or None
-        Cache of voices by preset name (a program change back to a preset
-        reuses its designs).
-    overrides : sequence of str
-        ``PATH=VALUE`` preset overrides (``--set``), validated like the file.
-
-    Raises
-    ------
-    SynthError
-        The preset does not load or its voice cannot be built.
-    """
-    from synth.io.factory import build_engine, build_voice
-
-    voice = None if instruments is None else instruments.get(preset_name)
-    if voice is None:
-        voice = build_voice(preset_name, overrides)
-        if instruments is not None:
-            instruments[preset_name] = voice
-    # a keyboard may send any key: size the strings for key 0 (study presets
-    # otherwise only hold their own string's length; musical ones already do)
-    return build_engine(preset_name, voice=voice, fs_out=FS_OUT, extra_low_key=0, warm=True,
-                        block=block)
 
 
 # --------------------------------------------------------------------------

@@ -1,0 +1,51 @@
+"""The engine a live stream plays: built and warmed before it is needed.
+
+:func:`ready_engine` builds a preset's engine with the one factory
+(:func:`synth.io.factory.build_engine`, ``warm=True``: voice designs, numba
+kernels and buffers warmed by :mod:`synth.engine.warm`), so that nothing is
+compiled or designed inside the audio callback: the player calls it before
+the stream opens and, in a background thread, on a program change.
+"""
+
+from __future__ import annotations
+
+from synth.io.live.devices import FS_OUT
+
+__all__ = ["ready_engine"]
+
+
+def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = None,
+                 overrides=()):
+    """Build the engine for a preset, warmed for live play
+    (:func:`synth.io.factory.build_engine` with ``warm=True``: every key
+    designed, the kernels compiled or loaded on a throwaway engine, so the
+    warm-up leaves no sound behind).
+
+    Parameters
+    ----------
+    preset_name : str
+        Preset name or ``.toml`` path.
+    block : int
+        Output block size of the stream (samples).
+    instruments : dict or None
+        Cache of voices by preset name (a program change back to a preset
+        reuses its designs).
+    overrides : sequence of str
+        ``PATH=VALUE`` preset overrides (``--set``), validated like the file.
+
+    Raises
+    ------
+    SynthError
+        The preset does not load or its voice cannot be built.
+    """
+    from synth.io.factory import build_engine, build_voice
+
+    voice = None if instruments is None else instruments.get(preset_name)
+    if voice is None:
+        voice = build_voice(preset_name, overrides)
+        if instruments is not None:
+            instruments[preset_name] = voice
+    # a keyboard may send any key: size the strings for key 0 (study presets
+    # otherwise only hold their own string's length; musical ones already do)
+    return build_engine(preset_name, voice=voice, fs_out=FS_OUT, extra_low_key=0, warm=True,
+                        block=block)
