@@ -59,7 +59,7 @@ class Exciter:
         return 0
 
     def start(self, bank: StringBank, slot: int, su, velocity: float, *,
-              length_scale: float = 1.0, speed_m_per_s: float | None = None) -> None:
+              amplitude_scale: float = 1.0, speed_m_per_s: float | None = None) -> None:
         """Excite slot ``slot`` from its next sample.
 
         su : the note's string as configured in the slot: any object with
@@ -67,8 +67,10 @@ class Exciter:
             ``k``, ``dt_s`` and ``U`` (profile or None), such as
             :class:`synth.voices.one_string.StringSetup`.
         velocity : normalised, 0 < value <= 1.
-        length_scale : the speaking length over the voice's reference
-            length (a fretted string: < 1), for exciters that scale with it.
+        amplitude_scale : factor on the excitation's size for this note
+            (a fretted string: its speaking length over the open string's,
+            so that it is plucked at the same slope; a keyboard voice: its
+            per-key level law), for exciters that scale (the pluck).
         speed_m_per_s : explicit hammer speed (m/s), for hammers.
         """
         raise NotImplementedError
@@ -87,18 +89,18 @@ class Pluck(Exciter):
     (the same depth of buzz) as the open one.
     """
 
-    def amplitude_m(self, velocity: float, length_scale: float = 1.0) -> float:
-        """Pluck amplitude A (m) for a normalised velocity in (0, 1] on a
-        string ``length_scale`` times the reference length."""
+    def amplitude_m(self, velocity: float, amplitude_scale: float = 1.0) -> float:
+        """Pluck amplitude A (m) for a normalised velocity in (0, 1], times
+        the note's ``amplitude_scale`` (musical presets only)."""
         A = self.spec.amplitude_m
         if self.study:
             return A
-        return A * length_scale * float(velocity) ** self.play.velocity_exponent
+        return A * amplitude_scale * float(velocity) ** self.play.velocity_exponent
 
-    def start(self, bank, slot, su, velocity, *, length_scale=1.0, speed_m_per_s=None):
+    def start(self, bank, slot, su, velocity, *, amplitude_scale=1.0, speed_m_per_s=None):
         sp = self.spec
         alpha = sp.alpha_per_s if sp.model == "biwa" else 0.0
-        bank.start_pluck(slot, PLUCK_MODELS[sp.model], self.amplitude_m(velocity, length_scale),
+        bank.start_pluck(slot, PLUCK_MODELS[sp.model], self.amplitude_m(velocity, amplitude_scale),
                          sp.duration_s, alpha)
 
 
@@ -164,7 +166,7 @@ class FeltHammer(Exciter):
         self.strike_log = b.probe[0, :, :last].copy()
         return b.probe[0, K.P_G, :last].copy()
 
-    def start(self, bank, slot, su, velocity, *, length_scale=1.0, speed_m_per_s=None):
+    def start(self, bank, slot, su, velocity, *, amplitude_scale=1.0, speed_m_per_s=None):
         V = self.speed(velocity, speed_m_per_s)
         if su.U is not None and self.spec.capo_coupling == "injected":
             bank.start_gtable(slot, self.ideal_support_g(su, V))

@@ -251,7 +251,7 @@ class OneStringVoice(Voice):
         else:
             self._configure(bank, slot, su, probe_row)
         self.exciter.start(bank, slot, su, velocity,
-                           length_scale=su.string.length_m / self.open_string.length_m,
+                           amplitude_scale=su.string.length_m / self.open_string.length_m,
                            speed_m_per_s=speed_m_per_s)
         bank.activate(slot)
 
