@@ -288,7 +288,7 @@ def test_tuning_in_a_sitar_preset_is_rejected():
     raw["tuning"] = {"a4_hz": 440.0, "stretch": 1.0}
     assert rejected(raw, "sitar") == (
         f"{source('sitar')}: key 'tuning' is not allowed when voice = \"plucked\", "
-        "only when voice = \"grand\"")
+        "only when voice is one of \"grand\", \"harpsichord\"")
 
 
 # --------------------------------------------------------------------------

@@ -54,7 +54,8 @@ __all__ = [
 SCHEMA_VERSION = 1
 
 KINDS = ("study", "musical")
-VOICES = ("plucked", "piano", "grand")
+VOICES = ("plucked", "piano", "grand", "harpsichord")
+_KEYBOARD = When("voice", ("grand", "harpsichord"))     # per-key piano strings
 _ONE_STRING = When("voice", ("plucked", "piano"))
 HAMMER_LAWS = ("three-parameter", "four-parameter")
 CAPO_COUPLINGS = ("direct", "injected")
@@ -105,7 +106,7 @@ SECTIONS: tuple[Section, ...] = (
         Field("duration_s", "float", "pluck duration t0, s", 1e-4, 0.05),
         Field("alpha_per_s", "float", "biwa force-pluck rate alpha, 1/s", 1.0, 1e6,
               when=When("pluck.model", ("biwa",))),
-    ), when=When("voice", ("plucked",))),
+    ), when=When("voice", ("plucked", "harpsichord"))),
     Section("hammer", "felt hammer striking the string (voice piano)", HammerSpec, (
         Field("law", "str", "felt law: three-parameter (eq. 1.5) or four-parameter (Pub. III eq. 3)",
               choices=HAMMER_LAWS),
@@ -162,11 +163,11 @@ SECTIONS: tuple[Section, ...] = (
         OrderCheck("f_low_hz", "<", "f_high_hz"),
         OrderCheck("t60_high_s", "<=", "t60_low_s"),
     )),
-    Section("tuning", "grand piano tuning", TuningSpec, (
+    Section("tuning", "tuning of the per-key piano strings", TuningSpec, (
         Field("a4_hz", "float", "frequency of A4 (partial 1), Hz", 380.0, 480.0),
         Field("stretch", "float", "octave stretch: 0 equal temperament, 1 a tuner's stretch for "
               "this inharmonicity", 0.0, 1.5),
-    ), when=When("voice", ("grand",))),
+    ), when=_KEYBOARD),
     Section("action", "grand piano hammers", ActionSpec, (
         Field("law", "str", "felt law of the per-key hammers (thesis eqs. 1.5-1.9 or Pub. III eqs. 3-7)",
               choices=HAMMER_LAWS),
@@ -176,29 +177,31 @@ SECTIONS: tuple[Section, ...] = (
               "(the hammer meets the strings with a softer part of the felt)", 0.1, 1.0),
     ), when=When("voice", ("grand",)), checks=(
         OrderCheck("speed_min_m_per_s", "<", "speed_max_m_per_s"),)),
-    Section("strings", "grand piano strings", StringsSpec, (
-        Field("detune_scale", "float", "factor on the unison detuning of the per-key data", 0.0, 5.0),
+    Section("strings", "per-key piano strings (scale factors on synth.physics.piano)", StringsSpec, (
+        Field("detune_scale", "float", "factor on the unison detuning of the per-key data", 0.0, 5.0,
+              when=When("voice", ("grand",))),
         Field("t60_scale", "float", "factor on the per-key decay times", 0.05, 5.0),
         Field("dispersion_sections", "int", "largest stiffness allpass cascade per string (cost "
               "~1.5 ns each per string-sample)", 0, 16),
-        Field("capo_radius_m", "float", "capo d'astro bar radius R, m", 0.0005, 1.0),
+        Field("capo_radius_m", "float", "capo d'astro bar radius R, m", 0.0005, 1.0,
+              when=When("voice", ("grand",))),
         Field("capo_region_m", "float", "length of string next to the bar that may touch it, m",
-              0.0, 0.05),
-    ), when=When("voice", ("grand",))),
-    Section("dampers", "grand piano dampers and sustain pedal", DampersSpec, (
+              0.0, 0.05, when=When("voice", ("grand",))),
+    ), when=_KEYBOARD),
+    Section("dampers", "dampers and sustain pedal of the per-key strings", DampersSpec, (
         Field("release_t60_bass_s", "float", "T60 of a damped bass string, s", 0.02, 5.0),
         Field("release_t60_treble_s", "float", "T60 of a damped treble string, s", 0.01, 5.0),
         Field("half_pedal_low", "float", "pedal value below which the dampers rest fully", 0.0, 1.0),
         Field("half_pedal_high", "float", "pedal value above which the dampers are fully lifted",
               0.0, 1.0),
-    ), when=When("voice", ("grand",)), checks=(OrderCheck("half_pedal_low", "<", "half_pedal_high"),)),
+    ), when=_KEYBOARD, checks=(OrderCheck("half_pedal_low", "<", "half_pedal_high"),)),
     Section("body", "soundboard", BodySpec, (
         Field("wet", "float", "share of the soundboard in the output (0: bare strings)", 0.0, 1.0),
         Field("modes", "int", "number of soundboard modes", 1, 1024),
         Field("size", "float", "board size factor (divides all mode frequencies)", 0.25, 4.0),
         Field("brightness", "float", "spectral tilt of the board, dB/octave", -12.0, 12.0),
         Field("seed", "int", "random seed of the mode set (deterministic)", 0, 2 ** 31 - 1),
-    ), when=When("voice", ("grand",))),
+    ), when=_KEYBOARD),
     Section("output", "what is written to the WAV", OutputSpec, (
         Field("signal", "str", "displacement u(l,t) at the pluck point (m) or bridge force at x=L (N)",
               choices=SIGNALS),
