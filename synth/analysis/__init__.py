@@ -1,9 +1,10 @@
-"""Measurement tools (numpy only): spectra, pitch, modal energies, regimes.
+"""Measurement tools (numpy only): spectra, pitch, decay, modal energies, regimes.
 
 Used by the tests and by the reproduction scripts; never imports numba or
 other ``synth`` layers.
 """
 
+from synth.analysis.decay import decay_curve_db, t60_s
 from synth.analysis.modes import (
     free_mode_energies,
     mode_energies,
@@ -47,4 +48,6 @@ __all__ = [
     "aperiodic_end",
     "count_episodes",
     "episode_times",
+    "decay_curve_db",
+    "t60_s",
 ]

@@ -1,0 +1,122 @@
+"""Decay: the level of a sound, or of one partial, over time, and its T60.
+
+Written with recipe 3 of ``docs/architecture.md`` (numpy only, explicit
+``fs``, arrays in).
+
+The level curve is measured in frames of ``frame_s`` every ``hop_s``: the
+RMS of the frame (broadband), or, with ``f_hz``, the amplitude of the
+component at ``f_hz`` from a single-bin DFT of the Hann-windowed frame,
+scaled so that a steady sine of amplitude a reads 20 log10(a) dB.  The T60
+is -60 / slope of a least-squares line through the curve where it lies
+between ``start_db`` and ``stop_db`` below its maximum (after the maximum):
+the same evaluation-range idea as ISO 3382's T20/T30, applied to the level
+curve of a free decay rather than to a Schroeder integral.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .spectrum import _positive, _real, _signal
+
+__all__ = ["decay_curve_db", "t60_s"]
+
+#: level reported for a silent frame (dB)
+_FLOOR_DB = -300.0
+
+
+def decay_curve_db(x, fs, f_hz=None, frame_s=None, hop_s=0.01):
+    """Level over time of ``x`` (dB re amplitude 1), broadband or of one partial.
+
+    Parameters
+    ----------
+    x : array_like, 1-D
+        Signal (e.g. a rendered note, full scale 1).
+    fs : float
+        Sample rate (Hz), > 0.
+    f_hz : float or None
+        Frequency of the partial to follow (Hz), 0 < f_hz < fs/2; None: the
+        broadband RMS level.
+    frame_s : float or None
+        Frame length (s), > 0; a frame must hold at least 16 samples, and,
+        with ``f_hz``, at least 4 periods of it (so that the partial's
+        neighbours, a harmonic apart, fall outside the window's main lobe).
+        None: 20 ms, or 8 periods of ``f_hz`` if that is longer.
+    hop_s : float
+        Hop between frames (s), > 0.
+
+    Returns
+    -------
+    t_s : ndarray
+        Frame centres (s).
+    level_db : ndarray
+        Level of each frame (dB; -300 for a silent frame).
+    """
+    fs = _positive("fs", fs)
+    if frame_s is None:
+        frame_s = 0.02 if f_hz is None else max(0.02, 8.0 / _positive("f_hz", f_hz))
+    frame_s, hop_s = _positive("frame_s", frame_s), _positive("hop_s", hop_s)
+    n = int(round(frame_s * fs))
+    hop = max(1, int(round(hop_s * fs)))
+    if n < 16:
+        raise ValueError(f"frame_s={frame_s!r} out of range: must hold at least 16 samples "
+                         f"(>= {16 / fs:g} s at fs={fs:g})")
+    if f_hz is not None:
+        f_hz = _real("f_hz", f_hz, 0.0, fs / 2, low_open=True, high_open=True)
+        if n * f_hz / fs < 4.0:
+            raise ValueError(f"frame_s={frame_s!r} out of range: must hold at least 4 periods "
+                             f"of f_hz={f_hz:g} (>= {4.0 / f_hz:g} s)")
+    x = _signal("x", x, min_len=n)
+    starts = np.arange(0, len(x) - n + 1, hop)
+    frames = np.lib.stride_tricks.sliding_window_view(x, n)[starts]
+    if f_hz is None:
+        level = np.sqrt(np.mean(frames * frames, axis=1))
+    else:
+        w = 0.5 - 0.5 * np.cos(2.0 * np.pi * np.arange(n) / n)       # periodic Hann
+        ph = np.exp(-2j * np.pi * f_hz * np.arange(n) / fs)
+        level = 2.0 * np.abs(frames @ (w * ph)) / np.sum(w)
+    with np.errstate(divide="ignore"):
+        db = np.where(level > 0, 20.0 * np.log10(np.maximum(level, 1e-300)), _FLOOR_DB)
+    return (starts + 0.5 * n) / fs, db
+
+
+def t60_s(x, fs, f_hz=None, start_db=-5.0, stop_db=-35.0, frame_s=None, hop_s=0.01):
+    """60 dB decay time (s) of ``x``, or of its partial at ``f_hz``.
+
+    Parameters
+    ----------
+    x, fs, f_hz, frame_s, hop_s
+        As :func:`decay_curve_db`.
+    start_db, stop_db : float
+        Evaluation range below the curve's maximum (dB), 0 >= start_db >
+        stop_db >= -120: the fit uses the frames after the maximum whose
+        level lies in it (-5 .. -35: a T30).
+
+    Returns
+    -------
+    float
+        T60 (s) = -60 / slope of the fitted line (dB/s); ``inf`` if the
+        fitted level does not fall.
+
+    Raises
+    ------
+    ValueError
+        A parameter out of range, or fewer than 3 frames in the range (the
+        signal does not decay that far: render longer or narrow the range).
+    """
+    start_db = _real("start_db", start_db, -120.0, 0.0)
+    stop_db = _real("stop_db", stop_db, -120.0, start_db, high_open=True)
+    t, db = decay_curve_db(x, fs, f_hz, frame_s, hop_s)
+    i0 = int(np.argmax(db))
+    top = db[i0]
+    t, db = t[i0:], db[i0:]
+    # the first frame that falls below the range ends it (later noise is not fitted)
+    below = np.flatnonzero(db < top + stop_db)
+    end = int(below[0]) if below.size else len(db)
+    sel = np.flatnonzero(db[:end] <= top + start_db)
+    if sel.size < 3:
+        raise ValueError(f"the level does not fall from {start_db:g} to {stop_db:g} dB below its "
+                         f"maximum within the signal ({sel.size} frames in that range; at least "
+                         f"3 needed)")
+    slope = np.polyfit(t[sel], db[sel], 1)[0]
+    return float(-60.0 / slope) if slope < 0 else float("inf")
