@@ -93,11 +93,21 @@ def test_sustain_pedal_holds_released_notes():
 
 
 def test_all_sound_off_frees_everything():
+    """CC 120 frees every sounding voice at once: two notes sound before it,
+    nothing after it, and the output falls silent (the decimator's few
+    samples of latency flush within the block of the event)."""
     e = engine("sitar")
     e.schedule(note(50) + note(55) + [Event(0.05, "control", 120, 0.0)])
-    for _ in range(10):
-        e.render_block(512)
+    block = 512
+    n_before = int(0.05 * e.fs_out) // block          # blocks that end before the CC
+    before = np.concatenate([e.render_block(block).copy() for _ in range(n_before)])
+    assert e.n_voices == 2 and e.bank.n_active == 2
+    assert np.all(np.isfinite(before)) and 20 * np.log10(np.max(np.abs(before[-block:]))) > -40.0
+    e.render_block(block)                              # the block with the CC
     assert e.n_voices == 0 and e.bank.n_active == 0
+    after = np.concatenate([e.render_block(block).copy() for _ in range(10)])
+    assert e.n_voices == 0 and e.bank.n_active == 0
+    assert np.max(np.abs(after)) < 1e-7             # below -140 dBFS
 
 
 def test_every_midi_key_plays_on_a_musical_preset():
