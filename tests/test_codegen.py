@@ -65,6 +65,7 @@ def host_runs_avx2():
     return cpu_target.isa_level_cpu(flags) in ("v3", "v4")
 
 
+@pytest.mark.slow  # ~11 s: a fresh numba compile in a subprocess
 def test_avx2_build_has_vector_min_and_no_masked_store(tmp_path):
     if not host_runs_avx2():
         pytest.skip("this CPU cannot run AVX2 code")
@@ -74,6 +75,7 @@ def test_avx2_build_has_vector_min_and_no_masked_store(tmp_path):
     assert c["ymm"] > 0 and c["vminpd"] > 0
 
 
+@pytest.mark.slow  # ~10.5 s: a fresh numba compile in a subprocess
 def test_plain_x86_64_build_has_sse2_min(tmp_path):
     c = compiled("generic", tmp_path)
     assert c["ymm"] == 0 and c["zmm"] == 0 and c["vmaskmov"] == 0
