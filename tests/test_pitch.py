@@ -29,13 +29,14 @@ def test_loss_filter_gives_the_preset_t60(f0):
     f_low exactly t60_low)."""
     import dataclasses
 
-    from synth.engine.engine import Engine, Event
-    from synth.voices import voice_for
+    from synth.engine.engine import Event
+    from synth.io.factory import build_engine
 
     pre = load_preset("sitar")
     nt = dataclasses.replace(pre, termination=dataclasses.replace(pre.termination, profile="none"))
-    inst = voice_for(nt)
-    y = Engine(inst).render([Event(0.0, "note_on", -1, 1.0, f0_hz=f0)], duration_s=3.0)
+    eng = build_engine(nt)
+    inst = eng.inst
+    y = eng.render([Event(0.0, "note_on", -1, 1.0, f0_hz=f0)], duration_s=3.0)
     fs = 48000
     # fundamental amplitude in successive 0.25 s frames by single-bin DTFT
     frames = []
