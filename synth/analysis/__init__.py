@@ -1,10 +1,11 @@
-"""Measurement tools (numpy only): spectra, pitch, decay, modal energies, regimes.
+"""Measurement tools (numpy only): spectra, pitch, decay, loudness, modal energies, regimes.
 
-Used by the tests and by the reproduction scripts; never imports numba or
-other ``synth`` layers.
+Used by the tests, the reproduction scripts and the analysis commands;
+never imports numba or other ``synth`` layers (loudness uses pyloudnorm).
 """
 
 from synth.analysis.decay import decay_curve_db, t60_s
+from synth.analysis.loudness import crest_factor_db, loudness, momentary_lufs, peak_dbfs
 from synth.analysis.modes import (
     free_mode_energies,
     mode_energies,
@@ -50,4 +51,8 @@ __all__ = [
     "episode_times",
     "decay_curve_db",
     "t60_s",
+    "loudness",
+    "momentary_lufs",
+    "peak_dbfs",
+    "crest_factor_db",
 ]
