@@ -42,6 +42,7 @@ __all__ = [
     "EVENT_KINDS",
     "MAX_DURATION_S",
     "read_midi_file",
+    "midi_to_events",
     "midi_file_duration_s",
     "normalise_message",
 ]
@@ -299,6 +300,24 @@ def read_midi_file(path: str | os.PathLike[str]) -> list[MidiEvent]:
     # Stable sort: times are already non-decreasing; this moves note-offs first at equal times.
     events.sort(key=lambda e: (e.time_s, e.kind != "note_off"))
     return events
+
+
+def midi_to_events(midi_events):
+    """Normalised MIDI file events -> engine events (notes, controllers).
+
+    The one place where a file's MIDI becomes the engine's
+    :class:`synth.engine.engine.Event` (velocity and controller values
+    already in [0, 1] from :func:`read_midi_file`); other messages are
+    dropped."""
+    from synth.engine.engine import Event
+
+    out = []
+    for m in midi_events:
+        if m.kind in ("note_on", "note_off"):
+            out.append(Event(m.time_s, m.kind, m.key, m.value, m.channel))
+        elif m.kind == "control":
+            out.append(Event(m.time_s, "control", m.key, m.value, m.channel))
+    return out
 
 
 def midi_file_duration_s(events: list[MidiEvent]) -> float:
