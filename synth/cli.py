@@ -5,6 +5,7 @@
     synth note PRESET [--key K | --f0 HZ] [--velocity V] [--seconds S]
                [--internal-rate HZ] [--set PATH=VALUE ...] -o OUT.wav [--probe OUT.npy]
     synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] -o OUT.wav
+    synth check SPEC.toml [...] [--shipped] [--junit OUT.xml]
     synth play --preset PRESET [--midi-port NAME] [--audio-device NAME] [--block N]
                [--latency-ms X] [--program-map 0=PRESET,...] [--set PATH=VALUE ...]
                [--stats] | --list-ports
@@ -241,6 +242,27 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def cmd_check(args) -> int:
+    from .apps.check import format_table, run_spec, write_junit
+    from .io.presets import shipped_checks_dir
+
+    specs = list(args.spec)
+    if args.shipped:
+        specs += sorted(str(p) for p in shipped_checks_dir().glob("*.toml"))
+    if not specs:
+        _fail("check: give one or more SPEC.toml files, or --shipped")
+    if args.junit is not None:
+        _check_output(args.junit, "--junit")
+    results = []
+    for path in specs:
+        results += run_spec(path, progress=lambda line: print(line, file=sys.stderr))
+    print(format_table(results))
+    if args.junit is not None:
+        write_junit(args.junit, results)
+        print(f"{args.junit}: JUnit XML, {len(results)} test cases")
+    return 1 if any(not r.passed for r in results) else 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="synth", description="Physical-modelling string synthesizer "
                                 "(waveguide strings against jawari, sawari and capo-bar terminations).")
@@ -281,6 +303,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--output", required=True)
     r.add_argument("--pcm24", action="store_true")
     r.set_defaults(func=cmd_render)
+
+    c = sub.add_parser("check", help="spectrum tests: render what SPEC.toml names and check its "
+                       "expectations (exit 1 if one fails)")
+    c.add_argument("spec", nargs="*", help="spec files (TOML, docs/check.md)")
+    c.add_argument("--shipped", action="store_true",
+                   help="also run the specs shipped with the presets (synth/presets/checks)")
+    c.add_argument("--junit", metavar="OUT.xml", help="also write the results as JUnit XML")
+    c.set_defaults(func=cmd_check)
 
     pl = sub.add_parser("play", help="play a preset live from a MIDI keyboard (needs the [live] extra)")
     pl.add_argument("--preset", help="preset played first (program 0), see `synth presets`")

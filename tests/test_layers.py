@@ -9,6 +9,7 @@ Layers and what each may import from synth (its own layer included)::
 
     cli       anything in synth
     apps, io  engine, voices, dsp, physics, kernels, analysis, io (apps: apps too)
+    testing   as apps, and apps (synth.testing: the checks of synth check for pytest)
     engine    voices, dsp, physics, kernels
     voices    dsp, physics, kernels
     dsp       kernels, physics           (python wrappers of the numba kernels)
@@ -33,7 +34,9 @@ SYNTH_DIR = Path(__file__).resolve().parents[1] / "synth"
 
 _LOW = {"voices", "dsp", "physics", "kernels"}
 ALLOWED: dict[str, set[str]] = {
-    "cli": {"cli", "apps", "io", "engine", "analysis"} | _LOW,
+    "cli": {"cli", "apps", "testing", "io", "engine", "analysis"} | _LOW,
+    # synth.testing: the checks of synth check (apps) for pytest, beside apps
+    "testing": {"testing", "apps", "io", "engine", "analysis"} | _LOW,
     "apps": {"apps", "io", "engine", "analysis"} | _LOW,
     "io": {"io", "engine", "analysis"} | _LOW,
     "engine": {"engine"} | _LOW,

@@ -822,7 +822,10 @@ def test_preset_error_is_a_synth_error():
 
 _ROOT = Path(__file__).resolve().parents[1]
 _REPO_PRESETS = _ROOT / "synth" / "presets"
-_SHIPPED = sorted(_REPO_PRESETS.rglob("*.toml")) if _REPO_PRESETS.is_dir() else []
+#: every TOML file shipped (presets and the spectrum-test specs under checks/)
+_SHIPPED_ALL = sorted(_REPO_PRESETS.rglob("*.toml")) if _REPO_PRESETS.is_dir() else []
+#: the presets (checks/ holds specs for `synth check`, not presets)
+_SHIPPED = [p for p in _SHIPPED_ALL if p.relative_to(_REPO_PRESETS).parts[0] != "checks"]
 
 
 @pytest.mark.parametrize("path", _SHIPPED, ids=[p.relative_to(_REPO_PRESETS).as_posix()
@@ -851,7 +854,7 @@ def test_package_data_declares_every_shipped_preset():
     data = cfg["tool"]["setuptools"].get("package-data", {})
     patterns = [*data.get("synth", []), *data.get("", [])]
     declared = _package_data_files(_ROOT / "synth", patterns)
-    missing = [p.relative_to(_ROOT).as_posix() for p in _SHIPPED if p.resolve() not in declared]
+    missing = [p.relative_to(_ROOT).as_posix() for p in _SHIPPED_ALL if p.resolve() not in declared]
     assert not missing, f"not in [tool.setuptools.package-data] (a wheel would lack them): {missing}"
 
 
@@ -872,9 +875,9 @@ def test_every_shipped_preset_is_found_through_importlib_resources(monkeypatch):
 
     def walk(node, prefix=""):
         for child in node.iterdir():
-            if child.is_dir():
+            if child.is_dir() and not (prefix == "" and child.name == "checks"):
                 yield from walk(child, f"{prefix}{child.name}/")
-            elif child.name.endswith(".toml"):
+            elif child.is_file() and child.name.endswith(".toml"):
                 yield prefix + child.name[:-len(".toml")]
 
     via_resources = sorted(walk(root))

@@ -70,6 +70,7 @@ from .loader import (
     load_preset,
     preset_dirs,
     shipped_preset_dir,
+    shipped_checks_dir,
 )
 from .model import (
     ActionSpec,
@@ -141,6 +142,7 @@ __all__ = [
     "ENV_PRESET_PATH",
     "preset_dirs",
     "shipped_preset_dir",
+    "shipped_checks_dir",
     "list_presets",
     "load_preset",
 ]

@@ -71,14 +71,24 @@ def preset_dirs() -> list[Path]:
     return unique
 
 
+#: a folder of a preset directory that holds spectrum-test specs (``synth check``), not presets
+CHECKS_DIR = "checks"
+
+
+def shipped_checks_dir() -> Path:
+    """The shipped spectrum-test specs (``synth/presets/checks``)."""
+    return shipped_preset_dir() / CHECKS_DIR
+
+
 def _scan() -> dict[str, Path]:
-    """Map preset name -> file; an earlier directory wins over a later one."""
+    """Map preset name -> file; an earlier directory wins over a later one.
+    Files under a top-level ``checks/`` folder are specs, not presets."""
     found: dict[str, Path] = {}
     for d in preset_dirs():
         if not d.is_dir():
             continue
         for f in sorted(d.rglob("*.toml")):
-            if not f.is_file():
+            if not f.is_file() or f.relative_to(d).parts[0] == CHECKS_DIR:
                 continue
             name = f.relative_to(d).with_suffix("").as_posix()
             found.setdefault(name, f)

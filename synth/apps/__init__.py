@@ -1,0 +1,9 @@
+"""User-facing jobs beyond play and render, one module each.
+
+* :mod:`synth.apps.check`: spectrum tests of rendered audio against a
+  versioned TOML spec (``synth check``).
+
+An app may use the engine (through :func:`synth.io.factory.build_engine`),
+the voices, the analysis and ``io``; the CLI only parses arguments and calls
+it (``docs/architecture.md``).
+"""

@@ -1,0 +1,215 @@
+"""synth check and synth.testing: specs parse strictly, checks measure what
+they say, failures fail, and the shipped specs are valid."""
+
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pytest
+import soundfile as sf
+
+from synth import testing
+from synth.apps.check import SpecError, load_spec, run_spec
+from synth.io.presets import shipped_checks_dir
+
+FS = 48_000
+
+
+def _sine(path, f=440.0, amp=0.3, seconds=1.5, t60=None):
+    t = np.arange(int(seconds * FS)) / FS
+    env = 1.0 if t60 is None else np.exp(-np.log(1000.0) * t / t60)
+    sf.write(path, (amp * env * np.sin(2 * np.pi * f * t)).astype(np.float32), FS, subtype="FLOAT")
+    return path
+
+
+def _spec(tmp_path, text, name="spec.toml"):
+    p = tmp_path / name
+    p.write_text("schema = 1\ndescription = \"test\"\n" + text)
+    return p
+
+
+def _cli(*args):
+    return subprocess.run([sys.executable, "-m", "synth.cli", "check", *map(str, args)],
+                          capture_output=True, text=True)
+
+
+WAV_SPEC = """
+[[render]]
+name = "tone"
+wav = "tone.wav"
+
+[[expect]]
+render = "tone"
+check = "f0"
+hz = {hz}
+cents = 1.0
+
+[[expect]]
+render = "tone"
+check = "peak"
+max_dbfs = -1.0
+
+[[expect]]
+render = "tone"
+check = "t60"
+hz = 440.0
+min_s = 0.9
+max_s = 1.1
+"""
+
+
+def test_a_wav_render_passes_and_fails_on_the_measured_values(tmp_path):
+    _sine(tmp_path / "tone.wav", t60=1.0)
+    ok = run_spec(_spec(tmp_path, WAV_SPEC.format(hz=440.0)))
+    assert [r.passed for r in ok] == [True, True, True]
+    assert ok[0].measured.endswith("cent") and ok[1].measured == "-10.5 dBFS"
+    assert abs(float(ok[2].measured.split()[0]) - 1.0) < 0.02
+    bad = run_spec(_spec(tmp_path, WAV_SPEC.format(hz=442.0)))
+    assert not bad[0].passed and bad[0].measured.startswith("-7.8")    # 1200 log2(440/442)
+
+
+def test_the_cli_exit_codes_table_and_junit(tmp_path):
+    _sine(tmp_path / "tone.wav")
+    good = _spec(tmp_path, WAV_SPEC.format(hz=440.0).rsplit("[[expect]]", 1)[0], "good.toml")
+    bad = _spec(tmp_path, WAV_SPEC.format(hz=450.0).rsplit("[[expect]]", 1)[0], "bad.toml")
+    r = _cli(good)
+    assert r.returncode == 0 and "2 passed, 0 failed" in r.stdout
+    junit = tmp_path / "out.xml"
+    r = _cli(good, bad, "--junit", junit)
+    assert r.returncode == 1
+    assert "FAIL  f0 tone" in r.stdout and "3 passed, 1 failed" in r.stdout
+    root = ET.parse(junit).getroot()
+    suites = root.findall("testsuite")
+    assert [s.get("tests") for s in suites] == ["2", "2"]
+    assert [s.get("failures") for s in suites] == ["0", "1"]
+    fail = root.find(".//failure")
+    assert fail is not None and "expected |x| <= 1 cent of 450.000 Hz" in fail.get("message")
+
+
+@pytest.mark.parametrize("text, message", [
+    ("[[render]]\nname = \"a\"\npreset = \"sitar\"\nkeys = \"50..40\"\n"
+     "[[expect]]\nrender = \"a\"\ncheck = \"f0\"\ncents = 1\n",
+     "render 'a'.keys = '50..40' is out of range (0 <= LO <= HI <= 127, STEP >= 1)"),
+    ("[[render]]\nname = \"a\"\npreset = \"sitar\"\nkey = 50\n"
+     "[[expect]]\nrender = \"a\"\ncheck = \"pitch\"\n",
+     "expect[0].check = 'pitch' is not allowed (choose one of f0, partial, "),
+    ("[[render]]\nname = \"a\"\npreset = \"sitar\"\nkey = 50\n"
+     "[[expect]]\nrender = \"a\"\ncheck = \"f0\"\n",
+     "expect[0] (check = 'f0') is missing key 'cents'"),
+    ("[[render]]\nname = \"a\"\npreset = \"sitar\"\nkey = 50\n"
+     "[[expect]]\nrender = \"b\"\ncheck = \"f0\"\ncents = 1\n",
+     "expect[0].render = 'b' names no render (renders: a)"),
+    ("[[render]]\nname = \"a\"\npreset = \"sitar\"\nkey = 50\nvelocity = 200\n"
+     "[[expect]]\nrender = \"a\"\ncheck = \"f0\"\ncents = 1\n",
+     "render 'a'.velocity = 200 is out of range (an integer, 1 <= value <= 127)"),
+    ("[[render]]\nname = \"a\"\npreset = \"sitar\"\nkey = 50\ncolour = 1\n"
+     "[[expect]]\nrender = \"a\"\ncheck = \"f0\"\ncents = 1\n",
+     "unknown key 'render[0].colour' (allowed: "),
+    ("[[render]]\nname = \"a\"\npreset = \"sitar\"\nkey = 50\n"
+     "[[expect]]\nrender = \"a\"\ncheck = \"peak\"\nmax_dbfs = -1\nmin_dbfs = 0\n",
+     "expect[0].min_dbfs = 0.0 must be <= max_dbfs = -1.0"),
+])
+def test_bad_specs_are_one_line_errors_naming_the_key(tmp_path, text, message):
+    p = _spec(tmp_path, text)
+    with pytest.raises(SpecError) as e:
+        load_spec(p)
+    assert message in str(e.value) and "\n" not in str(e.value)
+    r = _cli(p)
+    assert r.returncode == 2 and r.stderr.startswith("synth: error: ") and message in r.stderr
+
+
+def test_schema_and_missing_file(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_text("schema = 2\n")
+    with pytest.raises(SpecError, match=r"schema = 2 is not allowed \(choose 1\)"):
+        load_spec(p)
+    with pytest.raises(SpecError, match="no such spec file"):
+        load_spec(tmp_path / "none.toml")
+
+
+def test_sweeps_render_every_key_at_every_velocity_and_sweep_checks_see_them(tmp_path):
+    spec = _spec(tmp_path, """
+[[render]]
+name = "s"
+preset = "biwa"
+keys = "48..54/3"
+velocities = [30, 120]
+seconds = 0.5
+
+[[expect]]
+render = "s"
+check = "monotonic"
+measure = "loudness"
+over = "velocity"
+
+[[expect]]
+render = "s"
+check = "monotonic"
+measure = "loudness"
+over = "velocity"
+direction = "decreasing"
+
+[[expect]]
+render = "s"
+check = "evenness"
+max_step = 0.0
+""")
+    res = run_spec(spec)
+    inc, dec, even = res[:3], res[3:6], res[6:]
+    assert [r.name.split("[")[1].split("]")[0] for r in inc] == ["key 48", "key 51", "key 54"]
+    assert all(r.passed for r in inc) and not any(r.passed for r in dec)
+    assert len(even) == 2 and not any(r.passed for r in even)          # two velocities, steps > 0
+
+
+def test_pair_checks_compare_item_by_item(tmp_path):
+    _sine(tmp_path / "low.wav", f=300.0)
+    _sine(tmp_path / "high.wav", f=3000.0)
+    spec = _spec(tmp_path, """
+[[render]]
+name = "low"
+wav = "low.wav"
+[[render]]
+name = "high"
+wav = "high.wav"
+[[expect]]
+render = "high"
+check = "centroid_ratio"
+against = "low"
+min = 9.5
+max = 10.5
+[[expect]]
+render = "high"
+check = "highband_diff"
+against = "low"
+above_hz = 1000
+min_db = 60
+max_db = 200
+""")
+    assert [r.passed for r in run_spec(spec)] == [True, True]
+
+
+def test_the_python_api(tmp_path):
+    y, fs, f = testing.render_note("biwa", 52, 100, 1.0)
+    assert testing.check_f0(y, fs, f, cents=1.0).passed
+    assert not testing.check_f0(y, fs, f * 1.01, cents=1.0).passed
+    assert testing.check_peak(y, fs, max_dbfs=-1.0).passed
+    assert testing.check_partial(y, fs, f, n=2, cents=5.0).passed
+    lv = testing.check_partial_level(y, fs, f, n=1, min_db=-60.0, max_db=0.0)
+    assert lv.passed and lv.measured.endswith("dB")
+    _sine(tmp_path / "tone.wav")
+    with pytest.raises(AssertionError, match="1 of 2 checks failed"):
+        testing.assert_spec(_spec(tmp_path, WAV_SPEC.format(hz=445.0).rsplit("[[expect]]", 1)[0]))
+
+
+def test_the_shipped_specs_are_valid_and_cover_every_musical_preset():
+    """Every shipped spec loads; together they render every musical preset
+    (CI runs them: `synth check --shipped` in .ci/run)."""
+    from synth.io.presets import list_presets, load_preset
+
+    specs = sorted(shipped_checks_dir().glob("*.toml"))
+    presets = {r["preset"] for p in specs for r in load_spec(p).renders if "preset" in r}
+    musical = {n for n, _ in list_presets() if load_preset(n).kind == "musical"}
+    assert musical and musical <= presets
+    # and the checks folder is not mistaken for presets
+    assert not any(n.startswith("checks/") for n, _ in list_presets())
