@@ -94,13 +94,16 @@ def cmd_note(args) -> int:
         _check_output(args.probe, "--probe")
     if args.hammer_log is not None:
         _check_output(args.hammer_log, "--hammer-log")
+    if args.contact_log is not None:
+        _check_output(args.contact_log, "--contact-log")
     if args.hammer_speed is not None and not (0.01 <= args.hammer_speed <= 20.0):
         _fail(f"--hammer-speed = {args.hammer_speed} is out of range (0.01 <= value <= 20 m/s)")
     low = args.key if args.key is not None else None
     if args.f0 is not None:
         low = int(math.floor(69 + 12 * math.log2(args.f0 / 440.0)))
     preset, inst, eng = _engine_for(args.preset, args.set, args.internal_rate,
-                                    probe=args.probe is not None or args.hammer_log is not None,
+                                    probe=(args.probe is not None or args.hammer_log is not None
+                                           or args.contact_log is not None),
                                     low_key=low)
     if args.hammer_speed is not None and preset.voice == "plucked":
         _fail(f"--hammer-speed: {args.preset} is a plucked preset (voice = plucked): it has no hammer")
@@ -131,7 +134,38 @@ def cmd_note(args) -> int:
         print(f"{args.probe}: u(l, t) in metres, {n} samples at {inst.fs:.1f} Hz")
     if args.hammer_log:
         _write_hammer_log(args.hammer_log, inst, eng)
+    if args.contact_log:
+        _write_contact_log(args.contact_log, inst, eng, args.seconds)
     return 0
+
+
+def _write_contact_log(path: str, inst, eng, seconds: float) -> None:
+    """CSV of the note's contacts in 1 ms frames, per string (termination
+    region points in contact, hammer felt force), and a summary per string
+    on stdout (synth.analysis.contacts)."""
+    from .analysis.contacts import contact_frames, contact_summary
+    from .io.wav import write_text_atomic
+    from .kernels import strings as K
+
+    n = int(round(seconds * inst.fs))
+    rows = ["string,time_s,termination_contact_share,termination_points_max,"
+            "hammer_contact_share,hammer_force_max_n"]
+    lines = []
+    for s in range(eng.spv):
+        ch = eng.probe_channels(s)[:, :n]
+        if not np.any(ch):
+            continue                        # a string this note does not use
+        fr = contact_frames(ch[K.P_CONTACT], ch[K.P_F], inst.fs, 0.001)
+        rows += [f"{s},{r[0]:.4f},{r[1]:.4f},{int(r[2])},{r[3]:.4f},{r[4]:.6g}" for r in fr]
+        sm = contact_summary(ch[K.P_CONTACT], ch[K.P_F], inst.fs)
+        t, h = sm["termination"], sm["hammer"]
+        lines.append(f"  string {s}: termination {t['time_in_contact_s'] * 1e3:.2f} ms in contact, "
+                     f"{t['episodes']} episodes, up to {t['max_points']} points; hammer "
+                     f"{h['time_in_contact_s'] * 1e3:.3f} ms in contact, {h['episodes']} episodes, "
+                     f"peak {h['peak_force_n']:.2f} N")
+    write_text_atomic(path, "\n".join(rows) + "\n")
+    print(f"{path}: contacts in 1 ms frames, {len(lines)} strings")
+    print("\n".join(lines))
 
 
 def _write_hammer_log(path: str, inst, eng) -> None:
@@ -290,6 +324,10 @@ def build_parser() -> argparse.ArgumentParser:
     n.add_argument("--pcm24", action="store_true", help="write 24-bit PCM instead of 32-bit float")
     n.add_argument("--hammer-speed", type=float, metavar="M_PER_S",
                    help="hammer speed at contact in m/s (hammered presets; overrides --velocity)")
+    n.add_argument("--contact-log", metavar="OUT.csv",
+                   help="CSV of contact telemetry in 1 ms frames per string (termination points "
+                        "in contact, hammer force) and a summary (time in contact, episodes, "
+                        "peak force)")
     n.add_argument("--hammer-log", metavar="OUT.csv",
                    help="CSV of the strike at the internal rate: time, force, felt compression, g, "
                         "hammer position")

@@ -79,8 +79,9 @@ class Engine:
     polyphony : int or None
         Voice pool size (default: the preset's).
     probe : bool
-        Record u at the excitation point and the number of region points in
-        contact, per internal sample, for the first voice (study renders).
+        Record the probe channels (u at the excitation point, region points
+        in contact, hammer force, ...) per internal sample for every string
+        of the first voice (study renders, contact telemetry).
     silence_dbfs : float
         A released/decayed voice whose output stays below this level for two
         periods (and at least 20 ms) is freed.
@@ -110,7 +111,7 @@ class Engine:
         max_in = self.dec.inputs_needed(self.MAX_BLOCK_OUT) + 16
         self.bank = StringBank(self.n_index * self.spv, sizes.max_cells,
                                max_region=max(sizes.max_region, 1), max_block=4096,
-                               n_probes=1 if probe else 0, max_gtable=sizes.max_gtable,
+                               n_probes=self.spv if probe else 0, max_gtable=sizes.max_gtable,
                                max_bend=sizes.max_bend)
         #: the body (soundboard) stage after decimation, if the instrument has one
         design = instrument.body()
@@ -320,7 +321,7 @@ class Engine:
             bank.render(self.mix, cursor, n_in - cursor)
         self.time_in = end
         if self.probe:
-            self._probe.append(bank.probe[0, :, :n_in].copy())
+            self._probe.append(bank.probe[:, :, :n_in].copy())
         y = self.dec.process(mix, self._out if out is None else out)
         if self.body is not None:
             self.body.process(y, out=y)
@@ -357,14 +358,17 @@ class Engine:
         """Voices that count against the polyphony (not fading out)."""
         return sum(1 for vo in self.voices.values() if not vo.dying)
 
-    def probe_channels(self) -> np.ndarray:
-        """All probe channels (kernel ``P_*``) per internal sample, shape
+    def probe_channels(self, string: int = 0) -> np.ndarray:
+        """All probe channels (kernel ``P_*``) of the first voice's string
+        ``string`` (0 .. strings per voice - 1) per internal sample, shape
         (channels, samples): u at the excitation point (m), region points in
         contact, hammer force (N), felt compression (m), hammer position (m),
-        outgoing wave g (m)."""
+        outgoing wave g (m).  A string the note does not use reads zeros."""
         if not self.probe:
             raise ValueError("probe = False: this engine records no probe")
-        return np.concatenate(self._probe, axis=1)
+        if not (0 <= string < self.spv):
+            raise ValueError(f"string = {string!r} is out of range (0 <= value <= {self.spv - 1})")
+        return np.concatenate([b[string] for b in self._probe], axis=1)
 
     def probe_signals(self):
         """(u at the excitation point (m), contact counts) per internal sample."""

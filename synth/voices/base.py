@@ -132,7 +132,8 @@ class Voice:
             study string's own pitch.
         velocity : normalised, 0 < value <= 1.
         f0_hz : explicit pitch (Hz) instead of the key.
-        probe_row : probe row for the first string, -1: none (study renders).
+        probe_row : probe row for the first string (string j of the note:
+            ``probe_row + j``), -1: none (study renders, contact telemetry).
         restrike : the note is sounding on these slots and is played again
             on the same strings (do not reconfigure them).
         speed_m_per_s : explicit hammer speed (m/s) for struck voices.

@@ -229,7 +229,7 @@ class GrandPianoInstrument(Voice):
         stiff = 1.0 - (1.0 - a.soft_stiffness) * min(max(soft, 0.0), 1.0)
         for j, (slot, su) in enumerate(zip(slots, sus)):
             if not restrike or not bank.is_active(slot):
-                bank.configure_from(slot, su.slot, probe_row if j == 0 else -1)
+                bank.configure_from(slot, su.slot, probe_row + j if probe_row >= 0 else -1)
                 bank.set_damper(slot, su.damper)
             else:
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
