@@ -159,21 +159,8 @@ def _write_hammer_log(path: str, inst, eng) -> None:
           f"(first to last sample with F > 0), peak force {F.max():.2f} N")
 
 
-def midi_to_events(midi_events):
-    """Normalised MIDI file events -> engine events (note, sustain, all-off)."""
-    from .engine.engine import Event
-
-    out = []
-    for m in midi_events:
-        if m.kind in ("note_on", "note_off"):
-            out.append(Event(m.time_s, m.kind, m.key, m.value, m.channel))
-        elif m.kind == "control":
-            out.append(Event(m.time_s, "control", m.key, m.value, m.channel))
-    return out
-
-
 def cmd_render(args) -> int:
-    from .io.midi import read_midi_file
+    from .io.midi import midi_to_events, read_midi_file
 
     _check_output(args.output, "-o")
     midi = read_midi_file(args.midi_file)

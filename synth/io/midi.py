@@ -44,6 +44,7 @@ __all__ = [
     "read_midi_file",
     "midi_file_duration_s",
     "normalise_message",
+    "midi_to_events",
 ]
 
 #: Files longer than this (seconds) are rejected as implausible (broken delta times).
@@ -304,3 +305,18 @@ def read_midi_file(path: str | os.PathLike[str]) -> list[MidiEvent]:
 def midi_file_duration_s(events: list[MidiEvent]) -> float:
     """Time of the last event, s (0.0 for no events). Meta events (end of track) do not count."""
     return max((e.time_s for e in events), default=0.0)
+
+
+def midi_to_events(midi_events):
+    """Normalised MIDI file events -> engine events (notes, controllers:
+    sustain, soft pedal, all-off); programs and bends are dropped.  Used by
+    ``synth render`` and ``synth compare --midi``."""
+    from synth.engine.engine import Event
+
+    out = []
+    for m in midi_events:
+        if m.kind in ("note_on", "note_off"):
+            out.append(Event(m.time_s, m.kind, m.key, m.value, m.channel))
+        elif m.kind == "control":
+            out.append(Event(m.time_s, "control", m.key, m.value, m.channel))
+    return out
