@@ -68,10 +68,9 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 import numpy as np  # noqa: E402
 
 import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
-from synth.io.midi import midi_to_events  # noqa: E402
 from synth.engine.engine import Event  # noqa: E402
 from synth.engine.realtime import Realtime  # noqa: E402
-from synth.io.midi import read_midi_file  # noqa: E402
+from synth.io.midi import midi_to_events, read_midi_file  # noqa: E402
 from synth.io.factory import build_engine  # noqa: E402
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"

@@ -120,9 +120,8 @@ import numpy as np  # noqa: E402
 import soundfile  # noqa: E402
 
 import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
-from synth.io.midi import midi_to_events  # noqa: E402
 from synth.io.factory import build_engine  # noqa: E402
-from synth.io.midi import read_midi_file  # noqa: E402
+from synth.io.midi import midi_to_events, read_midi_file  # noqa: E402
 from synth.io.presets import load_preset  # noqa: E402
 
 BLOCK = 1024                  # output samples per engine block, as Engine.render

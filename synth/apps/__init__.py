@@ -2,8 +2,11 @@
 
 * :mod:`synth.apps.check`: spectrum tests of rendered audio against a
   versioned TOML spec (``synth check``).
+* :mod:`synth.apps.compare` (with :mod:`synth.apps.compare_page`, the page):
+  loudness-matched listening tests in a self-contained web page (``synth
+  compare``).
 
 An app may use the engine (through :func:`synth.io.factory.build_engine`),
 the voices, the analysis and ``io``; the CLI only parses arguments and calls
-it (``docs/architecture.md``).
+it (``docs/architecture.md``, ``tests/test_layers.py``).
 """
