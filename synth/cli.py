@@ -6,6 +6,7 @@
                [--internal-rate HZ] [--set PATH=VALUE ...] -o OUT.wav [--probe OUT.npy]
     synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] -o OUT.wav
     synth check SPEC.toml [...] [--shipped] [--junit OUT.xml]
+    synth analyze AUDIO.wav|PRESET [--key K | --f0 HZ] [--velocity V] [--json] [--plot OUT.png]
     synth play --preset PRESET [--midi-port NAME] [--audio-device NAME] [--block N]
                [--latency-ms X] [--program-map 0=PRESET,...] [--set PATH=VALUE ...]
                [--stats] | --list-ports
@@ -302,6 +303,65 @@ def cmd_demo(args) -> int:
     return 0
 
 
+def cmd_analyze(args) -> int:
+    import json
+
+    from .apps.analyze import analyze_audio, format_report, plot_report
+
+    if args.key is not None and args.f0 is not None:
+        _fail("--key and --f0 are exclusive: give one of them")
+    if args.key is not None and not (0 <= args.key <= 127):
+        _fail(f"--key = {args.key} is out of range (0 <= value <= 127)")
+    if args.f0 is not None and not (20.0 <= args.f0 <= 10000.0):
+        _fail(f"--f0 = {args.f0} is out of range (20 <= value <= 10000 Hz)")
+    if not (1 <= args.velocity <= 127):
+        _fail(f"--velocity = {args.velocity} is out of range (1 <= value <= 127)")
+    if not (0.1 <= args.seconds <= 60):
+        _fail(f"--seconds = {args.seconds} is out of range (0.1 <= value <= 60)")
+    if args.plot is not None:
+        _check_output(args.plot, "--plot")
+    target = args.target
+    audio_file = os.path.isfile(target) and target.lower().endswith((".wav", ".flac", ".aiff", ".ogg"))
+    if audio_file:
+        import soundfile as sf
+
+        if args.set:
+            _fail("--set applies to a preset, not to an audio file")
+        try:
+            x, fs = sf.read(target, dtype="float64", always_2d=True)
+        except (OSError, RuntimeError) as e:
+            _fail(f"{target}: cannot read the audio ({str(e).splitlines()[0]})")
+        if x.shape[1] > 1:
+            print(f"note: {target} has {x.shape[1]} channels; analysing their mean", file=sys.stderr)
+        x = x.mean(axis=1)
+        title = target
+    else:
+        if target.lower().endswith((".wav", ".flac", ".aiff", ".ogg")):
+            _fail(f"{target}: no such audio file")
+        from .engine.engine import Event
+
+        preset, inst, eng = _engine_for(target, args.set, low_key=args.key)
+        if preset.kind == "musical" and args.key is None and args.f0 is None:
+            _fail(f"{target} is a musical preset: give --key or --f0")
+        ev = Event(0.0, "note_on", args.key if args.key is not None else -1, args.velocity / 127.0,
+                   f0_hz=args.f0)
+        x = eng.render([ev], duration_s=args.seconds)
+        fs = eng.fs_out
+        title = f"{target}, key {args.key}, velocity {args.velocity}" if args.key is not None \
+            else f"{target}, velocity {args.velocity}"
+        if args.key is not None and args.f0 is None:
+            args.f0 = inst.pitch_hz(args.key)     # the voice's own tuning as the reference
+    r = analyze_audio(x, fs, key=args.key, f0_hz=args.f0, n_partials=args.partials)
+    if args.json:
+        print(json.dumps(r, indent=1))
+    else:
+        print(format_report(r, title))
+    if args.plot is not None:
+        plot_report(x, fs, r, args.plot, title)
+        print(f"{args.plot}: spectrogram, partial decays, centroid", file=sys.stderr)
+    return 0
+
+
 def cmd_check(args) -> int:
     from .apps.check import format_table, run_spec, write_junit
     from .io.presets import shipped_checks_dir
@@ -367,6 +427,20 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--output", required=True)
     r.add_argument("--pcm24", action="store_true")
     r.set_defaults(func=cmd_render)
+
+    a = sub.add_parser("analyze", help="partials, inharmonicity, T60s, centroid and loudness of a "
+                       "note: a WAV file, or a preset's note rendered first")
+    a.add_argument("target", metavar="AUDIO.wav|PRESET")
+    a.add_argument("--key", type=int, help="MIDI key (a preset's note, or the expected pitch of a file)")
+    a.add_argument("--f0", type=float, help="expected pitch in Hz instead of --key")
+    a.add_argument("--velocity", type=int, default=100, help="MIDI velocity of the rendered note (1-127)")
+    a.add_argument("--seconds", type=float, default=4.0, help="length rendered (s, default 4)")
+    a.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                   help="override a preset value (repeatable)")
+    a.add_argument("--partials", type=int, default=12, help="partials to measure (1-64, default 12)")
+    a.add_argument("--json", action="store_true", help="print the report as JSON (docs/analyze.md)")
+    a.add_argument("--plot", metavar="OUT.png", help="also draw a PNG (needs the [plots] extra)")
+    a.set_defaults(func=cmd_analyze)
 
     c = sub.add_parser("check", help="spectrum tests: render what SPEC.toml names and check its "
                        "expectations (exit 1 if one fails)")

@@ -4,7 +4,7 @@ Used by the tests, the reproduction scripts and the analysis commands;
 never imports numba or other ``synth`` layers (loudness uses pyloudnorm).
 """
 
-from synth.analysis.decay import decay_curve_db, t60_s
+from synth.analysis.decay import decay_curve_db, t60_s, two_stage_decay
 from synth.analysis.loudness import crest_factor_db, loudness, momentary_lufs, peak_dbfs
 from synth.analysis.modes import (
     free_mode_energies,
@@ -51,6 +51,7 @@ __all__ = [
     "episode_times",
     "decay_curve_db",
     "t60_s",
+    "two_stage_decay",
     "loudness",
     "momentary_lufs",
     "peak_dbfs",

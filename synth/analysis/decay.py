@@ -19,7 +19,7 @@ import numpy as np
 
 from .spectrum import _positive, _real, _signal
 
-__all__ = ["decay_curve_db", "t60_s"]
+__all__ = ["decay_curve_db", "t60_s", "two_stage_decay"]
 
 #: level reported for a silent frame (dB)
 _FLOOR_DB = -300.0
@@ -120,3 +120,58 @@ def t60_s(x, fs, f_hz=None, start_db=-5.0, stop_db=-35.0, frame_s=None, hop_s=0.
                          f"3 needed)")
     slope = np.polyfit(t[sel], db[sel], 1)[0]
     return float(-60.0 / slope) if slope < 0 else float("inf")
+
+
+def two_stage_decay(x, fs, f_hz=None, stop_db=-50.0, frame_s=None, hop_s=0.01, min_frames=3):
+    """Early and late decay of ``x`` (or of its partial at ``f_hz``): two
+    straight lines with a knee, fitted to the level curve.
+
+    The curve (:func:`decay_curve_db`) is taken from its maximum until it
+    first falls ``stop_db`` below it (or to the end).  Every knee frame with
+    at least ``min_frames`` frames on each side is tried; the knee is the
+    one whose two least-squares lines leave the smallest squared error (a
+    piano's prompt sound and aftersound, Weinreich).  A single line over the
+    same frames gives the overall T60.
+
+    Returns
+    -------
+    dict
+        ``t60_s`` (one line), ``t60_early_s``, ``t60_late_s`` (s; ``inf``
+        where a line does not fall) and ``knee_s`` (time of the knee from
+        the start of ``x``, s); the two-slope values are None when fewer
+        than ``2 min_frames`` frames decay.
+
+    Raises
+    ------
+    ValueError
+        Fewer than 3 frames after the maximum.
+    """
+    stop_db = _real("stop_db", stop_db, -200.0, 0.0, high_open=True)
+    t, db = decay_curve_db(x, fs, f_hz, frame_s, hop_s)
+    i0 = int(np.argmax(db))
+    t, db = t[i0:], db[i0:]
+    below = np.flatnonzero(db < db[0] + stop_db)
+    end = int(below[0]) if below.size else len(db)
+    t, db = t[:end], db[:end]
+    if len(t) < 3:
+        raise ValueError(f"the level curve has {len(t)} frames after its maximum; at least 3 needed")
+
+    def t60(slope):
+        return float(-60.0 / slope) if slope < 0 else float("inf")
+
+    one = np.polyfit(t, db, 1)[0]
+    out = {"t60_s": t60(one), "t60_early_s": None, "t60_late_s": None, "knee_s": None}
+    m = int(min_frames)
+    if len(t) < 2 * m:
+        return out
+    best = None
+    for k in range(m, len(t) - m + 1):
+        p1 = np.polyfit(t[:k], db[:k], 1)
+        p2 = np.polyfit(t[k - 1:], db[k - 1:], 1)
+        err = (np.sum((np.polyval(p1, t[:k]) - db[:k]) ** 2)
+               + np.sum((np.polyval(p2, t[k - 1:]) - db[k - 1:]) ** 2))
+        if best is None or err < best[0]:
+            best = (err, k, p1[0], p2[0])
+    _, k, s1, s2 = best
+    out.update(t60_early_s=t60(s1), t60_late_s=t60(s2), knee_s=float(t[k - 1]))
+    return out

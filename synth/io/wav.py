@@ -192,3 +192,12 @@ def write_text_atomic(path: str | os.PathLike[str], text: str) -> None:
         f.write(data)
 
     _atomic_write(path, write)
+
+
+def write_bytes_atomic(path: str | os.PathLike[str], data: bytes) -> None:
+    """Write bytes (a PNG, say) at `path` atomically, like :func:`write_npy_atomic`."""
+
+    def write(f: BinaryIO) -> None:
+        f.write(data)
+
+    _atomic_write(path, write)
