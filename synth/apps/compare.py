@@ -364,9 +364,9 @@ def reveal_table(x: np.ndarray, fs: float, key: int | None = None,
                  f0_hz: float | None = None) -> dict[str, float | None]:
     """The numbers the reveal shows for one stimulus (as heard: matched).
 
-    Same signature as the ``analyze_audio`` of ``synth analyze`` so that it
-    can take this function's place: a flat (or nested) dict of names to
-    numbers.  ``f0_hz`` (a hint: the preset's pitch for the note) or
+    A flat dict of names to numbers: loudness, centroid, f0 and, for a
+    single note, the main numbers of :func:`synth.apps.analyze.analyze_audio`
+    (B, the first six partials' levels and T60s).  ``f0_hz`` (a hint: the preset's pitch for the note) or
     ``key`` (equal temperament, A4 = 440 Hz) lets f0 be measured
     (:func:`synth.analysis.estimate_f0`, +-100 cents around the hint).
     """
@@ -388,6 +388,20 @@ def reveal_table(x: np.ndarray, fs: float, key: int | None = None,
         except ValueError:
             f0 = None
     out["f0_hz"] = f0
+    if hint is not None:
+        # a single note: the synth analyze report's main numbers
+        from synth.apps.analyze import analyze_audio
+        from synth.io.errors import SynthError
+
+        try:
+            r = analyze_audio(x, fs, f0_hz=hint, n_partials=6)
+        except (SynthError, ValueError):
+            r = None
+        if r is not None:
+            out["inharmonicity_b"] = r["inharmonicity_b"]
+            for p in r["partials"]:
+                out[f"partial{p['n']}_level_db"] = p["level_db"]
+                out[f"partial{p['n']}_t60_s"] = p.get("t60_s")
     return out
 
 
