@@ -327,6 +327,8 @@ def cmd_analyze(args) -> int:
 
         if args.set:
             _fail("--set applies to a preset, not to an audio file")
+        if args.contacts:
+            _fail("--contacts needs a preset's note (the telemetry comes from the render)")
         try:
             x, fs = sf.read(target, dtype="float64", always_2d=True)
         except (OSError, RuntimeError) as e:
@@ -340,7 +342,7 @@ def cmd_analyze(args) -> int:
             _fail(f"{target}: no such audio file")
         from .engine.engine import Event
 
-        preset, inst, eng = _engine_for(target, args.set, low_key=args.key)
+        preset, inst, eng = _engine_for(target, args.set, low_key=args.key, probe=args.contacts)
         if preset.kind == "musical" and args.key is None and args.f0 is None:
             _fail(f"{target} is a musical preset: give --key or --f0")
         ev = Event(0.0, "note_on", args.key if args.key is not None else -1, args.velocity / 127.0,
@@ -352,14 +354,43 @@ def cmd_analyze(args) -> int:
         if args.key is not None and args.f0 is None:
             args.f0 = inst.pitch_hz(args.key)     # the voice's own tuning as the reference
     r = analyze_audio(x, fs, key=args.key, f0_hz=args.f0, n_partials=args.partials)
+    if args.contacts:
+        r["contacts"] = _contact_report(inst, eng, args.seconds)
     if args.json:
         print(json.dumps(r, indent=1))
     else:
         print(format_report(r, title))
+        for c in r.get("contacts", []):
+            t, h = c["termination"], c["hammer"]
+            print(f"contacts, string {c['string']}: termination {t['time_in_contact_s'] * 1e3:.2f} ms, "
+                  f"{t['episodes']} episodes, up to {t['max_points']} points; hammer "
+                  f"{h['time_in_contact_s'] * 1e3:.3f} ms, {h['episodes']} episodes, peak "
+                  f"{h['peak_force_n']:.2f} N")
     if args.plot is not None:
         plot_report(x, fs, r, args.plot, title)
         print(f"{args.plot}: spectrogram, partial decays, centroid", file=sys.stderr)
     return 0
+
+
+def _contact_report(inst, eng, seconds: float) -> list:
+    """Contact telemetry of the rendered note, per string: the summary of
+    synth.analysis.contacts and the same in 10 ms frames over time."""
+    from .analysis.contacts import contact_frames, contact_summary
+    from .kernels import strings as K
+
+    n = int(round(seconds * inst.fs))
+    out = []
+    for s in range(eng.spv):
+        ch = eng.probe_channels(s)[:, :n]
+        if not np.any(ch):
+            continue
+        d = {"string": s, **contact_summary(ch[K.P_CONTACT], ch[K.P_F], inst.fs)}
+        fr = contact_frames(ch[K.P_CONTACT], ch[K.P_F], inst.fs, 0.01)
+        d["frames"] = {"time_s": fr[:, 0].tolist(), "termination_contact_share": fr[:, 1].tolist(),
+                       "termination_points_max": fr[:, 2].astype(int).tolist(),
+                       "hammer_contact_share": fr[:, 3].tolist(), "hammer_force_max_n": fr[:, 4].tolist()}
+        out.append(d)
+    return out
 
 
 def cmd_check(args) -> int:
@@ -438,6 +469,9 @@ def build_parser() -> argparse.ArgumentParser:
     a.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
                    help="override a preset value (repeatable)")
     a.add_argument("--partials", type=int, default=12, help="partials to measure (1-64, default 12)")
+    a.add_argument("--contacts", action="store_true",
+                   help="a preset's note: also summarise its contacts per string (termination and "
+                        "hammer: time in contact, episodes, peak force; over time in 10 ms frames)")
     a.add_argument("--json", action="store_true", help="print the report as JSON (docs/analyze.md)")
     a.add_argument("--plot", metavar="OUT.png", help="also draw a PNG (needs the [plots] extra)")
     a.set_defaults(func=cmd_analyze)

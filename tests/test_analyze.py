@@ -111,3 +111,19 @@ def test_a_file_that_is_not_audio(tmp_path):
     p.write_text("not audio")
     r = _cli(p)
     assert r.returncode == 2 and "cannot read the audio" in r.stderr
+
+
+def test_contacts_are_summarised_per_string_and_over_time():
+    """The sitar of Publication II Case 2 keeps touching its jawari; C4 of the
+    grand has three strings, a hammer and no capo bar."""
+    j = json.loads(_cli("paper/sitar-case2", "--seconds", 0.3, "--partials", 3, "--contacts",
+                        "--json").stdout)
+    (c,) = j["contacts"]
+    assert c["termination"]["episodes"] > 10 and c["termination"]["max_points"] > 0
+    assert c["hammer"]["episodes"] == 0
+    assert len(c["frames"]["time_s"]) == 30 and max(c["frames"]["termination_contact_share"]) > 0
+    r = _cli("grand-piano", "--key", 60, "--seconds", 0.5, "--partials", 3, "--contacts")
+    lines = [ln for ln in r.stdout.splitlines() if ln.startswith("contacts, string")]
+    assert len(lines) == 3 and all("termination 0.00 ms" in ln and "peak" in ln for ln in lines)
+    r = _cli("x.wav", "--contacts")
+    assert r.returncode == 2
