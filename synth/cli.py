@@ -501,7 +501,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="override a value of --preset, e.g. --set play.polyphony=32 "
                          "(repeatable)")
     pl.add_argument("--stats", action="store_true",
-                    help="show block time, voices and underruns once a second")
+                    help="show block time, voices and underruns once a second, and the "
+                         "latest note's contacts per string (hammer, termination)")
     pl.add_argument("--list-ports", action="store_true",
                     help="list MIDI input ports and audio output devices, then exit")
     pl.set_defaults(func=cmd_play)

@@ -136,6 +136,10 @@ class Engine:
         self.silence_level = 10.0 ** (silence_dbfs / 20.0)
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
+        #: count the contacts of the latest note's strings (live ``--stats``;
+        #: :meth:`contact_telemetry`)
+        self.telemetry = False
+        self._telem: tuple | None = None     # (voice index, key) of the counted note
 
     # -- events -----------------------------------------------------------------
     def sample_of(self, time_s: float) -> int:
@@ -252,6 +256,8 @@ class Engine:
                     self.inst.pitch_bend(self.bank, slots, key, ev.f0_hz, self.bend[ev.channel])
             for s in self._slots(v):
                 self.bank.reset_quiet(s)
+            if self.telemetry:
+                self._track(v, ev.key if ev.f0_hz is None else None)
         elif ev.kind in (NOTE_OFF, NOTE_ON):
             v = self.by_key.get(vk)
             if v is not None:
@@ -279,6 +285,28 @@ class Engine:
             elif cc == CC_ALL_SOUND_OFF:
                 for v in list(self.voices):
                     self._free(v)
+
+    def _track(self, v: int, key) -> None:
+        """Count the contacts of voice v's strings from now on (and stop
+        counting the previous note's)."""
+        if self._telem is not None and self._telem[0] != v:
+            for s in self._slots(self._telem[0]):
+                self.bank.set_telemetry(s, False)
+        for s in self._slots(v):
+            self.bank.set_telemetry(s, True)
+        self._telem = (v, key)
+
+    def contact_telemetry(self) -> dict | None:
+        """Contacts of the latest note's strings since its note-on (with
+        :attr:`telemetry` on; None before the first note): ``key`` and
+        ``strings``, one :meth:`StringBank.telemetry` dict per sounding
+        string (termination: time in contact, episodes, most points;
+        hammer: time in contact, episodes, peak force)."""
+        if self._telem is None:
+            return None
+        v, key = self._telem
+        strings = [self.bank.telemetry(s) for s in self._slots(v) if self.bank.is_active(s)]
+        return {"key": key, "strings": strings}
 
     def _damp(self, vo: _Voice) -> None:
         self.inst.note_off(self.bank, vo.slots, vo.key_arg, vo.f0_hz, self.pedal)

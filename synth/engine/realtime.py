@@ -133,6 +133,7 @@ class Realtime:
         self._lock = threading.Lock()
         self._pending_swap = None
         self._gc_was_enabled = None
+        self._last_tel = None          # the contact telemetry the last meter line showed
 
     @property
     def engine(self) -> Engine:
@@ -259,11 +260,18 @@ class Realtime:
     # -- reporting ----------------------------------------------------------------
     def meter(self) -> str:
         """One line: blocks, worst and mean block time (fraction of the
-        budget), voices, underruns."""
+        budget), voices, underruns; with the engine's contact telemetry on
+        (:attr:`Engine.telemetry`), the latest note's contacts per string
+        (:func:`contact_meter`)."""
         st = self.stats
-        return (f"blocks {st.blocks}  worst {st.worst_fraction * 100:5.1f}%  mean "
+        line = (f"blocks {st.blocks}  worst {st.worst_fraction * 100:5.1f}%  mean "
                 f"{st.mean_fraction * 100:5.1f}%  voices {self.engine.n_live:3d}  "
                 f"underruns {st.underruns}  shed {st.shed_voices}")
+        if self.engine.telemetry:
+            tel = self.engine.contact_telemetry()
+            line += "  | " + contact_meter(tel, self._last_tel)
+            self._last_tel = tel
+        return line
 
     def report(self) -> str:
         st = self.stats
@@ -273,3 +281,32 @@ class Realtime:
                 f"{st.mean_fraction * 100:.1f}% of the budget; {st.underruns} underruns, "
                 f"{st.overloads} overloaded blocks, {st.shed_voices} voices shed, "
                 f"{st.late_events} late events, {st.errors} errors")
+
+
+def contact_meter(tel: dict | None, prev: dict | None = None) -> str:
+    """The contact part of the meter: for the latest note (``tel``, from
+    :meth:`Engine.contact_telemetry`), per string ``s<i>``: the hammer's
+    time in contact (ms), contact episodes and peak force (N), and the
+    termination's time in contact (ms), episodes and most points in
+    contact; with ``prev`` (the dict the previous line showed, same note)
+    the termination contact time added since then, so the meter shows the
+    contacts over time as well as since the note-on."""
+    if tel is None:
+        return "contacts: no note yet"
+    key = tel["key"]
+    name = "note" if key is None else f"key {key:g}"
+    if not tel["strings"]:
+        return f"contacts {name}: silent"
+    same = prev is not None and prev.get("key") == key and len(prev["strings"]) == len(tel["strings"])
+    parts = []
+    for i, st in enumerate(tel["strings"]):
+        h, t = st["hammer"], st["termination"]
+        p = (f"s{i} hammer {h['time_in_contact_s'] * 1e3:.2f} ms/{h['episodes']} ep/"
+             f"{h['peak_force_n']:.1f} N, termination {t['time_in_contact_s'] * 1e3:.1f} ms/"
+             f"{t['episodes']} ep/{t['max_points']} pts")
+        if same:
+            d = t["time_in_contact_s"] - prev["strings"][i]["termination"]["time_in_contact_s"]
+            if d >= 0:
+                p += f" (+{d * 1e3:.1f} ms)"
+        parts.append(p)
+    return f"contacts {name}: " + "; ".join(parts)

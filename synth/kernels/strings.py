@@ -46,7 +46,8 @@ right-going characteristic (a ring slot) leaves with ``min`` (side +1;
 ``max`` for side -1) of its entry value and ``U(n) + vl(n)`` along its
 path, the left-going values being untouched in the chunk.  The per-sample
 path is the plain reference for it and handles an excitation running
-inside or next to the region and diagnostics (probe, contacts).
+inside or next to the region and diagnostics (probe, contacts, and the
+contact telemetry of ``I_TELEM`` strings: live play's ``--stats``).
 
 How the fast path is written, so that it is fast on every x86-64 target
 (AVX-512, AVX2 and plain SSE2 builds; measured in docs/benchmarks.md):
@@ -117,7 +118,8 @@ I_NDISP = 17     # dispersion: number M of identical first-order allpass section
 I_BOFF = 18      # offset of the pitch-bend delay line in the flat table array
 I_BLEN = 19      # its length (0: no bend line)
 I_CHUNK_FREE = 20  # the same with no excitation running (0 forces per-sample)
-I_NI = 21
+I_TELEM = 21     # 1: contact telemetry into the fst T_* columns (per-sample path), else 0
+I_NI = 22
 
 # ---- excitation kinds (ipar[s, I_EXC]); the only place they are defined: the
 # bank (synth.dsp.bank) and the voices' exciters use these names --------------
@@ -173,7 +175,8 @@ F_HDTV = 35      # dt V (m): the hammer's free travel per step
 F_HC2 = 36       # p (p - 1) / 2 and p (p - 1) (p - 2) / 6: Taylor terms of w^p
 F_HC3 = 37
 F_HB4 = 38       # binomial coefficients C(p, 4) .. C(p, 10) (F_HB4 + j = C(p, 4 + j))
-F_NF = 45
+F_TGAP = 45      # telemetry: contacts fewer than this many samples apart are one episode
+F_NF = 46
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -194,7 +197,17 @@ MAX_DISP = 16
 S_HDG2 = S_D0 + 2 * MAX_DISP   # hammer: g increment of the step before the last
 S_HDG3 = S_HDG2 + 1   # and the one before that
 S_HIW = S_HDG3 + 1    # hammer: 1 / w at the last step (1/m; 0 out of contact)
-S_NS = S_HIW + 1
+# contact telemetry (I_TELEM = 1), the same quantities as
+# synth.analysis.contacts.contact_summary, accumulated sample by sample:
+S_TC_N = S_HIW + 1    # samples with a termination point in contact
+S_TC_EP = S_TC_N + 1  # termination contact episodes (runs F_TGAP or more samples apart)
+S_TC_GAP = S_TC_EP + 1  # samples since the last termination contact (-1: none yet)
+S_TC_PTS = S_TC_GAP + 1  # most termination points in contact at one sample
+S_HC_N = S_TC_PTS + 1  # samples with the hammer felt pressing (F > 0)
+S_HC_EP = S_HC_N + 1  # hammer contact episodes
+S_HC_GAP = S_HC_EP + 1  # samples since the last hammer contact (-1: none yet)
+S_HF_PK = S_HC_GAP + 1  # peak hammer force (N)
+S_NS = S_HF_PK + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -584,6 +597,16 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     hlast = ipar[s, I_HLAST]
     g = st[S_G]
     peak = st[S_PEAK]
+    telem = ipar[s, I_TELEM]
+    tmin = fp[F_TGAP]
+    tcn = st[S_TC_N]
+    tep = st[S_TC_EP]
+    tgap = st[S_TC_GAP]
+    tpts = st[S_TC_PTS]
+    hcn = st[S_HC_N]
+    hep = st[S_HC_EP]
+    hgap = st[S_HC_GAP]
+    hpk = st[S_HF_PK]
     for i in range(n):
         if exc == EXC_ENDED:
             # the excitation ended on the previous sample: fold its constant
@@ -670,6 +693,28 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
         a = abs(v)
         if a > peak:
             peak = a
+        if telem == 1:
+            # contact telemetry, as synth.analysis.contacts.contact_summary
+            # counts it: a run of contact starts an episode unless it follows
+            # the last contact by fewer than tmin samples
+            if ncont > 0:
+                tcn += 1.0
+                if tgap < 0.0 or tgap >= tmin:
+                    tep += 1.0
+                tgap = 0.0
+                if ncont > tpts:
+                    tpts = float(ncont)
+            elif tgap >= 0.0:
+                tgap += 1.0
+            if F > 0.0:
+                hcn += 1.0
+                if hgap < 0.0 or hgap >= tmin:
+                    hep += 1.0
+                hgap = 0.0
+                if F > hpk:
+                    hpk = F
+            elif hgap >= 0.0:
+                hgap += 1.0
         if prow >= 0:
             probe[prow, P_U, o0 + i] = uk
             probe[prow, P_CONTACT, o0 + i] = ncont
@@ -684,6 +729,15 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     fp[F_B0] = b0
     st[S_G] = g
     st[S_PEAK] = peak
+    if telem == 1:
+        st[S_TC_N] = tcn
+        st[S_TC_EP] = tep
+        st[S_TC_GAP] = tgap
+        st[S_TC_PTS] = tpts
+        st[S_HC_N] = hcn
+        st[S_HC_EP] = hep
+        st[S_HC_GAP] = hgap
+        st[S_HF_PK] = hpk
 
 
 @njit(**JIT_OPTS)
@@ -1541,7 +1595,7 @@ def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch):
     fast-path chunks."""
     exc = ipar[s, I_EXC]
     cmax = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
-    if ipar[s, I_PROBE] >= 0 or cmax <= 0:
+    if ipar[s, I_PROBE] >= 0 or ipar[s, I_TELEM] != 0 or cmax <= 0:
         _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
         return
     done = 0
@@ -1620,7 +1674,8 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     nh = 0
     for a in range(n_active):
         s = active[a]
-        if ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_PROBE] < 0 and ipar[s, I_CHUNK] > 0:
+        if (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
+                and ipar[s, I_CHUNK] > 0):
             iwork[nh] = s
             nh += 1
         else:

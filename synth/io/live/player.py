@@ -105,7 +105,9 @@ class Player:
     midi : bool
         Open a MIDI input port (False: messages only via :meth:`handle`).
     stats : bool
-        Print the meter once a second while playing.
+        Print the meter once a second while playing, with the contact
+        telemetry of the latest note's strings (its strings then take the
+        kernel's per-sample path, which counts contacts).
     out : file
         Where status lines, the meter and the report go (stdout).
     overrides : sequence of str
@@ -180,6 +182,7 @@ class Player:
             eng = ready_engine(self.preset_name, self.block, self.instruments,
                                self._overrides_for(self.preset_name))
             self.warm_s = time.perf_counter() - t_call
+            eng.telemetry = self.stats      # --stats: the latest note's contacts on the meter
             self.rt = Realtime(eng, block=self.block, latency_s=self.latency_s)
             # the audio thread must get the GIL quickly even while a program
             # change is built in the background (default switch interval: 5 ms;
@@ -375,6 +378,7 @@ class Player:
             self.handler_errors += 1
             self._say(f"\nprogram {program}: {name} failed: {_one_line(e)}")
             return
+        eng.telemetry = self.stats
         with self._lock:
             if gen != self._gen or self.rt is None:
                 return
