@@ -55,11 +55,13 @@ def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=()):
 
 
 def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
-                       extra_delay=0, n_disp=0, a_disp=0.0):
+                       extra_delay=0, n_disp=0, a_disp=0.0, sos=()):
     """``naive_string`` with the musical far end: the wave arriving at x = L
     goes through [unit delay], the one-pole loss y = b0 x - a1 y1, ``n_disp``
     first-order allpasses (a + z^-1)/(1 + a z^-1) and the tuning allpass
-    (eta), and leaves inverted: u_l(L) = -y.  g is injected every step,
+    (eta), then the second-order allpasses ``sos`` ((c1, c2) per section,
+    (c2 + c1 z^-1 + z^-2)/(1 + c1 z^-1 + c2 z^-2)), and leaves inverted:
+    u_l(L) = -y.  g is injected every step,
     held at its last value forever (no folding).  Returns u_k per step."""
     g = np.asarray(g, float)
     n_steps = len(g) if n_steps is None else n_steps
@@ -70,6 +72,7 @@ def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
     xd = lp = apx = apy = 0.0
     dx1 = np.zeros(n_disp)
     dy1 = np.zeros(n_disp)
+    bq = [[0.0, 0.0, 0.0, 0.0] for _ in sos]      # x1, x2, y1, y2 per section
     for m in range(n_steps):
         gm = g[m] if m < len(g) else g[-1]
         _step(ur, ul, k, gm, U, side, R)
@@ -84,6 +87,12 @@ def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
             y = yd
         yo = eta * y + apx - eta * apy
         apx, apy = y, yo
+        for j, (c1, c2) in enumerate(sos):
+            # (c2 + c1 z^-1 + z^-2) / (1 + c1 z^-1 + c2 z^-2), its own history
+            h = bq[j]
+            yb = c2 * yo + c1 * h[0] + h[1] - c1 * h[2] - c2 * h[3]
+            bq[j] = [yo, h[0], yb, h[2]]
+            yo = yb
         ul[N] = -yo
         out[m] = ur[k] + ul[k] - gm
     return out

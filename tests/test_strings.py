@@ -250,3 +250,33 @@ def test_ended_pluck_on_a_lossy_string_equals_injecting_it_forever(per_sample, s
     ref = naive_lossy_string(N, k, pluck_g(model, n, dt, A, t0, alpha), U=U, side=side,
                              **far)
     assert np.max(np.abs(y - ref)) < 1e-12 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+@pytest.mark.parametrize("n_sos", [1, 2, 3, 4, 5, 9])
+def test_second_order_dispersion_sections_equal_the_naive_loop(per_sample, n_sos):
+    """The far end's second-order allpass cascade (any count: passes of 1-4
+    sections in the fast path) equals the naive scheme's section-by-section
+    filters, with a termination region, first-order sections and blocks
+    that split chunks."""
+    rng = np.random.default_rng(11 + n_sos)
+    N, k, R = 300, 225, 12
+    dx, dt = 1e-3, 1e-5
+    U = _random_profile(rng, R, 1, dx)
+    th = rng.uniform(0.05, 2.5, n_sos)
+    rad = rng.uniform(0.3, 0.95, n_sos)
+    sos = np.column_stack([-2 * rad * np.cos(th), rad * rad])
+    far = dict(b0=0.985, a1=-0.01, eta=0.2, extra_delay=0, n_disp=2, a_disp=-0.3, sos=sos)
+    n = 10 * N
+    y, b = run_bank(N, k, 1, 0.004, 0.0008, 0.0, dt, n, U=U, side=1, per_sample=per_sample,
+                    block=193, lossy=True, **far)
+    ref = naive_lossy_string(N, k, pluck_g(1, n, dt, 0.004, 0.0008, 0.0), U=U, side=1, **far)
+    assert np.max(np.abs(y - ref)) < 1e-11 * np.max(np.abs(ref))
+
+
+def test_unstable_sos_section_is_refused():
+    from synth.dsp.bank import slot_template
+    with pytest.raises(ValueError, match=r"sos section \(c1, c2\) = \(-2.1, 0.9\) is out of range"):
+        slot_template(cells=100, k=10, dt_s=1e-5, U=None, sos=[[-2.1, 0.9]])
+    with pytest.raises(ValueError, match="sos sections = 13 is out of range"):
+        slot_template(cells=100, k=10, dt_s=1e-5, U=None, sos=np.zeros((13, 2)))

@@ -62,7 +62,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
                   extra_delay: int = 0, lossy: bool = False, force_per_sample: bool = False,
                   n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
                   bend_delay: float = 0.0, glide_s: float = 0.002,
-                  bend_glide_s: float = 0.02) -> SlotTemplate:
+                  bend_glide_s: float = 0.02, sos=None) -> SlotTemplate:
     """Validate a string configuration once (parameters as
     :meth:`StringBank.configure`); the bank's own limits (cells, region and
     bend-line sizes) are checked when it is written into a slot."""
@@ -79,13 +79,22 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
         raise ValueError(f"bend_len = {bend_len!r} is out of range (value >= 0)")
     if bend_len and not (1.0 <= bend_delay <= bend_len - 3):
         raise ValueError(f"bend_delay = {bend_delay!r} is out of range (1 <= value <= {bend_len - 3})")
+    sos = np.zeros((0, 2)) if sos is None else np.asarray(sos, dtype=float).reshape(-1, 2)
+    if len(sos) > K.MAX_SOS:
+        raise ValueError(f"sos sections = {len(sos)} is out of range (0 <= value <= {K.MAX_SOS})")
+    for c1, c2 in sos:
+        # a stable allpass section: poles inside the unit circle
+        if not (np.isfinite(c1) and np.isfinite(c2) and abs(c2) < 1.0 and abs(c1) < 1.0 + c2):
+            raise ValueError(f"sos section (c1, c2) = ({float(c1)!r}, {float(c2)!r}) is out of range "
+                             f"(|c2| < 1 and |c1| < 1 + c2: a stable section)")
     ip = np.zeros(K.I_NI, dtype=np.int64)
     ip[K.I_N] = cells
     ip[K.I_K] = k
     ip[K.I_REG_N] = R
     ip[K.I_SIDE] = side
-    ip[K.I_FILT] = 1 if (lossy or n_disp or bend_len) else 0
+    ip[K.I_FILT] = 1 if (lossy or n_disp or bend_len or len(sos)) else 0
     ip[K.I_NDISP] = int(n_disp)
+    ip[K.I_NSOS] = len(sos)
     ip[K.I_BLEN] = int(bend_len)
     ip[K.I_XDELAY] = int(extra_delay)
     ip[K.I_OUT] = int(out_mode)
@@ -103,6 +112,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     fp[K.F_GAIN] = gain
     fp[K.F_TDX] = tension_over_dx
     fp[K.F_ADISP] = a_disp
+    fp[K.F_SOS:K.F_SOS + 2 * len(sos)] = sos.ravel()
     fp[K.F_BDT] = bend_delay
     fp[K.F_BDS] = 1.0 - math.exp(-dt_s / bend_glide_s)
     Uc = None if U is None else np.array(U, dtype=float)
@@ -269,12 +279,15 @@ class StringBank:
                   extra_delay: int = 0, lossy: bool = False,
                   probe_row: int = -1, force_per_sample: bool = False,
                   n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
-                  bend_delay: float = 0.0) -> None:
+                  bend_delay: float = 0.0, sos=None) -> None:
         """Set up slot s as an idle string (zero state, no excitation).
 
         cells : N, 8 .. max_cells.  k : excitation/pickup point, 1 .. N-1.
         U : profile at points 1..R (m), +-inf where no contact, or None for
         the ideal rigid end (the region code then does not run at all).
+        sos : (M, 2) array of (c1, c2), M <= ``K.MAX_SOS``: second-order
+        dispersion allpasses (c2 + c1 z^-1 + z^-2)/(1 + c1 z^-1 + c2 z^-2)
+        after the tuning allpass, or None.
         (Voices that configure at note-on build a :func:`slot_template`
         once and call :meth:`configure_from`.)
         """
@@ -283,7 +296,7 @@ class StringBank:
                           extra_delay=extra_delay, lossy=lossy,
                           force_per_sample=force_per_sample, n_disp=n_disp, a_disp=a_disp,
                           bend_len=bend_len, bend_delay=bend_delay,
-                          glide_s=self.LOSS_GLIDE_S, bend_glide_s=self.BEND_GLIDE_S)
+                          glide_s=self.LOSS_GLIDE_S, bend_glide_s=self.BEND_GLIDE_S, sos=sos)
         self.configure_from(s, t, probe_row)
 
     def configure_from(self, s: int, t: SlotTemplate, probe_row: int = -1) -> None:

@@ -119,7 +119,8 @@ I_BOFF = 18      # offset of the pitch-bend delay line in the flat table array
 I_BLEN = 19      # its length (0: no bend line)
 I_CHUNK_FREE = 20  # the same with no excitation running (0 forces per-sample)
 I_TELEM = 21     # 1: contact telemetry into the fst T_* columns (per-sample path), else 0
-I_NI = 22
+I_NSOS = 22      # dispersion: number of second-order allpass sections (0..MAX_SOS)
+I_NI = 23
 
 # ---- excitation kinds (ipar[s, I_EXC]); the only place they are defined: the
 # bank (synth.dsp.bank) and the voices' exciters use these names --------------
@@ -176,7 +177,11 @@ F_HC2 = 36       # p (p - 1) / 2 and p (p - 1) (p - 2) / 6: Taylor terms of w^p
 F_HC3 = 37
 F_HB4 = 38       # binomial coefficients C(p, 4) .. C(p, 10) (F_HB4 + j = C(p, 4 + j))
 F_TGAP = 45      # telemetry: contacts fewer than this many samples apart are one episode
-F_NF = 46
+# second-order dispersion allpasses (c2 + c1 z^-1 + z^-2) / (1 + c1 z^-1 + c2 z^-2),
+# after the tuning allpass: section j has c1 at F_SOS + 2 j, c2 at F_SOS + 2 j + 1
+F_SOS = 46
+MAX_SOS = 12
+F_NF = F_SOS + 2 * MAX_SOS
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -207,7 +212,9 @@ S_HC_N = S_TC_PTS + 1  # samples with the hammer felt pressing (F > 0)
 S_HC_EP = S_HC_N + 1  # hammer contact episodes
 S_HC_GAP = S_HC_EP + 1  # samples since the last hammer contact (-1: none yet)
 S_HF_PK = S_HC_GAP + 1  # peak hammer force (N)
-S_NS = S_HF_PK + 1
+# second-order sections' states: x1, x2, y1, y2 per section (direct form I)
+S_SOS = S_HF_PK + 1
+S_NS = S_SOS + 4 * MAX_SOS
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -518,7 +525,7 @@ def _bend_line(y, st, U, boff, blen, bdt, bds):
 
 
 @njit(**JIT_OPTS)
-def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st):
+def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, nb, fsos):
     """One sample of the far-end filter at loop position N; returns (x, y, j)
     with j the ring index written.  (The caller glides b0 toward its target
     and, for a string with a pitch-bend line, passes y through
@@ -547,6 +554,23 @@ def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st):
     y = eta * lp + st[S_APX] - eta * st[S_APY]
     st[S_APX] = lp
     st[S_APY] = y
+    # string stiffness: second-order allpasses, direct form I written so that
+    # the recurrence on y1 is one multiply-add (as :func:`_biquads`)
+    for b in range(nb):
+        c1 = fsos[2 * b]
+        c2 = fsos[2 * b + 1]
+        q = S_SOS + 4 * b
+        x1 = st[q]
+        x2 = st[q + 1]
+        y1 = st[q + 2]
+        y2 = st[q + 3]
+        t = c2 * (y - y2) + x2 + c1 * x1
+        yb = t - c1 * y1
+        st[q] = y
+        st[q + 1] = x1
+        st[q + 2] = yb
+        st[q + 3] = y1
+        y = yb
     ring[off + j] = y
     return x, y, j
 
@@ -582,6 +606,8 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     hrel = int(fp[F_HREL])
     nd = ipar[s, I_NDISP]
     ad = fp[F_ADISP]
+    nb = ipar[s, I_NSOS]
+    fsos = fp[F_SOS:F_SOS + 2 * MAX_SOS]
     b0t = fp[F_B0T]
     gk = 1.0 - fp[F_B0S]          # glide b0 <- gk b0 + gc: one multiply-add on
     gc = fp[F_B0S] * b0t          # its recurrence (b0 += b0s (b0t - b0) has two)
@@ -668,7 +694,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
         # 4. far end
         if filt == 1:
             b0 = gk * b0 + gc             # the loss glide toward b0t
-            x, y, jn = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st)
+            x, y, jn = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, nb, fsos)
             if blen > 0:
                 y = _bend_line(y, st, U, boff, blen, bdt, bds)
                 ring[off + jn] = y
@@ -1131,6 +1157,137 @@ def _sections(v_, n, st, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
 
 
 @njit(**SERIAL_OPTS)
+def _biquads(v_, n, st, fp, j0, cnt):
+    """Second-order allpass sections j0 .. j0+cnt-1 (cnt 1..4) of the
+    string's dispersion, (c2 + c1 z^-1 + z^-2) / (1 + c1 z^-1 + c2 z^-2),
+    over v_[0:n] in place, states in registers for the run.  Direct form I,
+    written y = (c2 (x - y2) + x2 + c1 x1) - c1 y1 and compiled without
+    re-association, so that the recurrence on y1 is one multiply-add (the
+    rest waits on values of earlier samples); a cascade's section j+1
+    takes section j's output, so the sections of one pass overlap across
+    samples."""
+    q0 = S_SOS + 4 * j0
+    a0 = fp[F_SOS + 2 * j0]
+    b0 = fp[F_SOS + 2 * j0 + 1]
+    x10 = st[q0]
+    x20 = st[q0 + 1]
+    y10 = st[q0 + 2]
+    y20 = st[q0 + 3]
+    if cnt == 1:
+        for i in range(n):
+            x = v_[i]
+            y = (b0 * (x - y20) + x20 + a0 * x10) - a0 * y10
+            x20 = x10
+            x10 = x
+            y20 = y10
+            y10 = y
+            v_[i] = y
+    elif cnt == 2:
+        q1 = q0 + 4
+        a1 = fp[F_SOS + 2 * j0 + 2]
+        b1 = fp[F_SOS + 2 * j0 + 3]
+        y11 = st[q1 + 2]
+        y21 = st[q1 + 3]
+        for i in range(n):
+            x = v_[i]
+            y = (b0 * (x - y20) + x20 + a0 * x10) - a0 * y10
+            x20 = x10
+            x10 = x
+            z = (b1 * (y - y21) + y20 + a1 * y10) - a1 * y11
+            y20 = y10
+            y10 = y
+            y21 = y11
+            y11 = z
+            v_[i] = z
+        st[q1] = y10
+        st[q1 + 1] = y20
+        st[q1 + 2] = y11
+        st[q1 + 3] = y21
+    elif cnt == 3:
+        q1 = q0 + 4
+        q2 = q0 + 8
+        a1 = fp[F_SOS + 2 * j0 + 2]
+        b1 = fp[F_SOS + 2 * j0 + 3]
+        a2 = fp[F_SOS + 2 * j0 + 4]
+        b2 = fp[F_SOS + 2 * j0 + 5]
+        y11 = st[q1 + 2]
+        y21 = st[q1 + 3]
+        y12 = st[q2 + 2]
+        y22 = st[q2 + 3]
+        for i in range(n):
+            x = v_[i]
+            y = (b0 * (x - y20) + x20 + a0 * x10) - a0 * y10
+            x20 = x10
+            x10 = x
+            z = (b1 * (y - y21) + y20 + a1 * y10) - a1 * y11
+            y20 = y10
+            y10 = y
+            w = (b2 * (z - y22) + y21 + a2 * y11) - a2 * y12
+            y21 = y11
+            y11 = z
+            y22 = y12
+            y12 = w
+            v_[i] = w
+        st[q1] = y10
+        st[q1 + 1] = y20
+        st[q1 + 2] = y11
+        st[q1 + 3] = y21
+        st[q2] = y11
+        st[q2 + 1] = y21
+        st[q2 + 2] = y12
+        st[q2 + 3] = y22
+    else:
+        q1 = q0 + 4
+        q2 = q0 + 8
+        q3 = q0 + 12
+        a1 = fp[F_SOS + 2 * j0 + 2]
+        b1 = fp[F_SOS + 2 * j0 + 3]
+        a2 = fp[F_SOS + 2 * j0 + 4]
+        b2 = fp[F_SOS + 2 * j0 + 5]
+        a3 = fp[F_SOS + 2 * j0 + 6]
+        b3 = fp[F_SOS + 2 * j0 + 7]
+        y11 = st[q1 + 2]
+        y21 = st[q1 + 3]
+        y12 = st[q2 + 2]
+        y22 = st[q2 + 3]
+        y13 = st[q3 + 2]
+        y23 = st[q3 + 3]
+        for i in range(n):
+            x = v_[i]
+            y = (b0 * (x - y20) + x20 + a0 * x10) - a0 * y10
+            x20 = x10
+            x10 = x
+            z = (b1 * (y - y21) + y20 + a1 * y10) - a1 * y11
+            y20 = y10
+            y10 = y
+            w = (b2 * (z - y22) + y21 + a2 * y11) - a2 * y12
+            y21 = y11
+            y11 = z
+            u = (b3 * (w - y23) + y22 + a3 * y12) - a3 * y13
+            y22 = y12
+            y12 = w
+            y23 = y13
+            y13 = u
+            v_[i] = u
+        st[q1] = y10
+        st[q1 + 1] = y20
+        st[q1 + 2] = y11
+        st[q1 + 3] = y21
+        st[q2] = y11
+        st[q2 + 1] = y21
+        st[q2 + 2] = y12
+        st[q2 + 3] = y22
+        st[q3] = y12
+        st[q3 + 1] = y22
+        st[q3 + 2] = y13
+        st[q3 + 3] = y23
+    st[q0] = x10
+    st[q0 + 1] = x20
+    st[q0 + 2] = y10
+    st[q0 + 3] = y20
+
+
+@njit(**SERIAL_OPTS)
 def _head(xin, yo, n, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
     """The far end's first pass over a chunk: the loss glide
     (b0 <- gk b0 + gc, toward F_B0T), the one-pole loss
@@ -1310,6 +1467,14 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
         s3 = S_D0 + 2 * j + 6 if j + 3 < nd else S_APX
         c3 = ad if j + 3 < nd else eta
         _sections(yo, C, st, cnt, s0, s1, s2, s3, c0, c1, c2, c3)
+        j += cnt
+    nb = ipar[s, I_NSOS]
+    j = 0
+    while j < nb:
+        cnt = nb - j
+        if cnt > 4:
+            cnt = 4
+        _biquads(yo, C, st, fp, j, cnt)
         j += cnt
     if io == 0:
         st[S_XD] = xb[C]
