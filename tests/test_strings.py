@@ -280,3 +280,31 @@ def test_unstable_sos_section_is_refused():
         slot_template(cells=100, k=10, dt_s=1e-5, U=None, sos=[[-2.1, 0.9]])
     with pytest.raises(ValueError, match="sos sections = 13 is out of range"):
         slot_template(cells=100, k=10, dt_s=1e-5, U=None, sos=np.zeros((13, 2)))
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+@pytest.mark.parametrize("out_mode,lossy", [(0, True), (1, True), (1, False)])
+def test_two_buses_split_the_output_by_pan(per_sample, out_mode, lossy):
+    """A string with a pan adds (1 - pan) of its output to bus 0 and pan to
+    bus 1 of a two-row mix; the same string without a pan (or into a one-row
+    mix) puts all of it on bus 0: the same samples."""
+    N, k, dt = 200, 150, 1e-5
+    kw = dict(cells=N, k=k, dt_s=dt, U=None, out_mode=out_mode, lossy=lossy, b0=0.99,
+              tension_over_dx=10.0, force_per_sample=per_sample)
+    outs = []
+    for pan, rows in ((None, 1), (0.3, 2), (0.3, 1), (None, 2)):
+        b = StringBank(1, N + 2, 1, 2048)
+        b.configure(0, pan=pan, **kw)
+        b.activate(0)
+        b.start_pluck(0, 1, 0.003, 0.0008)
+        mix = np.zeros((rows, 3 * N))
+        for o in range(0, 3 * N, 97):
+            b.render(mix, o, min(97, 3 * N - o))
+        outs.append(mix)
+    mono = outs[0][0]
+    assert np.max(np.abs(mono)) > 0
+    np.testing.assert_allclose(outs[1][0], 0.7 * mono, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(outs[1][1], 0.3 * mono, rtol=1e-12, atol=1e-18)
+    np.testing.assert_array_equal(outs[2][0], mono)          # one row: all on bus 0
+    np.testing.assert_array_equal(outs[3][0], mono)
+    assert not outs[3][1].any()

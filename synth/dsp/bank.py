@@ -62,7 +62,8 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
                   extra_delay: int = 0, lossy: bool = False, force_per_sample: bool = False,
                   n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
                   bend_delay: float = 0.0, glide_s: float = 0.002,
-                  bend_glide_s: float = 0.02, sos=None) -> SlotTemplate:
+                  bend_glide_s: float = 0.02, sos=None,
+                  pan: float | None = None) -> SlotTemplate:
     """Validate a string configuration once (parameters as
     :meth:`StringBank.configure`); the bank's own limits (cells, region and
     bend-line sizes) are checked when it is written into a slot."""
@@ -87,6 +88,8 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
         if not (np.isfinite(c1) and np.isfinite(c2) and abs(c2) < 1.0 and abs(c1) < 1.0 + c2):
             raise ValueError(f"sos section (c1, c2) = ({float(c1)!r}, {float(c2)!r}) is out of range "
                              f"(|c2| < 1 and |c1| < 1 + c2: a stable section)")
+    if pan is not None and not (0.0 <= pan <= 1.0):
+        raise ValueError(f"pan = {pan!r} is out of range (0 <= value <= 1)")
     ip = np.zeros(K.I_NI, dtype=np.int64)
     ip[K.I_N] = cells
     ip[K.I_K] = k
@@ -95,6 +98,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     ip[K.I_FILT] = 1 if (lossy or n_disp or bend_len or len(sos)) else 0
     ip[K.I_NDISP] = int(n_disp)
     ip[K.I_NSOS] = len(sos)
+    ip[K.I_BUS] = 0 if pan is None else 1
     ip[K.I_BLEN] = int(bend_len)
     ip[K.I_XDELAY] = int(extra_delay)
     ip[K.I_OUT] = int(out_mode)
@@ -113,6 +117,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     fp[K.F_TDX] = tension_over_dx
     fp[K.F_ADISP] = a_disp
     fp[K.F_SOS:K.F_SOS + 2 * len(sos)] = sos.ravel()
+    fp[K.F_PAN] = 0.0 if pan is None else float(pan)
     fp[K.F_BDT] = bend_delay
     fp[K.F_BDS] = 1.0 - math.exp(-dt_s / bend_glide_s)
     Uc = None if U is None else np.array(U, dtype=float)
@@ -279,7 +284,7 @@ class StringBank:
                   extra_delay: int = 0, lossy: bool = False,
                   probe_row: int = -1, force_per_sample: bool = False,
                   n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
-                  bend_delay: float = 0.0, sos=None) -> None:
+                  bend_delay: float = 0.0, sos=None, pan: float | None = None) -> None:
         """Set up slot s as an idle string (zero state, no excitation).
 
         cells : N, 8 .. max_cells.  k : excitation/pickup point, 1 .. N-1.
@@ -288,6 +293,8 @@ class StringBank:
         sos : (M, 2) array of (c1, c2), M <= ``K.MAX_SOS``: second-order
         dispersion allpasses (c2 + c1 z^-1 + z^-2)/(1 + c1 z^-1 + c2 z^-2)
         after the tuning allpass, or None.
+        pan : share (0..1) of the string's output on bus 1 of a two-bus mix
+        (1 - pan on bus 0), or None: all of it on bus 0.
         (Voices that configure at note-on build a :func:`slot_template`
         once and call :meth:`configure_from`.)
         """
@@ -296,7 +303,8 @@ class StringBank:
                           extra_delay=extra_delay, lossy=lossy,
                           force_per_sample=force_per_sample, n_disp=n_disp, a_disp=a_disp,
                           bend_len=bend_len, bend_delay=bend_delay,
-                          glide_s=self.LOSS_GLIDE_S, bend_glide_s=self.BEND_GLIDE_S, sos=sos)
+                          glide_s=self.LOSS_GLIDE_S, bend_glide_s=self.BEND_GLIDE_S, sos=sos,
+                          pan=pan)
         self.configure_from(s, t, probe_row)
 
     def configure_from(self, s: int, t: SlotTemplate, probe_row: int = -1) -> None:
@@ -555,7 +563,12 @@ class StringBank:
 
     # -- rendering --------------------------------------------------------------
     def render(self, mix: np.ndarray, o0: int, n: int) -> None:
-        """Render n internal samples of all active strings into mix[o0:o0+n]."""
+        """Render n internal samples of all active strings into
+        mix[o0:o0+n] (1-D: one bus) or mix[:, o0:o0+n] (2-D: a row per
+        output bus, C-contiguous; strings set to two buses split their
+        output between rows 0 and 1)."""
+        if mix.ndim == 1:
+            mix = mix.reshape(1, -1)
         if self.n_probes:
             self.ensure_probe_length(o0 + n)
         done = 0

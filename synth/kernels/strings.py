@@ -120,7 +120,8 @@ I_BLEN = 19      # its length (0: no bend line)
 I_CHUNK_FREE = 20  # the same with no excitation running (0 forces per-sample)
 I_TELEM = 21     # 1: contact telemetry into the fst T_* columns (per-sample path), else 0
 I_NSOS = 22      # dispersion: number of second-order allpass sections (0..MAX_SOS)
-I_NI = 23
+I_BUS = 23       # output buses: 0 bus 0 only; 1 split between buses 0 and 1 by F_PAN
+I_NI = 24
 
 # ---- excitation kinds (ipar[s, I_EXC]); the only place they are defined: the
 # bank (synth.dsp.bank) and the voices' exciters use these names --------------
@@ -181,7 +182,8 @@ F_TGAP = 45      # telemetry: contacts fewer than this many samples apart are on
 # after the tuning allpass: section j has c1 at F_SOS + 2 j, c2 at F_SOS + 2 j + 1
 F_SOS = 46
 MAX_SOS = 12
-F_NF = F_SOS + 2 * MAX_SOS
+F_PAN = F_SOS + 2 * MAX_SOS   # share of the output on bus 1 (I_BUS = 1): (1 - pan) to bus 0
+F_NF = F_PAN + 1
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -578,7 +580,7 @@ def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, nb, fsos):
 @njit(**JIT_OPTS)
 def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     """Plain per-sample scheme for string s over n samples, mixing into
-    mix[o0:o0+n].  Reference for the fast path; also used when the
+    mix[:, o0:o0+n].  Reference for the fast path; also used when the
     excitation lies inside or next to the region (I_CHUNK = 0, e.g. the top
     keys' hammers on the capo bar) and for probes."""
     off = ipar[s, I_OFF]
@@ -623,6 +625,8 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     hlast = ipar[s, I_HLAST]
     g = st[S_G]
     peak = st[S_PEAK]
+    two = ipar[s, I_BUS] == 1 and mix.shape[0] > 1
+    pan = fp[F_PAN]
     telem = ipar[s, I_TELEM]
     tmin = fp[F_TGAP]
     tcn = st[S_TC_N]
@@ -715,7 +719,11 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
             # u(N-1) - u(N); for the ideal end u(N) = 0 and vl(N-1) = ring[jb]
             sig = tdx * ((ring[off + ja] - ring[off + jb]) - (x - y))
         v = gain * sig
-        mix[o0 + i] += v
+        if two:
+            mix[0, o0 + i] += v - pan * v
+            mix[1, o0 + i] += pan * v
+        else:
+            mix[0, o0 + i] += v
         a = abs(v)
         if a > peak:
             peak = a
@@ -1408,11 +1416,11 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, hb):
 
 
 @njit(**JIT_OPTS)
-def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
+def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, ob):
     """Step 4 of the fast path over a chunk: the far-end filter on the C
     samples turning round at x = L (contiguous ring slots j0 .. j0+C-1),
-    its state in registers; then the bridge-force output (``I_OUT`` 1).
-    Returns the chunk's peak output."""
+    its state in registers; then the bridge-force output (``I_OUT`` 1)
+    into ob[0:C].  Returns the chunk's peak output."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
@@ -1490,13 +1498,30 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, xb, yb, hb):
         xn = xb[2:2 + C]
         x_ = xb[1:1 + C]
         yp = yb[0:C]
-        mo = mix[o0:o0 + C]
+        mo = ob[0:C]
         for i in range(C):
             v = sc * ((xn[i] - yp[i]) - (x_[i] - yo[i]))
-            mo[i] += v
+            mo[i] = v
             a = abs(v)
             peak = a if a > peak else peak
     return peak
+
+
+@njit(**JIT_OPTS)
+def _bus_add(mix, o0, C, ob, two, pan):
+    """Add a string's chunk output ob[0:C] to the mix: all of it to bus 0,
+    or (with ``two``) (1 - pan) of it to bus 0 and pan to bus 1."""
+    m0 = mix[0, o0:o0 + C]
+    o = ob[0:C]
+    if two:
+        m1 = mix[1, o0:o0 + C]
+        g0 = 1.0 - pan
+        for i in range(C):
+            m0[i] += g0 * o[i]
+            m1[i] += pan * o[i]
+    else:
+        for i in range(C):
+            m0[i] += o[i]
 
 
 #: hammered strings the fast path steps together (:func:`_render_group`)
@@ -1577,9 +1602,11 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking):
     gain = fpar[s, F_GAIN]
     peak = st[S_PEAK]
     outm = ipar[s, I_OUT]
+    out = False
     if ipar[s, I_FILT] == 1:
-        pk = _far_chunk(s, ring, ipar, fpar, fst, U, C, o0, mix, w1, w2, hb)
+        pk = _far_chunk(s, ring, ipar, fpar, fst, U, C, w1, w2, hb, w3)
         peak = pk if pk > peak else peak
+        out = outm == 1
     elif outm == 1:
         # ideal far end: u(N-1) - u(N) = u_r(N-1) - vl(N-1)
         sc = gain * fpar[s, F_TDX]
@@ -1591,12 +1618,13 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking):
             jb += P
         _ring_get(ring, off, P, ja, w1[0:C], 1.0)
         _ring_get(ring, off, P, jb, w2[0:C], 1.0)
-        mo = mix[o0:o0 + C]
+        mo = w3[0:C]
         for i in range(C):
             v = sc * (w1[i] - w2[i])
-            mo[i] += v
+            mo[i] = v
             a = abs(v)
             peak = a if a > peak else peak
+        out = True
     if outm == 0:
         j1 = m0 + 1 - k
         if j1 < 0:
@@ -1606,19 +1634,22 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking):
             j2 -= P
         _ring_get(ring, off, P, j1, w1[0:C], 1.0)
         _ring_get(ring, off, P, j2, w2[0:C], 1.0)
-        mo = mix[o0:o0 + C]
+        mo = w3[0:C]
         if plucking:
             for i in range(C):
                 v = gain * (w1[i] - w2[i] - gbuf[i])
-                mo[i] += v
+                mo[i] = v
                 a = abs(v)
                 peak = a if a > peak else peak
         else:
             for i in range(C):
                 v = gain * (w1[i] - w2[i])
-                mo[i] += v
+                mo[i] = v
                 a = abs(v)
                 peak = a if a > peak else peak
+        out = True
+    if out:
+        _bus_add(mix, o0, C, w3, ipar[s, I_BUS] == 1 and mix.shape[0] > 1, fpar[s, F_PAN])
     st[S_PEAK] = peak
     m1 = m0 + C
     if m1 >= P:
@@ -1756,7 +1787,7 @@ def _excite_group(ring, ipar, fpar, fst, C, mem, G, scratch, ist):
 
 @njit(**JIT_OPTS)
 def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch):
-    """n samples of string s into mix[o0:o0+n]: the per-sample path or
+    """n samples of string s into mix[:, o0:o0+n]: the per-sample path or
     fast-path chunks."""
     exc = ipar[s, I_EXC]
     cmax = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
@@ -1822,7 +1853,9 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
 def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                 probe, scratch, iwork):
     """Render ``n`` internal samples of every active string into
-    ``mix[o0:o0+n]`` (accumulating).
+    ``mix[:, o0:o0+n]`` (accumulating).  ``mix`` is 2-D: one row per output
+    bus; a string with ``I_BUS`` 1 splits its output between rows 0 and 1
+    (by ``F_PAN``) when there are two, every other string adds to row 0.
 
     ring : float64[:]        all rings, concatenated
     ipar, fpar, fst : 2-D     parameter and state tables (columns above)
