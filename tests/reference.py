@@ -185,3 +185,66 @@ def hammer_on_ideal_string(N, k, dt, n_steps, *, law, m, V, Q, p, A, tau0, T, c)
         g[mm] = g1
         gprev = g1
     return g
+
+
+def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
+    """Lossy strings (``naive_lossy_string``'s far end, bridge-force output)
+    whose ends at x = L sit on one bridge: each step every string's outgoing
+    wave is its loop filter's output minus the bridge displacement u_b(m)
+    (u(L) = u_r + u_l follows the bridge), their forces T/dx (u(N-1) - u(N))
+    are summed into F(m), and u_b(m+1) = bra u_b(m) + brb F(m).  With
+    ``ubx`` (one value per step) the bridge is external: u_b(m) = ubx[m] and
+    F is not fed back.
+
+    strings : list of dicts with N, k, g (outgoing wave per step, held at
+        its last value), b0, a1, eta, tdx (T/dx, N/m), gain, and optional
+        extra_delay, n_disp, a_disp, sos, U, side.
+    Returns (summed output per step, u_b per step).
+    """
+    st = []
+    for d in strings:
+        N = d["N"]
+        st.append(dict(d, ur=np.zeros(N + 1), ul=np.zeros(N + 1), xd=0.0, lp=0.0, apx=0.0,
+                       apy=0.0, dx1=np.zeros(d.get("n_disp", 0)), dy1=np.zeros(d.get("n_disp", 0)),
+                       bq=[[0.0] * 4 for _ in d.get("sos", ())],
+                       g=np.asarray(d["g"], float)))
+    out = np.zeros(n_steps)
+    ubs = np.zeros(n_steps)
+    ub = 0.0
+    for m in range(n_steps):
+        if ubx is not None:
+            ub = ubx[m]
+        ubs[m] = ub
+        F = 0.0
+        for d in st:
+            ur, ul, N, k = d["ur"], d["ul"], d["N"], d["k"]
+            g = d["g"]
+            gm = g[m] if m < len(g) else g[-1]
+            U = d.get("U")
+            _step(ur, ul, k, gm, U, d.get("side", 1), 0 if U is None else len(U))
+            x = ur[N]
+            if d.get("extra_delay", 0):
+                x, d["xd"] = d["xd"], x
+            d["lp"] = d["b0"] * x - d["a1"] * d["lp"]
+            y = d["lp"]
+            for j in range(d.get("n_disp", 0)):
+                a = d["a_disp"]
+                yd = a * y + d["dx1"][j] - a * d["dy1"][j]
+                d["dx1"][j], d["dy1"][j] = y, yd
+                y = yd
+            yo = d["eta"] * y + d["apx"] - d["eta"] * d["apy"]
+            d["apx"], d["apy"] = y, yo
+            for j, (c1, c2) in enumerate(d.get("sos", ())):
+                h = d["bq"][j]
+                yb = c2 * yo + c1 * h[0] + h[1] - c1 * h[2] - c2 * h[3]
+                d["bq"][j] = [yo, h[0], yb, h[2]]
+                yo = yb
+            yo -= ub
+            ul[N] = -yo
+            # the force on the bridge, T/dx (u(N-1) - u(N)), with u(N) = x_arriving - y
+            f = d["tdx"] * ((ur[N - 1] + ul[N - 1]) - (ur[N] + ul[N]))
+            F += f
+            out[m] += d["gain"] * f
+        if ubx is None:
+            ub = bra * ub + brb * F
+    return out, ubs

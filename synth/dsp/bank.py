@@ -63,7 +63,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
                   n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
                   bend_delay: float = 0.0, glide_s: float = 0.002,
                   bend_glide_s: float = 0.02, sos=None,
-                  pan: float | None = None) -> SlotTemplate:
+                  pan: float | None = None, sub: int = 1) -> SlotTemplate:
     """Validate a string configuration once (parameters as
     :meth:`StringBank.configure`); the bank's own limits (cells, region and
     bend-line sizes) are checked when it is written into a slot."""
@@ -90,6 +90,8 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
                              f"(|c2| < 1 and |c1| < 1 + c2: a stable section)")
     if pan is not None and not (0.0 <= pan <= 1.0):
         raise ValueError(f"pan = {pan!r} is out of range (0 <= value <= 1)")
+    if not (1 <= int(sub) <= K.MAX_SUB) or int(sub) != sub:
+        raise ValueError(f"sub = {sub!r} is out of range (integer, 1 <= value <= {K.MAX_SUB})")
     ip = np.zeros(K.I_NI, dtype=np.int64)
     ip[K.I_N] = cells
     ip[K.I_K] = k
@@ -99,6 +101,8 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     ip[K.I_NDISP] = int(n_disp)
     ip[K.I_NSOS] = len(sos)
     ip[K.I_BUS] = 0 if pan is None else 1
+    ip[K.I_CPL] = K.CPL_NONE
+    ip[K.I_SUB] = int(sub)
     ip[K.I_BLEN] = int(bend_len)
     ip[K.I_XDELAY] = int(extra_delay)
     ip[K.I_OUT] = int(out_mode)
@@ -221,6 +225,10 @@ class StringBank:
         # fast-path chunks never exceed max_block (the kernel's scratch layout)
         self.scratch = np.zeros(K.scratch_length(self.max_block, self.max_region, self.max_bend))
         self.iwork = np.zeros(self.capacity + K.IWORK_EXTRA, dtype=np.int64)
+        # staging mix of strings on a finer grid (two buses); an external
+        # bridge's displacement when the caller gives none (all zero)
+        self.sub = np.zeros((2, K.sub_length(self.max_block)))
+        self._still = np.zeros(0)
         # dampers, per slot: loss b0 undamped, loop frequency f1 (Hz), T60 with
         # the damper down and T60 free (s; inf: no free decay to keep)
         self.damper = np.zeros((self.capacity, 4))
@@ -242,6 +250,8 @@ class StringBank:
             self.ipar[s, K.I_BOFF] = (self.capacity * (self.max_region + self.max_gtable)
                                       + s * self.max_bend)
             self.ipar[s, K.I_PROBE] = -1
+            self.ipar[s, K.I_CPL] = K.CPL_NONE
+            self.ipar[s, K.I_SUB] = 1
 
     # -- slot management ------------------------------------------------------
     def activate(self, s: int) -> None:
@@ -284,7 +294,8 @@ class StringBank:
                   extra_delay: int = 0, lossy: bool = False,
                   probe_row: int = -1, force_per_sample: bool = False,
                   n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
-                  bend_delay: float = 0.0, sos=None, pan: float | None = None) -> None:
+                  bend_delay: float = 0.0, sos=None, pan: float | None = None,
+                  sub: int = 1) -> None:
         """Set up slot s as an idle string (zero state, no excitation).
 
         cells : N, 8 .. max_cells.  k : excitation/pickup point, 1 .. N-1.
@@ -295,6 +306,10 @@ class StringBank:
         after the tuning allpass, or None.
         pan : share (0..1) of the string's output on bus 1 of a two-bus mix
         (1 - pan on bus 0), or None: all of it on bus 0.
+        sub : steps per engine sample, 1 .. ``K.MAX_SUB``: a string on a
+        finer grid runs at ``sub`` times the engine's internal rate (its
+        ``dt_s`` is the engine's over ``sub``) and its output is the mean
+        of each engine sample's steps.
         (Voices that configure at note-on build a :func:`slot_template`
         once and call :meth:`configure_from`.)
         """
@@ -304,7 +319,7 @@ class StringBank:
                           force_per_sample=force_per_sample, n_disp=n_disp, a_disp=a_disp,
                           bend_len=bend_len, bend_delay=bend_delay,
                           glide_s=self.LOSS_GLIDE_S, bend_glide_s=self.BEND_GLIDE_S, sos=sos,
-                          pan=pan)
+                          pan=pan, sub=sub)
         self.configure_from(s, t, probe_row)
 
     def configure_from(self, s: int, t: SlotTemplate, probe_row: int = -1) -> None:
@@ -344,7 +359,8 @@ class StringBank:
         inactive slot."""
         if self._is_active[s]:
             P = 2 * int(self.ipar[s, K.I_N])
-            self.set_loss(s, float(self.fpar[s, K.F_B0T]) * 10.0 ** (-3.0 * P / (fs_hz * t60_s)))
+            fs = fs_hz * int(self.ipar[s, K.I_SUB])       # a string on a finer grid
+            self.set_loss(s, float(self.fpar[s, K.F_B0T]) * 10.0 ** (-3.0 * P / (fs * t60_s)))
             self.ipar[s, K.I_FILT] = 1
 
     def excitation_running(self, s: int) -> bool:
@@ -364,7 +380,21 @@ class StringBank:
             return self._done[:0]
         nd = K.scan_silence(self.active, self.n_active, self.ipar, self.fst, self.quiet,
                             self.last_peak, n_in, level, min_quiet, self._done)
-        return self._done[:nd]
+        done = self._done[:nd]
+        if nd and np.any(self.ipar[done, K.I_CPL] >= 0):
+            # a coupled group goes only as a whole (its leader renders it)
+            lead = self.ipar[done, K.I_CPL]
+            keep = np.ones(nd, dtype=bool)
+            for j in np.flatnonzero(lead >= 0):
+                L, G = int(lead[j]), int(self.ipar[lead[j], K.I_CPLN])
+                members = range(L, L + G)
+                if not all((m in done) or not self._is_active[m] for m in members):
+                    keep[j] = False
+            if not keep.all():
+                nk = int(np.count_nonzero(keep))
+                self._done[:nk] = done[keep]
+                return self._done[:nk]
+        return done
 
     def reset_quiet(self, s: int) -> None:
         """Restart slot s's silence count (a note-on: it sounds again)."""
@@ -518,6 +548,55 @@ class StringBank:
         ip[K.I_EXC_END] = t.e_end
         ip[K.I_HLAST] = -1
 
+    # -- bridges ----------------------------------------------------------------
+    def couple(self, slots, resistance_ns_per_m: float, return_hz: float = 5.0) -> None:
+        """Put the strings of ``slots`` (consecutive, 1 .. ``K.MAX_CPL``,
+        configured lossy, with the bridge-force output, no pitch-bend line,
+        the same grid) on one bridge: a dashpot of resistance
+        ``resistance_ns_per_m`` (N s/m, > 0) with a spring that brings it
+        back at ``return_hz`` (Hz, >= 0; keeps it from drifting), driven by
+        the strings' summed force, whose motion every string's end follows
+        (Weinreich's coupled unison).  Every slot must be activated
+        (:meth:`activate`): the group renders from its first slot.  The
+        bridge starts at rest."""
+        slots = [int(x) for x in slots]
+        G = len(slots)
+        if not (1 <= G <= K.MAX_CPL) or slots != list(range(slots[0], slots[0] + G)):
+            raise ValueError(f"slots = {slots!r} is out of range (1 to {K.MAX_CPL} consecutive slots)")
+        if not (resistance_ns_per_m > 0.0) or not math.isfinite(resistance_ns_per_m):
+            raise ValueError(f"resistance_ns_per_m = {resistance_ns_per_m!r} is out of range (value > 0)")
+        if not (return_hz >= 0.0):
+            raise ValueError(f"return_hz = {return_hz!r} is out of range (value >= 0)")
+        lead = slots[0]
+        for s in slots:
+            ip = self.ipar[s]
+            if ip[K.I_FILT] != 1 or ip[K.I_OUT] != 1 or ip[K.I_BLEN] != 0:
+                raise ValueError(f"slot {s} cannot hang on a bridge (it needs a lossy far end, "
+                                 f"the bridge-force output and no pitch-bend line)")
+            if ip[K.I_SUB] != self.ipar[lead, K.I_SUB]:
+                raise ValueError(f"slot {s} runs on another grid than slot {lead}")
+        dt = float(self.fpar[lead, K.F_DT])
+        for s in slots:
+            self.ipar[s, K.I_CPL] = lead
+            self.ipar[s, K.I_CPLN] = G
+        self.fpar[lead, K.F_BRB] = dt / resistance_ns_per_m
+        self.fpar[lead, K.F_BRA] = math.exp(-2.0 * math.pi * return_hz * dt)
+        self.fpar[lead, K.F_BTDX] = float(np.sum(self.fpar[slots, K.F_TDX]))
+        self.fst[lead, K.S_UB0] = 0.0
+        self.fst[lead, K.S_UBM] = 0.0
+
+    def set_external_bridge(self, s: int) -> None:
+        """Hang slot s (lossy, bridge-force output, no bend line, the
+        engine's grid) on an external bridge whose displacement comes to
+        :meth:`render` as ``ubx``: a string driven by the rest of the
+        instrument (a sympathetic string)."""
+        ip = self.ipar[s]
+        if ip[K.I_FILT] != 1 or ip[K.I_OUT] != 1 or ip[K.I_BLEN] != 0 or ip[K.I_SUB] != 1:
+            raise ValueError(f"slot {s} cannot hang on an external bridge (it needs a lossy far "
+                             f"end, the bridge-force output, no pitch-bend line, sub = 1)")
+        ip[K.I_CPL] = K.CPL_EXTERNAL
+        ip[K.I_CPLN] = 0
+
     # -- contact telemetry (live play's --stats) -------------------------------
     TELEMETRY_GAP_S = 0.0002
 
@@ -562,13 +641,23 @@ class StringBank:
             self.probe = np.zeros((self.probe.shape[0], K.P_NCH, n))
 
     # -- rendering --------------------------------------------------------------
-    def render(self, mix: np.ndarray, o0: int, n: int) -> None:
+    def render(self, mix: np.ndarray, o0: int, n: int, ubx: np.ndarray | None = None) -> None:
         """Render n internal samples of all active strings into
         mix[o0:o0+n] (1-D: one bus) or mix[:, o0:o0+n] (2-D: a row per
         output bus, C-contiguous; strings set to two buses split their
-        output between rows 0 and 1)."""
+        output between rows 0 and 1).  ``ubx``: the displacement (m) of the
+        external bridge that strings set by :meth:`set_external_bridge`
+        hang on, per sample, indexed like ``mix`` (None: it stays still)."""
         if mix.ndim == 1:
             mix = mix.reshape(1, -1)
+        if mix.shape[0] > 2:
+            raise ValueError(f"mix rows = {mix.shape[0]} is out of range (1 or 2 buses)")
+        if ubx is None:
+            if self._still.shape[0] < mix.shape[1]:
+                self._still = np.zeros(mix.shape[1])
+            ubx = self._still
+        elif ubx.shape[0] < o0 + n:
+            raise ValueError(f"ubx has {ubx.shape[0]} samples, fewer than o0 + n = {o0 + n}")
         if self.n_probes:
             self.ensure_probe_length(o0 + n)
         done = 0
@@ -576,7 +665,7 @@ class StringBank:
             c = min(n - done, self.max_block)
             K.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
                           self.active, self.n_active, c, o0 + done, mix,
-                          self.probe, self.scratch, self.iwork)
+                          self.probe, self.scratch, self.iwork, ubx, self.sub)
             done += c
 
     # -- inspection (tests, analysis) ----------------------------------------

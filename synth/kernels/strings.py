@@ -121,7 +121,18 @@ I_CHUNK_FREE = 20  # the same with no excitation running (0 forces per-sample)
 I_TELEM = 21     # 1: contact telemetry into the fst T_* columns (per-sample path), else 0
 I_NSOS = 22      # dispersion: number of second-order allpass sections (0..MAX_SOS)
 I_BUS = 23       # output buses: 0 bus 0 only; 1 split between buses 0 and 1 by F_PAN
-I_NI = 24
+I_CPL = 24       # bridge coupling: CPL_NONE; the leader slot of a coupled group (>= 0);
+                 #   or CPL_EXTERNAL (the bridge's motion comes from the ``ubx`` array)
+I_CPLN = 25      # strings in the coupled group (slots I_CPL .. I_CPL + I_CPLN - 1)
+I_SUB = 26       # steps per engine sample (a finer grid: the string runs at I_SUB x the rate)
+I_NI = 27
+
+CPL_NONE = -1
+CPL_EXTERNAL = -2
+#: most strings in a coupled group (a piano key's unison)
+MAX_CPL = 4
+#: finest grid: steps per engine sample
+MAX_SUB = 8
 
 # ---- excitation kinds (ipar[s, I_EXC]); the only place they are defined: the
 # bank (synth.dsp.bank) and the voices' exciters use these names --------------
@@ -183,7 +194,12 @@ F_TGAP = 45      # telemetry: contacts fewer than this many samples apart are on
 F_SOS = 46
 MAX_SOS = 12
 F_PAN = F_SOS + 2 * MAX_SOS   # share of the output on bus 1 (I_BUS = 1): (1 - pan) to bus 0
-F_NF = F_PAN + 1
+# the bridge of a coupled group (on its leader): u_b(n+1) = BRA u_b(n) + BRB F(n), with
+# F(n) the strings' summed force on it (N); BTDX = the members' summed T / dx (N/m)
+F_BRA = F_PAN + 1
+F_BRB = F_BRA + 1
+F_BTDX = F_BRB + 1
+F_NF = F_BTDX + 1
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -216,7 +232,9 @@ S_HC_GAP = S_HC_EP + 1  # samples since the last hammer contact (-1: none yet)
 S_HF_PK = S_HC_GAP + 1  # peak hammer force (N)
 # second-order sections' states: x1, x2, y1, y2 per section (direct form I)
 S_SOS = S_HF_PK + 1
-S_NS = S_SOS + 4 * MAX_SOS
+S_UB0 = S_SOS + 4 * MAX_SOS   # coupled group (leader): bridge displacement at the next sample (m)
+S_UBM = S_UB0 + 1             # and at the sample before it
+S_NS = S_UBM + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -578,11 +596,18 @@ def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, nb, fsos):
 
 
 @njit(**JIT_OPTS)
-def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
+def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, cf, po0, psub):
     """Plain per-sample scheme for string s over n samples, mixing into
     mix[:, o0:o0+n].  Reference for the fast path; also used when the
     excitation lies inside or next to the region (I_CHUNK = 0, e.g. the top
-    keys' hammers on the capo bar) and for probes."""
+    keys' hammers on the capo bar) and for probes.
+
+    A string on a bridge (``I_CPL`` not ``CPL_NONE``) has the bridge's
+    displacement ubx[uo + i] subtracted from its outgoing wave at x = L at
+    sample i; a member of a coupled group adds its force on the bridge
+    (N, before the output gain) to cf[0].  Probe values of sample i go to
+    index po0 + i // psub (a string on a finer grid: its last step of each
+    engine sample)."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
@@ -627,6 +652,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
     peak = st[S_PEAK]
     two = ipar[s, I_BUS] == 1 and mix.shape[0] > 1
     pan = fp[F_PAN]
+    cpl = ipar[s, I_CPL]
     telem = ipar[s, I_TELEM]
     tmin = fp[F_TGAP]
     tcn = st[S_TC_N]
@@ -702,6 +728,10 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
             if blen > 0:
                 y = _bend_line(y, st, U, boff, blen, bdt, bds)
                 ring[off + jn] = y
+            if cpl != CPL_NONE:
+                # the end moves with the bridge: u(L) = u_r + u_l = (x - y_filter) + u_b
+                y -= ubx[uo + i]
+                ring[off + jn] = y
         else:
             x = 0.0
             y = 0.0
@@ -718,6 +748,8 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
                 jb += P
             # u(N-1) - u(N); for the ideal end u(N) = 0 and vl(N-1) = ring[jb]
             sig = tdx * ((ring[off + ja] - ring[off + jb]) - (x - y))
+            if cpl >= 0:
+                cf[0] += sig
         v = gain * sig
         if two:
             mix[0, o0 + i] += v - pan * v
@@ -750,12 +782,13 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe):
             elif hgap >= 0.0:
                 hgap += 1.0
         if prow >= 0:
-            probe[prow, P_U, o0 + i] = uk
-            probe[prow, P_CONTACT, o0 + i] = ncont
-            probe[prow, P_G, o0 + i] = gt
-            probe[prow, P_F, o0 + i] = F
-            probe[prow, P_W, o0 + i] = st[S_HW]
-            probe[prow, P_Z, o0 + i] = st[S_HZ]
+            pi = po0 + i // psub
+            probe[prow, P_U, pi] = uk
+            probe[prow, P_CONTACT, pi] = ncont
+            probe[prow, P_G, pi] = gt
+            probe[prow, P_F, pi] = F
+            probe[prow, P_W, pi] = st[S_HW]
+            probe[prow, P_Z, pi] = st[S_HZ]
     ipar[s, I_POS] = pm
     ipar[s, I_EXC] = exc
     ipar[s, I_EXC_M] = e
@@ -1416,11 +1449,12 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, hb):
 
 
 @njit(**JIT_OPTS)
-def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, ob):
-    """Step 4 of the fast path over a chunk: the far-end filter on the C
-    samples turning round at x = L (contiguous ring slots j0 .. j0+C-1),
-    its state in registers; then the bridge-force output (``I_OUT`` 1)
-    into ob[0:C].  Returns the chunk's peak output."""
+def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
+    """Step 4 of the fast path over a chunk, first half: the far-end filter
+    on the C samples turning round at x = L (contiguous ring slots j0 ..
+    j0+C-1), its state in registers, into yb[1:C+1] (not yet written back);
+    xb[1:C+2] gets the arriving samples x_0 .. x_C and yb[0] the previous
+    output.  :func:`_far_write` finishes the step."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
@@ -1489,15 +1523,29 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, ob):
     blen = ipar[s, I_BLEN]
     if blen > 0:
         _bend_chunk(yb, 1, C, st, U, ipar[s, I_BOFF], blen, fp[F_BDT], fp[F_BDS], hb)
+
+
+@njit(**JIT_OPTS)
+def _far_write(s, ring, ipar, fpar, C, xb, yb, ob):
+    """Step 4, second half: write the far end's outputs yb[1:C+1] back into
+    the ring and, for the bridge-force output (``I_OUT`` 1), the output into
+    ob[0:C].  Returns the chunk's peak output."""
+    off = ipar[s, I_OFF]
+    N = ipar[s, I_N]
+    P = 2 * N
+    j0 = ipar[s, I_POS] + 1 - N
+    if j0 < 0:
+        j0 += P
     _ring_put(ring, off, P, j0, yb[1:C + 1], 1.0)
     peak = 0.0
     if ipar[s, I_OUT] == 1:
         # u(N-1) - u(N) = (u_r(N-1) - vl(N-1)) - (x - y); vl(N-1) at sample i
         # is the filter's output of sample i-1 (yb[i]), u_r(N-1) the next x
-        sc = fp[F_GAIN] * fp[F_TDX]
+        sc = fpar[s, F_GAIN] * fpar[s, F_TDX]
         xn = xb[2:2 + C]
         x_ = xb[1:1 + C]
         yp = yb[0:C]
+        yo = yb[1:1 + C]
         mo = ob[0:C]
         for i in range(C):
             v = sc * ((xn[i] - yp[i]) - (x_[i] - yo[i]))
@@ -1505,6 +1553,22 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, ob):
             a = abs(v)
             peak = a if a > peak else peak
     return peak
+
+
+@njit(**JIT_OPTS)
+def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, ob, ubx, o0):
+    """Step 4 of the fast path over a chunk (:func:`_far_filter`, then
+    :func:`_far_write`); a string on an external bridge (``I_CPL`` =
+    ``CPL_EXTERNAL``) has the bridge's displacement ubx[o0:o0+C] subtracted
+    from its outgoing wave (u(L) = that of the loop filter + u_b).
+    Returns the chunk's peak output."""
+    _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb)
+    if ipar[s, I_CPL] == CPL_EXTERNAL:
+        yo = yb[1:1 + C]
+        ub = ubx[o0:o0 + C]
+        for i in range(C):
+            yo[i] -= ub[i]
+    return _far_write(s, ring, ipar, fpar, C, xb, yb, ob)
 
 
 @njit(**JIT_OPTS)
@@ -1539,75 +1603,93 @@ _GIB = GROUP * _GROW + 40
 #: scratch samples before the per-chunk windows (the group's g and I1 rows)
 _SCRATCH_GROUP = _GIB + GROUP * _GROW + GROUP + 8
 #: int64 work samples :func:`render_bank` needs besides the string list
-IWORK_EXTRA = 6 * GROUP
+IWORK_EXTRA = 8 * GROUP
 
 
 @njit(**JIT_OPTS)
-def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch):
+def _fold_if_ended(s, ring, ipar, fst):
+    """An excitation that ended on the last sample of the previous chunk:
+    fold its constant g into the ring now, between chunks."""
+    if ipar[s, I_EXC] == EXC_ENDED:
+        _fold_offset(ring, ipar[s, I_OFF], 2 * ipar[s, I_N], ipar[s, I_POS], ipar[s, I_K],
+                     fst[s, S_G])
+        fst[s, S_G] = 0.0
+        ipar[s, I_EXC] = EXC_NONE
+
+
+@njit(**JIT_OPTS)
+def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch, ubx):
     """C samples of string s, operation by operation (C <= ipar[s, I_CHUNK]
     while an excitation runs, else <= ipar[s, I_CHUNK_FREE]).
 
     ``scratch`` (see :func:`scratch_length`) holds the injected g per
     sample, the region's three windows and the far end's buffers."""
-    N = ipar[s, I_N]
-    P = 2 * N
-    exc = ipar[s, I_EXC]
-    if exc == EXC_ENDED:
-        # the excitation ended on the last sample of the previous chunk: fold
-        # its constant g into the ring now, between chunks
-        _fold_offset(ring, ipar[s, I_OFF], P, ipar[s, I_POS], ipar[s, I_K], fst[s, S_G])
-        fst[s, S_G] = 0.0
-        exc = EXC_NONE
-        ipar[s, I_EXC] = EXC_NONE
+    _fold_if_ended(s, ring, ipar, fst)
     gbuf = scratch[_SCRATCH_GROUP:_SCRATCH_GROUP + C]
     # ---- 2. excitation -------------------------------------------------------
-    plucking = exc != EXC_NONE
+    plucking = ipar[s, I_EXC] != EXC_NONE
     if plucking:
         _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf)
     _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch[_SCRATCH_GROUP + C:], gbuf,
-                plucking)
+                plucking, ubx)
 
 
 @njit(**JIT_OPTS)
-def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking):
+def _work_windows(work, C, R):
+    """The three windows of a chunk's region and far-end steps, and the rest
+    (bend history).  Windows Wm samples apart with Wm = 168 mod 512: 1344
+    and 2688 bytes apart modulo a 4 KiB page whatever the chunk, so that no
+    load of one window waits on a store to another at the same low 12
+    address bits ("4K aliasing": with C + R + 2 apart the plain-x86-64
+    build of the region ran at 6.7 or 16 ns per sample depending on the
+    chunk length)."""
+    Wm = C + R + 2
+    Wm += (168 - Wm) % 512
+    return work[0:Wm], work[Wm:2 * Wm], work[2 * Wm:3 * Wm], work[3 * Wm:]
+
+
+@njit(**JIT_OPTS)
+def _region_step(s, ring, ipar, U, C, w1, w2, w3):
+    """Step 3 of the fast path over a chunk (the termination region)."""
+    R = ipar[s, I_REG_N]
+    if R > 0:
+        _region_chunk(ring, ipar[s, I_OFF], 2 * ipar[s, I_N], ipar[s, I_POS], C, U,
+                      ipar[s, I_REG_OFF], R, ipar[s, I_SIDE], w1, w2, w3)
+
+
+@njit(**JIT_OPTS)
+def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking, ubx):
     """Steps 3 and 4 of the fast path over a chunk whose excitation (step 2)
     has been injected (g per sample in ``gbuf`` if ``plucking``): the
     termination region, the far end and the output; ``work`` holds their
     windows."""
+    w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
+    # ---- 3. termination region: min/max along right-going characteristics --
+    _region_step(s, ring, ipar, U, C, w1, w2, w3)
+    # ---- 4. far end, and the output ----------------------------------------
+    peak = fst[s, S_PEAK]
+    out = False
+    if ipar[s, I_FILT] == 1:
+        pk = _far_chunk(s, ring, ipar, fpar, fst, U, C, w1, w2, hb, w3, ubx, o0)
+        peak = pk if pk > peak else peak
+        out = ipar[s, I_OUT] == 1
+    _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking, out, peak)
+
+
+@njit(**JIT_OPTS)
+def _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking, out, peak):
+    """The end of a fast-path chunk: the output (the far end's bridge force
+    already in w3 if ``out``; the ideal end's bridge force; or u at k,
+    read after the chunk's region and far-end steps), added to the mix's
+    buses; the peak; the ring position advanced by C."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
     k = ipar[s, I_K]
-    R = ipar[s, I_REG_N]
-    st = fst[s]
     m0 = ipar[s, I_POS]
-    # work layout: three windows (region: entry values, ping-pong,
-    # left-going values; far end: x, y) | bend history
-    # (windows Wm samples apart with Wm = 168 mod 512: 1344 and 2688 bytes
-    # apart modulo a 4 KiB page whatever the chunk, so that no load of one
-    # window waits on a store to another at the same low 12 address bits,
-    # "4K aliasing": with C + R + 2 apart the plain-x86-64 build of the region
-    # ran at 6.7 or 16 ns per sample depending on the chunk length)
-    Wm = C + R + 2
-    Wm += (168 - Wm) % 512
-    w1 = work[0:Wm]
-    w2 = work[Wm:2 * Wm]
-    w3 = work[2 * Wm:3 * Wm]
-    hb = work[3 * Wm:]
-    # ---- 3. termination region: min/max along right-going characteristics --
-    if R > 0:
-        _region_chunk(ring, off, P, m0, C, U, ipar[s, I_REG_OFF], R, ipar[s, I_SIDE],
-                      w1, w2, w3)
-    # ---- 4. far end, and the output ----------------------------------------
-    gain = fpar[s, F_GAIN]
-    peak = st[S_PEAK]
     outm = ipar[s, I_OUT]
-    out = False
-    if ipar[s, I_FILT] == 1:
-        pk = _far_chunk(s, ring, ipar, fpar, fst, U, C, w1, w2, hb, w3)
-        peak = pk if pk > peak else peak
-        out = outm == 1
-    elif outm == 1:
+    gain = fpar[s, F_GAIN]
+    if ipar[s, I_FILT] != 1 and outm == 1:
         # ideal far end: u(N-1) - u(N) = u_r(N-1) - vl(N-1)
         sc = gain * fpar[s, F_TDX]
         ja = m0 + 2 - N
@@ -1650,11 +1732,18 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking):
         out = True
     if out:
         _bus_add(mix, o0, C, w3, ipar[s, I_BUS] == 1 and mix.shape[0] > 1, fpar[s, F_PAN])
-    st[S_PEAK] = peak
+    fst[s, S_PEAK] = peak
     m1 = m0 + C
     if m1 >= P:
         m1 -= P
     ipar[s, I_POS] = m1
+
+
+#: the coupled groups' far-end buffers at the end of ``scratch``: per member
+#: x (C + 2) and y (C + 1) windows, and the bridge's row, for chunks of at most
+#: GROUP_CHUNK samples
+_CW = GROUP_CHUNK + 8
+_SCRATCH_CPL = (2 * MAX_CPL + 1) * _CW
 
 
 def scratch_length(max_block: int, max_region: int, max_bend: int) -> int:
@@ -1662,7 +1751,13 @@ def scratch_length(max_block: int, max_region: int, max_bend: int) -> int:
     at most ``max_block`` samples, regions of at most ``max_region`` points
     and pitch-bend lines of at most ``max_bend`` samples."""
     return (_SCRATCH_GROUP + max_block + 3 * (max_block + max_region + 2 + 512) + max_bend
-            + max_block + 8)
+            + max_block + 8 + _SCRATCH_CPL)
+
+
+def sub_length(max_block: int) -> int:
+    """Samples per bus of the staging mix (``sub``) that :func:`render_bank`
+    needs for strings on a finer grid (``I_SUB`` > 1)."""
+    return max_block * MAX_SUB
 
 
 @njit(**JIT_OPTS)
@@ -1786,13 +1881,16 @@ def _excite_group(ring, ipar, fpar, fst, C, mem, G, scratch, ist):
 
 
 @njit(**JIT_OPTS)
-def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch):
+def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, po0, psub):
     """n samples of string s into mix[:, o0:o0+n]: the per-sample path or
-    fast-path chunks."""
+    fast-path chunks (``ubx``: an external bridge's displacement, indexed
+    like ``mix``; ``po0``, ``psub``: probe indexing, see
+    :func:`_render_per_sample`)."""
     exc = ipar[s, I_EXC]
     cmax = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
     if ipar[s, I_PROBE] >= 0 or ipar[s, I_TELEM] != 0 or cmax <= 0:
-        _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe)
+        _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, o0, scratch,
+                           po0, psub)
         return
     done = 0
     while done < n:
@@ -1803,14 +1901,14 @@ def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch):
             left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
             if C > left:
                 C = left
-        _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch)
+        _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, ubx)
         done += C
         if ipar[s, I_EXC] <= EXC_NONE:
             cmax = ipar[s, I_CHUNK_FREE]
 
 
 @njit(**JIT_OPTS)
-def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ist):
+def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ist, ubx):
     """n samples of G (<= GROUP) strings whose hammers are running, in
     lockstep chunks (the shortest any of them allows) so that their hammer
     steps interleave (:func:`_excite_group`); a string whose hammer has gone
@@ -1835,7 +1933,7 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
         for m in range(live):
             _chunk_rest(mem[m], ring, ipar, fpar, fst, U, C, o0 + done, mix, work,
                         scratch[m * _GROW:m * _GROW + C],
-                        ipar[mem[m], I_EXC] != EXC_NONE)   # (True; not a constant: see _ring_get)
+                        ipar[mem[m], I_EXC] != EXC_NONE, ubx)   # (True; not a constant: see _ring_get)
         done += C
         j = 0
         for m in range(live):
@@ -1845,13 +1943,196 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
                 j += 1
             elif done < n:
                 _render_string(s, ring, ipar, fpar, fst, U, n - done, o0 + done, mix, probe,
-                               scratch)
+                               scratch, ubx, o0 + done, 1)
         live = j
 
 
 @njit(**JIT_OPTS)
+def _bridge(lead, G, fpar, fst, C, cw):
+    """The bridge of a coupled group over a chunk: from the members' arriving
+    samples x and loop-filter outputs z (their far-end windows in ``cw``),
+    the bridge displacement u_b per sample by the recurrence
+
+        F(i) = sum_m T_m/dx_m ((x_m(i+1) - y_m(i-1)) - (x_m(i) - y_m(i))),
+        y_m(i) = z_m(i) - u_b(i),     u_b(i+1) = BRA u_b(i) + BRB F(i)
+
+    (the strings' summed force on the bridge at sample i, the bridge
+    answering one step later: BRB = dt / R_b for a bridge of resistance R_b
+    (N s/m), BRA = exp(-dt k / R_b) its spring's slow return); then every
+    member's outgoing wave y = z - u_b.  F(i) = f(i) + BTDX (u_b(i-1) -
+    u_b(i)), where f, the force with the bridge held still, is summed over
+    the members first (vectorised), so the serial recurrence is on u_b
+    alone."""
+    a = fpar[lead, F_BRA]
+    b = fpar[lead, F_BRB]
+    tdx_all = fpar[lead, F_BTDX]
+    ub0 = fst[lead, S_UB0]
+    ubm = fst[lead, S_UBM]
+    fo = cw[2 * MAX_CPL * _CW:2 * MAX_CPL * _CW + C]
+    for i in range(C):
+        fo[i] = 0.0
+    for m in range(G):
+        xb = cw[2 * m * _CW:2 * m * _CW + C + 2]
+        yb = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
+        tdx = fpar[lead + m, F_TDX]
+        y_prev = yb[0]
+        yb[0] = y_prev + ubm          # z(-1), the filter's own previous output
+        xn = xb[2:2 + C]
+        x_ = xb[1:1 + C]
+        zo = yb[1:1 + C]
+        zp = yb[0:C]
+        for i in range(C):
+            fo[i] += tdx * ((xn[i] - x_[i]) + (zo[i] - zp[i]))
+        yb[0] = y_prev
+    for i in range(C):
+        F = fo[i] + tdx_all * (ubm - ub0)
+        ubm = ub0
+        fo[i] = ub0
+        ub0 = a * ub0 + b * F
+    fst[lead, S_UB0] = ub0
+    fst[lead, S_UBM] = ubm
+    for m in range(G):
+        yo = cw[(2 * m + 1) * _CW + 1:(2 * m + 1) * _CW + 1 + C]
+        for i in range(C):
+            yo[i] -= fo[i]
+
+
+@njit(**JIT_OPTS)
+def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist):
+    """C samples of a coupled group (the strings lead .. lead+G-1 on one
+    bridge) in lockstep on the fast path: excitation (running hammers
+    stepped together, :func:`_excite_group`), each string's region and
+    loop filter, the bridge (:func:`_bridge`), then each string's far-end
+    write and output.  C is within every member's fast-path limit."""
+    # ---- 2. excitation: member m's g row at scratch[row * _GROW:]
+    # (the kinds are read before any step: a hammer that ends in this chunk
+    # is EXC_ENDED afterwards and must not be injected again)
+    nh = 0
+    for m in range(G):
+        s = lead + m
+        _fold_if_ended(s, ring, ipar, fst)
+        if ipar[s, I_EXC] >= EXC_HAMMER3:
+            iw[nh] = s
+            nh += 1
+    row = nh
+    for m in range(G):
+        s = lead + m
+        exc = ipar[s, I_EXC]
+        if exc != EXC_NONE and exc < EXC_HAMMER3:
+            iw[row] = s
+            row += 1
+    if nh > 0:
+        _excite_group(ring, ipar, fpar, fst, C, iw, nh, scratch, ist)
+    for r in range(nh, row):
+        _excite_chunk(iw[r], ring, ipar, fpar, fst, U, C, scratch[r * _GROW:r * _GROW + C])
+    # ---- 3. regions, and 4. the loop filters into the coupled area
+    work = scratch[_SCRATCH_GROUP:]
+    cw = scratch[scratch.shape[0] - _SCRATCH_CPL:]
+    for m in range(G):
+        s = lead + m
+        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
+        _region_step(s, ring, ipar, U, C, w1, w2, w3)
+        _far_filter(s, ring, ipar, fpar, fst, U, C, cw[2 * m * _CW:2 * m * _CW + C + 2],
+                    cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1], hb)
+    _bridge(lead, G, fpar, fst, C, cw)
+    for m in range(G):
+        s = lead + m
+        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
+        peak = fst[s, S_PEAK]
+        pk = _far_write(s, ring, ipar, fpar, C, cw[2 * m * _CW:2 * m * _CW + C + 2],
+                        cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1], w3)
+        peak = pk if pk > peak else peak
+        # this member's g row (for a displacement pickup while it plucks)
+        r = -1
+        for q in range(row):
+            if iw[q] == s:
+                r = q
+        plucking = r >= 0
+        gb = scratch[(r if r >= 0 else 0) * _GROW:(r if r >= 0 else 0) * _GROW + C]
+        _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gb, plucking,
+                   ipar[s, I_OUT] == 1, peak)
+
+
+@njit(**JIT_OPTS)
+def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, one, po0, psub):
+    """The plain per-sample scheme for a coupled group (the reference of
+    :func:`_coupled_chunk`; probes, telemetry and excitations inside the
+    region): every member steps one sample with the bridge's displacement
+    u_b(i), their forces are summed, and the bridge steps (the recurrence
+    of :func:`_bridge`).  ``one``: two scratch values."""
+    a = fpar[lead, F_BRA]
+    b = fpar[lead, F_BRB]
+    for i in range(n):
+        ub0 = fst[lead, S_UB0]
+        one[0] = ub0
+        one[1] = 0.0
+        cf = one[1:2]
+        for m in range(G):
+            _render_per_sample(lead + m, ring, ipar, fpar, fst, U, 1, o0 + i, mix, probe, one, 0,
+                               cf, po0 + i // psub, 1)
+        fst[lead, S_UBM] = ub0
+        fst[lead, S_UB0] = a * ub0 + b * one[1]
+
+
+@njit(**JIT_OPTS)
+def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub):
+    """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
+    lockstep fast-path chunks (:func:`_coupled_chunk`) as long as every
+    member allows one, else per sample (:func:`_coupled_per_sample`, a
+    member with a probe or telemetry takes the whole block that way)."""
+    G = ipar[lead, I_CPLN]
+    diag = False
+    for m in range(G):
+        if ipar[lead + m, I_PROBE] >= 0 or ipar[lead + m, I_TELEM] != 0:
+            diag = True
+    one = scratch[scratch.shape[0] - 2:]
+    done = 0
+    while done < n:
+        C = n - done
+        if C > GROUP_CHUNK:
+            C = GROUP_CHUNK
+        slow = diag
+        for m in range(G):
+            s = lead + m
+            exc = ipar[s, I_EXC]
+            c = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
+            if exc > EXC_NONE:
+                left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
+                if left < c:
+                    c = left
+            if c <= 0:
+                slow = True
+            elif c < C:
+                C = c
+        if slow:
+            if not diag and C > 64:
+                C = 64                 # look again soon: the fast path may apply
+            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
+                                one, po0 + (done // psub), psub)
+        else:
+            _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw, ist)
+        done += C
+
+
+@njit(**JIT_OPTS)
+def _fold_sub(mix, o0, n, sub, M, rows):
+    """Add the staging mix of a string on a finer grid (n engine samples of
+    M steps each in sub[:, 0:n M]) to mix[:, o0:o0+n] as the mean of each
+    engine sample's M steps (a boxcar before the engine's decimator)."""
+    w = 1.0 / M
+    for r in range(rows):
+        mo = mix[r, o0:o0 + n]
+        sb = sub[r]
+        for i in range(n):
+            acc = 0.0
+            for j in range(M):
+                acc += sb[i * M + j]
+            mo[i] += w * acc
+
+
+@njit(**JIT_OPTS)
 def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
-                probe, scratch, iwork):
+                probe, scratch, iwork, ubx, sub):
     """Render ``n`` internal samples of every active string into
     ``mix[:, o0:o0+n]`` (accumulating).  ``mix`` is 2-D: one row per output
     bus; a string with ``I_BUS`` 1 splits its output between rows 0 and 1
@@ -1865,19 +2146,52 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                               strings with ``ipar[s, I_PROBE] >= 0``
     scratch : float64[:]      :func:`scratch_length` samples
     iwork : int64[:]          n_active + IWORK_EXTRA samples (work space)
+    ubx : float64[:]          an external bridge's displacement per sample
+                              (m), indexed like ``mix`` (strings with
+                              ``I_CPL`` = ``CPL_EXTERNAL``; else unused)
+    sub : float64[:, :]       staging mix for strings on a finer grid
+                              (rows as ``mix``, :func:`sub_length` columns)
 
     Strings whose hammer is running on the fast path render GROUP at a
-    time (:func:`_render_group`), the others one by one.
+    time (:func:`_render_group`); a coupled group (a piano key's unison on
+    its bridge) renders as a unit from its leader (:func:`_render_coupled`);
+    a string or group on a finer grid (``I_SUB`` = M > 1) renders n M steps
+    into ``sub`` and is added as the mean of each sample's M steps; the
+    others render one by one.
     """
+    L = iwork.shape[0]
+    ist = iwork[L - 6 * GROUP:]
+    iw = iwork[L - 8 * GROUP:L - 6 * GROUP]
+    rows = mix.shape[0]
     nh = 0
     for a in range(n_active):
         s = active[a]
-        if (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
-                and ipar[s, I_CHUNK] > 0):
+        cpl = ipar[s, I_CPL]
+        if cpl >= 0 and cpl != s:
+            continue                  # rendered with its group's leader
+        M = ipar[s, I_SUB]
+        if M > 1:
+            nm = n * M
+            for r in range(rows):
+                sr = sub[r]
+                for i in range(nm):
+                    sr[i] = 0.0
+            sm = sub[0:rows]
+            if cpl >= 0:
+                _render_coupled(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch, iw, ist,
+                                o0, M)
+            else:
+                _render_string(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch, ubx, o0, M)
+            _fold_sub(mix, o0, n, sub, M, rows)
+        elif cpl >= 0:
+            _render_coupled(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
+                            o0, 1)
+        elif (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
+                and ipar[s, I_CHUNK] > 0 and cpl == CPL_NONE):
             iwork[nh] = s
             nh += 1
         else:
-            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch)
+            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0, 1)
     # strings with similar chunk lengths together (a group's chunk is the
     # shortest any member allows): insertion sort by I_CHUNK
     for a in range(1, nh):
@@ -1888,14 +2202,13 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
             iwork[b + 1] = iwork[b]
             b -= 1
         iwork[b + 1] = s
-    ist = iwork[iwork.shape[0] - IWORK_EXTRA:]
     g0 = 0
     while g0 < nh:
         G = nh - g0
         if G > GROUP:
             G = GROUP
         _render_group(iwork[g0:g0 + G], G, ring, ipar, fpar, fst, U, n, o0, mix, probe,
-                      scratch, ist)
+                      scratch, ist, ubx)
         g0 += G
 
 
@@ -1948,7 +2261,7 @@ def scan_silence(active, n_active, ipar, fst, quiet, last_peak, n_in, level, min
             quiet[s] += n_in
         else:
             quiet[s] = 0
-        need = 4 * ipar[s, I_N]
+        need = 4 * ipar[s, I_N] // ipar[s, I_SUB]     # four periods (engine samples)
         if need < min_quiet:
             need = min_quiet
         if quiet[s] >= need:

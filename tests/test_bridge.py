@@ -1,0 +1,254 @@
+"""Strings on a bridge (coupled unisons, external bridges) and strings on a
+finer grid: the kernel against the naive scheme, and the physics of the
+bridge's loss."""
+
+import math
+
+import numpy as np
+import pytest
+
+from reference import naive_bridge_strings
+from synth.dsp.bank import StringBank
+from synth.kernels import strings as K
+from synth.physics.plucks import sitar_g
+
+
+def _profile(rng, R, dx):
+    return 0.3e-3 + (np.arange(1, R + 1) * dx) ** 2 / 0.02 + rng.uniform(0, 1e-5, R)
+
+
+def _group(rng, n_str, per_sample, sos=True, region=True):
+    """Strings of slightly different length on one bridge, plucked at
+    different amplitudes (kernel and naive definitions)."""
+    dt, dx = 1e-5, 1e-3
+    defs = []
+    for j in range(n_str):
+        N = 240 + 3 * j
+        k = 180 - j
+        U = _profile(rng, 10, dx) if region else None
+        th = rng.uniform(0.1, 2.0, 2)
+        rad = rng.uniform(0.5, 0.9, 2)
+        d = dict(N=N, k=k, b0=0.995 - 0.002 * j, a1=-0.01, eta=0.1 + 0.05 * j, extra_delay=j % 2,
+                 n_disp=1 + j, a_disp=-0.2, tdx=500.0 + 40 * j, gain=1e-3, U=U, side=1,
+                 sos=np.column_stack([-2 * rad * np.cos(th), rad * rad]) if sos else np.zeros((0, 2)),
+                 A=0.002 * (1 + 0.3 * j), t0=0.0006 + 0.0001 * j)
+        defs.append(d)
+    return dt, defs
+
+
+def _bank_for(defs, dt, per_sample, cap=None):
+    b = StringBank(cap or len(defs), max(d["N"] for d in defs) + 2, 16, 2048)
+    for s, d in enumerate(defs):
+        b.configure(s, cells=d["N"], k=d["k"], dt_s=dt, U=d["U"], side=1, out_mode=1,
+                    gain=d["gain"], tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"],
+                    eta=d["eta"], extra_delay=d["extra_delay"], lossy=True,
+                    force_per_sample=per_sample, n_disp=d["n_disp"], a_disp=d["a_disp"],
+                    sos=d["sos"])
+    return b
+
+
+def _g(d, n, dt):
+    t = np.arange(n) * dt
+    return sitar_g(t, d["A"], d["t0"])
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+@pytest.mark.parametrize("n_str", [1, 2, 3])
+def test_coupled_strings_equal_the_naive_bridge(per_sample, n_str):
+    """Strings on one bridge (loop filters with first- and second-order
+    dispersion, a region, plucks) equal the naive scheme's, to round-off,
+    on the fast path's lockstep chunks and on the per-sample path."""
+    rng = np.random.default_rng(7 + n_str)
+    dt, defs = _group(rng, n_str, per_sample)
+    b = _bank_for(defs, dt, per_sample)
+    R_b, f_ret = 3.0, 5.0
+    b.couple(range(n_str), R_b, f_ret)
+    for s, d in enumerate(defs):
+        b.activate(s)
+        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
+    n = 9 * defs[0]["N"]
+    mix = np.zeros(n)
+    for o in range(0, n, 211):
+        b.render(mix, o, min(211, n - o))
+    bra, brb = math.exp(-2 * math.pi * f_ret * dt), dt / R_b
+    ref, ub = naive_bridge_strings([dict(d, g=_g(d, n, dt)) for d in defs], n, bra=bra, brb=brb)
+    assert np.max(np.abs(ub)) > 1e-4 * max(d["A"] for d in defs)      # the bridge moves
+    assert np.max(np.abs(mix - ref)) < 1e-10 * np.max(np.abs(ref))
+
+
+def test_the_bridge_changes_the_sound_and_a_still_bridge_does_not():
+    """With a very stiff bridge (huge resistance) the group sounds as the
+    same strings uncoupled; with a soft one it does not."""
+    rng = np.random.default_rng(3)
+    dt, defs = _group(rng, 2, False)
+    n = 6 * defs[0]["N"]
+    outs = []
+    for R_b in (None, 1e9, 2.0):
+        b = _bank_for(defs, dt, False)
+        if R_b is not None:
+            b.couple([0, 1], R_b, 0.0)
+        for s, d in enumerate(defs):
+            b.activate(s)
+            b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
+        mix = np.zeros(n)
+        b.render(mix, 0, n)
+        outs.append(mix)
+    pk = np.max(np.abs(outs[0]))
+    assert np.max(np.abs(outs[1] - outs[0])) < 1e-5 * pk
+    assert np.max(np.abs(outs[2] - outs[0])) > 1e-2 * pk
+
+
+def test_external_bridge_equals_the_naive_scheme():
+    """A string hung on an external bridge follows the given displacement
+    (a sympathetic string driven by the rest of the instrument)."""
+    rng = np.random.default_rng(5)
+    dt, defs = _group(rng, 1, False)
+    d = defs[0]
+    n = 8 * d["N"]
+    ubx = 1e-5 * np.sin(2 * np.pi * np.arange(n) * dt * 1.0 / (2 * d["N"] * dt)) \
+        * np.exp(-np.arange(n) / (3 * d["N"]))
+    for per_sample in (False, True):
+        b = _bank_for(defs, dt, per_sample)
+        b.set_external_bridge(0)
+        b.activate(0)                      # not plucked: only the bridge drives it
+        mix = np.zeros(n)
+        for o in range(0, n, 173):
+            b.render(mix, o, min(173, n - o), ubx=ubx)
+        ref, _ = naive_bridge_strings([dict(d, g=np.zeros(1))], n, bra=0.0, brb=0.0, ubx=ubx)
+        assert np.max(np.abs(ref)) > 0
+        assert np.max(np.abs(mix - ref)) < 1e-10 * np.max(np.abs(ref))
+
+
+def test_bridge_loss_of_a_single_string():
+    """A string on a bridge of resistance R_b loses, on top of its loop's own
+    loss, sigma_b = 2 f0 Z / R_b (amplitude decay rate, 1/s; Z = T / c its
+    impedance): each reflection from a dashpot keeps (R_b - Z)/(R_b + Z) of
+    the wave."""
+    fs = 200_000.0
+    dt = 1 / fs
+    N = 400                                   # f0 = fs / 2N = 250 Hz
+    T, c = 700.0, 300.0
+    dx = c * dt
+    Z = T / c
+    b0 = 0.9995
+    rates = []
+    for R_b in (None, 300.0):
+        b = StringBank(1, N + 2, 1, 2048)
+        b.configure(0, cells=N, k=N // 7, dt_s=dt, U=None, out_mode=1, gain=1.0,
+                    tension_over_dx=T / dx, b0=b0, lossy=True)
+        if R_b is not None:
+            b.couple([0], R_b, 0.0)
+        b.activate(0)
+        b.start_pluck(0, K.EXC_SITAR, 0.001, 0.0003)
+        n = int(0.4 * fs)
+        mix = np.zeros(n)
+        b.render(mix, 0, n)
+        # envelope: peak per period, fitted line in log
+        per = mix[: (n // (2 * N)) * 2 * N].reshape(-1, 2 * N)
+        env = np.log(np.max(np.abs(per), axis=1))[20:]
+        t = (np.arange(len(env)) + 20) * 2 * N * dt
+        rates.append(-np.polyfit(t, env, 1)[0])
+    f0 = fs / (2 * N)
+    expected = 2 * f0 * Z / 300.0
+    assert rates[1] - rates[0] == pytest.approx(expected, rel=0.03)
+
+
+def test_a_coupled_group_is_reaped_whole():
+    rng = np.random.default_rng(9)
+    dt, defs = _group(rng, 3, False, region=False)
+    b = _bank_for(defs, dt, False, cap=4)
+    b.couple([0, 1, 2], 5.0)
+    for s in range(3):
+        b.activate(s)
+    b.start_pluck(0, K.EXC_SITAR, 0.001, 0.0005)    # 1 and 2 only follow the bridge
+    mix = np.zeros(2048)
+    b.render(mix, 0, 2048)
+    # a level between the plucked string's and the followers': only some are quiet
+    lv = np.sort(b.fst[:3, K.S_PEAK])
+    done = b.reap(2048, float(np.sqrt(lv[0] * lv[2]) if lv[0] > 0 else lv[2] / 2), 1)
+    assert len(done) == 0
+    done = b.reap(2048, 1e9, 1)
+    assert sorted(done.tolist()) == [0, 1, 2]
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+@pytest.mark.parametrize("M", [2, 4])
+def test_finer_grid_is_the_mean_of_its_steps(per_sample, M):
+    """A string with ``sub`` = M steps per engine sample gives, per engine
+    sample, the mean of the M steps of the same string run on its own grid."""
+    rng = np.random.default_rng(M)
+    dt, defs = _group(rng, 1, per_sample)
+    d = defs[0]
+    n = 5 * d["N"] // M
+    ref_b = _bank_for(defs, dt, per_sample)
+    ref_b.activate(0)
+    ref_b.start_pluck(0, K.EXC_SITAR, d["A"], d["t0"])
+    fine = np.zeros(n * M)
+    ref_b.render(fine, 0, n * M)
+    b = StringBank(1, d["N"] + 2, 16, 2048)
+    b.configure(0, cells=d["N"], k=d["k"], dt_s=dt, U=d["U"], side=1, out_mode=1, gain=d["gain"],
+                tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"], eta=d["eta"],
+                extra_delay=d["extra_delay"], lossy=True, force_per_sample=per_sample,
+                n_disp=d["n_disp"], a_disp=d["a_disp"], sos=d["sos"], sub=M)
+    b.activate(0)
+    b.start_pluck(0, K.EXC_SITAR, d["A"], d["t0"])
+    mix = np.zeros(n)
+    for o in range(0, n, 97):
+        b.render(mix, o, min(97, n - o))
+    want = fine.reshape(n, M).mean(axis=1)
+    assert np.max(np.abs(mix - want)) < 1e-12 * np.max(np.abs(want))
+
+
+def test_bridge_arguments_are_checked():
+    rng = np.random.default_rng(1)
+    dt, defs = _group(rng, 2, False)
+    b = _bank_for(defs, dt, False, cap=3)
+    with pytest.raises(ValueError, match=r"slots = \[0, 2\] is out of range"):
+        b.couple([0, 2], 5.0)
+    with pytest.raises(ValueError, match="resistance_ns_per_m = 0.0 is out of range"):
+        b.couple([0, 1], 0.0)
+    b.configure(2, cells=100, k=10, dt_s=dt, U=None, out_mode=0, lossy=True)
+    with pytest.raises(ValueError, match="slot 2 cannot hang on a bridge"):
+        b.couple([1, 2], 5.0)
+    with pytest.raises(ValueError, match="slot 2 cannot hang on an external bridge"):
+        b.set_external_bridge(2)
+
+
+@pytest.mark.parametrize("key,law,block", [(40, 4, 866), (60, 5, 97), (80, 4, 301)])
+def test_struck_unison_on_its_bridge_fast_equals_per_sample(key, law, block):
+    """A grand key's unison on one bridge, its strings struck by hammers at
+    different speeds (and one left to ring through the bridge, as una
+    corda): the lockstep fast path (hammers stepped together) gives the
+    per-sample reference's output to round-off."""
+    from synth.io.factory import build_voice
+    from synth.physics import piano as P
+
+    inst = build_voice("grand-piano")
+    sus = inst.setup(key)
+    outs = []
+    for per_sample in (True, False):
+        R = max(0 if su.U is None else len(su.U) for su in sus)
+        b = StringBank(len(sus), max(su.cells for su in sus) + 2, max(1, R), 4096)
+        for s, su in enumerate(sus):
+            b.configure(s, cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=1, out_mode=1,
+                        tension_over_dx=su.tension_n / (su.c_m_per_s * su.dt_s), b0=su.b0,
+                        a1=su.a1, eta=su.eta, extra_delay=su.extra_delay, lossy=True,
+                        n_disp=su.n_disp, a_disp=su.a_disp, force_per_sample=per_sample,
+                        gain=1.0)
+        b.couple(range(len(sus)), 800.0, 5.0)
+        for s, su in enumerate(sus):
+            b.activate(s)
+            if s < len(sus) - 1 or len(sus) == 1:
+                hp = dict(inst._hammer(key, len(sus), su), speed_m_per_s=2.0 + 1.5 * s)
+                if law == 5:
+                    f0, p, gamma, tau0 = P.hammer_four_param(key)
+                    hp.update(law=5, stiffness=f0, exponent=p, alpha_or_gamma=gamma, tau0_s=tau0)
+                b.start_hammer(s, **hp)
+        n = int(0.02 / sus[0].dt_s)
+        mix = np.zeros(n)
+        for o in range(0, n, block):
+            b.render(mix, o, min(block, n - o))
+        outs.append(mix)
+    slow, fast = outs
+    assert np.all(np.isfinite(fast)) and np.max(np.abs(slow)) > 0
+    assert np.max(np.abs(fast - slow)) <= 1e-10 * np.max(np.abs(slow))
