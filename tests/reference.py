@@ -190,9 +190,10 @@ def hammer_on_ideal_string(N, k, dt, n_steps, *, law, m, V, Q, p, A, tau0, T, c)
 def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
     """Lossy strings (``naive_lossy_string``'s far end, bridge-force output)
     whose ends at x = L sit on one bridge: each step every string's outgoing
-    wave is its loop filter's output minus the bridge displacement u_b(m)
-    (u(L) = u_r + u_l follows the bridge), their forces T/dx (u(N-1) - u(N))
-    are summed into F(m), and u_b(m+1) = bra u_b(m) + brb F(m).  With
+    wave y is its loop filter's output minus the bridge displacement u_b(m),
+    their forces on the bridge T/dx (2 (y - y_prev) + (u_b - u_b_prev)) (the
+    loop filter read as standing just before the end) are summed into F(m),
+    and u_b(m+1) = bra u_b(m) + brb F(m).  With
     ``ubx`` (one value per step) the bridge is external: u_b(m) = ubx[m] and
     F is not fed back.
 
@@ -241,8 +242,10 @@ def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
                 yo = yb
             yo -= ub
             ul[N] = -yo
-            # the force on the bridge, T/dx (u(N-1) - u(N)), with u(N) = x_arriving - y
-            f = d["tdx"] * ((ur[N - 1] + ul[N - 1]) - (ur[N] + ul[N]))
+            # the force on the bridge, Z (v_in - v_out) with the loop filter
+            # just before the end: T/dx (2 (y - y_prev) + (u_b - u_b_prev))
+            f = d["tdx"] * (2 * (yo - d.get("yprev", 0.0)) + (ub - d.get("ubprev", 0.0)))
+            d["yprev"], d["ubprev"] = yo, ub
             F += f
             out[m] += d["gain"] * f
         if ubx is None:

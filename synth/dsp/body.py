@@ -58,6 +58,9 @@ MAX_IR_SAMPLES = 1 << 26
 class Body:
     """Soundboard modal bank with a dry/wet mix, streaming block by block.
 
+    One input (the decimated mix) and one output (``inputs``, ``outputs``).
+
+
     Parameters
     ----------
     fs : int or float
@@ -88,6 +91,9 @@ class Body:
     dry_gain, wet_gain : float
         The gains the kernel applies for the current ``wet``.
     """
+
+    inputs = 1
+    outputs = 1
 
     def __init__(self, fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, wet=DEFAULT_WET,
                  size=1.0, brightness=0.0):

@@ -108,6 +108,8 @@ class Engine:
         sizes = instrument.sizes(extra_low_key)
         #: strings per voice (a grand piano note has up to three)
         self.spv = int(sizes.strings_per_voice)
+        #: output buses the strings write (the bridge's bass and treble ends)
+        self.buses = int(instrument.buses)
         max_in = self.dec.inputs_needed(self.MAX_BLOCK_OUT) + 16
         self.bank = StringBank(self.n_index * self.spv, sizes.max_cells,
                                max_region=max(sizes.max_region, 1), max_block=4096,
@@ -116,7 +118,13 @@ class Engine:
         #: the body (soundboard) stage after decimation, if the instrument has one
         design = instrument.body()
         self.body = None if design is None else Body.from_design(fs_out, design)
-        self.mix = np.zeros(max_in)
+        #: decimated channels: the body's inputs (buses beyond them are summed
+        #: into the first before decimation), or one per bus without a body
+        self.n_dec = min(self.buses, self.body.inputs) if self.body is not None else self.buses
+        #: output channels (1: mono, 2: stereo)
+        self.channels = self.body.outputs if self.body is not None else self.n_dec
+        self.decs = [self.dec] + [Decimator(self.fs_in, self.fs_out) for _ in range(self.n_dec - 1)]
+        self.mix = np.zeros((self.buses, max_in))
         self.probe = probe
         self._probe: list[np.ndarray] = []
         self.time_in = 0                     # internal samples rendered so far
@@ -129,7 +137,8 @@ class Engine:
         # sustain pedal damps exactly these (one array operation per CC64)
         self._released = np.zeros(self.n_index, dtype=bool)
         self._spv_range = np.arange(self.spv)
-        self._out = np.zeros(self.MAX_BLOCK_OUT)
+        self._out = np.zeros((self.channels, self.MAX_BLOCK_OUT))
+        self._dout = np.zeros((self.n_dec, self.MAX_BLOCK_OUT))
         self.n_stolen = 0                    # voices faded out to make room
         self.n_shed = 0                      # voices faded out under CPU overload
         self.n_dropped = 0                   # note-ons the instrument could not play
@@ -324,11 +333,12 @@ class Engine:
     # -- rendering ----------------------------------------------------------------
     def render_block(self, n_out: int, out: np.ndarray | None = None) -> np.ndarray:
         """Render the next ``n_out`` output samples (float64), into ``out``
-        or the engine's own buffer (valid until the next call)."""
+        or the engine's own buffer (valid until the next call): shape
+        (n_out,) for a mono engine, (channels, n_out) for a stereo one."""
         if not (1 <= n_out <= self.MAX_BLOCK_OUT):
             raise ValueError(f"n_out = {n_out!r} is out of range (1 <= value <= {self.MAX_BLOCK_OUT})")
         n_in = self.dec.inputs_needed(n_out)
-        mix = self.mix[:n_in]
+        mix = self.mix[:, :n_in]
         mix[:] = 0.0
         start = self.time_in
         end = start + n_in
@@ -350,9 +360,22 @@ class Engine:
         self.time_in = end
         if self.probe:
             self._probe.append(bank.probe[:, :, :n_in].copy())
-        y = self.dec.process(mix, self._out if out is None else out)
-        if self.body is not None:
-            self.body.process(y, out=y)
+        if self.n_dec < self.buses:
+            mix[0] += mix[1]                  # a mono body: the bridge's two ends summed
+        if self.channels == 1:
+            y = self.dec.process(mix[0], self._out[0] if out is None else out)
+            if self.body is not None:
+                self.body.process(y, out=y)
+        else:
+            y = (self._out if out is None else out)[:, :n_out]
+            if self.body is None:
+                for c in range(self.n_dec):
+                    self.decs[c].process(mix[c], y[c])
+            else:
+                d = self._dout[:, :n_out]
+                for c in range(self.n_dec):
+                    self.decs[c].process(mix[c], d[c])
+                self.body.process(d, out=y)
         self._reap(n_in)
         return y
 
@@ -410,8 +433,9 @@ class Engine:
         duration_s : exact length of the result (s); None: until the last
             event plus the release tails (voices silent), plus ``tail_s``,
             at most ``max_tail_s`` after the last event.
-        Returns float64 mono audio at ``fs_out``, aligned so that an event
-        at t sounds at t (the decimator's integer latency is removed).
+        Returns float64 audio at ``fs_out``, shape (n,) (mono) or (n,
+        channels), aligned so that an event at t sounds at t (the
+        decimator's integer latency is removed).
         """
         events = list(events)
         self.schedule(events)
@@ -437,5 +461,8 @@ class Engine:
                         quiet_after = n_done + int(tail_s * self.fs_out) + lat
                     if n_done >= quiet_after:
                         break
-        y = np.concatenate(chunks) if chunks else np.zeros(0)
-        return y[lat:]
+        if self.channels == 1:
+            y = np.concatenate(chunks) if chunks else np.zeros(0)
+            return y[lat:]
+        y = np.concatenate(chunks, axis=1) if chunks else np.zeros((self.channels, 0))
+        return np.ascontiguousarray(y[:, lat:].T)

@@ -125,8 +125,8 @@ class Realtime:
         self._late = 0.0               # blocks of lateness the device buffer absorbs now
         self.budget_s = self.block / self.fs
         self._queue: collections.deque = collections.deque()
-        self._buf = np.zeros(Engine.MAX_BLOCK_OUT)
-        self._acc = np.zeros(Engine.MAX_BLOCK_OUT)
+        self._buf = np.zeros((2, Engine.MAX_BLOCK_OUT))
+        self._acc = np.zeros((2, Engine.MAX_BLOCK_OUT))
         self.t0 = None
         self.n_out = 0
         self.stats = RealtimeStats()
@@ -194,8 +194,11 @@ class Realtime:
                                         ev.speed_m_per_s)])
 
     def render(self, out: np.ndarray, frames: int) -> None:
-        """Render the next ``frames`` output samples into ``out[:frames]``
-        (any float array).  The audio callback's body."""
+        """Render the next ``frames`` output samples into ``out``: shape
+        (frames,) (mono: the mean of left and right) or (frames, channels)
+        (left, right, and further channels copies of them in turn), any
+        float dtype.  The audio callback's body; a mono engine sounds the
+        same on both sides."""
         if self.t0 is None:                    # nobody called start(): stamp only
             self.t0 = self.clock()
         t_start = time.perf_counter()
@@ -205,21 +208,31 @@ class Realtime:
                 new.time_in = 0
                 # align the new engine's clock with the stream
                 new.time_in = int(round(self.n_out / self.fs * new.fs_in_exact))
-                new.dec.reset()
+                for d in new.decs:
+                    d.reset()
                 for e in self.engines:
                     e.schedule([Event(self.n_out / self.fs, "control", 123, 0.0)])
                 self.engines.append(new)
             self._drain()
-            acc = self._acc[:frames]
+            acc = self._acc[:, :frames]
             acc[:] = 0.0
             keep = []
             for e in self.engines:
-                y = e.render_block(frames, self._buf)
-                acc += y
+                if e.channels == 1:
+                    y = e.render_block(frames, self._buf[0])
+                    acc += y                       # both sides
+                else:
+                    acc += e.render_block(frames, self._buf[:e.channels])[:2]
                 if e is self.engine or e.n_voices:
                     keep.append(e)
             self.engines = keep
-            np.copyto(out[:frames], acc, casting="unsafe")
+            if out.ndim == 1:
+                np.add(acc[0], acc[1], out=self._buf[0, :frames])
+                self._buf[0, :frames] *= 0.5
+                np.copyto(out[:frames], self._buf[0, :frames], casting="unsafe")
+            else:
+                for c in range(out.shape[1]):
+                    np.copyto(out[:frames, c], acc[c % 2], casting="unsafe")
         except Exception:                      # never let the stream die
             self.stats.errors += 1
             out[:frames] = 0.0
@@ -250,12 +263,11 @@ class Realtime:
             self._slow = 0
 
     def callback(self, outdata, frames, time_info, status) -> None:
-        """sounddevice output callback (mono or several identical channels)."""
+        """sounddevice output callback: ``outdata`` (frames, channels), one
+        channel (mono: left and right mixed) or more (left, right, ...)."""
         if status and status.output_underflow:
             self.stats.underruns += 1
-        self.render(outdata[:, 0], frames)
-        if outdata.shape[1] > 1:
-            outdata[:, 1:] = outdata[:, :1]
+        self.render(outdata[:, 0] if outdata.shape[1] == 1 else outdata, frames)
 
     # -- reporting ----------------------------------------------------------------
     def meter(self) -> str:

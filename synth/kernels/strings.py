@@ -234,7 +234,8 @@ S_HF_PK = S_HC_GAP + 1  # peak hammer force (N)
 S_SOS = S_HF_PK + 1
 S_UB0 = S_SOS + 4 * MAX_SOS   # coupled group (leader): bridge displacement at the next sample (m)
 S_UBM = S_UB0 + 1             # and at the sample before it
-S_NS = S_UBM + 1
+S_UBP = S_UBM + 1             # a string on a bridge: the bridge displacement of its last sample
+S_NS = S_UBP + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -728,9 +729,12 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
             if blen > 0:
                 y = _bend_line(y, st, U, boff, blen, bdt, bds)
                 ring[off + jn] = y
+            ubn = 0.0
             if cpl != CPL_NONE:
-                # the end moves with the bridge: u(L) = u_r + u_l = (x - y_filter) + u_b
-                y -= ubx[uo + i]
+                # the end moves with the bridge: the wave leaving it is the
+                # loop filter's minus the bridge's displacement
+                ubn = ubx[uo + i]
+                y -= ubn
                 ring[off + jn] = y
         else:
             x = 0.0
@@ -746,8 +750,16 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
             jb = pm - N - 1
             if jb < 0:
                 jb += P
-            # u(N-1) - u(N); for the ideal end u(N) = 0 and vl(N-1) = ring[jb]
-            sig = tdx * ((ring[off + ja] - ring[off + jb]) - (x - y))
+            if filt == 1:
+                # the force on the bridge: the loop filter stands just before
+                # the end, so the wave that reaches it is z = y + u_b and the
+                # force is Z (v_in - v_out) = T/dx (dz + dy) (each a step's
+                # difference; vl(N-1) = ring[jb] is the last sample's y)
+                sig = tdx * (2.0 * (y - ring[off + jb]) + (ubn - st[S_UBP]))
+                st[S_UBP] = ubn
+            else:
+                # ideal end: u(N-1) - u(N) with u(N) = 0, vl(N-1) = ring[jb]
+                sig = tdx * (ring[off + ja] - ring[off + jb])
             if cpl >= 0:
                 cf[0] += sig
         v = gain * sig
@@ -1526,10 +1538,23 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
 
 
 @njit(**JIT_OPTS)
-def _far_write(s, ring, ipar, fpar, C, xb, yb, ob):
+def _far_write(s, ring, ipar, fpar, C, yb, ob, ubw, has_ub):
     """Step 4, second half: write the far end's outputs yb[1:C+1] back into
     the ring and, for the bridge-force output (``I_OUT`` 1), the output into
-    ob[0:C].  Returns the chunk's peak output."""
+    ob[0:C].  Returns the chunk's peak output.
+
+    The force on the bridge.  The loop filter (loss, dispersion, tuning)
+    stands for the whole string but acts at x = L; read as sitting just
+    before the end, the wave that reaches the end is its output z, and the
+    end reflects it at once: the force is Z (v_in - v_out) = T/dx (dz + dy)
+    with y = z - u_b the wave leaving (u_b the bridge's displacement: 0 on
+    a rigid bridge), i.e. T/dx (2 dy + du_b), each d a step's difference
+    (yb[0] = the last chunk's y; ubw[0:C+1] = u_b of the sample before the
+    chunk and of its C samples, if ``has_ub``).  (Taking u(N-1) - u(N) of
+    the grid instead, with the filter's input arriving at N, adds the
+    incoming wave before the filter to the wave after it: for a dispersive
+    loop, whose filter delays partial n by a phase phi_n, that is a comb
+    |cos(phi_n / 2)| over the partials, -10 to -60 dB on some of them.)"""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
@@ -1539,19 +1564,25 @@ def _far_write(s, ring, ipar, fpar, C, xb, yb, ob):
     _ring_put(ring, off, P, j0, yb[1:C + 1], 1.0)
     peak = 0.0
     if ipar[s, I_OUT] == 1:
-        # u(N-1) - u(N) = (u_r(N-1) - vl(N-1)) - (x - y); vl(N-1) at sample i
-        # is the filter's output of sample i-1 (yb[i]), u_r(N-1) the next x
         sc = fpar[s, F_GAIN] * fpar[s, F_TDX]
-        xn = xb[2:2 + C]
-        x_ = xb[1:1 + C]
+        s2 = 2.0 * sc
         yp = yb[0:C]
         yo = yb[1:1 + C]
         mo = ob[0:C]
-        for i in range(C):
-            v = sc * ((xn[i] - yp[i]) - (x_[i] - yo[i]))
-            mo[i] = v
-            a = abs(v)
-            peak = a if a > peak else peak
+        if has_ub:
+            up = ubw[0:C]
+            un = ubw[1:1 + C]
+            for i in range(C):
+                v = s2 * (yo[i] - yp[i]) + sc * (un[i] - up[i])
+                mo[i] = v
+                a = abs(v)
+                peak = a if a > peak else peak
+        else:
+            for i in range(C):
+                v = s2 * (yo[i] - yp[i])
+                mo[i] = v
+                a = abs(v)
+                peak = a if a > peak else peak
     return peak
 
 
@@ -1565,10 +1596,16 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, ob, ubx, o0):
     _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb)
     if ipar[s, I_CPL] == CPL_EXTERNAL:
         yo = yb[1:1 + C]
+        ubw = hb[0:C + 1]           # (no bend line on a bridge: hb is free)
+        ubw[0] = fst[s, S_UBP]
         ub = ubx[o0:o0 + C]
+        un = ubw[1:1 + C]
         for i in range(C):
             yo[i] -= ub[i]
-    return _far_write(s, ring, ipar, fpar, C, xb, yb, ob)
+            un[i] = ub[i]
+        fst[s, S_UBP] = ub[C - 1]
+        return _far_write(s, ring, ipar, fpar, C, yb, ob, ubw, True)
+    return _far_write(s, ring, ipar, fpar, C, yb, ob, hb, False)
 
 
 @njit(**JIT_OPTS)
@@ -1949,41 +1986,42 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
 
 @njit(**JIT_OPTS)
 def _bridge(lead, G, fpar, fst, C, cw):
-    """The bridge of a coupled group over a chunk: from the members' arriving
-    samples x and loop-filter outputs z (their far-end windows in ``cw``),
-    the bridge displacement u_b per sample by the recurrence
+    """The bridge of a coupled group over a chunk: from the members'
+    loop-filter outputs z (their far-end windows in ``cw``), the bridge
+    displacement u_b per sample by the recurrence
 
-        F(i) = sum_m T_m/dx_m ((x_m(i+1) - y_m(i-1)) - (x_m(i) - y_m(i))),
-        y_m(i) = z_m(i) - u_b(i),     u_b(i+1) = BRA u_b(i) + BRB F(i)
+        F(i) = sum_m T_m/dx_m (2 dz_m(i) - du_b(i)),    y_m(i) = z_m(i) - u_b(i),
+        u_b(i+1) = BRA u_b(i) + BRB F(i)
 
-    (the strings' summed force on the bridge at sample i, the bridge
-    answering one step later: BRB = dt / R_b for a bridge of resistance R_b
-    (N s/m), BRA = exp(-dt k / R_b) its spring's slow return); then every
-    member's outgoing wave y = z - u_b.  F(i) = f(i) + BTDX (u_b(i-1) -
-    u_b(i)), where f, the force with the bridge held still, is summed over
-    the members first (vectorised), so the serial recurrence is on u_b
-    alone."""
+    (the strings' summed force on the bridge at sample i, the force of
+    :func:`_far_write`; d a step's difference; the bridge answers one step
+    later: BRB = dt / R_b for a bridge of resistance R_b (N s/m), BRA =
+    exp(-2 pi f_r dt) its spring's slow return); then every member's
+    outgoing wave y = z - u_b.  F(i) = f(i) + BTDX (u_b(i-1) - u_b(i)),
+    where f, the force with the bridge held still, is summed over the
+    members first (vectorised), so the serial recurrence is on u_b alone.
+    The bridge row of ``cw`` gets u_b of the sample before the chunk and of
+    its C samples (for the members' force outputs)."""
     a = fpar[lead, F_BRA]
     b = fpar[lead, F_BRB]
     tdx_all = fpar[lead, F_BTDX]
     ub0 = fst[lead, S_UB0]
     ubm = fst[lead, S_UBM]
-    fo = cw[2 * MAX_CPL * _CW:2 * MAX_CPL * _CW + C]
+    row = cw[2 * MAX_CPL * _CW:2 * MAX_CPL * _CW + C + 1]
+    fo = row[1:1 + C]
     for i in range(C):
         fo[i] = 0.0
     for m in range(G):
-        xb = cw[2 * m * _CW:2 * m * _CW + C + 2]
         yb = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
-        tdx = fpar[lead + m, F_TDX]
+        t2 = 2.0 * fpar[lead + m, F_TDX]
         y_prev = yb[0]
         yb[0] = y_prev + ubm          # z(-1), the filter's own previous output
-        xn = xb[2:2 + C]
-        x_ = xb[1:1 + C]
         zo = yb[1:1 + C]
         zp = yb[0:C]
         for i in range(C):
-            fo[i] += tdx * ((xn[i] - x_[i]) + (zo[i] - zp[i]))
+            fo[i] += t2 * (zo[i] - zp[i])
         yb[0] = y_prev
+    row[0] = ubm
     for i in range(C):
         F = fo[i] + tdx_all * (ubm - ub0)
         ubm = ub0
@@ -1995,6 +2033,7 @@ def _bridge(lead, G, fpar, fst, C, cw):
         yo = cw[(2 * m + 1) * _CW + 1:(2 * m + 1) * _CW + 1 + C]
         for i in range(C):
             yo[i] -= fo[i]
+        fst[lead + m, S_UBP] = ubm
 
 
 @njit(**JIT_OPTS)
@@ -2039,8 +2078,8 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
         s = lead + m
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         peak = fst[s, S_PEAK]
-        pk = _far_write(s, ring, ipar, fpar, C, cw[2 * m * _CW:2 * m * _CW + C + 2],
-                        cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1], w3)
+        pk = _far_write(s, ring, ipar, fpar, C, cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1],
+                        w3, cw[2 * MAX_CPL * _CW:2 * MAX_CPL * _CW + C + 1], True)
         peak = pk if pk > peak else peak
         # this member's g row (for a displacement pickup while it plucks)
         r = -1

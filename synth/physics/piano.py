@@ -53,13 +53,32 @@ documented design values, not from a table of 88 typed numbers:
 * Capo d'astro bar: MIDI >= 73 (C#5) terminate on the capo bar (the first
   capo section of a Steinway D starts at C#5); lower strings run through
   agraffes.
-* Unison detune (cents, per string): spread s = 0.8 cents at A0 growing
-  linearly to 1.4 cents at C8; one string (0,), two (-s/2, +s/2), three
-  (-0.55 s, 0, +0.45 s) (slightly asymmetric, as a tuner leaves them).
-* Decay: ``t60_low_s`` at f0 from a log-log quadratic in f0 through A0 = 35 s
-  (the long, second decay stage), C4 = 12 s and C8 = 0.4 s (orders of the
-  measured decay times of grand-piano tones, e.g. Martin 1947 and the decay
-  data behind Bank's piano models); monotone decreasing over the keyboard.
+* Unison detune (cents, per string): spread s = 1 cent between the outer
+  strings, or less where that would beat faster than 0.3 Hz (from about A4
+  up: 0.5 cent at C6, 0.12 cent at C8; a tuner tunes unisons by ear to a
+  slow beat or none, and the same cents beat faster the higher the note;
+  Kirk 1959 found unisons mistuned by up to 1-2 cents in the middle
+  range); one string (0,), two (-s/2, +s/2), three (-0.55 s, 0, +0.45 s)
+  (slightly asymmetric, as a tuner leaves them).
+* Decay, in two stages (Weinreich, "Coupled piano strings", JASA 62, 1977):
+  the strings of a unison share the bridge, whose motion under their summed
+  force takes energy fast from their in-phase motion (the "prompt" sound)
+  and hardly any from the motions in which they cancel at the bridge (the
+  "aftersound").  ``t60_low_s`` is a string's own decay at f0, the
+  aftersound: a log-log quadratic in f0 through A0 = 40 s, C4 = 20 s and
+  C8 = 2 s (orders of measured late decay times: Martin 1947; Weinreich
+  1977 fig. 8; Bank, Zambon & Fontana 2010), monotone decreasing over the
+  keyboard.  ``t60_prompt_s`` is the in-phase motion's: ``t60_low_s /
+  PROMPT_RATIO`` (Weinreich's prompt decay rates are 3-10 times the
+  aftersound's; 4 for trichords, 6 for bichords), which fixes the bridge's
+  resistance per key
+  (:func:`bridge_resistance_ns_per_m`): R_b = 2 f0 Z n / (sigma_p -
+  sigma_a), Z = sqrt(T mu) the string's impedance, n the strings on it (2
+  for the single bass strings, whose bridge is as stiff as their
+  neighbours'), sigma = ln(1000) / T60 (each reflection from a dashpot
+  keeps (R_b - n Z)/(R_b + n Z) of the in-phase wave).  The order of R_b:
+  1-3 kg/s per string against 500-3000 kg/s for the bridge, the measured
+  driving-point impedance of a grand's board (Giordano 1998; Conklin 1996).
   High frequencies: the decay-rate law of Chaigne & Askenfelt (1994),
   ``sigma(f) = b1 + b3 (2 pi f)^2`` (amplitude decay rate, 1/s; T60 = ln(1000)
   / sigma) with b3 = 6.25e-9 s (the order of their fitted values) and b1 set by
@@ -127,8 +146,22 @@ PAIR_CORE_M = (1.27e-3, 1.05e-3)                # G1 .. C3
 STRIKE_RATIO_LOW = 8.0                          # L / l below the treble ramp
 STRIKE_RAMP_START_MIDI = 76.0
 STRIKE_RAMP_WIDTH_ST = 2.0
-UNISON_SPREAD_CENTS = (0.8, 1.4)                # at A0 .. C8
-T60_ANCHORS = ((27.5, 35.0), (261.6255653005986, 12.0), (4186.009044809578, 0.4))
+#: unison spread: at most UNISON_SPREAD_CENTS, and at most UNISON_SPREAD_HZ
+#: between the outer strings (a tuner tunes unisons by their beats: the same
+#: cents beat faster the higher the note, so the treble is tuned closer)
+UNISON_SPREAD_CENTS = 1.0
+UNISON_SPREAD_HZ = 0.3
+T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 2.0))
+#: aftersound T60 / prompt T60 at f0 (the unison's in-phase motion decays this
+#: much faster), by strings per key: a bichord's two strings mix their motions
+#: less than a trichord's three, so its bridge couples them harder for the
+#: same two-stage decay (ratio >= 3 between the stages as measured on the
+#: rendered note's level)
+PROMPT_RATIO = {1: 4.0, 2: 6.0, 3: 4.0}
+#: relative hammer speed on each string of a unison: the hammer's crown is
+#: never level, so the strings start unequally and the out-of-phase motions,
+#: which make the aftersound, are excited too (Weinreich 1977, section V)
+UNISON_STRIKE = {1: (1.0,), 2: (1.0, 0.93), 3: (0.97, 1.0, 0.92)}
 DAMPING_B3_S = 6.25e-9
 F_HIGH_MIN_HZ = 5000.0
 
@@ -221,7 +254,11 @@ class GrandString:
         Tuning offset of each string of the unison (cents), one entry per
         string, each within +-5 cents.
     t60_low_s : float
-        60 dB decay time at f0 (s), 0.01 .. 200.
+        60 dB decay time at f0 (s), 0.01 .. 200: the string's own (the
+        aftersound of a coupled unison).
+    t60_prompt_s : float
+        60 dB decay time at f0 of the unison's in-phase motion on its
+        bridge (s), 0.01 .. t60_low_s (the prompt sound).
     t60_high_s : float
         60 dB decay time at ``f_high_hz`` (s), 0.001 .. t60_low_s.
     f_high_hz : float
@@ -243,6 +280,7 @@ class GrandString:
     t60_low_s: float
     t60_high_s: float
     f_high_hz: float
+    t60_prompt_s: float
 
     def __post_init__(self) -> None:
         _check_midi(self.midi)
@@ -263,6 +301,7 @@ class GrandString:
         _check("t60_low_s", self.t60_low_s, 0.01, 200.0)
         _check("t60_high_s", self.t60_high_s, 0.001, self.t60_low_s)
         _check("f_high_hz", self.f_high_hz, self.f0_hz, 30000.0)
+        _check("t60_prompt_s", self.t60_prompt_s, 0.01, self.t60_low_s)
 
     # -- derived quantities
     @property
@@ -290,6 +329,11 @@ class GrandString:
     def strike_distance_m(self) -> float:
         """Distance l of the striking point from the near end (m)."""
         return self.strike_position * self.speaking_length_m
+
+    @property
+    def impedance_ns_per_m(self) -> float:
+        """Wave impedance Z = T / c = sqrt(T mu) (N s/m)."""
+        return math.sqrt(self.tension_n * self.linear_density_kg_per_m)
 
     @property
     def mass_kg(self) -> float:
@@ -348,16 +392,17 @@ _T60_C = _t60_low_coeffs()
 
 
 def t60_fundamental_s(f0_hz: float) -> float:
-    """Decay time (s) of a grand-piano fundamental at ``f0_hz`` (20..5000 Hz):
-    the log-log quadratic through A0 = 35 s, C4 = 12 s, C8 = 0.4 s."""
+    """Aftersound decay time (s) of a grand-piano fundamental at ``f0_hz``
+    (20..5000 Hz): the log-log quadratic through A0 = 40 s, C4 = 20 s,
+    C8 = 2 s."""
     f = _check("f0_hz", f0_hz, 20.0, 5000.0)
     x = math.log2(f / T60_ANCHORS[1][0])
     return 2.0 ** (_T60_C[0] + _T60_C[1] * x + _T60_C[2] * x * x)
 
 
 def _unison_detune(m: int, n: int) -> tuple:
-    s = UNISON_SPREAD_CENTS[0] + (UNISON_SPREAD_CENTS[1] - UNISON_SPREAD_CENTS[0]) * (
-        (m - MIDI_LOW) / (MIDI_HIGH - MIDI_LOW))
+    f0 = et_f0_hz(m)
+    s = min(UNISON_SPREAD_CENTS, 1200.0 / math.log(2.0) * UNISON_SPREAD_HZ / f0)
     if n == 1:
         return (0.0,)
     if n == 2:
@@ -394,7 +439,7 @@ def _build_string(m: int) -> GrandString:
         youngs_modulus_pa=STEEL_YOUNGS_MODULUS_PA, strike_position=strike_position_for(m),
         has_damper=m <= DAMPER_LAST_MIDI, has_capo=m >= CAPO_FIRST_MIDI,
         unison_detune_cents=_unison_detune(m, n), t60_low_s=t60_low, t60_high_s=t60_low,
-        f_high_hz=f_high)
+        f_high_hz=f_high, t60_prompt_s=t60_low / PROMPT_RATIO[n])
     return replace(proto, t60_high_s=proto.t60_s(f_high))
 
 
@@ -407,6 +452,30 @@ def grand_piano_strings() -> tuple:
 def grand_string(midi: int) -> GrandString:
     """The ``GrandString`` of one MIDI key (21..108)."""
     return grand_piano_strings()[_check_midi(midi) - MIDI_LOW]
+
+
+def bridge_resistance_ns_per_m(midi: int) -> float:
+    """Resistance R_b (N s/m) of the bridge a key's unison hangs on, such
+    that the unison's in-phase motion decays with ``t60_prompt_s`` while
+    each string alone keeps ``t60_low_s`` (see the module docstring):
+    R_b = 2 f0 Z n / (sigma_p - sigma_a), n = the key's strings (2 for a
+    single string)."""
+    g = grand_string(midi)
+    n = max(g.n_strings, 2)
+    sig = _LN1000 * (1.0 / g.t60_prompt_s - 1.0 / g.t60_low_s)
+    return 2.0 * g.f0_hz * g.impedance_ns_per_m * n / sig
+
+
+def single_string_t60_s(midi: int) -> float:
+    """T60 (s) at f0 of one of the key's strings alone on its bridge (no
+    unison partner): its own loss and the bridge's share of one string,
+    ln(1000) / T60 = sigma_a + (sigma_p - sigma_a) / n (n as in
+    :func:`bridge_resistance_ns_per_m`): a voice with a single string per
+    key and no coupled unison."""
+    g = grand_string(midi)
+    n = max(g.n_strings, 2)
+    sa = 1.0 / g.t60_low_s
+    return 1.0 / (sa + (1.0 / g.t60_prompt_s - sa) / n)
 
 
 def grand_piano_inharmonicity() -> np.ndarray:

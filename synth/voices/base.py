@@ -80,6 +80,9 @@ class Voice:
 
     #: registered preset ``voice`` names (set by :func:`register_voice`)
     names: ClassVar[tuple[str, ...]] = ()
+    #: output buses the voice's strings write (1, or 2: the bass and treble
+    #: ends of a bridge, each string split between them by its ``pan``)
+    buses: ClassVar[int] = 1
     DEFAULT_RATE: ClassVar[float] = 325_000.0
     study: bool = False
 

@@ -19,11 +19,18 @@ strike position, with the hammer speed given by the velocity curve
 ``speed_min + (speed_max - speed_min) v^e``, v = (velocity - 1/127) /
 (1 - 1/127), e = ``play.velocity_exponent``.
 
-Two-stage decay: in a real piano the bridge couples the unison strings and
-splits their motion into a fast "prompt" and a slow "aftersound" decay
-(Weinreich).  The bridge coupling is not modelled; instead the unison
-strings, slightly detuned, decay at different rates (the centre-tuned string
-slowest), so a note beats and its envelope falls fast, then slowly.
+Two-stage decay: the strings of a key hang on one bridge (the kernel's
+coupled group, :meth:`synth.dsp.bank.StringBank.couple`): a dashpot whose
+motion under the strings' summed force every string's end follows
+(Weinreich 1977).  Each string's loop keeps its own loss (the aftersound's
+T60, ``t60_low_s``); the bridge takes energy fast from the strings' in-phase
+motion (the prompt sound's T60, ``t60_prompt_s``, which sets the bridge's
+resistance, :func:`synth.physics.piano.bridge_resistance_ns_per_m`, scaled
+by ``strings.bridge_coupling``) and little from the motions that cancel at
+the bridge.  The strings are slightly detuned and the hammer meets them
+unequally (``synth.physics.piano.UNISON_STRIKE``), so a note beats, falls
+fast, then decays slowly, and a string left unstruck (una corda) rings
+through the bridge.
 
 Dampers: a key's release damps its strings (T60 from
 ``dampers.release_t60_bass_s`` to ``..._treble_s`` across the keyboard),
@@ -31,8 +38,19 @@ except the top keys, which have no dampers; the sustain pedal lifts the
 dampers gradually between ``half_pedal_low`` and ``half_pedal_high`` (half
 pedal: the T60 lies geometrically between the damped and the free value).
 Soft pedal: at 0.5 and above the hammer misses one string of a two- or
-three-string unison (una corda shift); the felt gets softer continuously
-(stiffness times 1 - (1 - soft_stiffness) * soft).
+three-string unison (una corda shift), which then sounds only through the
+bridge; the felt gets softer continuously (stiffness times 1 - (1 -
+soft_stiffness) * soft).
+
+The strings on the capo bar can run on a finer grid (``strings.capo_grid``
+steps per engine sample, the kernel's ``I_SUB``): at the engine's 325 kHz a
+grid cell is 1.3 mm, wider than the part of the string that lifts onto the
+bar in free vibration, so the bar acts only while the hammer presses the
+string; at 1.3 MHz (4) its contacts continue, as in the thesis's study.
+
+Output: each string writes the force on the bridge into two buses, split by
+the key's place along the bridge (bus 0 the bass end, bus 1 the treble
+end).
 
 The soundboard is a modal bank on the decimated mix: the voice describes it
 (:meth:`GrandPianoInstrument.body`, from ``[body]``) and the engine builds
@@ -58,8 +76,10 @@ from .registry import register_voice
 #: per-key string designs, by (preset, internal rate)
 _DESIGNS: dict = {}
 
-#: decay-time factor of each unison string (the centre-tuned one decays slowest)
-UNISON_T60 = {1: (1.0,), 2: (1.0, 0.45), 3: (0.45, 1.0, 0.5)}
+#: the return frequency of the bridge's spring (Hz): far below the lowest
+#: note, it only keeps the dashpot from drifting (at 5 Hz its reactance
+#: flattened A0's single string by 1.2 cents; at 1 Hz by 0.2)
+BRIDGE_RETURN_HZ = 1.0
 
 
 @dataclass(frozen=True)
@@ -79,6 +99,7 @@ class GrandStringSetup:
     tension_n: float
     c_m_per_s: float
     f1_hz: float
+    sub: int = 1                            # steps per engine sample (a finer grid)
     slot: SlotTemplate | None = None        # the bank configuration, validated once
     hammer: HammerTemplate | None = None    # its hammer (speed and soft pedal per strike)
     damper: tuple | None = None             # its damper row (StringBank.set_damper)
@@ -90,6 +111,7 @@ class GrandPianoInstrument(Voice):
 
     KEY_LOW, KEY_HIGH = 21, 108
     strings_per_voice = 3
+    buses = 2
 
     def __init__(self, preset, fs_internal: float | None = None):
         super().__init__(preset, fs_internal)
@@ -109,12 +131,20 @@ class GrandPianoInstrument(Voice):
             self.setup(key)
 
     # -- sizes for the engine -----------------------------------------------------
+    @property
+    def capo_grid(self) -> int:
+        """Steps per engine sample of the strings on the capo bar."""
+        return int(self.preset.strings.capo_grid or 1)
+
     def max_cells(self, key_low: int | None = None) -> int:
-        return int(self.fs / P.et_f0_hz(self.KEY_LOW, 400.0) / 2) + 4
+        low = int(self.fs / P.et_f0_hz(self.KEY_LOW, 400.0) / 2) + 4
+        capo = int(self.capo_grid * self.fs / P.et_f0_hz(P.CAPO_FIRST_MIDI, 400.0) / 2) + 4
+        return max(low, capo)
 
     def max_region_points(self) -> int:
         c_min = min(g.c_m_per_s for g in P.grand_piano_strings() if g.has_capo)
-        return int(math.ceil(self.preset.strings.capo_region_m * self.fs / c_min)) + 1
+        return int(math.ceil(self.preset.strings.capo_region_m * self.capo_grid * self.fs
+                             / c_min)) + 1
 
     def sizes(self, extra_low_key: int | None = None) -> BankSizes:
         return BankSizes(strings_per_voice=self.strings_per_voice,
@@ -130,7 +160,8 @@ class GrandPianoInstrument(Voice):
     def tuning_hz(self, key: int) -> float:
         """Partial-1 frequency this preset tunes ``key`` to (Hz)."""
         t = self.preset.tuning
-        return P.stretched_f0_hz(key, None, a4_hz=t.a4_hz, stretch=t.stretch)
+        return P.stretched_f0_hz(key, None, a4_hz=t.a4_hz, stretch=t.stretch,
+                                 octave_k_bass=t.octave_k_bass)
 
     def pitch_hz(self, key: float | None = None, f0_hz: float | None = None) -> float:
         """Partial-1 frequency of ``key`` as tuned (Hz), or ``f0_hz``."""
@@ -147,15 +178,20 @@ class GrandPianoInstrument(Voice):
         sp = pre.strings
         f1 = self.tuning_hz(key)
         B = gs.inharmonicity_b
-        dt = 1.0 / self.fs
+        M = self.capo_grid if gs.has_capo else 1
+        fs = self.fs * M
+        dt = 1.0 / fs
         dx = gs.c_m_per_s * dt
+        # a rigid bridge (coupling 0): the string's own decay is the whole
+        # decay, as before the bridge was modelled: the prompt T60
+        cpl = sp.bridge_coupling if sp.bridge_coupling is not None else 0.0
+        t_own = gs.t60_low_s if cpl > 0 else gs.t60_prompt_s
         out = []
         for j, det in enumerate(gs.unison_detune_cents):
             fj = f1 * 2.0 ** (det * sp.detune_scale / 1200.0)
-            fac = UNISON_T60[gs.n_strings][j] * sp.t60_scale
-            t_lo = gs.t60_low_s * fac
-            t_hi = min(gs.t60_high_s * fac, t_lo)
-            loop = tune_stiff_loop(fj, B, self.fs, t_lo, fj, t_hi, max(gs.f_high_hz, 1.5 * fj),
+            t_lo = t_own * sp.t60_scale
+            t_hi = min(gs.t60_s(gs.f_high_hz) * t_own / gs.t60_low_s * sp.t60_scale, t_lo)
+            loop = tune_stiff_loop(fj, B, fs, t_lo, fj, t_hi, max(gs.f_high_hz, 1.5 * fj),
                                    m_max=sp.dispersion_sections, f_max_hz=18000.0)
             cells = loop.cells
             k = min(max(int(round(gs.strike_position * cells)), 1), cells - 2)
@@ -166,7 +202,7 @@ class GrandPianoInstrument(Voice):
                 U = Termination(self._capo, 1, R).sample(dx)
             out.append(GrandStringSetup(cells, k, dt, U, loop.b0, loop.a1, loop.eta,
                                         loop.extra_delay, loop.M, loop.a_disp,
-                                        gs.tension_n, gs.c_m_per_s, fj))
+                                        gs.tension_n, gs.c_m_per_s, fj, sub=M))
         # validated bank rows, so that a note-on in the audio thread only
         # copies them (~10 us per key instead of ~35)
         full = []
@@ -177,17 +213,32 @@ class GrandPianoInstrument(Voice):
                                  b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
                                  lossy=True, n_disp=su.n_disp, a_disp=su.a_disp,
                                  glide_s=StringBank.LOSS_GLIDE_S,
-                                 bend_glide_s=StringBank.BEND_GLIDE_S)
+                                 bend_glide_s=StringBank.BEND_GLIDE_S,
+                                 pan=self.pan(key), sub=su.sub)
             hp = self._hammer(key, len(out), su)
             # the damper's felt: T60 from the damped value (release_t60_s, at
             # most the free one) to the free one as the pedal lifts it; keys
             # without dampers ring on (damped = free)
-            t_nat = gs.t60_low_s * sp.t60_scale
+            t_nat = t_own * sp.t60_scale
             t_damped = min(self.release_t60_s(key), t_nat) if gs.has_damper else t_nat
             full.append(replace(su, slot=slot, hammer=hammer_template(dt_s=su.dt_s, **hp),
                                 damper=(su.b0, su.f1_hz, t_damped, t_nat)))
         self._keys[key] = tuple(full)
         return self._keys[key]
+
+    def pan(self, key: int) -> float:
+        """Where the key's strings meet the bridge, 0 (the bass end, bus 0)
+        .. 1 (the treble end, bus 1): linear in the key."""
+        return (int(key) - self.KEY_LOW) / (self.KEY_HIGH - self.KEY_LOW)
+
+    def bridge_resistance_ns_per_m(self, key: int) -> float | None:
+        """The resistance (N s/m) of the bridge the key's strings hang on
+        (:func:`synth.physics.piano.bridge_resistance_ns_per_m` over
+        ``strings.bridge_coupling``), or None for a rigid bridge."""
+        c = self.preset.strings.bridge_coupling
+        if not c:
+            return None
+        return P.bridge_resistance_ns_per_m(int(key)) / c
 
     def hammer_speed(self, velocity: float) -> float:
         a = self.preset.action
@@ -227,14 +278,22 @@ class GrandPianoInstrument(Voice):
         V = self.hammer_speed(velocity) if speed_m_per_s is None else float(speed_m_per_s)
         a = self.preset.action
         stiff = 1.0 - (1.0 - a.soft_stiffness) * min(max(soft, 0.0), 1.0)
+        R_b = self.bridge_resistance_ns_per_m(key)
+        fresh = not restrike or not all(bank.is_active(s) for s in slots[:n])
         for j, (slot, su) in enumerate(zip(slots, sus)):
-            if not restrike or not bank.is_active(slot):
+            if fresh:
                 bank.configure_from(slot, su.slot, probe_row + j if probe_row >= 0 else -1)
                 bank.set_damper(slot, su.damper)
             else:
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
+        if fresh and R_b is not None:
+            bank.couple(slots[:n], R_b, BRIDGE_RETURN_HZ)
+        speeds = P.UNISON_STRIKE[n]
+        for j, (slot, su) in enumerate(zip(slots, sus)):
             if j < struck:
-                bank.start_hammer_from(slot, su.hammer, V, stiff)
+                bank.start_hammer_from(slot, su.hammer, V * speeds[j], stiff)
+            # every string sounds: an unstruck one (una corda) through the bridge
+            if R_b is not None or j < struck:
                 bank.activate(slot)
 
     def release_t60_s(self, key: int) -> float:

@@ -6,7 +6,9 @@ Built with the "new voice" recipe of ``docs/architecture.md``, from parts
 the house already has: each key (``play.key_low`` .. ``play.key_high``,
 within MIDI 21-108) is one string of the grand's per-key design
 (:mod:`synth.physics.piano`: speaking length, tension, inharmonicity B,
-decay times; the first string of its unison), tuned like the grand
+decay times of one string alone on the bridge,
+:func:`synth.physics.piano.single_string_t60_s`; the first string of its
+unison), tuned like the grand
 (``[tuning]``: partial 1 exact, stretch 0 .. 1) with its stiffness allpass
 cascade (:func:`synth.physics.dispersion.tune_stiff_loop`, at most
 ``strings.dispersion_sections`` sections), and plucked instead of struck:
@@ -129,8 +131,10 @@ class Harpsichord(Voice):
         pre, sp = self.preset, self.preset.strings
         f1 = self.pitch_hz(key)
         dt = 1.0 / self.fs
-        t_lo = gs.t60_low_s * sp.t60_scale
-        t_hi = min(gs.t60_high_s * sp.t60_scale, t_lo)
+        # one string on the bridge: its own loss and the bridge's share
+        t_one = P.single_string_t60_s(key)
+        t_lo = t_one * sp.t60_scale
+        t_hi = min(gs.t60_high_s * t_one / gs.t60_low_s * sp.t60_scale, t_lo)
         loop = tune_stiff_loop(f1, gs.inharmonicity_b, self.fs, t_lo, f1, t_hi,
                                max(gs.f_high_hz, 1.5 * f1), m_max=sp.dispersion_sections,
                                f_max_hz=18000.0)
@@ -144,10 +148,9 @@ class Harpsichord(Voice):
         string = IdealString(gs.speaking_length_m, gs.tension_n, gs.linear_density_kg_per_m)
         t_damped = min(self.release_t60_s(key), t_lo)
         ref = P.grand_string(self.KEY_REF)
-        z_ref = math.sqrt(ref.tension_n * ref.linear_density_kg_per_m)
-        z = math.sqrt(gs.tension_n * gs.linear_density_kg_per_m)
         su = PluckedPianoString(string, cells, k, dt, None, loop.b0, f1, slot,
-                                (loop.b0, f1, t_damped, t_lo), z_ref / z)
+                                (loop.b0, f1, t_damped, t_lo),
+                                ref.impedance_ns_per_m / gs.impedance_ns_per_m)
         self._keys[key] = su
         return su
 

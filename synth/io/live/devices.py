@@ -241,8 +241,9 @@ def pick_audio_device(sd, wanted: str | None = None) -> tuple[int, str, int]:
     Returns
     -------
     (index, name, channels)
-        ``channels`` is 1 when the device takes mono at 48 kHz float32,
-        else 2 (the mono signal on both).
+        ``channels`` is 2 when the device takes stereo at 48 kHz float32
+        (a mono instrument then sounds the same on both), else 1 (left and
+        right mixed).
 
     Raises
     ------
@@ -265,9 +266,9 @@ def pick_audio_device(sd, wanted: str | None = None) -> tuple[int, str, int]:
         name = match_name(wanted, [d["name"] for d in outs], "--audio-device", "audio output device")
         dev = next(d for d in outs if d["name"] == name)
     errors = []
-    for ch in (1, 2):
+    for ch in (2, 1):                  # stereo (left, right), else the two mixed
         if ch > dev["max_output_channels"]:
-            break
+            continue
         try:
             with _quiet_c_stderr():
                 sd.check_output_settings(device=dev["index"], channels=ch, dtype="float32",

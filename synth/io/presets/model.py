@@ -88,6 +88,7 @@ class TuningSpec:
 
     a4_hz: float
     stretch: float
+    octave_k_bass: int | None = None     # grand: octave type tuned down from A4 (None: 2:1)
 
 
 @dataclass(frozen=True)
@@ -112,6 +113,8 @@ class StringsSpec:
     dispersion_sections: int
     capo_radius_m: float
     capo_region_m: float
+    capo_grid: int | None = None          # grand: steps per engine sample of the capo strings
+    bridge_coupling: float | None = None  # grand: factor on the bridge's admittance (0: rigid)
 
 
 @dataclass(frozen=True)

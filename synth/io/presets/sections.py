@@ -167,6 +167,9 @@ SECTIONS: tuple[Section, ...] = (
         Field("a4_hz", "float", "frequency of A4 (partial 1), Hz", 380.0, 480.0),
         Field("stretch", "float", "octave stretch: 0 equal temperament, 1 a tuner's stretch for "
               "this inharmonicity", 0.0, 1.5),
+        Field("octave_k_bass", "int", "octaves tuned down from A4 make partial 2k of the lower "
+              "key beat-free with partial k of the upper (1: 2:1; 3: 6:3, a wider bass)", 1, 8,
+              when=When("voice", ("grand",))),
     ), when=_KEYBOARD),
     Section("action", "grand piano hammers", ActionSpec, (
         Field("law", "str", "felt law of the per-key hammers (thesis eqs. 1.5-1.9 or Pub. III eqs. 3-7)",
@@ -187,6 +190,12 @@ SECTIONS: tuple[Section, ...] = (
               when=When("voice", ("grand",))),
         Field("capo_region_m", "float", "length of string next to the bar that may touch it, m",
               0.0, 0.05, when=When("voice", ("grand",))),
+        Field("capo_grid", "int", "steps per engine sample of the strings on the capo bar (a "
+              "finer grid resolves the bar's contacts in free vibration; cost x this)", 1, 8,
+              when=When("voice", ("grand",))),
+        Field("bridge_coupling", "float", "factor on the bridge's admittance that couples a "
+              "key's strings (1: the designed two-stage decay; 0: a rigid bridge)", 0.0, 4.0,
+              when=When("voice", ("grand",))),
     ), when=_KEYBOARD),
     Section("dampers", "dampers and sustain pedal of the per-key strings", DampersSpec, (
         Field("release_t60_bass_s", "float", "T60 of a damped bass string, s", 0.02, 5.0),
