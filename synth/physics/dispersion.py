@@ -655,7 +655,7 @@ def tune_stiff_loop(f1_hz: float, B: float, fs: float, t60_low_s: float, f_low_h
 
 #: Most biquads :func:`tune_stiff_loop_sos` may use, i.e. the state the
 #: kernel must hold.  The grand's 88 keys need at most 8 at 2 cents and
-#: partials up to 10 kHz.
+#: partials up to 10 kHz (at most 40), 12 with partials up to 18 kHz.
 MAX_SOS = 12
 #: Cost of a biquad in first-order-section units (twice a first-order
 #: section's state and about twice its arithmetic).
@@ -992,17 +992,15 @@ class _SosProblem:
 
     def design(self, tol: float, max_biquads: int):
         """Cheapest cascade (U = 2 M + m1 units) whose fit keeps partials 1
-        .. K within ``tol`` in the exact loop, from U = the phase budget up
-        to 2 max_biquads + 1 (only the largest when the budget is higher);
-        U = 0 is no cascade at all.  Returns (M, m1, exact design, tried) of the
-        first that meets it, or of the one with the smallest worst error
-        (None when none keeps MIN_CELLS cells)."""
+        .. K within ``tol`` in the exact loop, trying U from the phase budget
+        (:func:`phase_budget_sections`, a lower bound; U = 0, no cascade at
+        all, when it is below 2) up to 2 max_biquads + 1.  Returns ((M, m1,
+        exact design), number of U tried); the design is None when no U
+        meets the tolerance with at least MIN_CELLS cells."""
         u_max = SOS_COST * max_biquads + 1
         u0 = int(math.ceil(phase_budget_sections(self.f0, self.B, self.K) - 1e-9))
         if u0 <= 1:
             u0 = 0                           # no cascade costs only an evaluation
-        u0 = min(u0, u_max)                  # beyond the budget: the largest, best effort
-        best = None
         tried = 0
         for U in range(u0, u_max + 1):
             M, m1 = U // 2, U % 2
@@ -1017,19 +1015,14 @@ class _SosProblem:
             if U and tol < worst <= _LAWSON_FACTOR * tol:
                 x, e = self.lawson(x, e, M, m1, _LAWSON_PASSES, _LAWSON_ITERS, 0.0)
                 worst = float(np.max(np.abs(s * e)))
-            if best is not None and worst > 1.1 * best[3] and worst > 1.1 * tol:
+            # the linearised error overstates larger errors by a few per cent:
+            # the exact loop decides near the tolerance
+            if worst > 1.1 * tol:
                 continue
             ex = self.exact(M, m1, x)
-            if ex[0] < MIN_CELLS:
-                continue
-            w_ex = float(np.max(np.abs(ex[5])))
-            if best is None or w_ex < best[3]:
-                best = (M, m1, ex, w_ex)
-            if w_ex <= tol:
-                break
-        if best is None:
-            return None, tried
-        return best[:3], tried
+            if ex[0] >= MIN_CELLS and float(np.max(np.abs(ex[5]))) <= tol:
+                return (M, m1, ex), tried
+        return None, tried
 
 
 @dataclass(frozen=True, eq=False)
@@ -1198,8 +1191,11 @@ class SosStiffLoop:
 
 
 def _frozen(a) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a.setflags(write=False)
+    """A read-only float64 array (``a`` itself when it already is one)."""
+    a = np.asarray(a, dtype=float)
+    if a.flags.writeable:
+        a = a.copy()
+        a.setflags(write=False)
     return a
 
 
@@ -1252,14 +1248,17 @@ def tune_stiff_loop_sos(f1_hz: float, B: float, fs: float, t60_low_s: float, f_l
     section with a free coefficient.
 
     Fallback.  With K < 2 or B = 0 (nothing to stretch), or when no cascade
-    up to ``max_biquads`` meets the tolerance, the first-order design of
-    :func:`tune_stiff_loop` (``m_max`` identical sections at most) is also
-    made and the loop with the smaller worst error is returned (``kind``
-    says which; ``worst_cents`` is the truth either way).  For the grand
-    (:func:`synth.physics.piano.grand_string`, 2 cents, partials up to 10
-    kHz) no key falls back: keys 21 .. 103 use 1 .. 8 biquads (and at most
-    one first-order section), keys 104 .. 108 (K = 2) one first-order
-    section.
+    up to ``max_biquads`` meets the tolerance (or leaves 8 cells), the loop
+    is the first-order design of :func:`tune_stiff_loop` (at most ``m_max``
+    identical sections, the longest run of low partials within the
+    tolerance): ``kind == "first-order"``, ``sos`` empty, ``n_fo = M``,
+    ``a_fo = a_disp``, and ``worst_cents`` its true worst over partials 1
+    .. K.  For the grand (:func:`synth.physics.piano.grand_string`, 2 cents,
+    partials up to 10 kHz) no key falls back: keys 21 .. 103 use 1 .. 8
+    biquads (and at most one first-order section), keys 104 .. 108 (K = 2)
+    one first-order section.  (With partials up to 18 kHz, as the voice asks
+    of the first-order design, keys 57 .. 69 need 9 .. 12 biquads: within
+    MAX_SOS = 12, and none falls back either.)
 
     Parameters
     ----------
@@ -1322,12 +1321,10 @@ def tune_stiff_loop_sos(f1_hz: float, B: float, fs: float, t60_low_s: float, f_l
     if found is not None:
         M, m1, (N, extra, eta, sos, a, cents) = found
         kind, n_fo, a_fo = "sos", m1, (float(a) if m1 else 0.0)
-    if found is None or float(np.max(np.abs(cents))) > tol_cents:
-        fo = _first_order_loop(pb, m_max, tol_cents)
-        if found is None or np.max(np.abs(fo[5])) < np.max(np.abs(cents)):
-            N, extra, eta, n_fo, a_fo, cents = fo
-            kind, sos = "first-order", np.zeros((0, 2))
-            a_fo = float(a_fo) if n_fo else 0.0
+    else:
+        N, extra, eta, n_fo, a_fo, cents = _first_order_loop(pb, m_max, tol_cents)
+        kind, sos = "first-order", np.zeros((0, 2))
+        a_fo = float(a_fo) if n_fo else 0.0
     if N < MIN_CELLS:
         raise ValueError(f"f1_hz = {f1_hz!r} is out of range: the loop keeps {N} "
                          f"cells (allowed: >= {MIN_CELLS}, f1 < fs/16)")
