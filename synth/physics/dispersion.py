@@ -663,10 +663,12 @@ SOS_COST = 2
 
 # fit settings (see _SosProblem)
 _AVS_C = 0.7            # initial radii R = exp(-c x half the spacing of the pole angles)
-_LS_ITERS = 40          # Levenberg-Marquardt iterations of the least-squares fit
+_LS_ITERS = 40          # Levenberg-Marquardt iterations of the least-squares fit ...
+_LS_RTOL = 1e-6         # ... or until a step gains less than this (relative)
 _LAWSON_FACTOR = 2.2    # Lawson passes only when the LS worst is within this x tol
 _LAWSON_PASSES = 6
-_LAWSON_ITERS = 20      # LM iterations per Lawson pass (warm-started)
+_LAWSON_ITERS = 20      # LM iterations per Lawson pass (warm-started) ...
+_LAWSON_RTOL = 1e-4     # ... or until a step gains less than this (relative)
 _FO_START = 2.0         # a first-order section starts at a = -1 + 2 w1
 _X2_MIN = -25.0         # -ln R >= e^-25: R <= 1 - 1.4e-11 during the fit ...
 _X2_MAX = 3.0           # ... and -ln R <= e^3: R >= 2e-9
@@ -822,8 +824,8 @@ class _SosProblem:
 
     # -- the model and its Jacobian
     def unpack(self, x, M: int, m1: int):
-        th = np.exp(np.clip(x[:M], _X1_MIN, _X1_MAX))
-        R = np.exp(-np.exp(np.clip(x[M:2 * M], _X2_MIN, _X2_MAX)))
+        th = np.exp(np.minimum(np.maximum(x[:M], _X1_MIN), _X1_MAX))
+        R = np.exp(-np.exp(np.minimum(np.maximum(x[M:2 * M], _X2_MIN), _X2_MAX)))
         a = math.expm1(min(max(x[2 * M], _U_LO), _U_HI)) if m1 else 0.0
         return th, R, a
 
@@ -866,7 +868,7 @@ class _SosProblem:
         G = np.concatenate(rows, axis=0)
         return (G[:, 1:] - self.ratio[None, :] * G[:, :1]).T
 
-    def lm(self, x, M: int, m1: int, s, iters: int):
+    def lm(self, x, M: int, m1: int, s, iters: int, rtol: float = _LS_RTOL):
         """Levenberg-Marquardt on sum (s_n e_n)^2: steps (J^T J + lam
         diag(J^T J)) dx = -J^T r, lam / 3 after a step that lowers the cost,
         x 4 (same J) after one that does not; stops after ``iters`` trial
@@ -884,8 +886,10 @@ class _SosProblem:
                 g = J.T @ r
                 dA = np.diag(A).copy()
                 dA = np.maximum(dA, 1e-12 * max(float(dA.max()), 1e-300))
+            Ad = A.copy()
+            Ad.flat[::len(dA) + 1] += lam * dA
             try:
-                step = np.linalg.solve(A + np.diag(lam * dA), -g)
+                step = np.linalg.solve(Ad, -g)
             except np.linalg.LinAlgError:
                 lam *= 4.0
                 continue
@@ -897,7 +901,7 @@ class _SosProblem:
             rn = s * en
             costn = float(rn @ rn)
             if costn < cost:
-                done = cost - costn < 1e-10 * cost
+                done = cost - costn < rtol * cost
                 x, e, cache, r, cost = xn, en, cn, rn, costn
                 J = None
                 lam = max(lam / 3.0, 1e-12)
@@ -921,7 +925,7 @@ class _SosProblem:
             ac = np.abs(c)
             wts = wts * (ac + 1e-3 * ac.max())
             wts = wts / wts.mean()
-            x, e = self.lm(x, M, m1, self.sc * np.sqrt(wts), iters)
+            x, e = self.lm(x, M, m1, self.sc * np.sqrt(wts), iters, _LAWSON_RTOL)
             c = self.sc * e
             worst = float(np.max(np.abs(c)))
             if worst < best[0]:
