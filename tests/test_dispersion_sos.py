@@ -313,7 +313,7 @@ def test_errors_name_the_parameter(call, name, allowed):
 
 # --- time-domain reference ---
 
-@nb.njit(cache=True)
+@nb.njit
 def reference_loop(nsamp, Dint, b0, a1, n_fo, a_fo, c1, c2, eta):
     """Impulse response of the loop, sample by sample: a ring of Dint
     samples, the loss filter y = b0 x - a1 y1, n_fo first-order sections
@@ -362,7 +362,7 @@ def reference_loop(nsamp, Dint, b0, a1, n_fo, a_fo, c1, c2, eta):
     return out
 
 
-@nb.njit(cache=True)
+@nb.njit
 def dtft_abs(x, w):
     """|sum x[n] e^{-i w n}|, the phasor rotated per sample and reset every
     4096 samples."""
