@@ -1,8 +1,12 @@
 """Study: stiffness dispersion with second-order allpass sections, against
 the first-order cascade the grand voice uses (not yet in the voice).
 
-    python tools/study_sos_dispersion.py [--keys 21,24,...] [--tol 2]
+    python tools/study_sos_dispersion.py [--keys 21,24,...|all] [--tol 2] [--m-max 8]
     python tools/study_sos_dispersion.py --simulate 21,45 [--seconds 1]
+
+The design now lives in the physics layer, in numpy only
+(:func:`synth.physics.dispersion.tune_stiff_loop_sos`); this study keeps
+its scipy version (below) for comparison: the table shows both.
 
 The grand's strings (synth.voices.grand) get their stiffness from M
 identical first-order allpasses (synth.physics.dispersion), which at the
@@ -34,10 +38,12 @@ makes partial 1 exact):
 
 The table gives, per key, the first-order design (sections, partials
 within tolerance, worst error over 1..K, design time) and this one
-(sections, worst error from the exact loop partials, design time).
-``--simulate`` runs the complete loop from an impulse for ``--seconds``
-and measures the partials (Blackman-Harris windowed DTFT peaks).  Needs
-scipy (installed with the test extras).
+(sections, worst error from the exact loop partials, design time), the
+scipy version of this study and the physics layer's numpy version.
+``--simulate`` runs the complete loop of the physics design from an
+impulse for ``--seconds`` and measures the partials (Blackman-Harris
+windowed DTFT peaks).  The scipy column needs scipy (installed with the
+test extras; ``--no-scipy`` leaves it out).
 """
 
 from __future__ import annotations
@@ -49,7 +55,6 @@ import time
 
 import numba as nb
 import numpy as np
-from scipy.optimize import least_squares
 
 from synth.physics import dispersion as D
 from synth.physics.losses import loop_gain_from_t60, one_pole_from_two_gains
@@ -239,6 +244,7 @@ class Problem:
         if m1:
             x0.append([math.log1p(a)])
         x0 = np.concatenate(x0)
+        from scipy.optimize import least_squares
         method = "lm" if self.K - 1 >= len(x0) else "trf"
         sol = least_squares(fun, x0, jac=jac, method=method, max_nfev=max_nfev,
                             xtol=xtol, ftol=1e-12, gtol=1e-12)
@@ -323,14 +329,16 @@ def sos_coeffs(th, R):
 
 @nb.njit
 def run_loop(nsamp, Dint, b0, a1, eta, m1, afo, c1, c2):
+    """The loop from an impulse: ``m1`` identical first-order sections of
+    coefficient ``afo``, biquads (c1, c2)."""
     M = c1.shape[0]
     ring = np.zeros(Dint)
     out = np.zeros(nsamp)
     lp_y = 0.0
     ap_x = 0.0
     ap_y = 0.0
-    fo_x = 0.0
-    fo_y = 0.0
+    fo_x = np.zeros(max(m1, 1))
+    fo_y = np.zeros(max(m1, 1))
     x1 = np.zeros(M)
     x2 = np.zeros(M)
     y1 = np.zeros(M)
@@ -346,10 +354,10 @@ def run_loop(nsamp, Dint, b0, a1, eta, m1, afo, c1, c2):
         ap_x = u
         ap_y = y
         u = y
-        if m1:
-            y = afo * u + fo_x - afo * fo_y
-            fo_x = u
-            fo_y = y
+        for j in range(m1):
+            y = afo * u + fo_x[j] - afo * fo_y[j]
+            fo_x[j] = u
+            fo_y[j] = y
             u = y
         # biquad allpasses (a2 + a1 z^-1 + z^-2)/(1 + a1 z^-1 + a2 z^-2), DF-I
         for i in range(M):
@@ -397,47 +405,67 @@ def string_args(key):
     return f1, B, g.t60_low_s, g.t60_high_s, max(g.f_high_hz, 1.5 * f1)
 
 
-def table(keys, tol, reps):
-    print("| key | partials K | first-order: sections / within tol / worst 1..K (cents) / ms "
-          "| second-order: biquads + first-order (cost) / worst 1..K (cents) / ms |")
-    print("|---|---|---|---|")
+def table(keys, tol, reps, m_max, scipy_too=True):
+    print(f"| key | partials K | first-order (m_max {m_max}): sections / within tol / worst 1..K "
+          "(cents) / ms "
+          + ("| second-order, scipy study: biquads + first-order (cost) / worst 1..K (cents) / ms "
+             if scipy_too else "")
+          + "| second-order, physics (numpy): biquads + first-order (cost) / worst 1..K "
+          "(cents) / ms |")
+    print("|---|---|---|" + ("---|" if scipy_too else "") + "---|")
+    tot = 0.0
     for key in keys:
         f1, B, tlo, thi, fh = string_args(key)
-        ts = []
-        for _ in range(reps):
-            t0 = time.perf_counter()
-            pb = Problem(f1, B, FS, tlo, f1, thi, fh)
-            d = design_sos(pb, tol=tol)
-            ts.append(time.perf_counter() - t0)
         to = []
         for _ in range(3):
             t0 = time.perf_counter()
-            old = D.tune_stiff_loop(f1, B, FS, tlo, f1, thi, fh)
+            old = D.tune_stiff_loop(f1, B, FS, tlo, f1, thi, fh, m_max=m_max)
             to.append(time.perf_counter() - t0)
-        N, extra, eta = d["tuning"]
-        fe = exact_partials(pb, d["th"], d["R"], d["m1"], d["a"], N, extra, eta, pb.K)
-        ce = 1200 * np.log2(fe / pb.fn)
-        co = 1200 * np.log2(old.partials(pb.K) / pb.fn)
-        print(f"| {key} | {pb.K} | {old.M} / {old.n_fit} / {np.max(np.abs(co)):.1f} / "
-              f"{1e3 * np.median(to):.1f} | {d['M']} + {d['m1']} ({2 * d['M'] + d['m1']}) / "
-              f"{np.max(np.abs(ce)):.2f} / {1e3 * np.median(ts):.1f} |", flush=True)
+        tn = []
+        for _ in range(reps):
+            t0 = time.perf_counter()
+            new = D.tune_stiff_loop_sos(f1, B, FS, tlo, f1, thi, fh, tol_cents=tol)
+            tn.append(time.perf_counter() - t0)
+        tot += float(np.median(tn))
+        K = new.n_partials
+        co = 1200 * np.log2(old.partials(K) / new.target_partials(K))
+        row = (f"| {key} | {K} | {old.M} / {old.n_fit} / {np.max(np.abs(co)):.1f} / "
+               f"{1e3 * np.median(to):.1f} |")
+        if scipy_too:
+            ts = []
+            for _ in range(reps):
+                t0 = time.perf_counter()
+                pb = Problem(f1, B, FS, tlo, f1, thi, fh)
+                d = design_sos(pb, tol=tol)
+                ts.append(time.perf_counter() - t0)
+            N, extra, eta = d["tuning"]
+            fe = exact_partials(pb, d["th"], d["R"], d["m1"], d["a"], N, extra, eta, pb.K)
+            ce = 1200 * np.log2(fe / pb.fn)
+            row += (f" {d['M']} + {d['m1']} ({2 * d['M'] + d['m1']}) / "
+                    f"{np.max(np.abs(ce)):.2f} / {1e3 * np.median(ts):.1f} |")
+        fb = " fallback" if new.kind != "sos" else ""
+        row += (f" {new.n_sos} + {new.n_fo} ({new.cost}){fb} / {new.worst_cents:.2f} / "
+                f"{1e3 * np.median(tn):.1f} |")
+        print(row, flush=True)
+    print(f"\nphysics design, sum of the median times over {len(keys)} keys: {tot:.3f} s")
 
 
 def simulate(keys, seconds, tol):
+    """Run the physics layer's design (tune_stiff_loop_sos) in the time domain."""
     for key in keys:
         f1, B, tlo, thi, fh = string_args(key)
-        pb = Problem(f1, B, FS, tlo, f1, thi, fh)
-        d = design_sos(pb, tol=tol)
-        N, extra, eta = d["tuning"]
-        c1, c2 = sos_coeffs(d["th"], d["R"])
+        lp = D.tune_stiff_loop_sos(f1, B, FS, tlo, f1, thi, fh, tol_cents=tol)
+        K = lp.n_partials
+        fn = lp.target_partials(K)
         nsamp = int(seconds * FS)
-        y = run_loop(nsamp, 2 * N + extra, pb.b0, pb.a1, eta, d["m1"], d["a"], c1, c2)
+        y = run_loop(nsamp, lp.delay_samples, lp.b0, lp.a1, lp.eta, lp.n_fo, lp.a_fo,
+                     np.ascontiguousarray(lp.sos[:, 0]), np.ascontiguousarray(lp.sos[:, 1]))
         xw = (y - y.mean()) * bh4(nsamp)
-        meas = np.array([peak_freq(xw, FS, f, 0.3 * pb.f0) for f in pb.fn])
-        model = exact_partials(pb, d["th"], d["R"], d["m1"], d["a"], N, extra, eta, pb.K)
-        c_meas = 1200 * np.log2(meas / pb.fn)
-        print(f"key {key}: {pb.K} partials, {d['M']} biquads + {d['m1']} first-order, "
-              f"{N} cells: worst |measured - target| {np.max(np.abs(c_meas)):.3f} cents, "
+        meas = np.array([peak_freq(xw, FS, f, 0.3 * lp.f0_string) for f in fn])
+        model = lp.partials(K)
+        c_meas = 1200 * np.log2(meas / fn)
+        print(f"key {key}: {K} partials, {lp.n_sos} biquads + {lp.n_fo} first-order, "
+              f"{lp.cells} cells: worst |measured - target| {np.max(np.abs(c_meas)):.3f} cents, "
               f"worst |measured - designed| {np.max(np.abs(1200 * np.log2(meas / model))):.5f} cents",
               flush=True)
 
@@ -445,7 +473,10 @@ def simulate(keys, seconds, tol):
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--keys", default=",".join(map(str, KEYS)))
+    ap.add_argument("--keys", default=",".join(map(str, KEYS)), help="comma list or 'all'")
+    ap.add_argument("--m-max", type=int, default=8,
+                    help="most first-order sections of the old design (default 8, the preset's)")
+    ap.add_argument("--no-scipy", action="store_true", help="leave out the scipy column")
     ap.add_argument("--tol", type=float, default=2.0, help="cents (default 2)")
     ap.add_argument("--reps", type=int, default=7, help="timing repetitions (default 7)")
     ap.add_argument("--simulate", metavar="KEYS", help="run the loops of these keys instead")
@@ -455,7 +486,8 @@ def main(argv=None) -> int:
     if a.simulate:
         simulate([int(k) for k in a.simulate.split(",")], a.seconds, a.tol)
     else:
-        table([int(k) for k in a.keys.split(",")], a.tol, a.reps)
+        keys = range(21, 109) if a.keys == "all" else [int(k) for k in a.keys.split(",")]
+        table(keys, a.tol, a.reps, a.m_max, not a.no_scipy)
     return 0
 
 
