@@ -34,9 +34,10 @@ Soft pedal: at 0.5 and above the hammer misses one string of a two- or
 three-string unison (una corda shift); the felt gets softer continuously
 (stiffness times 1 - (1 - soft_stiffness) * soft).
 
-The soundboard is a modal bank on the decimated mix: the voice describes it
-(:meth:`GrandPianoInstrument.body`, from ``[body]``) and the engine builds
-it (:class:`synth.dsp.body.Body`).
+The soundboard is a modal bank on the decimated bridge signal(s): the voice
+describes it (:meth:`GrandPianoInstrument.body`, from ``[body]``: one or two
+bridge inputs, one or two outputs) and the engine builds it
+(:class:`synth.dsp.body.Body`).
 """
 
 from __future__ import annotations
@@ -124,7 +125,7 @@ class GrandPianoInstrument(Voice):
     def body(self) -> BodyDesign:
         b = self.preset.body
         return BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
-                          seed=b.seed)
+                          seed=b.seed, inputs=b.inputs, outputs=b.outputs)
 
     # -- physics at note-on -------------------------------------------------------
     def tuning_hz(self, key: int) -> float:
