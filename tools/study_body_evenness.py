@@ -3,7 +3,7 @@
 Usage
 -----
     python tools/study_body_evenness.py render  [--cache PATH] [--velocity 80] [--duration 2.0]
-    python tools/study_body_evenness.py compare [--cache PATH]
+    python tools/study_body_evenness.py compare [--cache PATH] [--wet 0.4]
 
 ``render`` plays every key 21..108 once at ``velocity`` with the body off
 (``body.wet=0``), one engine per key, and keeps the dry 48 kHz renders in
@@ -29,8 +29,9 @@ one body filtering per key and variant) and prints, per variant:
   the key-to-key change shows).
 
 Variants: ``dry`` (no body), ``old`` (the body as it was before the
-two-bridge redesign: random residue signs; rebuilt here from its formulas,
-mono), ``new-mono`` (this body, 1 in, 1 out, preset values) and ``new-stereo``
+two-bridge redesign, random residue signs, mono, wet 0.5: its module is
+read from git at ``OLD_COMMIT``; skipped without the history), ``new-mono``
+(this body, 1 in, 1 out, wet ``--wet``, default the grand preset's 0.4) and ``new-stereo``
 (2 in, 2 out; the dry render of each key split between the bridge ends by
 its position t = (key - 21) / 87 with :meth:`Body.bridge_split`).
 """
