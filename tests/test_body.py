@@ -1,20 +1,23 @@
-"""Soundboard body stage: mode set (physics), kernel (numba) and Body (engine).
+"""Soundboard body stage: mode set (physics), kernels (numba) and Body (dsp).
 
-The slow reference is scipy.signal.lfilter, one call per mode, summed.
+The slow reference is scipy.signal.lfilter, one call per mode and path,
+summed; the evenness criterion is checked on the closed-form response.
 """
 
 import math
 import time
+import tracemalloc
 
 import numpy as np
 import pytest
 from scipy.signal import lfilter
 
 from synth.dsp.body import Body
-from synth.kernels.body import body_process
+from synth.kernels.body import body_process, body_process_mimo
 from synth.physics import soundboard as sb
 
 FS = 48000
+CONFIGS = [(1, 1), (1, 2), (2, 1), (2, 2)]
 
 
 def db(power_ratio):
@@ -30,7 +33,19 @@ def reference_bank(x, coefs):
 
 
 def reference_body(x, body):
-    return body.dry_gain * x + body.wet_gain * reference_bank(x, body.coefs)
+    """x (B, n) -> (C, n): direct part plus one lfilter per mode and path."""
+    m = body.modes
+    y = np.zeros((body.outputs, x.shape[1]))
+    for c in range(body.outputs):
+        for b in range(body.inputs):
+            y[c] += body.dry_gain * m.dry[c, b] * x[b]
+            y[c] += body.wet_gain * reference_bank(x[b], body._bank(c, b))
+    return y
+
+
+def as_io(x, body):
+    """(B, n) test signal in the shape process takes (1-D for one input)."""
+    return x if body.inputs == 2 else x[0]
 
 
 @pytest.fixture(scope="module")
@@ -41,35 +56,40 @@ def body():
 # --- streaming, reference, identity -------------------------------------------
 
 
+@pytest.mark.parametrize("io", CONFIGS)
 @pytest.mark.parametrize("kw", [{}, dict(n_modes=40, wet=0.3, size=0.7, brightness=-4.0)])
-def test_streaming_in_random_blocks_equals_one_shot(kw):
+def test_streaming_in_random_blocks_equals_one_shot(kw, io):
     rng = np.random.default_rng(2024)
-    x = rng.standard_normal(30000)
-    y_once = Body(FS, **kw).process(x)
-    b = Body(FS, **kw)
+    B, C = io
+    x = rng.standard_normal((B, 30000))
+    y_once = np.atleast_2d(Body(FS, inputs=B, outputs=C, **kw).process(as_io(x, Body(FS, inputs=B))))
+    b = Body(FS, inputs=B, outputs=C, **kw)
     parts, pos = [], 0
-    while pos < len(x):
+    while pos < x.shape[1]:
         k = int(rng.integers(0, 8)) if rng.random() < 0.4 else int(rng.integers(8, 3000))
-        parts.append(b.process(x[pos:pos + k]).copy())
+        parts.append(np.atleast_2d(b.process(as_io(x[:, pos:pos + k], b))).copy())
         pos += k
-    y_stream = np.concatenate(parts)
-    assert len(y_stream) == len(x)
+    y_stream = np.concatenate(parts, axis=1)
+    assert y_stream.shape == (C, x.shape[1])
     np.testing.assert_allclose(y_stream, y_once, rtol=0, atol=1e-12)
 
 
+@pytest.mark.parametrize("io", CONFIGS)
 @pytest.mark.parametrize("kw", [{}, dict(n_modes=40, wet=0.3, size=0.7, brightness=-4.0),
                                 dict(n_modes=120, wet=1.0, size=1.6, brightness=5.0, seed=9)])
-def test_matches_lfilter_reference(kw):
-    b = Body(FS, **kw)
-    x = np.random.default_rng(5).standard_normal(20000)
-    y = np.concatenate([b.process(x[:777]), b.process(x[777:])])
+def test_matches_lfilter_reference(kw, io):
+    B, C = io
+    b = Body(FS, inputs=B, outputs=C, **kw)
+    x = np.random.default_rng(5).standard_normal((B, 12000))
+    y = np.concatenate([np.atleast_2d(b.process(as_io(x[:, :777], b))),
+                        np.atleast_2d(b.process(as_io(x[:, 777:], b)))], axis=1)
     np.testing.assert_allclose(y, reference_body(x, b), rtol=0, atol=1e-9)
 
 
 def test_raw_kernel_matches_reference_with_odd_gains():
-    """The kernel driven by hand (dry, wet arbitrary, odd length, in place)."""
-    f, t60, g = sb.soundboard_modes(FS, n_modes=17, seed=4)
-    coefs = sb.resonator_coefs(FS, f, t60, g)
+    """The mono kernel driven by hand (dry, wet arbitrary, odd length, in place)."""
+    m = sb.soundboard_modes(FS, n_modes=17, seed=4)
+    coefs = sb.resonator_coefs(FS, m.freqs_hz, m.t60_s, m.pickup[0] * m.drive[0])
     state = np.zeros((2, 18))
     x = np.random.default_rng(8).standard_normal(1003)
     buf = np.concatenate([x, [np.nan, np.nan]])
@@ -80,13 +100,54 @@ def test_raw_kernel_matches_reference_with_odd_gains():
     np.testing.assert_array_equal(state[:, 17], x[[-2, -1]])  # input history
 
 
-def test_wet_zero_is_identity():
-    b = Body(FS, wet=0.0)
+def test_raw_mimo_kernel_in_place_with_odd_gains():
+    """The 2 x 2 kernel by hand: signed drives, gains and direct matrix, odd
+    length, output written over its own input."""
+    rng = np.random.default_rng(3)
+    m = sb.soundboard_modes(FS, n_modes=23, seed=2)
+    unit = sb.resonator_coefs(FS, m.freqs_hz, m.t60_s, np.ones(23))
+    drive = rng.standard_normal((2, 23))
+    pick = rng.standard_normal((2, 23))
+    dry = np.array([[0.3, -1.2], [0.8, 0.1]])
+    state = np.zeros((2, 25))
+    x = rng.standard_normal((2, 1001))
+    buf = np.full((2, 1004), np.nan)
+    buf[:, :1001] = x
+    body_process_mimo(buf, 1001, drive, unit[0] * pick, unit, state, dry, 1.7, buf)
+    for c in range(2):
+        ref = dry[c] @ x
+        for b in range(2):
+            k = unit.copy()
+            k[0] *= pick[c] * drive[b]
+            ref = ref + 1.7 * reference_bank(x[b], k)
+        np.testing.assert_allclose(buf[c, :1001], ref, rtol=0, atol=1e-9)
+    assert np.isnan(buf[:, 1001:]).all()
+    np.testing.assert_array_equal(state[:, 23], x[0, [-2, -1]])
+    np.testing.assert_array_equal(state[:, 24], x[1, [-2, -1]])
+
+
+@pytest.mark.parametrize("io", CONFIGS)
+def test_wet_zero_is_the_direct_part(io):
+    B, C = io
+    b = Body(FS, wet=0.0, inputs=B, outputs=C)
     assert b.dry_gain == 1.0 and b.wet_gain == 0.0
-    x = np.random.default_rng(1).standard_normal(5001)
-    np.testing.assert_array_equal(b.process(x), x)
-    imp = b.impulse_response(100)
-    assert imp[0] == 1.0 and not imp[1:].any()
+    x = np.random.default_rng(1).standard_normal((B, 5001))
+    np.testing.assert_allclose(np.atleast_2d(b.process(as_io(x, b))), b.modes.dry @ x,
+                               rtol=0, atol=1e-15)
+    if io == (1, 1):
+        imp = b.impulse_response(100)
+        assert imp[0] == 1.0 and not imp[1:].any()
+
+
+def test_direct_part_per_configuration():
+    """Mono: 1. One in, two out: the input on both. Two in, one out: the sum.
+    Two in, two out: bass end mostly left, treble end mostly right."""
+    assert Body(FS).modes.dry.tolist() == [[1.0]]
+    np.testing.assert_allclose(Body(FS, outputs=2).modes.dry, [[2 ** -0.5], [2 ** -0.5]])
+    np.testing.assert_allclose(Body(FS, inputs=2).modes.dry, [[1.0, 1.0]])
+    d = Body(FS, inputs=2, outputs=2).modes.dry
+    assert d[0, 0] == d[1, 1] > d[0, 1] == d[1, 0] > 0.0
+    assert (d * d).sum() / 2 == pytest.approx(1.0)
 
 
 def test_out_argument_in_place_and_strided(body):
@@ -108,6 +169,42 @@ def test_out_argument_in_place_and_strided(body):
     body.reset()
 
 
+@pytest.mark.parametrize("io", [(1, 2), (2, 1), (2, 2)])
+def test_mimo_out_argument_in_place_and_strided(io):
+    B, C = io
+    b = Body(FS, inputs=B, outputs=C)
+    x = np.random.default_rng(4).standard_normal((B, 999))
+    y = np.atleast_2d(b.process(as_io(x, b))).copy()
+    b.reset()
+    buf = np.full((C, 1100), -1.0) if C == 2 else np.full(1100, -1.0)
+    got = b.process(as_io(x, b), out=buf)
+    assert got.base is buf and (buf[..., 999:] == -1.0).all()
+    np.testing.assert_array_equal(np.atleast_2d(got), y)
+    b.reset()
+    strided = np.zeros((C, 2000))[:, ::2] if C == 2 else np.zeros(2000)[::2]
+    np.testing.assert_array_equal(np.atleast_2d(b.process(as_io(x, b), out=strided)), y)
+    if B == C == 2:  # in place
+        b.reset()
+        xi = x.copy()
+        b.process(xi, out=xi)
+        np.testing.assert_array_equal(xi, y)
+
+
+@pytest.mark.parametrize("io", CONFIGS)
+def test_no_allocation_per_block_when_out_is_given(io):
+    B, C = io
+    b = Body(FS, inputs=B, outputs=C)
+    x = as_io(np.random.default_rng(0).standard_normal((B, 128)), b)
+    out = np.empty((C, 128)) if C == 2 else np.empty(128)
+    b.process(x, out)  # warm
+    tracemalloc.start()
+    for _ in range(50):
+        b.process(x, out)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert peak < 4096, f"{peak} bytes allocated while streaming 50 blocks"  # views only
+
+
 def test_reset_and_impulse_response_leave_stream_alone():
     b = Body(FS)
     x = np.random.default_rng(6).standard_normal(3000)
@@ -119,35 +216,56 @@ def test_reset_and_impulse_response_leave_stream_alone():
     b.process(np.ones(77))
     b.reset()
     np.testing.assert_array_equal(b.process(x), y1)
-    # the impulse response is the response to an impulse
     d = np.zeros(4000)
     d[0] = 1.0
     b.reset()
     np.testing.assert_allclose(h, b.process(d), rtol=0, atol=1e-15)
 
 
-def test_deterministic_for_fixed_seed():
+def test_mimo_impulse_response_is_the_response_per_path():
+    b = Body(FS, inputs=2, outputs=2, n_modes=30)
+    h = b.impulse_response(2048)
+    assert h.shape == (2, 2, 2048)
+    for src in range(2):
+        d = np.zeros((2, 2048))
+        d[src, 0] = 1.0
+        b.reset()
+        np.testing.assert_allclose(h[:, src], b.process(d), rtol=0, atol=1e-15)
+    long = b.impulse_response(8 * FS)  # the slowest mode falls 60 dB in 2.2 s
+    spec = np.fft.rfft(long)
+    f = np.fft.rfftfreq(8 * FS, 1.0 / FS)
+    sel = np.arange(1, len(f), 997)
+    np.testing.assert_allclose(spec[..., sel], b.response(f[sel]), rtol=0, atol=1e-6)
+
+
+def test_deterministic_for_fixed_seed_and_same_board_in_every_configuration():
     a, b, c = Body(FS, seed=11), Body(FS, seed=11), Body(FS, seed=12)
     np.testing.assert_array_equal(a.coefs, b.coefs)
     x = np.random.default_rng(0).standard_normal(2000)
     np.testing.assert_array_equal(a.process(x), b.process(x))
     assert not np.allclose(a.freqs_hz[1:], c.freqs_hz[1:])  # another seed, another board
+    s = Body(FS, seed=11, inputs=2, outputs=2)
+    np.testing.assert_array_equal(s.freqs_hz, a.freqs_hz)
+    r = s.modes.drive[0] / a.modes.drive[0]
+    np.testing.assert_allclose(r, r[0], rtol=1e-12)  # input 0 is the mono board's input
 
 
 # --- stability, decay, spectrum -----------------------------------------------
 
 
 @pytest.mark.parametrize("kw", [{}, dict(n_modes=1024), dict(n_modes=1), dict(n_modes=2),
+                                dict(n_modes=40), dict(n_modes=75), dict(n_modes=300),
                                 dict(size=0.5, brightness=12.0),
                                 dict(size=2.0, brightness=-12.0, n_modes=300)])
 def test_all_poles_inside_unit_circle(kw):
-    b = Body(FS, **kw)
+    b = Body(FS, inputs=2, outputs=2, **kw)
     for _, a1, a2 in b.coefs.T:
         assert np.abs(np.roots([1.0, a1, a2])).max() < 1.0
-    assert np.isfinite(b.coefs).all()
+    assert np.isfinite(b.coefs).all() and np.isfinite(b.modes.pickup).all()
+    assert (b.modes.drive > 0).all() and (b.modes.pickup >= 0).all() and (b.modes.dry >= 0).all()
 
 
-def test_impulse_response_decays_60_db_in_2_s(body):
+def test_impulse_response_decays_60_db_in_2_s():
     h = Body(FS, wet=1.0).impulse_response(2 * FS)
     e = h * h
     m = len(h) // 10
@@ -158,56 +276,147 @@ def test_impulse_response_decays_60_db_in_2_s(body):
 @pytest.mark.parametrize("seed", [sb.DEFAULT_SEED, 2, 3, 31])
 def test_magnitude_peaks_at_lowest_mode_frequencies(seed):
     b = Body(FS, seed=seed, wet=1.0)
-    h = b.impulse_response(1 << 18)  # 5.5 s: the lowest mode (T60 2.2 s) has died
-    nfft = 1 << 21  # 0.023 Hz bins
-    mag = np.abs(np.fft.rfft(h, nfft))
-    fr = np.fft.rfftfreq(nfft, 1.0 / FS)
     f = b.freqs_hz
     for k in range(5):
         half = 0.5 * min(f[k + 1] - f[k], f[k] - f[k - 1] if k else np.inf)
-        sel = (fr > f[k] - half) & (fr < f[k] + half)
-        f_peak = fr[sel][np.argmax(mag[sel])]
+        fr = np.linspace(f[k] - half, f[k] + half, 4001)
+        f_peak = fr[np.argmax(np.abs(b.response(fr)[0, 0]))]
         assert abs(f_peak - f[k]) <= 1.0, f"mode {k}: {f[k]:.2f} Hz, peak at {f_peak:.2f} Hz"
 
 
 def test_smoothed_response_flat_and_tilted():
-    """Octave-band power of the bank: flat within a few dB at brightness 0
+    """Octave-band power of the modes: flat within a few dB at brightness 0
     (63 Hz .. 8 kHz), and +brightness dB per octave when tilted."""
-    edges = 62.5 * 2.0 ** np.arange(8)  # 62.5 .. 8000 Hz: 7 octave bands
+    edges = 62.5 * 2.0 ** np.arange(8)
+    fr = np.geomspace(62.5, 8000.0, 20000)
 
     def bands(brightness):
-        h = Body(FS, wet=1.0, brightness=brightness).impulse_response(3 * FS)
-        p = np.abs(np.fft.rfft(h)) ** 2
-        fr = np.fft.rfftfreq(len(h), 1.0 / FS)
-        return np.array([10 * np.log10(p[(fr >= lo) & (fr < 2 * lo)].mean()) for lo in edges[:-1]])
+        p = np.abs(Body(FS, wet=1.0, brightness=brightness).response(fr)[0, 0]) ** 2
+        return np.array([db(p[(fr >= lo) & (fr < 2 * lo)].mean()) for lo in edges[:-1]])
 
     flat = bands(0.0)
-    assert flat.max() - flat.min() <= 8.0, np.round(flat, 1)
+    assert flat.max() - flat.min() <= 6.0, np.round(flat, 1)
     tilt = bands(4.0) - flat
     slope = np.polyfit(np.arange(len(tilt)), tilt, 1)[0]
     assert 3.0 <= slope <= 5.0, f"tilt {slope:.2f} dB/octave for brightness 4"
 
 
+def test_sections_are_positive_real():
+    """Re H_k >= 0 on the unit circle for b0 > 0 (the bilinear image of a
+    positive-real band-pass): the floor of the evenness argument."""
+    rng = np.random.default_rng(7)
+    f = rng.uniform(20.0, 20000.0, 300)
+    coefs = sb.resonator_coefs(FS, f, rng.uniform(0.0005, 5.0, 300), rng.uniform(0.01, 10.0, 300))
+    H = sb.section_response(FS, coefs, np.linspace(0.0, FS / 2, 20001))
+    assert H.real.min() >= -1e-12
+
+
+# --- evenness -------------------------------------------------------------------
+
+GRID = np.geomspace(20.0, 21600.0, 16000)
+
+
+def _fine_structure_db(body, t):
+    """Body's power gain (summed over outputs) re its 1/3-octave smoothing, and
+    the power of its direct part, for a string at bridge position t."""
+    w = body.bridge_split(t)
+    p = (np.abs(body.response(GRID, w)) ** 2).sum(axis=0)
+    floor = ((body.dry_gain * body.modes.dry @ np.asarray(w)) ** 2).sum()
+    return 10.0 * np.log10(p) - sb.smoothed_db(GRID, p), p, floor
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3, 4, 5, 6, 7, 8])
+@pytest.mark.parametrize("io", [(1, 1), (2, 2)])
+def test_no_isolated_notch_or_peak_on_any_key(seed, io):
+    """The criterion, at the preset's wet (0.4), for any seed and bridge
+    position: from 150 Hz to 13 kHz the response stays within -4.5 .. +6 dB
+    of its 1/3-octave smoothed value, from 25 to 150 Hz (the lowest, isolated
+    modes: overlap < 0.15) within -6.5 .. +8.5 dB; and it never falls below
+    its direct part. The old board (random residue signs) went to -55 dB."""
+    B, C = io
+    b = Body(FS, seed=seed, wet=0.4, inputs=B, outputs=C)
+    for t in ((0.0,) if B == 1 else (0.0, 0.37, 0.5, 1.0)):
+        d, p, floor = _fine_structure_db(b, t)
+        hi = (GRID >= 150.0) & (GRID <= 13000.0)
+        lo = (GRID >= 25.0) & (GRID < 150.0)
+        assert d[hi].min() >= -4.5 and d[hi].max() <= 6.0, (t, d[hi].min(), d[hi].max())
+        assert d[lo].min() >= -6.5 and d[lo].max() <= 8.5, (t, d[lo].min(), d[lo].max())
+        assert p.min() >= floor * (1.0 - 1e-9)
+
+
+@pytest.mark.parametrize("io", CONFIGS)
+def test_each_output_never_below_its_direct_part(io):
+    B, C = io
+    b = Body(FS, wet=0.7, inputs=B, outputs=C, seed=3)
+    H = b.response(GRID)  # (C, B, F): every path on its own
+    floor = b.dry_gain * b.modes.dry
+    assert (np.abs(H) >= floor[:, :, None] * (1.0 - 1e-9)).all()
+
+
+def test_bridge_split_keeps_the_power_along_the_bridge():
+    b = Body(FS, inputs=2, outputs=2)
+    G = b.gram()
+    x = np.random.default_rng(9).standard_normal(6 * FS)
+    ref = None
+    for t in (0.0, 0.25, 0.5, 0.8, 1.0):
+        w = np.array(b.bridge_split(t))
+        assert w @ G @ w == pytest.approx(0.5 * (G[0, 0] + G[1, 1]), rel=1e-12)
+        if t in (0.0, 1.0):
+            assert w[int(t == 0.0)] == 0.0
+        b.reset()
+        y = b.process(np.vstack((w[0] * x, w[1] * x)))[:, FS // 2:]
+        p = (y * y).sum(axis=0).mean()
+        ref = p if ref is None else ref
+        assert abs(db(p / ref)) < 0.15, f"t = {t}: {db(p / ref):+.2f} dB"
+    assert Body(FS).bridge_split(0.3) == (1.0,)
+    # without the gain the middle of the bridge is low, by a fraction of a dB
+    w = np.array([0.5, 0.5])
+    assert -1.0 < db((w @ G @ w) / G[0, 0]) < 0.0
+
+
+def test_stereo_outputs_are_decorrelated_but_equal_on_average():
+    b = Body(FS, inputs=1, outputs=2, wet=1.0)
+    fr = np.geomspace(200.0, 8000.0, 20000)
+    H = b.response(fr)[:, 0]
+    coh = np.corrcoef(20 * np.log10(np.abs(H[0])), 20 * np.log10(np.abs(H[1])))[0, 1]
+    assert coh < 0.7, f"left and right fine structures correlate at {coh:.2f}"
+    pl, pr = (np.abs(H) ** 2).mean(axis=1)
+    assert abs(db(pl / pr)) < 1.0
+
+
 # --- level ---------------------------------------------------------------------
 
 
-def test_ir_energy_closed_form_matches_sum_of_squares():
-    b = Body(FS, wet=1.0)
-    assert b.ir_energy == pytest.approx(1.0, abs=1e-9)
-    h = b.impulse_response(8 * FS) / b.wet_gain
-    assert (h * h).sum() == pytest.approx(b.ir_energy, rel=1e-6)
-    assert h[0] == pytest.approx(b.ir_first, abs=1e-15)
+@pytest.mark.parametrize("io", CONFIGS)
+def test_energies_closed_form_match_sum_of_squares(io):
+    B, C = io
+    b = Body(FS, wet=1.0, inputs=B, outputs=C)
+    h = b.impulse_response(8 * FS)
+    h = h.reshape(C, B, -1) / b.wet_gain
+    G = np.einsum("cbn,cdn->bd", h, h)
+    np.testing.assert_allclose(G, b._gram_modal, rtol=1e-6)
+    assert np.trace(G) / B == pytest.approx(1.0, rel=1e-6)
+    np.testing.assert_allclose(h[:, :, 0], b.ir_first, rtol=0, atol=1e-15)
+    mix = Body(FS, wet=0.4, inputs=B, outputs=C)
+    hm = mix.impulse_response(8 * FS).reshape(C, B, -1)
+    np.testing.assert_allclose(np.einsum("cbn,cdn->bd", hm, hm), mix.gram(), rtol=1e-6)
 
 
-@pytest.mark.parametrize("kw", [dict(wet=1.0), dict(wet=0.6), dict(wet=0.5), dict(wet=0.25),
+@pytest.mark.parametrize("io", CONFIGS)
+@pytest.mark.parametrize("kw", [dict(wet=1.0), dict(wet=0.6), dict(wet=0.4), dict(wet=0.25),
                                 dict(wet=1.0, n_modes=40, size=0.5, brightness=12.0),
                                 dict(wet=0.8, n_modes=120, size=2.0, brightness=-12.0)])
-def test_white_noise_gain_near_unity(kw):
-    b = Body(FS, **kw)
-    x = np.random.default_rng(17).standard_normal(4 * FS)
-    y = b.process(x)[FS // 2:]  # skip the build-up
-    gain_db = db(np.mean(y * y) / np.mean(x[FS // 2:] ** 2))
-    assert abs(gain_db) <= 1.0, f"white-noise gain {gain_db:.2f} dB"
+def test_white_noise_gain_near_unity(kw, io):
+    """Per input, summed over outputs, averaged over inputs: 0 dB (within
+    1.5 dB for the size-2 board tilted -12 dB/octave, whose power sits in a
+    few slow bass modes, so 3.5 s of noise measure it loosely)."""
+    B, C = io
+    b = Body(FS, inputs=B, outputs=C, **kw)
+    x = np.random.default_rng(17).standard_normal((B, 4 * FS))
+    y = np.atleast_2d(b.process(as_io(x, b)))[:, FS // 2:]  # skip the build-up
+    gain_db = db((y * y).sum(axis=0).mean() / (x[:, FS // 2:] ** 2).sum(axis=0).mean())
+    tol = 1.5 if kw.get("brightness", 0.0) < 0 else 1.0
+    assert abs(gain_db) <= tol, f"white-noise gain {gain_db:.2f} dB"
 
 
 # --- the mode set's laws -------------------------------------------------------
@@ -215,45 +424,112 @@ def test_white_noise_gain_near_unity(kw):
 
 @pytest.mark.parametrize("size", [0.5, 1.0, 2.0])
 def test_mode_set_laws(size):
-    f, t60, g = sb.soundboard_modes(FS, size=size)
-    assert len(f) == len(t60) == len(g) == sb.DEFAULT_N_MODES
+    m = sb.soundboard_modes(FS, size=size)
+    f, t60 = m.freqs_hz, m.t60_s
+    assert len(f) == len(t60) == sb.DEFAULT_N_MODES
     assert f[0] == pytest.approx(50.0 / size, rel=1e-12)
     assert np.all(np.diff(f) > 0)
     assert f[-1] <= 0.45 * FS
-    # plate-like: about one mode per 20 Hz (x 1/size) at low frequencies
-    low = f[f < 400.0 / size]
-    mean_spacing = (low[-1] - low[0]) / (len(low) - 1)
+    # a homogeneous plate below the ribs' frequency: one mode per ~20 Hz (x 1/size)
+    plate = f[f < 1000.0 / size]
+    mean_spacing = (plate[-1] - plate[0]) / (len(plate) - 1)
     assert 15.0 / size <= mean_spacing <= 25.0 / size
-    # loss factor eta = ln(1000) / (pi f T60): 2 .. 3 % where the bank is not thinned
+    # loss factor eta = ln(1000) / (pi f T60): 2 .. 3 % on the plate part, rising
     eta = math.log(1000.0) / (math.pi * f * t60)
-    assert np.all(eta[f < 400.0 / size] >= 0.0199) and np.all(eta[f < 400.0 / size] <= 0.0301)
-    assert np.all(np.diff(eta[f < 400.0 / size]) >= -1e-12)  # Q falls with frequency
+    sel = f < 1000.0 / size
+    assert np.all(eta[sel] >= 0.0199) and np.all(eta[sel] <= 0.0301)
+    assert np.all(np.diff(eta[sel]) >= -1e-12)
     assert np.all(eta >= 0.0199)
 
 
+def test_modal_overlap_passes_one_near_1_khz_and_stays_overlapping():
+    """Board overlap eta f n(f): ~0.05 at the lowest mode, 1 near 1 kHz; the
+    thinned bank above keeps its own overlap >= 1 (Ege et al. 2013)."""
+    m = sb.soundboard_modes(FS)
+    f = m.freqs_hz
+    bw = math.log(1000.0) / (math.pi * m.t60_s)
+    n = sb.mode_density_per_hz(f, FS)
+    overlap = bw * n
+    assert overlap[0] < 0.06
+    near = (f > 800.0) & (f < 1100.0)
+    assert 0.7 < overlap[near].min() and overlap[near].max() < 1.8
+    assert np.all(overlap[f > 1100.0] >= 1.0 - 1e-9)
+
+
 def test_size_scales_frequencies_and_decays():
-    f1, t1, _ = sb.soundboard_modes(FS, size=1.0)
-    f2, t2, _ = sb.soundboard_modes(FS, size=2.0)
-    np.testing.assert_allclose(f2, f1 / 2.0, rtol=1e-9)
-    np.testing.assert_allclose(t2, t1 * 2.0, rtol=1e-9)
+    a = sb.soundboard_modes(FS, size=1.0)
+    b = sb.soundboard_modes(FS, size=2.0)
+    np.testing.assert_allclose(b.freqs_hz, a.freqs_hz / 2.0, rtol=1e-9)
+    np.testing.assert_allclose(b.t60_s, a.t60_s * 2.0, rtol=1e-9)
 
 
-def test_mode_density_thins_above_crossover():
-    rho = sb.mode_density_per_hz([60.0, 200.0, 5000.0, 9000.0], FS)
-    assert rho[0] == rho[1] == pytest.approx(1.0 / 20.0)
-    assert rho[3] < rho[2] < rho[1]
-    assert rho[2] * 5000.0 == pytest.approx(rho[3] * 9000.0)  # constant per octave
+def test_mode_density_follows_the_board():
+    """0.05 modes per Hz up to 1.1 kHz, then falling as 1/f: ~0.008 at 2.5 kHz
+    for the default count (measured: ~0.01, Ege & Boutillon)."""
+    rho = sb.mode_density_per_hz([60.0, 200.0, 1000.0, 2500.0, 5000.0, 9000.0], FS)
+    assert rho[0] == rho[1] == rho[2] == pytest.approx(1.0 / 20.0)
+    assert 0.006 < rho[3] < 0.012
+    assert rho[5] < rho[4] < rho[3] < rho[2]
+    assert rho[4] * 5000.0 == pytest.approx(rho[5] * 9000.0)  # constant per octave
+    # fewer modes: the uniform part ends lower; more: it goes higher
+    assert sb.mode_density_per_hz([1000.0], FS, n_modes=50)[0] < 1.0 / 20.0
+    assert sb.mode_density_per_hz([1500.0], FS, n_modes=400)[0] == pytest.approx(1.0 / 20.0)
 
 
-def test_silence_flushes_state_to_exact_zero():
+@pytest.mark.parametrize("io", [(1, 1), (2, 2)])
+def test_silence_flushes_state_to_exact_zero(io):
     """After an impulse, long silence leaves exact zeros (no subnormal tail)."""
-    b = Body(FS, wet=1.0)
-    b.process(np.r_[1.0, np.zeros(1023)])
-    y = b.process(np.zeros(40 * FS))  # the slowest mode falls 600 dB in 22 s
+    B, C = io
+    b = Body(FS, wet=1.0, inputs=B, outputs=C)
+    imp = np.zeros((B, 1024))
+    imp[:, 0] = 1.0
+    b.process(as_io(imp, b))
+    y = np.atleast_2d(b.process(as_io(np.zeros((B, 40 * FS)), b)))
     assert not b._state.any()
-    assert y[-FS:].max() == 0.0 and y[-FS:].min() == 0.0
+    assert y[:, -FS:].max() == 0.0 and y[:, -FS:].min() == 0.0
     tiny = np.finfo(np.float64).tiny
     assert not np.any((y != 0.0) & (np.abs(y) < tiny))
+
+
+# --- the knock ------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("fs, dur", [(48000, 0.002), (325000, 0.002), (48000, 0.0002),
+                                     (48000, 0.013)])
+def test_knock_pulse_area_shape_and_spectrum(fs, dur):
+    j = 0.003
+    p = sb.knock_pulse(fs, j, dur)
+    n = max(1, round(dur * fs))
+    assert p.shape == (n,) and (p >= 0).all()
+    assert p.sum() / fs == pytest.approx(j, rel=1e-12)
+    if n >= 8:
+        assert p.max() == pytest.approx(2 * j / dur, rel=0.08)  # sampled at mid-points
+        f = np.linspace(1.0, 0.4 / dur, 50)
+        t = (np.arange(n) + 0.5) / fs
+        spec = np.abs(np.exp(-2j * np.pi * f[:, None] * t[None, :]) @ p) / fs
+        assert np.all(np.abs(20 * np.log10(spec / j)) < 1.0)
+        f1 = 1.0 / dur
+        if n >= 32:  # -6 dB at 1 / T
+            assert abs(np.exp(-2j * np.pi * f1 * t) @ p) / fs / j == pytest.approx(0.5, abs=0.02)
+
+
+def test_knock_impulse_is_a_fraction_of_the_hammer_momentum():
+    assert sb.knock_impulse_ns(0.01, 3.0) == pytest.approx(sb.KNOCK_IMPULSE_RATIO * 0.03)
+    assert sb.knock_impulse_ns(0.01, 3.0, ratio=0.5) == pytest.approx(0.015)
+    assert sb.knock_impulse_ns(0.008, 0.0) == 0.0
+
+
+@pytest.mark.parametrize("call, name", [
+    (lambda: sb.knock_pulse(4000, 0.001), "fs"),
+    (lambda: sb.knock_pulse(FS, -0.001), "impulse_ns"),
+    (lambda: sb.knock_pulse(FS, 0.001, 0.5), "duration_s"),
+    (lambda: sb.knock_impulse_ns(0.5, 1.0), "hammer_mass_kg"),
+    (lambda: sb.knock_impulse_ns(0.01, -1.0), "hammer_speed_m_per_s"),
+    (lambda: sb.knock_impulse_ns(0.01, 1.0, ratio=2.0), "ratio"),
+])
+def test_knock_bad_parameters_rejected(call, name):
+    with pytest.raises(ValueError, match=name):
+        call()
 
 
 # --- validation -----------------------------------------------------------------
@@ -275,6 +551,10 @@ def test_silence_flushes_state_to_exact_zero():
         (dict(size=3.0), "size"),
         (dict(brightness=20.0), "brightness"),
         (dict(brightness=float("inf")), "brightness"),
+        (dict(inputs=3), "inputs"),
+        (dict(inputs=0), "inputs"),
+        (dict(outputs=3), "outputs"),
+        (dict(outputs=1.0), "outputs"),
     ],
 )
 def test_bad_parameters_rejected(kw, name):
@@ -304,6 +584,26 @@ def test_bad_input_rejected_without_touching_state():
     np.testing.assert_array_equal(b.process(x), y_ok[300:])
 
 
+def test_bad_mimo_input_rejected_without_touching_state():
+    b = Body(FS, inputs=2, outputs=2)
+    x = np.random.default_rng(0).standard_normal((2, 300))
+    y_ok = Body(FS, inputs=2, outputs=2).process(np.concatenate([x, x], axis=1))
+    b.process(x)
+    bad = x.copy()
+    bad[1, 17] = np.nan
+    with pytest.raises(ValueError, match=r"x\[1, 17\]"):
+        b.process(bad)
+    with pytest.raises(ValueError, match=r"must be \(2, n\)"):
+        b.process(x[0])
+    with pytest.raises(ValueError, match="out"):
+        b.process(x, out=np.zeros((2, 10)))
+    with pytest.raises(ValueError, match="out"):
+        b.process(x, out=np.zeros(300))
+    with pytest.raises(ValueError, match="t = 1.5"):
+        b.bridge_split(1.5)
+    np.testing.assert_array_equal(b.process(x), y_ok[:, 300:])
+
+
 def test_bad_mode_data_rejected():
     with pytest.raises(ValueError, match=r"freqs_hz\[1\]"):
         sb.resonator_coefs(FS, [100.0, 30000.0], [1.0, 1.0], [1.0, 1.0])
@@ -316,18 +616,24 @@ def test_bad_mode_data_rejected():
 # --- cost -------------------------------------------------------------------------
 
 
-def test_cost_well_under_two_percent_of_a_core():
-    """Default bank, 1024-sample blocks: far below 2 % of one core at 48 kHz
-    (417 ns per sample); measured ~18 ns, so a loaded machine still passes."""
-    b = Body(FS)
-    x = np.random.default_rng(0).standard_normal(FS)
-    out = np.empty(1024)
-    b.process(x[:1024], out)
+@pytest.mark.parametrize("io", [(1, 1), (2, 2)])
+def test_cost_well_under_one_percent_of_a_core(io):
+    """Default bank, 48 kHz, 128-sample blocks through Body.process: far below
+    1 % of one core (208 ns per sample). Measured on this machine (2 shared
+    cores, AVX-512, under load): ~36 ns for one input and one output (18 ns
+    in the kernel, the rest the wrapper's ~2 us per call), ~53 ns for two of
+    each (also for 1 x 2 and 2 x 1), so a loaded machine still passes."""
+    B, C = io
+    b = Body(FS, inputs=B, outputs=C)
+    x = np.random.default_rng(0).standard_normal((B, FS))
+    xi = as_io(x, b)
+    out = np.empty((C, 128)) if C == 2 else np.empty(128)
+    b.process(xi[..., :128], out)
     best = math.inf
     for _ in range(3):
         t0 = time.perf_counter()
-        for j in range(0, FS - 1023, 1024):
-            b.process(x[j:j + 1024], out)
-        best = min(best, (time.perf_counter() - t0) / (FS // 1024 * 1024))
+        for j in range(0, FS - 127, 128):
+            b.process(xi[..., j:j + 128], out)
+        best = min(best, (time.perf_counter() - t0) / (FS // 128 * 128))
     fraction = best * FS
-    assert fraction < 0.02, f"{best * 1e9:.1f} ns per sample = {100 * fraction:.2f} % of a core"
+    assert fraction < 0.01, f"{best * 1e9:.1f} ns per sample = {100 * fraction:.2f} % of a core"

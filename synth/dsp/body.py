@@ -1,32 +1,38 @@
-"""The piano's soundboard (body) as an output stage on the mono mix.
+"""The piano's soundboard (body) as an output stage: 1 or 2 bridge inputs, 1 or 2 outputs.
 
-:class:`Body` filters the engine's mono output (after decimation, once for
-the whole mix) through a bank of damped modes that stands for the
-soundboard's transfer from bridge to listener, mixed with the direct (dry)
-signal. The mode set and its laws are in :mod:`synth.physics.soundboard`
-(why modes and not a convolution is argued there); the kernel is
-:func:`synth.kernels.body.body_process`.
+:class:`Body` filters the engine's bridge signal(s) at the output rate
+(after decimation, once for the whole mix) through a bank of damped modes
+that stands for the soundboard's transfer from the bridge to the listener,
+plus a direct part. With two inputs, input 0 is the bass end of the bridge
+and input 1 the treble end (a string is split between them by its
+position, :meth:`Body.bridge_split`); with two outputs, output 0 is left
+and output 1 right. The mode set, its laws, why the response has no deep
+notches and why modes rather than a convolution are in
+:mod:`synth.physics.soundboard`; the kernels are in :mod:`synth.kernels.body`.
 
-Level. The modal gains are scaled so that the bank alone has a white-noise
-power gain of exactly 1 (sum h^2 = 1). Dry and wet paths are nearly
-uncorrelated, so a plain linear crossfade ``(1 - wet) x + wet H x`` would
-dip by up to 3 dB at wet = 0.5; instead the two gains are divided by the
-exact broadband gain of that mix,
+Level. The modal part and the direct part each have a white-noise power
+gain of 1 (averaged over the inputs, summed over the outputs). They are
+partly correlated (positive residues: the modal part's real part is
+positive), so a plain crossfade ``(1 - wet) dry + wet modes`` would not keep
+the level; the two gains are divided by the exact broadband gain of the
+mix,
 
     dry_gain = (1 - wet) / c,  wet_gain = wet / c,
-    c^2 = (1 - wet)^2 + wet^2 sum h^2 + 2 wet (1 - wet) h[0],
+    c^2 = (1 - wet)^2 + wet^2 + 2 wet (1 - wet) X,
+    X = mean_b sum_c dry_cb m_cb[0]   (m_cb the modal impulse response),
 
-so the output's power for white noise equals the input's at every ``wet``
-and a preset can switch the body on without a level jump. (On a single
-sine the gain follows the board's peaks and dips: about +-10 dB.)
+so the output's white-noise power equals the input's at every ``wet`` and a
+preset can switch the body on without a level jump. A stereo body gives the
+same loudness (BS.1770 sums the channels' powers) as a mono one.
 
-Cost (one core, 2.6 GHz Xeon, AVX-512): ~20 ns per output sample for the
-default 96 modes at 48 kHz in 1024-sample blocks, i.e. ~0.1 % of one core
-(budget: 2 %); the kernel alone ~16 ns, plus ~2 us of validation and
-dispatch per ``process`` call (so 64-sample blocks cost ~54 ns per sample).
-
-Streaming: blocks of any length (including 0) give exactly the one-shot
-result; no allocation per block when ``out`` is given; zero latency.
+Cost (default 96 modes at 48 kHz in 128-sample blocks, one core of a
+2.6 GHz AVX-512 Xeon shared with other jobs): ~36 ns per output sample for
+one input and one output (0.17 % of a core; 18 ns of it in the kernel, the
+rest the wrapper's ~2 us per call), ~53 ns for two inputs and two outputs
+(0.26 %; 1 x 2 and 2 x 1 the same); see
+``tests/test_body.py::test_cost_well_under_one_percent_of_a_core``. No
+allocation per block when ``out`` is given (views only); blocks of any
+length (including 0) give exactly the one-shot result; zero latency.
 """
 
 from __future__ import annotations
@@ -38,25 +44,29 @@ import numpy as np
 
 from .signal import as_mono_block, output_block
 
-from synth.kernels.body import body_process as _body_kernel
+from synth.kernels.body import body_process as _kernel_mono
+from synth.kernels.body import body_process_mimo as _kernel_mimo
 from synth.physics.soundboard import (
     DEFAULT_N_MODES,
     DEFAULT_SEED,
     resonator_coefs,
+    section_response,
     soundboard_modes,
-    white_noise_power_gain,
+    white_noise_cross_energy,
 )
 
 __all__ = ["Body", "DEFAULT_WET"]
 
-#: Default wet/dry balance.
-DEFAULT_WET = 0.6
+#: Default balance between the modes and the direct part.
+DEFAULT_WET = 0.4
 #: Longest impulse response :meth:`Body.impulse_response` will make (samples).
 MAX_IR_SAMPLES = 1 << 26
+#: Frequencies per chunk in :meth:`Body.response` (memory ~ K x chunk complex).
+_RESPONSE_CHUNK = 2048
 
 
 class Body:
-    """Soundboard modal bank with a dry/wet mix, streaming block by block.
+    """Soundboard modal bank with a direct part, streaming block by block.
 
     One input (the decimated mix) and one output (``inputs``, ``outputs``).
 
@@ -70,45 +80,79 @@ class Body:
         Number of modes, 1 .. 1024 (default 96).
     seed : int
         Seed of the board's random draws, >= 0 (default 1); fixed seed, same
-        board.
+        board (for any numbers of inputs and outputs).
     wet : float
-        Balance, 0 .. 1: 0 = input unchanged, 1 = body only (default 0.6).
-        Power-compensated (see the module docstring). Can be changed between
-        blocks by assigning ``body.wet`` (an abrupt change may click).
+        Balance, 0 .. 1: 0 = the direct part only, 1 = the modes only
+        (default 0.4). Power-compensated (see the module docstring). Can be
+        changed between blocks by assigning ``body.wet`` (an abrupt change
+        may click).
     size : float
         Board scale, 0.5 .. 2 (default 1): mode frequencies divide by it
         (lowest mode 50 / size Hz), decay times multiply by it.
     brightness : float
         Spectral tilt of the board's response in dB per octave re 1 kHz,
         -12 .. 12 (default 0).
+    inputs : int
+        Bridge inputs, 1 or 2 (0: bass end, 1: treble end); default 1.
+    outputs : int
+        Outputs, 1 or 2 (0: left, 1: right); default 1.
 
     Attributes
     ----------
-    freqs_hz, t60_s, gains : ndarray, shape (K,)
-        The mode set (:func:`synth.physics.soundboard.soundboard_modes`).
+    modes : synth.physics.soundboard.BoardModes
+        The mode set: ``freqs_hz``, ``t60_s`` (K,), ``drive`` (B, K),
+        ``pickup`` (C, K), ``dry`` (C, B).
+    freqs_hz, t60_s : ndarray, shape (K,)
+        Shortcuts to the mode set's.
     coefs : ndarray, shape (3, K)
-        Resonator coefficients, rows b0, a1, a2.
+        Resonator coefficients with unit peak gains, rows b0, a1, a2.
     dry_gain, wet_gain : float
-        The gains the kernel applies for the current ``wet``.
+        The gains of the direct and modal parts for the current ``wet``.
     """
 
     inputs = 1
     outputs = 1
 
     def __init__(self, fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, wet=DEFAULT_WET,
-                 size=1.0, brightness=0.0):
-        self.freqs_hz, self.t60_s, self.gains = soundboard_modes(
-            fs, n_modes=n_modes, seed=seed, size=size, brightness=brightness)
+                 size=1.0, brightness=0.0, inputs=1, outputs=1):
+        self.modes = soundboard_modes(fs, n_modes=n_modes, seed=seed, size=size,
+                                      brightness=brightness, inputs=inputs, outputs=outputs)
+        m = self.modes
         self.fs = float(fs)
         self.n_modes = int(n_modes)
         self.seed = int(seed)
         self.size = float(size)
         self.brightness = float(brightness)
-        self.coefs = resonator_coefs(self.fs, self.freqs_hz, self.t60_s, self.gains)
-        #: sum_n h[n]^2 of the bank alone (1 up to rounding) and h[0].
-        self.ir_energy = white_noise_power_gain(self.coefs)
-        self.ir_first = float(self.coefs[0].sum())
-        self._state = np.zeros((2, self.n_modes + 1), dtype=np.float64)
+        self.inputs = m.inputs
+        self.outputs = m.outputs
+        self.freqs_hz, self.t60_s = m.freqs_hz, m.t60_s
+        self.coefs = resonator_coefs(self.fs, m.freqs_hz, m.t60_s, np.ones(self.n_modes))
+        K, B, C = self.n_modes, self.inputs, self.outputs
+        # the kernels' arrays
+        self._mono = B == 1 and C == 1
+        if self._mono:
+            self._coefs_mono = self.coefs.copy()
+            self._coefs_mono[0] *= m.pickup[0] * m.drive[0]
+            self._state = np.zeros((2, K + 1))
+        else:
+            self._drive2 = np.zeros((2, K))
+            self._drive2[:B] = m.drive
+            self._gains2 = np.empty((2, K))
+            self._gains2[:] = self.coefs[0] * m.pickup  # one output: the row twice
+            self._dry_unit = np.zeros((2, 2))
+            self._dry_unit[:, :B] = m.dry  # one output: the row twice
+            self._dry2 = np.zeros((2, 2))
+            self._state = np.zeros((2, K + 2))
+        #: energies of the parts (white noise): the modal Gram matrix (B, B)
+        #: summed over outputs, and X = mean_b sum_c dry_cb m_cb[0]
+        self._gram_modal = np.zeros((B, B))
+        banks = [[self._bank(c, b) for b in range(B)] for c in range(C)]
+        for c in range(C):
+            for b in range(B):
+                for b2 in range(B):
+                    self._gram_modal[b, b2] += white_noise_cross_energy(banks[c][b], banks[c][b2])
+        self.ir_first = np.array([[banks[c][b][0].sum() for b in range(B)] for c in range(C)])
+        self._cross = float((m.dry * self.ir_first).sum() / B)
         self.wet = wet
 
     @classmethod
@@ -116,13 +160,20 @@ class Body:
         """The body an instrument describes (a
         :class:`synth.physics.soundboard.BodyDesign`) at the rate ``fs`` (Hz)."""
         return cls(fs, n_modes=design.n_modes, seed=design.seed, wet=design.wet,
-                   size=design.size, brightness=design.brightness)
+                   size=design.size, brightness=design.brightness,
+                   inputs=design.inputs, outputs=design.outputs)
+
+    def _bank(self, c, b):
+        """Coefficients (3, K) of the modal path from input b to output c."""
+        k = self.coefs.copy()
+        k[0] *= self.modes.pickup[c] * self.modes.drive[b]
+        return k
 
     # -- parameters -------------------------------------------------------------
 
     @property
     def wet(self):
-        """Dry/wet balance, 0 .. 1."""
+        """Balance between the modes and the direct part, 0 .. 1."""
         return self._wet
 
     @wet.setter
@@ -132,10 +183,58 @@ class Body:
         if not (math.isfinite(v) and 0.0 <= v <= 1.0):
             raise ValueError(f"wet = {value!r} is out of range (0 <= value <= 1)")
         d = 1.0 - v
-        c = math.sqrt(d * d + v * v * self.ir_energy + 2.0 * v * d * self.ir_first)
+        c = math.sqrt(d * d + v * v + 2.0 * v * d * self._cross)
         self._wet = v
         self.dry_gain = d / c
         self.wet_gain = v / c
+        if not self._mono:
+            self._dry2[:] = self.dry_gain * self._dry_unit
+
+    # -- stereo bridge --------------------------------------------------------
+
+    def gram(self):
+        """White-noise Gram matrix of the inputs (B, B), summed over the outputs.
+
+        ``G[b, b'] = sum_c sum_n h_cb[n] h_cb'[n]`` for the whole body (direct
+        and modal parts at the current ``wet``): the output power for white
+        noise fed to the inputs with weights w is ``w @ G @ w``.
+        """
+        m = self.modes
+        dg, wg = self.dry_gain, self.wet_gain
+        G = dg * dg * (m.dry.T @ m.dry) + wg * wg * self._gram_modal
+        X = m.dry.T @ self.ir_first  # X[b, b'] = sum_c dry_cb m_cb'[0]
+        return G + dg * wg * (X + X.T)
+
+    def bridge_split(self, t):
+        """Weights (w0, w1) that feed a string at bridge position ``t`` to the inputs.
+
+        ``t`` runs from 0 (the bass end, input 0 alone) to 1 (the treble end,
+        input 1 alone). The weights are the linear split ``(1 - t, t)`` times
+        one gain that keeps the body's output power (white noise, summed over
+        the outputs) at the mean of the two ends' for every ``t``: without it a
+        string in the middle would come out ~0.1 dB low (the two inputs'
+        responses are partly decorrelated). With one input: (1.0,).
+
+        Parameters
+        ----------
+        t : float
+            Position along the bridge, 0 .. 1.
+
+        Returns
+        -------
+        tuple of float
+            ``(w0, w1)`` (or ``(1.0,)`` for a one-input body).
+        """
+        ok = not isinstance(t, bool) and isinstance(t, numbers.Real)
+        v = float(t) if ok else math.nan
+        if not (math.isfinite(v) and 0.0 <= v <= 1.0):
+            raise ValueError(f"t = {t!r} is out of range (0 <= value <= 1)")
+        if self.inputs == 1:
+            return (1.0,)
+        G = self.gram()
+        w = np.array([1.0 - v, v])
+        s = math.sqrt(0.5 * (G[0, 0] + G[1, 1]) / float(w @ G @ w))
+        return (float(s * w[0]), float(s * w[1]))
 
     # -- streaming --------------------------------------------------------------
 
@@ -143,32 +242,86 @@ class Body:
         """Forget all history (silence before the next sample)."""
         self._state[:] = 0.0
 
+    def _inputs(self, x):
+        """x as a (B, n) float64 array with contiguous rows (a view when it can be)."""
+        if isinstance(x, np.ndarray) and x.ndim == 1 and self.inputs == 1:
+            return as_mono_block(x).reshape(1, -1)
+        x = np.asarray(x)
+        if x.ndim != 2 or x.shape[0] != self.inputs:
+            want = "(n,) or (1, n)" if self.inputs == 1 else "(2, n)"
+            raise ValueError(f"x has shape {x.shape}; must be {want} (inputs = {self.inputs})")
+        if x.dtype.kind not in "fiu":
+            raise ValueError(f"x has dtype {x.dtype}; must be real (float or integer)")
+        if x.dtype != np.float64 or x.strides[1] != 8:
+            x = np.ascontiguousarray(x, dtype=np.float64)
+        if not math.isfinite(x.sum()) and not np.isfinite(x).all():
+            b, i = (int(v[0]) for v in np.nonzero(~np.isfinite(x)))
+            raise ValueError(f"x[{b}, {i}] = {x[b, i]} is not finite; input samples must be finite")
+        return x
+
+    def _outputs(self, out, n):
+        """(the (C, >= n) array the kernel writes, what process returns)."""
+        C = self.outputs
+        if out is None:
+            out = np.empty((C, n)) if C == 2 else np.empty(n)
+        if not isinstance(out, np.ndarray) or out.dtype != np.float64:
+            raise ValueError("out must be a float64 ndarray")
+        if not out.flags.writeable:
+            raise ValueError("out must be writeable")
+        if C == 1 and out.ndim == 1:
+            if out.shape[0] < n:
+                raise ValueError(f"out has length {out.shape[0]}; must be >= {n} (len(x))")
+            return out.reshape(1, -1) if out.flags.c_contiguous else out[None, :], out[:n]
+        if out.ndim != 2 or out.shape[0] != C or out.shape[1] < n:
+            want = f"(>= {n},) or (1, >= {n})" if C == 1 else f"(2, >= {n})"
+            raise ValueError(f"out has shape {out.shape}; must be {want} (outputs = {C})")
+        return out, out[:, :n]
+
     def process(self, x, out=None):
         """Filter one block; the state carries over to the next call.
 
         Parameters
         ----------
-        x : array_like of float, 1-D
-            Input block at ``fs``, any length (0 .. any), finite values.
-        out : ndarray of float64, 1-D, optional
-            Where to write the result, length >= len(x); may be ``x`` itself
-            (in place). The returned array is ``out[:len(x)]``.
+        x : array_like of float
+            Input block at ``fs``, finite values, any length n >= 0: shape
+            (n,) or (1, n) for one input, (2, n) for two (row 0 the bass end,
+            row 1 the treble end of the bridge).
+        out : ndarray of float64, optional
+            Where to write: shape (>= n,) (or (1, >= n)) for one output,
+            (2, >= n) for two. May be ``x`` itself (in place). Any strides;
+            no allocation when given (with a one-input, one-output body whose
+            ``out`` is not contiguous, one temporary block).
 
         Returns
         -------
-        ndarray of float64, shape (len(x),)
-            ``dry_gain x + wet_gain (bank * x)``.
+        ndarray of float64
+            ``out[:n]`` for one output, ``out[:, :n]`` for two: the direct
+            part plus the modes.
         """
-        x = as_mono_block(x)
-        n = x.shape[0]
-        out = output_block(out, n, "len(x)")
-        if n == 0:
-            return out[:0]
-        target = out if out.flags.c_contiguous else np.empty(n, dtype=np.float64)
-        _body_kernel(x, n, self.coefs, self._state, self.dry_gain, self.wet_gain, target)
-        if target is not out:
-            out[:n] = target[:n]
-        return out[:n]
+        if self._mono:
+            if isinstance(x, np.ndarray) and x.ndim == 2 and x.shape[0] == 1:
+                x = x[0]
+            if isinstance(out, np.ndarray) and out.ndim == 2 and out.shape[0] == 1:
+                out = out[0]
+            x = as_mono_block(x)
+            n = x.shape[0]
+            out = output_block(out, n, "len(x)")
+            if n == 0:
+                return out[:0]
+            target = out if out.flags.c_contiguous else np.empty(n, dtype=np.float64)
+            _kernel_mono(x, n, self._coefs_mono, self._state, self.dry_gain, self.wet_gain, target)
+            if target is not out:
+                out[:n] = target[:n]
+            return out[:n]
+        x2 = self._inputs(x)
+        n = x2.shape[1]
+        target, result = self._outputs(out, n)
+        if n:
+            _kernel_mimo(x2, n, self._drive2, self._gains2, self.coefs, self._state, self._dry2,
+                         self.wet_gain, target)
+        return result
+
+    # -- analysis ------------------------------------------------------------------
 
     def impulse_response(self, n):
         """The first ``n`` samples of the response to a unit impulse (current ``wet``).
@@ -182,15 +335,65 @@ class Body:
 
         Returns
         -------
-        ndarray of float64, shape (n,)
-            ``dry_gain delta + wet_gain h``, h the bank's impulse response.
+        ndarray of float64
+            Shape (n,) for a one-input, one-output body (``dry_gain delta +
+            wet_gain h``); otherwise (C, B, n), the response of output c to
+            an impulse at input b.
         """
         if isinstance(n, bool) or not isinstance(n, numbers.Integral) or not 0 <= n <= MAX_IR_SAMPLES:
             raise ValueError(f"n = {n!r} is out of range (integer, 0 <= value <= {MAX_IR_SAMPLES})")
         n = int(n)
-        y = np.zeros(n, dtype=np.float64)
-        if n:
-            y[0] = 1.0
-            state = np.zeros_like(self._state)
-            _body_kernel(y, n, self.coefs, state, self.dry_gain, self.wet_gain, y)
-        return y
+        saved = self._state.copy()
+        try:
+            if self._mono:
+                self._state[:] = 0.0
+                y = np.zeros(n)
+                if n:
+                    y[0] = 1.0
+                    self.process(y, out=y)
+                return y
+            C, B = self.outputs, self.inputs
+            h = np.zeros((C, B, n))
+            for b in range(B):
+                self._state[:] = 0.0
+                d = np.zeros((B, n))
+                if n:
+                    d[b, 0] = 1.0
+                    self.process(d if B == 2 else d[0], out=h[:, b] if C == 2 else h[0, b])
+            return h
+        finally:
+            self._state[:] = saved
+
+    def response(self, f_hz, weights=None):
+        """Complex frequency response of the body (current ``wet``).
+
+        Parameters
+        ----------
+        f_hz : array_like of float, shape (F,)
+            Frequencies in Hz, 0 .. fs / 2.
+        weights : sequence of float, optional
+            Input weights (B,), e.g. :meth:`bridge_split`; when given the
+            response to that mix of the inputs.
+
+        Returns
+        -------
+        ndarray of complex128
+            Shape (C, B, F), or (C, F) with ``weights``: ``dry_gain dry_cb +
+            wet_gain sum_k pickup_ck drive_bk H_k(f)``.
+        """
+        f = np.atleast_1d(np.asarray(f_hz, dtype=np.float64))
+        m = self.modes
+        C, B = self.outputs, self.inputs
+        H = np.empty((C, B, f.size), dtype=np.complex128)
+        for s in range(0, f.size, _RESPONSE_CHUNK):
+            R = section_response(self.fs, self.coefs, f[s:s + _RESPONSE_CHUNK])  # (K, F')
+            for c in range(C):
+                for b in range(B):
+                    H[c, b, s:s + _RESPONSE_CHUNK] = (self.wet_gain * (m.pickup[c] * m.drive[b]) @ R
+                                                      + self.dry_gain * m.dry[c, b])
+        if weights is None:
+            return H
+        w = np.asarray(weights, dtype=np.float64)
+        if w.shape != (B,):
+            raise ValueError(f"weights has shape {w.shape}; must be ({B},)")
+        return np.einsum("cbf,b->cf", H, w)

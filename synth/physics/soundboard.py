@@ -2,95 +2,198 @@
 
 What the output stage models
 ----------------------------
-A string drives the bridge; the soundboard moves and radiates. Between the
-bridge force and the pressure at a listener the board acts as a linear filter
-whose response is a sum of damped modes (Conklin, JASA 100, 1996; Giordano,
-JASA 103, 1998; Ege, Boutillon & Rebillat, JSV 332, 2013):
+The strings drive the board at the bridges; the board moves and radiates.
+Between the bridge forces and the sound at a listener the board acts as a
+linear filter whose response is a sum of damped modes (Conklin, JASA 100,
+1996; Giordano, JASA 103, 1998; Ege, Boutillon & Rebillat, JSV 332, 2013):
 
-    H(s) = sum_k  g_k  2 pi B_k s / (s^2 + 2 pi B_k s + (2 pi f_k)^2),
+    H_cb(s) = dry_cb + sum_k  p_ck d_bk  2 pi B_k s / (s^2 + 2 pi B_k s + (2 pi f_k)^2),
 
-one resonance per plate mode: frequency ``f_k``, half-power bandwidth
-``B_k = eta_k f_k`` in Hz (loss factor eta), peak gain ``g_k`` at ``f_k``. This module
-chooses the set {f_k, T60_k, g_k} (the "mode set": data and the laws that
-make it) and the discrete realisation of each mode; the kernel
-(:mod:`synth.kernels.body`) runs it and :class:`synth.dsp.body.Body`
-wraps it.
+one resonance per plate mode -- frequency ``f_k``, half-power bandwidth
+``B_k = eta_k f_k`` in Hz (loss factor eta) -- driven from bridge input
+``b`` with gain ``d_bk`` (the mode's shape where that bridge end sits) and
+heard at output ``c`` with gain ``p_ck`` (how the mode radiates towards that
+pickup). There are B = 1 or 2 inputs (0: the bass end of the bridge, 1:
+the treble end) and C = 1 or 2 outputs (two pickups, left and right). This
+module chooses the mode set {f_k, T60_k, d_bk, p_ck}, the direct part
+``dry_cb`` and the discrete realisation of each mode; the kernels
+(:mod:`synth.kernels.body`) run it and :class:`synth.dsp.body.Body` wraps
+it. :func:`knock_pulse` is the force pulse of the hammer knock.
 
 Why a modal bank and not a convolution
 --------------------------------------
-The body runs once, on the mono 48 kHz mix, and must cost well under 2 % of
-a core while streaming in blocks of any size without allocating. A measured
-board response is 0.3-1 s long (15 000-50 000 taps): direct convolution in
-numba costs that many multiply-adds per sample (~100x over budget), and a
-partitioned FFT convolution needs FFT scratch per block and adds a block of
-latency. A bank of K two-pole resonators costs ~5 K flops per sample, has no
-latency, streams trivially (two state values per mode) and its parameters
-are physical (mode frequencies, loss factors) and can be scaled (``size``)
-or tilted (``brightness``). Measured cost: ~16 ns per sample for K = 96
-in the kernel, ~20 ns through the wrapper in 1024-sample blocks (~0.1 % of
-one core at 48 kHz; see :mod:`synth.dsp.body`).
+The body runs once, on the 48 kHz bridge buses, and must cost well under
+1 % of a core while streaming in blocks of any size without allocating. A
+measured board response is 0.3-1 s long (15 000-50 000 taps) per input and
+output: direct convolution costs that many multiply-adds per sample and
+path (~100x over budget), and a partitioned FFT convolution needs FFT
+scratch per block and adds a block of latency. A bank of K two-pole
+resonators costs ~6 K flops per sample for two inputs and two outputs
+(measured: 0.26 % of a core for the default 96 modes, 0.17 % for one input
+and one output, :mod:`synth.dsp.body`), has no latency, streams trivially (two state values per mode) and its
+parameters are physical (mode frequencies, loss factors) and can be scaled
+(``size``) or tilted (``brightness``).
+
+Evenness by design
+------------------
+A piano tone is a set of nearly sinusoidal partials, so the body's gain at
+each partial's frequency sets that partial's level directly: a notch or a
+peak of the response on one key's partial is a quiet or a loud key. The
+earlier board had two sources of deep notches:
+
+* random residue signs: between two modes whose residues have the same sign
+  the tails of the two resonances are in antiphase and cancel (an
+  anti-resonance); with random signs in the overlapping mid range the
+  response is a random-phase sum with Rayleigh statistics, ~10 % of all
+  frequencies more than 10 dB below the mean (Schroeder's statistics of
+  dense modal responses); measured on the old board: notches to -55 dB
+  re the 1/3-octave smoothed response, C4's partial 3 22 dB down;
+* the dry + wet sum: a direct path and a modal path of random phase cancel
+  wherever they have equal magnitude and opposite phase.
+
+A real board's *driving-point* response has no sign changes: its residues
+are the squared mode shapes at the drive point, all positive, and the
+power a string gives the board is the real part of that admittance, a sum
+of positive resonance curves (Skudrzyk's mean-value theory: its average is
+the infinite-plate admittance, flat and real; Ege & Boutillon, ISMA 2010,
+"Synthetic description of the piano soundboard mechanical mobility", after
+Skudrzyk 1980 and Langley 1994). What a listener in a room hears of a
+partial follows that radiated power (the reverberant field, two ears and a
+moving head average the point-to-point sign changes away); one fixed linear
+filter cannot average incoherently, so this board keeps what the power
+says and leaves out the point-to-point signs:
+
+* every ``d_bk`` and ``p_ck`` is positive. Each discrete section below is
+  the bilinear image of a positive-real analog band-pass, so its real part
+  is >= 0 at every frequency; a sum of such sections plus a positive direct
+  gain ``g`` therefore has ``|H| >= Re H >= g`` everywhere: **the response
+  can never fall below the direct part** -- no notch deeper than the
+  direct level, by construction, for any seed;
+* the direct part (``dry``) is the drive point's local, infinite-plate
+  response -- the part of the board's motion that is there before the
+  reflections from the rim come back -- real and flat, as in Skudrzyk's
+  mean-value picture; the modes are the board's resonant build-up on top
+  of it. The balance between the two is the preset's ``wet``;
+* peaks stand above the smoothed level by about ``2 / (pi M)`` in power
+  for a modal overlap ``M`` (an isolated mode of bandwidth B in a spacing
+  1/n), less the share of the direct part in the smoothed level. With the
+  grand preset's ``wet = 0.4`` the response stays within -4.5 .. +6 dB of
+  its 1/3-octave smoothed value (:func:`smoothed_db`) from 150 Hz to 13 kHz
+  and within -6.5 .. +8.5 dB from 25 to 150 Hz, where the lowest modes
+  stand alone (overlap < 0.15) -- for every seed tested (1-8), one or two
+  inputs and outputs (tests/test_body.py); the old board reached -55 dB.
+  Measured on the instrument (tools/study_body_evenness.py, velocity 80,
+  keys 21-108), the median loudness step between adjacent keys is 1.2 dB
+  (mono) / 1.4 dB (stereo) with the body against 0.45 dB for the bare
+  strings and 2.7 dB with the old board; at partials 1-3 of every key the
+  body's gain is within -3.1 .. +4.5 dB of its smoothed gain (old board:
+  -21 .. +5).
 
 The laws
 --------
-Frequencies. A thin plate has a modal density that is nearly constant in
-frequency, n(f) = S sqrt(rho h / D) / 2; a grand piano board has of the order
-of one mode per 15-25 Hz at low frequencies, the lowest near 50 Hz. We use
-``F_LOW_HZ / size`` for the lowest mode and a mean spacing ``SPACING_HZ /
-size`` (a larger board, same thickness, has all frequencies lower by the
-same factor; ``size`` therefore divides every frequency, so on a
-log-frequency axis it only shifts the response, and it stretches decay
-times by ``size``). Above about 1 kHz the modes of a real board overlap (the
-modal overlap B / spacing exceeds 1) and individual modes no longer matter
-perceptually, so the bank is thinned there: the mode density is
-``min(1 / spacing, A / f)`` -- uniform at low frequencies, constant per
-octave (geometric spacing) above the crossover ``f_c = A spacing`` -- with
-``A`` solved so that ``n_modes`` modes span ``[F_LOW_HZ / size,
-min(F_HIGH_HZ / size, NYQUIST_FRACTION fs)]``. The lowest mode sits exactly
-at ``F_LOW_HZ / size``; the others are placed by random spacings in the
-warped coordinate (cumulated density) drawn from the Wigner surmise
-P(s) = (pi s / 2) exp(-pi s^2 / 4) (the level-spacing law of an irregular
-plate: level repulsion, no comb), floored at ``MIN_SPACING`` of the mean,
-so the modes form no regular comb and no two of them merge into one peak.
+Frequencies (Ege, Boutillon & Rebillat 2013; Ege & Boutillon 2010;
+Berthaut, Ichchou & Jezequel, Appl. Acoust. 64, 2003). Below about
+1.1 kHz a piano board behaves as a homogeneous plate: its modal density is
+nearly constant, ~0.05 modes per Hz (one mode per 20 Hz), the lowest mode
+near 50 Hz for a grand (Conklin 1996; Suzuki, JASA 80, 1986). Above
+1.1 kHz the ribs confine the waves between them and the measured modal
+density falls, to ~0.01 modes per Hz at 2.5 kHz. The bank follows this: a
+uniform density ``1 / SPACING_HZ`` from ``F_LOW_HZ`` up to ``F_RIB_HZ``,
+then a density ``A / f`` (constant per octave) up to ``F_HIGH_HZ`` (capped
+at ``NYQUIST_FRACTION fs``), with ``A`` set by the number of modes asked;
+for the default 96 modes A = 19 per e-fold (13 per octave), i.e. 0.008
+modes per Hz at 2.5 kHz, near the measured 0.01. With too few modes for at
+least ``MIN_PER_OCTAVE`` per octave above the ribs' frequency, the uniform
+part ends lower, where the density of the geometric part meets it; with
+more modes than a uniform bank to ``F_HIGH_HZ`` needs, the bank is uniform
+with a smaller spacing. ``size`` divides every frequency (a larger board,
+same thickness: all frequencies lower by that factor). The lowest mode
+sits exactly at ``F_LOW_HZ / size``; the others are placed by random
+spacings in the warped coordinate (cumulated density) drawn from the
+Wigner surmise P(s) = (pi s / 2) exp(-pi s^2 / 4) (the level-spacing law
+of an irregular plate: level repulsion, no comb), floored at
+``MIN_SPACING`` of the mean.
 
-Damping. Loss factor eta rises gently with frequency, from ``ETA_LOW`` (2 %)
-at the lowest mode to ``ETA_HIGH`` (3 %) from 20x the lowest mode up
-(eta = ETA_LOW (f / f_low)^gamma, capped) -- Q falls from 50 to 33, in the
-1-3 % range measured on boards. Where the bank is thinned (above f_c) the
-bandwidths are widened, if needed, to at least ``OVERLAP`` times the bank's
-local mean spacing, so the response there stays a continuum of overlapping
-modes (as on the real board, whose modal overlap eta f / spacing passes 1
-near 700 Hz) rather than a set of isolated peaks. With the default 96 modes
-f_c is near 500 Hz and eta f already exceeds that floor; it matters when
-fewer modes are asked for. Q is kept >= 1 (B <= f) for very thin banks.
-T60 = ln(1000) / (pi B) (amplitude e^{-pi B t}): 2.2 s for the 50 Hz mode,
-~1 s near 100 Hz, ~7 ms at 10 kHz (size 1).
+Damping. Loss factor eta = ETA_LOW (f / f_low)^gamma, from ``ETA_LOW``
+(2 %) at the lowest mode to ``ETA_HIGH`` (3 %) from 20x the lowest mode up
+-- Ege et al. measured a mean of about 2 % on a board in playing
+condition, "close to that of wood", with a slight rise with frequency.
+The board's modal overlap M = eta f n(f) then passes 1 near 700 Hz (0.05 at
+the lowest mode, 0.7 at 500 Hz, 1.5 at 1.1 kHz) -- Ege et al.'s mean 2 %
+with 0.05 modes per Hz puts it at 1 kHz. Above ``F_RIB_HZ`` the bank
+holds fewer modes than the board, so there each bandwidth is widened, if
+needed, to ``OVERLAP`` (1) times the bank's local mean spacing: the
+response stays a continuum of overlapping modes (overlap >= 1) as on the
+real board, not a set of isolated peaks. Q is kept >= 1 (B <= f).
+T60 = ln(1000) / (pi B): 2.2 s for the 50 Hz mode, ~1 s near 100 Hz,
+~12 ms at 2 kHz (size 1; ``size`` multiplies decay times).
 
-Gains. Each mode of peak gain g and bandwidth B adds about g^2 (pi / 2) B
-to the integral of |H|^2, so with g_k ~ 1 / sqrt(B_k rho(f_k)) the smoothed
-power response is flat; on that we put a tilt of ``brightness`` dB per
-octave (re 1 kHz), a log-normal spread of ``GAIN_SPREAD_DB`` (standard
-deviation) and a random sign per mode (the transfer to a listener, not the
-driving-point admittance, so residues of both signs: anti-resonances appear
-between some pairs of modes, not all). Everything random comes from
-``numpy.random.default_rng(seed)``: a fixed seed gives the same board.
-Finally the gains are scaled so that the white-noise power gain of the
-realised filter, sum_n h[n]^2, is exactly 1 (computed in closed form from
-poles and residues, :func:`white_noise_power_gain`).
+Gains. A mode of peak gain g and bandwidth B adds about g^2 (pi / 2) B to
+the integral of |H|^2, so with g_k ~ 1 / sqrt(B_k n(f_k)) the smoothed
+power response is flat; on that goes a tilt of ``brightness`` dB per
+octave (re 1 kHz). Each mode's drive gain at each bridge end is that times
+a log-normal factor of ``DRIVE_SPREAD_DB`` (standard deviation; where a
+bridge end sits on a mode's shape), independently per input, so the two
+inputs excite the same modes differently (a key's timbre depends on where
+it drives the board) while the smoothed responses are the same. With two
+outputs each mode is panned by a random angle theta_k, uniform on
+[0, pi/2]: pickup gains (cos theta_k, sin theta_k), so every mode gives the
+left and right outputs together the same power and the two outputs differ
+in their fine structure (decorrelated) but not on average. Everything
+random comes from ``numpy.random.default_rng(seed)`` in a fixed order (the
+spacings, then the spreads of both inputs, then the angles), so a fixed
+seed gives the same board whatever the numbers of inputs and outputs: the
+one-input board's modes are the two-input board's input 0.
+
+The direct part and stereo. With one input and one output ``dry = 1``;
+one input, two outputs: the input to both outputs; two inputs, one output:
+their sum. With two of each: ``dry = [[1, r], [r, 1]]`` (output 0 =
+left = mostly the bass end, output 1 = right = mostly the treble end, as
+the pianist hears), with ``r`` chosen so that the direct part's 2 x 2
+input Gram matrix has the same correlation coefficient as the modal part's
+(the drives of the two inputs are correlated through their common mean).
+Then, for a string split linearly between the inputs by its position,
+both parts change by the same factor along the keyboard and one gain per
+string (:meth:`synth.dsp.body.Body.bridge_split`) makes the loudness
+independent of the position; without it the middle of the keyboard is
+~0.1 dB low (the drives are correlated through their common mean, so
+``r`` comes out near 0.7 for the default spread: a narrow direct image, the
+width comes from the modes' pan angles). The
+direct and modal parts are each scaled to a white-noise power gain of 1
+(averaged over the inputs, summed over the outputs), computed in closed
+form from poles and residues (:func:`white_noise_cross_energy`).
 
 Realisation (per mode, at ``fs``)
 ---------------------------------
 A two-pole resonator with zeros at DC and Nyquist (Smith & Angell's
 constant-peak-gain form), the discrete counterpart of the velocity-type
-bandpass above (no DC through the body):
+band-pass above (no DC through the body):
 
     H_k(z) = b0_k (1 - z^-2) / (1 + a1_k z^-1 + a2_k z^-2),
     r = exp(-pi B_k / fs) = 10^(-3 / (T60_k fs)),  theta = 2 pi f_k / fs,
     a1 = -2 r cos(theta),  a2 = r^2,  b0 = g_k (1 - r^2) / 2,
 
 so the pole angle is exactly ``f_k``, the decay exactly ``T60_k`` and the
-peak gain ~ ``g_k``. The coefficient array is laid out (3, K) -- rows b0,
-a1, a2 -- so the kernel's loop over modes reads contiguous rows and
-vectorises (a (K, 3) layout measured 7x slower).
+peak gain ~ ``g_k``. It is the bilinear transform of an analog
+c s / (s^2 + alpha s + beta) with c, alpha > 0, a positive-real function:
+``Re H_k >= 0`` on the unit circle whenever ``b0_k > 0`` (tested). The
+coefficient array is laid out (3, K) -- rows b0, a1, a2 -- so the kernel's
+loop over modes reads contiguous rows and vectorises.
+
+The knock
+---------
+:func:`knock_pulse` and :func:`knock_impulse_ns`: when the key hits the
+keybed and the hammer hits the strings, the action and the case receive an
+impulsive force that reaches the board besides the strings' own wave
+(Askenfelt & Jansson, "From touch to string vibrations", in *Five lectures
+on the acoustics of the piano*, 1990; Askenfelt, "Observations on the
+transient components of the piano tone", SMAC 93, 1993: the key-bottom
+"thump" comes within a few ms of the hammer-string contact and is most
+audible in the treble, where the tone itself has little low-frequency
+energy). It is modelled as a raised-cosine force pulse of a few ms added
+to the bridge inputs: short against the period of the board's low modes,
+so it excites them with a flat spectrum up to ~1 / duration (the "low
+thump"), see :func:`knock_impulse_ns` for its level.
 """
 
 from __future__ import annotations
@@ -105,13 +208,20 @@ import numpy as np
 __all__ = [
     "DEFAULT_N_MODES",
     "DEFAULT_SEED",
+    "BodyDesign",
+    "BoardModes",
     "soundboard_modes",
     "resonator_coefs",
+    "section_response",
+    "white_noise_cross_energy",
     "white_noise_power_gain",
     "mode_density_per_hz",
+    "smoothed_db",
+    "knock_pulse",
+    "knock_impulse_ns",
 ]
 
-#: Default number of modes (cost ~16-20 ns per sample at 48 kHz).
+#: Default number of modes.
 DEFAULT_N_MODES = 96
 #: Default seed of the board's random draws.
 DEFAULT_SEED = 1
@@ -119,26 +229,36 @@ DEFAULT_SEED = 1
 MIN_N_MODES, MAX_N_MODES = 1, 1024
 #: Lowest mode of a size-1 board (Hz).
 F_LOW_HZ = 50.0
-#: Mean mode spacing at low frequencies of a size-1 board (Hz).
+#: Mean mode spacing below F_RIB_HZ of a size-1 board (Hz): 0.05 modes per Hz.
 SPACING_HZ = 20.0
+#: Above this the ribs confine the waves and the density falls (Hz, size 1).
+F_RIB_HZ = 1100.0
 #: Top of the mode range of a size-1 board (Hz), capped at NYQUIST_FRACTION fs.
 F_HIGH_HZ = 10000.0
 NYQUIST_FRACTION = 0.45
+#: Fewest modes per octave above F_RIB_HZ before the uniform part is shortened.
+MIN_PER_OCTAVE = 6.0
 #: Loss factor at the lowest mode and the ceiling it rises to.
 ETA_LOW = 0.02
 ETA_HIGH = 0.03
 #: eta reaches ETA_HIGH at this multiple of the lowest mode frequency.
 ETA_KNEE_RATIO = 20.0
-#: Bandwidths are widened to at least OVERLAP x the local mean spacing.
-OVERLAP = 0.5
+#: Above the uniform part, bandwidths are widened to at least OVERLAP x the local mean spacing.
+OVERLAP = 1.0
 #: Floor of a random spacing, as a fraction of the local mean spacing.
 MIN_SPACING = 0.5
-#: Standard deviation of the log-normal gain spread (dB).
-GAIN_SPREAD_DB = 3.0
+#: Standard deviation of the log-normal drive spread of each mode at each input (dB).
+DRIVE_SPREAD_DB = 3.0
 #: Allowed ranges of the shape parameters.
 SIZE_RANGE = (0.5, 2.0)
 BRIGHTNESS_RANGE_DB = (-12.0, 12.0)
 MIN_FS = 8000
+#: Allowed numbers of bridge inputs and of outputs.
+MAX_INPUTS = MAX_OUTPUTS = 2
+#: Knock: default pulse duration (s) and impulse re the hammer's momentum.
+KNOCK_DURATION_S = 0.002
+KNOCK_DURATION_RANGE_S = (0.0002, 0.02)
+KNOCK_IMPULSE_RATIO = 0.1
 
 
 @dataclass(frozen=True)
@@ -146,11 +266,13 @@ class BodyDesign:
     """What an instrument says of its body; the engine builds the filter
     (:meth:`synth.dsp.body.Body.from_design`) on its own output rate.
 
-    wet : float         share of the body in the output, 0 .. 1
+    wet : float         share of the modes in the output, 0 .. 1 (the rest: the direct part)
     n_modes : int       number of modes, 1 .. 1024
     size : float        board size factor (mode frequencies divide by it)
     brightness : float  spectral tilt, dB per octave re 1 kHz
     seed : int          seed of the mode set's random draws (same seed, same board)
+    inputs : int        bridge inputs, 1 (the whole bridge) or 2 (0: bass end, 1: treble end)
+    outputs : int       outputs, 1 (mono) or 2 (0: left, 1: right)
     """
 
     wet: float
@@ -158,6 +280,40 @@ class BodyDesign:
     size: float = 1.0
     brightness: float = 0.0
     seed: int = DEFAULT_SEED
+    inputs: int = 1
+    outputs: int = 1
+
+
+@dataclass(frozen=True)
+class BoardModes:
+    """A board's mode set (:func:`soundboard_modes`); K modes, B inputs, C outputs.
+
+    freqs_hz : ndarray (K,)    mode (pole-angle) frequencies, Hz, increasing
+    t60_s : ndarray (K,)       60 dB decay time of each mode, s
+    drive : ndarray (B, K)     drive gain of each mode at each input, > 0
+    pickup : ndarray (C, K)    peak gain of each mode at each output, >= 0; the
+                               mode's peak gain from input b to output c is
+                               ``pickup[c, k] * drive[b, k]``
+    dry : ndarray (C, B)       direct part, >= 0
+    """
+
+    freqs_hz: np.ndarray
+    t60_s: np.ndarray
+    drive: np.ndarray
+    pickup: np.ndarray
+    dry: np.ndarray
+
+    @property
+    def n_modes(self):
+        return int(self.freqs_hz.shape[0])
+
+    @property
+    def inputs(self):
+        return int(self.drive.shape[0])
+
+    @property
+    def outputs(self):
+        return int(self.pickup.shape[0])
 
 
 def _int_param(name, value, lo, hi):
@@ -182,11 +338,10 @@ def _fs_param(fs):
 
 
 def _layout(fs, n_modes, size):
-    """Mode range and density constants: (f_low, f_high, spacing, f_c) in Hz.
+    """Mode range and density: (f_low, f_high, spacing, f_c, a) in Hz (a per e-fold).
 
-    Density rho(f) = 1/spacing below f_c, A/f above (A = f_c/spacing); when
-    more modes are asked than a uniform 1/spacing can hold, the whole range is
-    uniform with a smaller spacing (f_c = f_high).
+    Density n(f) = 1 / spacing for f <= f_c, a / f above (see the module
+    docstring, "The laws").
     """
     f_low = F_LOW_HZ / size
     f_high = min(F_HIGH_HZ / size, NYQUIST_FRACTION * fs)
@@ -196,30 +351,42 @@ def _layout(fs, n_modes, size):
                          f"(needs NYQUIST_FRACTION fs >= {1.5 * f_low:g} Hz)")
     target = float(n_modes - 1)  # intervals between the modes
 
-    def count(f_c):  # modes-intervals in [f_low, f_high] for crossover f_c
-        return (f_c - f_low) / spacing + (f_c / spacing) * math.log(f_high / f_c)
+    def uniform(f_c):  # intervals of the uniform part
+        return (f_c - f_low) / spacing
 
-    if target >= (f_high - f_low) / spacing:
+    def count(f_c):  # intervals with a density continuous at f_c (a = f_c / spacing)
+        return uniform(f_c) + (f_c / spacing) * math.log(f_high / f_c)
+
+    def solve(lo, hi):  # count() is increasing in f_c (d/df_c = ln(f_high / f_c) / spacing)
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            if count(mid) < target:
+                lo = mid
+            else:
+                hi = mid
+        return 0.5 * (lo + hi)
+
+    if target >= uniform(f_high):  # uniform everywhere, spacing shrunk to fit
         spacing = (f_high - f_low) / max(target, 1.0)
-        return f_low, f_high, spacing, f_high
-    if target <= count(f_low):
-        # Sparser than one spacing even at the bottom: geometric everywhere,
-        # A = target / ln(f_high / f_low) and f_c = f_low with that A.
+        return f_low, f_high, spacing, f_high, f_high / spacing
+    f_rib = min(F_RIB_HZ / size, f_high)
+    if target >= count(f_rib):  # more than the board's density: continuous above f_rib
+        f_c = solve(f_rib, f_high)
+        return f_low, f_high, spacing, f_c, f_c / spacing
+    span = math.log(f_high / f_rib)
+    a = (target - uniform(f_rib)) / span if span > 0 else 0.0
+    if span > 0 and a >= MIN_PER_OCTAVE / math.log(2.0):  # the board's law
+        return f_low, f_high, spacing, f_rib, a
+    if target <= count(f_low):  # very few modes: geometric everywhere
         a = max(target, 1.0) / math.log(f_high / f_low)
-        return f_low, f_high, f_low / a, f_low
-    lo, hi = f_low, f_high
-    for _ in range(200):  # count() is increasing in f_c (d/df_c = ln(f_high/f_c)/spacing)
-        mid = 0.5 * (lo + hi)
-        if count(mid) < target:
-            lo = mid
-        else:
-            hi = mid
-    return f_low, f_high, spacing, 0.5 * (lo + hi)
+        return f_low, f_high, f_low / a, f_low, a
+    f_c = solve(f_low, f_rib)
+    return f_low, f_high, spacing, f_c, f_c / spacing
 
 
-def _density(f, spacing, f_c):
+def _density(f, spacing, f_c, a):
     """Modes per Hz at f (array)."""
-    return np.minimum(1.0 / spacing, (f_c / spacing) / f)
+    return np.where(f <= f_c, 1.0 / spacing, a / np.maximum(f, 1e-300))
 
 
 def mode_density_per_hz(f_hz, fs, n_modes=DEFAULT_N_MODES, size=1.0):
@@ -239,17 +406,19 @@ def mode_density_per_hz(f_hz, fs, n_modes=DEFAULT_N_MODES, size=1.0):
     Returns
     -------
     ndarray of float
-        Modes per Hz: ``1 / spacing`` below the crossover, ``A / f`` above.
+        Modes per Hz: ``1 / spacing`` up to the end of the uniform part
+        (``F_RIB_HZ / size`` for the default count), ``A / f`` above.
     """
     fs = _fs_param(fs)
     n_modes = _int_param("n_modes", n_modes, MIN_N_MODES, MAX_N_MODES)
     size = _float_param("size", size, *SIZE_RANGE)
-    _, _, spacing, f_c = _layout(fs, n_modes, size)
-    return _density(np.asarray(f_hz, dtype=np.float64), spacing, f_c)
+    _, _, spacing, f_c, a = _layout(fs, n_modes, size)
+    return _density(np.asarray(f_hz, dtype=np.float64), spacing, f_c, a)
 
 
-def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, brightness=0.0):
-    """The board's modes: frequencies, decay times and signed peak gains.
+def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, brightness=0.0,
+                     inputs=1, outputs=1):
+    """The board's modes, their drive and pickup gains and the direct part.
 
     Parameters
     ----------
@@ -259,8 +428,8 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
     n_modes : int
         Number of modes K, 1 .. 1024 (default 96).
     seed : int
-        Seed of the random draws (spacings, gain spread, signs), >= 0. The
-        same seed gives the same board.
+        Seed of the random draws (spacings, drive spreads, pan angles), >= 0.
+        The same seed gives the same board for any ``inputs``, ``outputs``.
     size : float
         Board scale, 0.5 .. 2 (default 1): every frequency is divided by it
         (lowest mode ``50 / size`` Hz, spacing ``20 / size`` Hz) and decay
@@ -268,46 +437,50 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
     brightness : float
         Spectral tilt of the smoothed response in dB per octave re 1 kHz,
         -12 .. 12 (default 0 = flat on average).
+    inputs : int
+        Bridge inputs B, 1 or 2 (0: bass end, 1: treble end).
+    outputs : int
+        Outputs C, 1 or 2 (0: left, 1: right).
 
     Returns
     -------
-    freqs_hz : ndarray of float64, shape (K,)
-        Mode (pole-angle) frequencies in Hz, increasing, lowest exactly
-        ``50 / size``.
-    t60_s : ndarray of float64, shape (K,)
-        60 dB amplitude decay time of each mode in s.
-    gains : ndarray of float64, shape (K,)
-        Signed peak gains, scaled so that the bank realised by
-        :func:`resonator_coefs` at ``fs`` has a white-noise power gain of 1.
+    BoardModes
+        Frequencies (lowest exactly ``50 / size`` Hz), decay times, drive
+        (B, K) > 0, pickup (C, K) >= 0 and dry (C, B) >= 0, scaled so that the
+        modal part realised by :func:`resonator_coefs` at ``fs`` and the
+        direct part each have a white-noise power gain of 1, averaged over
+        the inputs and summed over the outputs.
     """
     fs = _fs_param(fs)
     n_modes = _int_param("n_modes", n_modes, MIN_N_MODES, MAX_N_MODES)
     seed = _int_param("seed", seed, 0, 2**63 - 1)
     size = _float_param("size", size, *SIZE_RANGE)
     brightness = _float_param("brightness", brightness, *BRIGHTNESS_RANGE_DB, unit=" dB/octave")
+    B = _int_param("inputs", inputs, 1, MAX_INPUTS)
+    C = _int_param("outputs", outputs, 1, MAX_OUTPUTS)
 
-    f_low, f_high, spacing, f_c = _layout(fs, n_modes, size)
+    f_low, f_high, spacing, f_c, a_dens = _layout(fs, n_modes, size)
     rng = np.random.default_rng(seed)
     K = n_modes
     # Wigner-surmise spacings (mean 1) in the warped coordinate u = N(f).
     s = np.sqrt(-4.0 / math.pi * np.log1p(-rng.random(K)))
     s = np.maximum(s, MIN_SPACING)
-    spread_db = GAIN_SPREAD_DB * rng.standard_normal(K)
-    signs = np.where(rng.random(K) < 0.5, -1.0, 1.0)
+    spread_db = DRIVE_SPREAD_DB * rng.standard_normal((MAX_INPUTS, K))
+    theta = 0.5 * math.pi * rng.random(K)
 
-    a_dens = f_c / spacing
-    n_c = (f_c - f_low) / spacing  # u at the crossover
+    n_c = (f_c - f_low) / spacing  # u at the end of the uniform part
     n_total = n_c + a_dens * math.log(f_high / f_c)
     if K > 1:
         u = np.concatenate(([0.0], np.cumsum(s[1:])))
         u *= n_total / u[-1]
     else:
         u = np.zeros(1)
-    freqs = np.where(u <= n_c, f_low + u * spacing, f_c * np.exp((u - n_c) / a_dens))
+    freqs = np.where(u <= n_c, f_low + u * spacing,
+                     f_c * np.exp((u - n_c) / max(a_dens, 1e-300)))
     freqs[0] = f_low
     freqs = np.minimum(freqs, f_high)
 
-    rho = _density(freqs, spacing, f_c)
+    rho = _density(freqs, spacing, f_c, a_dens)
     gamma = math.log(ETA_HIGH / ETA_LOW) / math.log(ETA_KNEE_RATIO)
     eta = np.minimum(ETA_LOW * (freqs / f_low) ** gamma, ETA_HIGH)
     bw_hz = eta * freqs
@@ -316,11 +489,51 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
     bw_hz = np.minimum(bw_hz, freqs)  # Q >= 1 even for a very thin bank
     t60 = math.log(1000.0) / (math.pi * bw_hz)
 
-    gains = signs * 10.0 ** ((brightness * np.log2(freqs / 1000.0) + spread_db) / 20.0)
-    gains /= np.sqrt(bw_hz * rho)
-    p = white_noise_power_gain(resonator_coefs(fs, freqs, t60, gains))
-    gains /= math.sqrt(p)
-    return freqs, t60, gains
+    g = 10.0 ** (brightness * np.log2(freqs / 1000.0) / 20.0) / np.sqrt(bw_hz * rho)
+    drive = 10.0 ** (spread_db[:B] / 20.0)
+    pickup = np.vstack((np.cos(theta), np.sin(theta))) if C == 2 else np.ones((1, K))
+    pickup = pickup * g
+    unit = resonator_coefs(fs, freqs, t60, np.ones(K))
+    gram = _modal_gram(unit, drive, pickup)
+    scale = 1.0 / math.sqrt(np.trace(gram) / B)
+    pickup = pickup * scale
+    gram = gram * scale * scale
+    dry = _dry_matrix(B, C, gram)
+    return BoardModes(freqs, t60, np.ascontiguousarray(drive), np.ascontiguousarray(pickup), dry)
+
+
+def _modal_gram(unit_coefs, drive, pickup):
+    """(B, B) white-noise Gram matrix of the modal part, summed over outputs:
+    G[b, b'] = sum_c sum_n m_cb[n] m_cb'[n], m_cb the bank with peak gains
+    pickup[c] * drive[b] (``unit_coefs``: the sections with unit gains)."""
+    B, C = drive.shape[0], pickup.shape[0]
+    G = np.zeros((B, B))
+    for c in range(C):
+        banks = [_scaled(unit_coefs, pickup[c] * drive[b]) for b in range(B)]
+        for b in range(B):
+            for b2 in range(b, B):
+                G[b, b2] += white_noise_cross_energy(banks[b], banks[b2])
+    return np.triu(G) + np.triu(G, 1).T
+
+
+def _scaled(unit_coefs, gains):
+    c = unit_coefs.copy()
+    c[0] *= gains
+    return c
+
+
+def _dry_matrix(B, C, gram):
+    """The direct part (C, B), >= 0, white-noise power 1 averaged over the inputs."""
+    if B == 1:
+        d = np.ones((C, 1))
+    elif C == 1:
+        d = np.ones((1, 2))
+    else:
+        rho = gram[0, 1] / math.sqrt(gram[0, 0] * gram[1, 1])
+        rho = min(max(rho, 0.0), 1.0)
+        r = (1.0 - math.sqrt(1.0 - rho * rho)) / rho if rho > 0 else 0.0  # 2 r / (1 + r^2) = rho
+        d = np.array([[1.0, r], [r, 1.0]])
+    return d / math.sqrt((d * d).sum() / B)
 
 
 def resonator_coefs(fs, freqs_hz, t60_s, gains):
@@ -335,7 +548,7 @@ def resonator_coefs(fs, freqs_hz, t60_s, gains):
     t60_s : array_like of float, shape (K,)
         60 dB decay times in s, > 0.
     gains : array_like of float, shape (K,)
-        Peak gains (signed, any finite value).
+        Peak gains (any finite value; the board uses positive ones).
 
     Returns
     -------
@@ -370,14 +583,55 @@ def resonator_coefs(fs, freqs_hz, t60_s, gains):
     return coefs
 
 
-def white_noise_power_gain(coefs):
-    """Exact sum_n h[n]^2 of the summed bank (the power gain for white noise).
+def _poles_residues(coefs, name):
+    """(Q, P, C): the bank's response as h[n] = Q delta[n] + sum_a C_a P_a^n
+    (P, C over both poles of every section)."""
+    coefs = np.asarray(coefs, dtype=np.float64)
+    if coefs.ndim != 2 or coefs.shape[0] != 3:
+        raise ValueError(f"{name} has shape {coefs.shape}; must be (3, K)")
+    b0, a1, a2 = coefs
+    if not np.all((a1 * a1 < 4.0 * a2) & (a2 < 1.0)):
+        raise ValueError(f"{name}: every section must have complex poles inside the unit circle "
+                         "(a1^2 < 4 a2 < 4)")
+    r = np.sqrt(a2)
+    cos_t = np.clip(-a1 / (2.0 * r), -1.0, 1.0)
+    p = r * (cos_t + 1j * np.sqrt(1.0 - cos_t * cos_t))
+    # residue at p of N(w)/D(w), w = z^-1: c = N(1/p) / (1 - p*/p)
+    w = 1.0 / p
+    c = b0 * (1.0 - w * w) / (1.0 - np.conj(p) / p)
+    q = b0 - 2.0 * c.real
+    return q.sum(), np.concatenate((p, np.conj(p))), np.concatenate((c, np.conj(c)))
+
+
+def white_noise_cross_energy(coefs1, coefs2):
+    """Exact sum_n h1[n] h2[n] of two banks (the cross power for white noise).
 
     Each section ``b0 (1 - z^-2) / (1 + a1 z^-1 + a2 z^-2)`` with complex
     poles p, p* is written ``q + c / (1 - p z^-1) + c* / (1 - p* z^-1)``, so
-    the bank's response is ``h[n] = Q delta[n] + sum_a C_a P_a^n`` and
+    a bank's response is ``h[n] = Q delta[n] + sum_a C_a P_a^n`` and
 
-        sum_n h^2 = Q^2 + 2 Q sum_a C_a + sum_{a,b} C_a C_b / (1 - P_a P_b).
+        sum_n h1 h2 = Q1 Q2 + Q1 sum_a C2_a + Q2 sum_a C1_a
+                      + sum_{a,b} C1_a C2_b / (1 - P1_a P2_b).
+
+    Parameters
+    ----------
+    coefs1, coefs2 : ndarray, shape (3, K1) and (3, K2)
+        Rows ``b0, a1, a2`` as from :func:`resonator_coefs`; every section
+        must have complex poles inside the unit circle (a1^2 < 4 a2 < 4).
+
+    Returns
+    -------
+    float
+        The cross energy of the two impulse responses (dimensionless).
+    """
+    Q1, P1, C1 = _poles_residues(coefs1, "coefs1")
+    Q2, P2, C2 = _poles_residues(coefs2, "coefs2")
+    cross = (C1[:, None] * C2[None, :] / (1.0 - P1[:, None] * P2[None, :])).sum()
+    return float((Q1 * Q2 + Q1 * C2.sum() + Q2 * C1.sum() + cross).real)
+
+
+def white_noise_power_gain(coefs):
+    """Exact sum_n h[n]^2 of the summed bank (the power gain for white noise).
 
     Parameters
     ----------
@@ -388,24 +642,143 @@ def white_noise_power_gain(coefs):
     Returns
     -------
     float
-        The energy of the bank's impulse response (dimensionless).
+        The energy of the bank's impulse response (dimensionless), see
+        :func:`white_noise_cross_energy`.
     """
+    Q, P, C = _poles_residues(coefs, "coefs")
+    cross = (C[:, None] * C[None, :] / (1.0 - P[:, None] * P[None, :])).sum()
+    return float((Q * Q + 2.0 * Q * C.sum() + cross).real)
+
+
+def section_response(fs, coefs, f_hz):
+    """Complex frequency response of each section, shape (K, F).
+
+    Parameters
+    ----------
+    fs : float
+        Sample rate in Hz (>= 8000).
+    coefs : ndarray, shape (3, K)
+        Rows ``b0, a1, a2`` as from :func:`resonator_coefs`.
+    f_hz : array_like of float, shape (F,)
+        Frequencies in Hz, 0 <= f <= fs / 2.
+
+    Returns
+    -------
+    ndarray of complex128, shape (K, F)
+        ``b0 (1 - z^-2) / (1 + a1 z^-1 + a2 z^-2)`` at ``z = exp(2 pi j f / fs)``.
+    """
+    fs = _fs_param(fs)
     coefs = np.asarray(coefs, dtype=np.float64)
     if coefs.ndim != 2 or coefs.shape[0] != 3:
         raise ValueError(f"coefs has shape {coefs.shape}; must be (3, K)")
-    b0, a1, a2 = coefs
-    if not np.all((a1 * a1 < 4.0 * a2) & (a2 < 1.0)):
-        raise ValueError("coefs: every section must have complex poles inside the unit circle "
-                         "(a1^2 < 4 a2 < 4)")
-    r = np.sqrt(a2)
-    cos_t = np.clip(-a1 / (2.0 * r), -1.0, 1.0)
-    p = r * (cos_t + 1j * np.sqrt(1.0 - cos_t * cos_t))
-    # residue at p of N(w)/D(w), w = z^-1: c = N(1/p) / (1 - p*/p)
-    w = 1.0 / p
-    c = b0 * (1.0 - w * w) / (1.0 - np.conj(p) / p)
-    q = b0 - 2.0 * c.real
-    P = np.concatenate((p, np.conj(p)))
-    C = np.concatenate((c, np.conj(c)))
-    Q = q.sum()
-    cross = (C[:, None] * C[None, :] / (1.0 - P[:, None] * P[None, :])).sum()
-    return float((Q * Q + 2.0 * Q * C.sum() + cross).real)
+    f = np.atleast_1d(np.asarray(f_hz, dtype=np.float64))
+    if f.ndim != 1 or not np.all(np.isfinite(f) & (f >= 0) & (f <= fs / 2)):
+        raise ValueError(f"f_hz must be a 1-D array of frequencies in [0, fs/2 = {fs / 2:g}] Hz")
+    w = np.exp(-2j * math.pi * f / fs)
+    b0, a1, a2 = (row[:, None] for row in coefs)
+    return b0 * (1.0 - w * w) / (1.0 + a1 * w + a2 * w * w)
+
+
+def smoothed_db(f_hz, power, fraction=1.0 / 3.0):
+    """Fractional-octave smoothing of a power response, in dB.
+
+    The mean of ``power`` over the points of a log-spaced grid within
+    ``fraction`` of an octave centred on each point (a rectangular window
+    in log frequency; the band is cut at the ends of the grid).
+
+    Parameters
+    ----------
+    f_hz : array_like of float, shape (F,)
+        Increasing, log-spaced frequencies in Hz (> 0).
+    power : array_like of float, shape (F,)
+        Power response (|H|^2) at ``f_hz``, >= 0.
+    fraction : float
+        Band width in octaves, 0 < fraction <= 2 (default 1/3).
+
+    Returns
+    -------
+    ndarray of float, shape (F,)
+        ``10 log10`` of the band means.
+    """
+    f = np.asarray(f_hz, dtype=np.float64)
+    p = np.asarray(power, dtype=np.float64)
+    if f.ndim != 1 or p.shape != f.shape or f.size < 2 or not np.all(f > 0) \
+            or not np.all(np.diff(f) > 0):
+        raise ValueError("f_hz must be increasing positive frequencies and power the same shape")
+    fraction = _float_param("fraction", fraction, 1e-6, 2.0, unit=" octave")
+    lf = np.log2(f)
+    cs = np.concatenate(([0.0], np.cumsum(p)))
+    lo = np.searchsorted(lf, lf - fraction / 2.0)
+    hi = np.searchsorted(lf, lf + fraction / 2.0, side="right")
+    with np.errstate(divide="ignore"):
+        return 10.0 * np.log10((cs[hi] - cs[lo]) / (hi - lo))
+
+
+def knock_impulse_ns(hammer_mass_kg, hammer_speed_m_per_s, ratio=KNOCK_IMPULSE_RATIO):
+    """Impulse of the knock as an equivalent bridge force (N s).
+
+    ``J = ratio * m_h * v_h``: a fraction of the hammer's momentum. Why this
+    scale: the key stops on the keybed within a few ms of the hammer-string
+    contact (Askenfelt & Jansson 1990), carrying a momentum m_k v_k; with the
+    grand action's hammer-to-key speed ratio of about 5 and an effective
+    key mass at the front of ~0.05 kg, m_k v_k ~ 0.01 v_h, about the
+    hammer's own momentum (5-11 g, :func:`synth.physics.piano.hammer_mass_kg`
+    with one string). Only part of it reaches the board, through the keybed,
+    the case and the rim; ``KNOCK_IMPULSE_RATIO`` = 0.1 (-20 dB re the
+    hammer's momentum) is an estimate, not a measured transfer (the sources
+    give the mechanism, timing and spectrum of the thump, not its force).
+    For comparison, the hammer gives the string about m_h v_h, which reaches
+    the bridge as the string's own wave. Linear in the hammer speed, so the
+    knock keeps its level relative to the tone at every velocity
+    (:func:`knock_pulse` makes the force signal).
+
+    Parameters
+    ----------
+    hammer_mass_kg : float
+        Mass of the whole hammer, 0.001 .. 0.05 kg.
+    hammer_speed_m_per_s : float
+        Hammer speed at the strings, 0 .. 20 m/s.
+    ratio : float
+        Impulse re the hammer's momentum, 0 .. 1 (default 0.1).
+
+    Returns
+    -------
+    float
+        The knock's impulse in N s.
+    """
+    m = _float_param("hammer_mass_kg", hammer_mass_kg, 0.001, 0.05, unit=" kg")
+    v = _float_param("hammer_speed_m_per_s", hammer_speed_m_per_s, 0.0, 20.0, unit=" m/s")
+    ratio = _float_param("ratio", ratio, 0.0, 1.0)
+    return ratio * m * v
+
+
+def knock_pulse(fs, impulse_ns, duration_s=KNOCK_DURATION_S):
+    """The knock's force pulse: a raised cosine of given area and duration.
+
+    ``F(t) = (J / T) (1 - cos(2 pi t / T))`` for 0 <= t < T, sampled at
+    ``t = (i + 1/2) / fs``, i = 0 .. N-1, N = max(1, round(T fs)), and scaled
+    so that ``sum F / fs = J`` exactly. Its spectrum is flat (|F(f)| = J) to
+    within 1 dB up to about 0.4 / T (200 Hz for the default 2 ms), falls
+    by 6 dB at 1 / T and has its first zero at 2 / T: a short push that
+    excites the board's low modes evenly (the thump) and little else.
+
+    Parameters
+    ----------
+    fs : float
+        Sample rate in Hz (>= 8000).
+    impulse_ns : float
+        The pulse's area J in N s, 0 .. 10 (see :func:`knock_impulse_ns`).
+    duration_s : float
+        Duration T in s, 0.0002 .. 0.02 (default 0.002).
+
+    Returns
+    -------
+    ndarray of float64, shape (N,)
+        Force samples in N, >= 0, peak 2 J / T.
+    """
+    fs = _fs_param(fs)
+    j = _float_param("impulse_ns", impulse_ns, 0.0, 10.0, unit=" N s")
+    t = _float_param("duration_s", duration_s, *KNOCK_DURATION_RANGE_S, unit=" s")
+    n = max(1, int(round(t * fs)))
+    shape = 1.0 - np.cos(2.0 * math.pi * (np.arange(n) + 0.5) / n)
+    return shape * (j * fs / shape.sum())

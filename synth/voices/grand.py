@@ -52,9 +52,10 @@ Output: each string writes the force on the bridge into two buses, split by
 the key's place along the bridge (bus 0 the bass end, bus 1 the treble
 end).
 
-The soundboard is a modal bank on the decimated mix: the voice describes it
-(:meth:`GrandPianoInstrument.body`, from ``[body]``) and the engine builds
-it (:class:`synth.dsp.body.Body`).
+The soundboard is a modal bank on the decimated bridge signal(s): the voice
+describes it (:meth:`GrandPianoInstrument.body`, from ``[body]``: one or two
+bridge inputs, one or two outputs) and the engine builds it
+(:class:`synth.dsp.body.Body`).
 """
 
 from __future__ import annotations
@@ -154,7 +155,7 @@ class GrandPianoInstrument(Voice):
     def body(self) -> BodyDesign:
         b = self.preset.body
         return BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
-                          seed=b.seed)
+                          seed=b.seed, inputs=b.inputs, outputs=b.outputs)
 
     # -- physics at note-on -------------------------------------------------------
     def tuning_hz(self, key: int) -> float:

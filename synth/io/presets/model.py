@@ -130,13 +130,16 @@ class DampersSpec:
 
 @dataclass(frozen=True)
 class BodySpec:
-    """Soundboard: modal bank on the 48 kHz mix (synth.physics.soundboard)."""
+    """Soundboard: modal bank on the 48 kHz bridge signal(s) (synth.physics.soundboard);
+    ``inputs``/``outputs`` (grand only, else None): bridge inputs and outputs, 1 or 2."""
 
     wet: float
     modes: int
     size: float
     brightness: float
     seed: int
+    inputs: int | None = None
+    outputs: int | None = None
 
 
 @dataclass(frozen=True)

@@ -205,11 +205,16 @@ SECTIONS: tuple[Section, ...] = (
               0.0, 1.0),
     ), when=_KEYBOARD, checks=(OrderCheck("half_pedal_low", "<", "half_pedal_high"),)),
     Section("body", "soundboard", BodySpec, (
-        Field("wet", "float", "share of the soundboard in the output (0: bare strings)", 0.0, 1.0),
+        Field("wet", "float", "share of the soundboard's modes in the output (0: its direct part "
+              "only, flat)", 0.0, 1.0),
         Field("modes", "int", "number of soundboard modes", 1, 1024),
         Field("size", "float", "board size factor (divides all mode frequencies)", 0.25, 4.0),
         Field("brightness", "float", "spectral tilt of the board, dB/octave", -12.0, 12.0),
         Field("seed", "int", "random seed of the mode set (deterministic)", 0, 2 ** 31 - 1),
+        Field("inputs", "int", "bridge inputs of the board: 1 (whole bridge) or 2 (bass end, "
+              "treble end)", 1, 2, when=When("voice", ("grand",))),
+        Field("outputs", "int", "outputs of the board: 1 (mono) or 2 (left, right)", 1, 2,
+              when=When("voice", ("grand",))),
     ), when=_KEYBOARD),
     Section("output", "what is written to the WAV", OutputSpec, (
         Field("signal", "str", "displacement u(l,t) at the pluck point (m) or bridge force at x=L (N)",
