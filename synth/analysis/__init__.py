@@ -1,5 +1,5 @@
 """Measurement tools (numpy only): spectra, pitch, decay, loudness, modal energies, regimes,
-narrow bands and the sympathetic halo, clicks.
+narrow bands and the sympathetic halo, clicks, partials followed upward.
 
 Used by the tests, the reproduction scripts and the analysis commands;
 never imports numba or other ``synth`` layers (loudness uses pyloudnorm).
@@ -16,6 +16,7 @@ from synth.analysis.modes import (
     string_energy,
     struck_mode_energies,
 )
+from synth.analysis.partials import track_partials
 from synth.analysis.pitch import cents, estimate_f0, f0_track, fit_inharmonicity
 from synth.analysis.regimes import (
     aperiodic_end,
@@ -62,4 +63,5 @@ __all__ = [
     "band_levels_db",
     "halo",
     "click_scan",
+    "track_partials",
 ]
