@@ -109,7 +109,7 @@ class Renderer:
 
     preset: str
     overrides: tuple
-    budget_mb: float = 600.0
+    budget_mb: float = 300.0
     voice: object = None
     cache: OrderedDict = field(default_factory=OrderedDict)
     render_s: float = 0.0
@@ -127,12 +127,20 @@ class Renderer:
         return build_engine(self.preset, self.overrides, fs_out=FS, extra_low_key=low_key,
                             voice=self.voice)
 
-    def note(self, key, vel, seconds, *, sustain=False, soft=False, off_s=None):
+    def note(self, key, vel, seconds, *, sustain=False, soft=False, off_s=None, exact=False,
+             keep_s=None):
         """Mono render of ``key`` at MIDI velocity ``vel`` from t = 0 for
         ``seconds``; sustain pedal / soft pedal fully down from t = 0 if
-        asked; key up at ``off_s`` (None: held)."""
-        tag = (int(key), int(vel), bool(sustain), bool(soft), off_s)
+        asked; key up at ``off_s`` (None: held).
+
+        A render of the same note at least as long is reused (its prefix),
+        unless ``exact``: renders of different lengths end in blocks of
+        different sizes, and the decimator and soundboard then round
+        differently (by ~1e-18 of the signal), so two takes compared sample
+        for sample must be rendered alike.  ``keep_s``: keep only the first
+        ``keep_s`` in the cache (long decay renders)."""
         n = int(round(seconds * FS))
+        tag = (int(key), int(vel), bool(sustain), bool(soft), off_s, n if exact else None)
         y = self.cache.get(tag)
         if y is not None and len(y) >= n:
             self.cache.move_to_end(tag)
@@ -151,7 +159,11 @@ class Renderer:
         self.render_s += time.perf_counter() - t
         self.audio_s += seconds
         self.renders += 1
-        self.cache[tag] = y
+        if keep_s is not None and len(y) > int(keep_s * FS):
+            tag = tag[:-1] + (None,)
+            self.cache[tag] = y[:int(keep_s * FS)].copy()
+        else:
+            self.cache[tag] = y
         while sum(v.nbytes for v in self.cache.values()) > self.budget_mb * 1e6 and len(self.cache) > 1:
             self.cache.popitem(last=False)
         return y
@@ -212,24 +224,27 @@ def tuning(y, key, f1_hz, seg_s=(0.05, 1.05)):
 def decay(y, f1_hz):
     """T60 of partial 1 (one line, -5 to -35 dB, or to -25 / -15 dB if it
     does not fall that far), and the two-stage fit (to -50 dB) with the
-    knee's drop and the aftersound's span."""
+    knee's drop and the aftersound's span.  Level frames every 10 ms, or
+    every 1/1000 of a render longer than 10 s (the knee search is quadratic
+    in the frames)."""
+    hop = max(0.01, len(y) / FS / 1000.0)
     out = {"t60_s": None, "t60_range_db": None}
     for stop in (-35.0, -25.0, -15.0):
         try:
-            out["t60_s"] = t60_s(y, FS, f_hz=f1_hz, stop_db=stop)
+            out["t60_s"] = t60_s(y, FS, f_hz=f1_hz, stop_db=stop, hop_s=hop)
             out["t60_range_db"] = stop
             break
         except ValueError:
             continue
     try:
-        d = two_stage_decay(y, FS, f_hz=f1_hz, stop_db=-50.0)
+        d = two_stage_decay(y, FS, f_hz=f1_hz, stop_db=-50.0, hop_s=hop)
     except ValueError:
         d = {"t60_s": None, "t60_early_s": None, "t60_late_s": None, "knee_s": None}
     out.update(t60_two_line_s=d["t60_s"], t60_early_s=d["t60_early_s"],
                t60_late_s=d["t60_late_s"], knee_s=d["knee_s"], knee_drop_db=None,
                late_span_db=None, ratio=None, visible=False)
     if d["knee_s"] is not None:
-        t, db = decay_curve_db(y, FS, f_hz=f1_hz)
+        t, db = decay_curve_db(y, FS, f_hz=f1_hz, hop_s=hop)
         i0 = int(np.argmax(db))
         top = db[i0]
         t, db = t[i0:], db[i0:]
@@ -315,7 +330,7 @@ class Report:
             L, C = [], []
             for key in self.keys:
                 sec = self.long_s(key) if vel == 80 else self.short_s
-                y = self.r.note(key, vel, sec)
+                y = self.r.note(key, vel, sec, keep_s=4.0)
                 L.append(max_momentary(y[:int(self.short_s * FS)]))
                 C.append(attack_centroid_hz(y))
                 if vel == 80:
@@ -455,8 +470,8 @@ class Report:
         res = {}
         for key in PEDAL_KEYS:
             a = int((at - 0.05) * FS), int((at + 0.05) * FS)
-            wet = self.r.note(key, 80, 1.0, sustain=True, off_s=off)
-            dry = self.r.note(key, 80, 1.0, off_s=off)
+            wet = self.r.note(key, 80, 1.0, sustain=True, off_s=off, exact=True)
+            dry = self.r.note(key, 80, 1.0, off_s=off, exact=True)
             res[key] = (rms_db(wet[a[0]:a[1]]), rms_db(dry[a[0]:a[1]]))
         diff = {k: w - d for k, (w, d) in res.items()}
         j = min(diff, key=diff.get)
@@ -471,8 +486,8 @@ class Report:
         # the halo of a held note
         hres = {}
         for key in HALO_KEYS:
-            wet = self.r.note(key, 80, 4.0, sustain=True)
-            dry = self.r.note(key, 80, 4.0)
+            wet = self.r.note(key, 80, 4.0, sustain=True, exact=True)
+            dry = self.r.note(key, 80, 4.0, exact=True)
             f1 = self.r.tuning_hz(key)
             f0, B, _ = law_partials(key, f1)
             n = np.arange(1, 400)
