@@ -86,3 +86,13 @@ def test_the_quick_report_runs_and_prints_its_table(tmp_path):
     assert len(r["data"]["keyboard"]["loudness_lufs"]["80"]) == len(vr.QUICK_KEYS)
     pngs = sorted((tmp_path / "img").glob("*.png"))
     assert len(pngs) == 5 and all(png.stat().st_size < 100_000 for png in pngs)
+
+
+def test_an_earlier_report_is_a_column():
+    rows = [vr.Row("dynamics", "C4 range", "30.1 dB", ">= 35 dB", "FAIL", 30.1),
+            vr.Row("pedal", "new row", "x", "", "INFO")]
+    txt = vr.format_table(rows, before={("dynamics", "C4 range"): "22.4 dB"})
+    head = txt.splitlines()[0]
+    assert head.split() == ["target", "before", "measured", "limit"]
+    assert "22.4 dB" in txt.splitlines()[2] and "30.1 dB" in txt.splitlines()[2]
+    assert txt.splitlines()[3].split()[3] == "-"            # not in the earlier report

@@ -6,6 +6,7 @@
     python tools/voicing_report.py --json r.json --plots docs/img/voicing
     python tools/voicing_report.py --set action.speed_max_m_per_s=7 --quick
     python tools/voicing_report.py --bench            # also the cost (tools/bench_grand.py)
+    python tools/voicing_report.py --before docs/voicing-before.json   # today's figures as a column
 
 Prints one row per target: what was measured, the value(s), the limit and
 PASS / FAIL (INFO: reported, no limit; SKIP: not measured in this run).
@@ -109,7 +110,7 @@ class Renderer:
 
     preset: str
     overrides: tuple
-    budget_mb: float = 300.0
+    budget_mb: float = 200.0
     voice: object = None
     cache: OrderedDict = field(default_factory=OrderedDict)
     render_s: float = 0.0
@@ -395,9 +396,11 @@ class Report:
                  f"{L[0]:.1f} LUFS at velocity 1, {L[-1]:.1f} LUFS at 127")
         st = np.diff(L)
         j = int(np.argmin(st))
-        self.add("dynamics", f"C4 loudness monotonic ({len(L)} velocities)",
+        self.add("dynamics", "C4 loudness monotonic in velocity",
                  f"smallest step {st[j]:+.3f} dB ({self.c4_vels[j]}-{self.c4_vels[j + 1]})",
-                 "every step >= 0", bool(st[j] >= 0.0), float(st[j]))
+                 "every step >= 0", bool(st[j] >= 0.0), float(st[j]),
+                 f"{len(L)} velocities: " + ("1 to 127" if len(L) == 127 else
+                                             ", ".join(map(str, self.c4_vels))))
         c20 = C[self.c4_vels.index(20)]
         ratio = C[-1] / c20
         self.add("dynamics", "C4 centroid of the first 100 ms, vel 127 / 20", f"{ratio:.2f}",
@@ -695,16 +698,22 @@ def git_commit():
         return "unknown"
 
 
-def format_table(rows, details=True) -> str:
+def format_table(rows, details=True, before=None) -> str:
     """The table (status, target, measured, limit), then the details of
-    each row that has any, numbered."""
+    each row that has any, numbered.  ``before``: {(section, target):
+    measured} of an earlier report (``--before``), shown as a column."""
     head = ("", "target", "measured", "limit")
     body = [(r.status, r.target, r.measured, r.limit) for r in rows]
-    w = [max(len(x[i]) for x in [head] + body) for i in range(3)]
+    if before is not None:
+        head = ("", "target", "before", "measured", "limit")
+        body = [(r.status, r.target, before.get((r.section, r.target), "-"), r.measured, r.limit)
+                for r in rows]
+    nc = len(head) - 1
+    w = [max(len(x[i]) for x in [head] + body) for i in range(nc)]
     lines = []
     for i, x in enumerate([head] + body):
         ref = f"[{i}]" if i and rows[i - 1].detail and details else ""
-        lines.append(f"{x[0].ljust(w[0])}  {x[1].ljust(w[1])}  {x[2].ljust(w[2])}  {x[3]} {ref}".rstrip())
+        lines.append(("  ".join(c.ljust(w[j]) for j, c in enumerate(x[:nc])) + f"  {x[nc]} {ref}").rstrip())
         if i == 0:
             lines.append("  ".join("-" * x for x in w) + "  -----")
     n = {s: sum(r.status == s for r in rows) for s in ("PASS", "FAIL", "INFO", "SKIP")}
@@ -723,7 +732,9 @@ def _jsonable(o):
         return [_jsonable(v) for v in o]
     if isinstance(o, (np.floating, float)):
         v = float(o)
-        return v if math.isfinite(v) else (None if math.isnan(v) else ("inf" if v > 0 else "-inf"))
+        if not math.isfinite(v):
+            return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
+        return float(f"{v:.7g}")
     if isinstance(o, np.integer):
         return int(o)
     if isinstance(o, np.ndarray):
@@ -862,8 +873,18 @@ def main(argv=None) -> int:
     ap.add_argument("--midi-seconds", type=float, default=None,
                     help="render only the first S seconds of each file (quick: 4)")
     ap.add_argument("--bench", action="store_true", help="also run tools/bench_grand.py (about 10 s)")
+    ap.add_argument("--before", metavar="JSON", help="an earlier report's --json (e.g. "
+                    "docs/voicing-before.json): its figures as a column")
     ap.add_argument("--silent", action="store_true", help="no progress on stderr")
     a = ap.parse_args(argv)
+    before = None
+    if a.before:
+        try:
+            rows = json.loads(Path(a.before).read_text())["rows"]
+            before = {(r["section"], r["target"]): r["measured"] for r in rows}
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            print(f"error: --before {a.before}: not a voicing report JSON ({e})", file=sys.stderr)
+            return 2
     try:
         rep = Report(a)
         rep.run()
@@ -878,7 +899,7 @@ def main(argv=None) -> int:
     print(f"# {cmd}")
     print(f"# {t['total_s']:.0f} s in all; {t['notes_rendered']} notes rendered ({t['note_audio_s']:.0f} s "
           f"of audio in {t['note_render_s']:.0f} s), {t['cache_hits']} served from the cache")
-    print(format_table(rep.rows))
+    print(format_table(rep.rows, before=before))
     written = []
     if a.plots:
         written = plots(rep, Path(a.plots))
