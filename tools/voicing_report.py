@@ -430,7 +430,7 @@ class Report:
                  ", ".join(f"{k}: {v:.2f}" for k, v in cr.items()))
 
     def partial_levels(self):
-        y = self.r.note(60, 80, self.long_s(60))
+        y = self.r.note(60, 80, min(self.long_s(60), 4.0))
         f1 = self.r.tuning_hz(60)
         f0, B, _ = law_partials(60, f1)
         seg = y[int(0.05 * FS):int(1.05 * FS)]
