@@ -588,7 +588,7 @@ class Report:
                 ev += [Event(cut, "control", 123, 0.0, ch) for ch in chans]
             keys = [int(e.key) for e in ev if e.kind == "note_on" and e.value > 0]
             last = max(e.time_s for e in ev)
-            eng = self.r.engine(min(keys))
+            eng = self.r.engine(min(keys) if keys else None)
             t = time.perf_counter()
             y = eng.render(ev, tail_s=0.5, max_tail_s=10.0)
             el = time.perf_counter() - t
