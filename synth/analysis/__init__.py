@@ -1,9 +1,12 @@
-"""Measurement tools (numpy only): spectra, pitch, decay, loudness, modal energies, regimes.
+"""Measurement tools (numpy only): spectra, pitch, decay, loudness, modal energies, regimes,
+narrow bands and the sympathetic halo, clicks, partials followed upward.
 
 Used by the tests, the reproduction scripts and the analysis commands;
 never imports numba or other ``synth`` layers (loudness uses pyloudnorm).
 """
 
+from synth.analysis.bands import band_levels_db, halo
+from synth.analysis.clicks import click_scan
 from synth.analysis.decay import decay_curve_db, t60_s, two_stage_decay
 from synth.analysis.loudness import crest_factor_db, loudness, momentary_lufs, peak_dbfs
 from synth.analysis.modes import (
@@ -13,6 +16,7 @@ from synth.analysis.modes import (
     string_energy,
     struck_mode_energies,
 )
+from synth.analysis.partials import track_partials
 from synth.analysis.pitch import cents, estimate_f0, f0_track, fit_inharmonicity
 from synth.analysis.regimes import (
     aperiodic_end,
@@ -56,4 +60,8 @@ __all__ = [
     "momentary_lufs",
     "peak_dbfs",
     "crest_factor_db",
+    "band_levels_db",
+    "halo",
+    "click_scan",
+    "track_partials",
 ]

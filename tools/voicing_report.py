@@ -1,0 +1,916 @@
+"""Voicing report of the grand piano: every target of the voicing issue
+(issue 11), measured on rendered audio, in one table.
+
+    python tools/voicing_report.py                    # the full report (keys 21-108)
+    python tools/voicing_report.py --quick            # few keys, short notes (CI, development)
+    python tools/voicing_report.py --json r.json --plots docs/img/voicing
+    python tools/voicing_report.py --set action.speed_max_m_per_s=7 --quick
+    python tools/voicing_report.py --bench            # also the cost (tools/bench_grand.py)
+    python tools/voicing_report.py --before docs/voicing-before.json   # today's figures as a column
+
+Prints one row per target: what was measured, the value(s), the limit and
+PASS / FAIL (INFO: reported, no limit; SKIP: not measured in this run).
+``docs/voicing.md`` defines every measure and keeps the figures.  Exit 0
+when the report was made (whatever the results), 2 on an error.
+
+Loudness is the maximum 400 ms momentary BS.1770 loudness
+(``synth.analysis.loudness``); the centroid of the first 100 ms is the
+magnitude-weighted spectral centroid of the note's first 100 ms (a flat
+window with a 10 ms half-Hann fade at its end, so the attack counts in
+full).  Every note is rendered on a fresh engine (note-on at t = 0) and
+kept in a cache while the report runs, so a render serves every measure
+that needs it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from collections import OrderedDict
+from dataclasses import dataclass, field
+from pathlib import Path
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+
+import numpy as np  # noqa: E402
+
+from synth.analysis import (  # noqa: E402
+    cents,
+    click_scan,
+    decay_curve_db,
+    estimate_f0,
+    halo,
+    loudness,
+    peak_dbfs,
+    spectral_centroid_hz,
+    t60_s,
+    track_partials,
+    two_stage_decay,
+)
+from synth.engine.engine import Event  # noqa: E402
+from synth.io.errors import SynthError  # noqa: E402
+from synth.io.factory import build_engine, build_voice  # noqa: E402
+from synth.physics.piano import grand_string  # noqa: E402
+
+SCHEMA = 1
+FS = 48_000
+ROOT = Path(__file__).resolve().parents[1]
+#: the five piano files of ../shared/midi (SOURCES.md, section 1)
+MIDI_FILES = ("rac_op23_5.mid", "chpn_op25_e11.mid", "deb_clai.mid", "hp956bx4547_exp.mid",
+              "kw569bw0899_exp.mid")
+DEFAULT_MIDI_DIR = ROOT.parent / "shared" / "midi"
+
+SWEEP_VELS = (20, 50, 80, 110, 127)
+CURVE_KEYS = (33, 48, 60, 72, 84, 96, 105)
+QUICK_KEYS = (21, 33, 41, 48, 59, 60, 61, 72, 84, 96, 97, 100, 104, 108)
+PEDAL_KEYS = (36, 48, 60, 72, 84)
+HALO_KEYS = (36, 60)
+SOFT_KEYS = (33, 48, 60, 72, 84, 96)
+
+#: today's cost (tools/bench_grand.py, docs/voicing.md): the limit is 1.5 x
+BENCH_BASELINE = {"sustain_ms": 5.80, "chord_pct": 33.1}
+BENCH_FACTOR = 1.5
+
+# the limits of the issue
+LIM = dict(range_db=35.0, centroid_ratio=2.0, partial_db=-25.0, step_db=3.0, fit_db=5.0,
+           treble_db=8.0, t60_treble_s=0.8, late_early=3.0, staccato_db=10.0, soft_change=0.10,
+           cents_p1=1.0, cents_law=2.0, peak_dbfs=-1.0, jump_db=30.0, halo_gain_db=6.0)
+#: a knee is visible when the prompt sound falls at least this much before it
+#: and the aftersound at least this much after it (dB)
+KNEE_MIN_DROP_DB, KNEE_MIN_LATE_DB = 6.0, 10.0
+
+
+# --------------------------------------------------------------------------
+# rendering, with a cache
+# --------------------------------------------------------------------------
+
+def mono(y):
+    """Mono view of a render: channels averaged if it is (n, channels)."""
+    y = np.asarray(y, dtype=np.float64)
+    return y.mean(axis=1) if y.ndim == 2 else y
+
+
+def channels(y):
+    """The render's channels as a list of 1-D arrays."""
+    y = np.asarray(y, dtype=np.float64)
+    return [y[:, i] for i in range(y.shape[1])] if y.ndim == 2 else [y]
+
+
+@dataclass
+class Renderer:
+    """Renders single notes of one preset (fresh engine each, the voice's
+    key designs shared) and keeps them: a later request for the same note,
+    as long or shorter, is served from the cache (a prefix: a render is
+    deterministic), up to ``budget_mb`` of audio."""
+
+    preset: str
+    overrides: tuple
+    budget_mb: float = 200.0
+    voice: object = None
+    cache: OrderedDict = field(default_factory=OrderedDict)
+    render_s: float = 0.0
+    audio_s: float = 0.0
+    renders: int = 0
+    hits: int = 0
+
+    def __post_init__(self):
+        self.voice = build_voice(self.preset, self.overrides)
+
+    def tuning_hz(self, key):
+        return float(self.voice.tuning_hz(key))
+
+    def engine(self, low_key=None):
+        return build_engine(self.preset, self.overrides, fs_out=FS, extra_low_key=low_key,
+                            voice=self.voice)
+
+    def note(self, key, vel, seconds, *, sustain=False, soft=False, off_s=None, exact=False,
+             keep_s=None):
+        """Mono render of ``key`` at MIDI velocity ``vel`` from t = 0 for
+        ``seconds``; sustain pedal / soft pedal fully down from t = 0 if
+        asked; key up at ``off_s`` (None: held).
+
+        A render of the same note at least as long is reused (its prefix),
+        unless ``exact``: renders of different lengths end in blocks of
+        different sizes, and the decimator and soundboard then round
+        differently (by ~1e-18 of the signal), so two takes compared sample
+        for sample must be rendered alike.  ``keep_s``: keep only the first
+        ``keep_s`` in the cache (long decay renders)."""
+        n = int(round(seconds * FS))
+        tag = (int(key), int(vel), bool(sustain), bool(soft), off_s, n if exact else None)
+        y = self.cache.get(tag)
+        if y is not None and len(y) >= n:
+            self.cache.move_to_end(tag)
+            self.hits += 1
+            return y[:n]
+        ev = []
+        if sustain:
+            ev.append(Event(0.0, "control", 64, 1.0))
+        if soft:
+            ev.append(Event(0.0, "control", 67, 1.0))
+        ev.append(Event(0.0, "note_on", int(key), vel / 127.0))
+        if off_s is not None:
+            ev.append(Event(off_s, "note_off", int(key), 0.0))
+        t = time.perf_counter()
+        y = mono(self.engine(key).render(ev, duration_s=seconds))
+        self.render_s += time.perf_counter() - t
+        self.audio_s += seconds
+        self.renders += 1
+        if keep_s is not None and len(y) > int(keep_s * FS):
+            tag = tag[:-1] + (None,)
+            self.cache[tag] = y[:int(keep_s * FS)].copy()
+        else:
+            self.cache[tag] = y
+        while sum(v.nbytes for v in self.cache.values()) > self.budget_mb * 1e6 and len(self.cache) > 1:
+            self.cache.popitem(last=False)
+        return y
+
+
+# --------------------------------------------------------------------------
+# measures of one note
+# --------------------------------------------------------------------------
+
+def max_momentary(y):
+    """Maximum 400 ms momentary loudness (LUFS) of a note, ungated: the note
+    is measured at peak 1 and the gain taken off again (BS.1770 is linear up
+    to its gates; pyloudnorm's absolute gate would read a note quieter than
+    -70 LUFS as silence)."""
+    p = float(np.max(np.abs(y)))
+    if p == 0.0:
+        return -math.inf
+    return float(loudness(y / p, FS)["max_momentary_lufs"]) + 20.0 * math.log10(p)
+
+
+def attack_centroid_hz(y, length_s=0.1, fade_s=0.01):
+    """Spectral centroid (Hz) of the first ``length_s`` of a note: flat
+    window, half-Hann fade over the last ``fade_s``."""
+    n, m = int(round(length_s * FS)), int(round(fade_s * FS))
+    seg = np.array(y[:n], dtype=np.float64)
+    seg[n - m:] *= 0.5 + 0.5 * np.cos(np.pi * np.arange(m) / m)
+    return float(spectral_centroid_hz(seg, FS, window="rect"))
+
+
+def law_partials(key, f1_hz, f_max_hz=10_000.0, n_max=40):
+    """The key's stiff-string law: f0 with partial 1 at ``f1_hz`` and B of
+    ``grand_string(key)``; the partial numbers to check (up to ``n_max``,
+    or ``f_max_hz``, whichever is fewer)."""
+    B = grand_string(key).inharmonicity_b
+    f0 = f1_hz / math.sqrt(1.0 + B)
+    n = np.arange(1, n_max + 1)
+    f = n * f0 * np.sqrt(1.0 + B * n * n)
+    return f0, B, int(max(1, np.sum(f <= f_max_hz)))
+
+
+def tuning(y, key, f1_hz, seg_s=(0.05, 1.05)):
+    """Partial 1 against the tuning curve, and partials 1..N against the
+    key's stiff-string law (cents), from ``seg_s`` of the note; partials
+    more than 60 dB under the strongest are not judged."""
+    a, b = int(seg_s[0] * FS), int(seg_s[1] * FS)
+    seg = y[a:b]
+    p1 = estimate_f0(seg, FS, f1_hz, search_cents=60.0)
+    f0, B, N = law_partials(key, f1_hz)
+    freqs, levels, dev = track_partials(seg, FS, f0, N, inharmonicity=B)
+    ok = np.isfinite(freqs) & (levels >= np.nanmax(levels) - 60.0)
+    c = np.where(ok, dev, np.nan)
+    j = int(np.nanargmax(np.abs(c)))
+    return {"partial1_cents": float(cents(p1, f1_hz)), "law_cents": c.tolist(),
+            "levels_db": (levels - np.nanmax(levels)).tolist(), "n_checked": int(ok.sum()),
+            "n_law": N, "worst_n": j + 1, "worst_cents": float(c[j])}
+
+
+def decay(y, f1_hz):
+    """T60 of partial 1 (one line, -5 to -35 dB, or to -25 / -15 dB if it
+    does not fall that far), and the two-stage fit (to -50 dB) with the
+    knee's drop and the aftersound's span.  Level frames every 10 ms, or
+    every 1/1000 of a render longer than 10 s (the knee search is quadratic
+    in the frames)."""
+    hop = max(0.01, len(y) / FS / 1000.0)
+    out = {"t60_s": None, "t60_range_db": None}
+    for stop in (-35.0, -25.0, -15.0):
+        try:
+            out["t60_s"] = t60_s(y, FS, f_hz=f1_hz, stop_db=stop, hop_s=hop)
+            out["t60_range_db"] = stop
+            break
+        except ValueError:
+            continue
+    try:
+        d = two_stage_decay(y, FS, f_hz=f1_hz, stop_db=-50.0, hop_s=hop)
+    except ValueError:
+        d = {"t60_s": None, "t60_early_s": None, "t60_late_s": None, "knee_s": None}
+    out.update(t60_two_line_s=d["t60_s"], t60_early_s=d["t60_early_s"],
+               t60_late_s=d["t60_late_s"], knee_s=d["knee_s"], knee_drop_db=None,
+               late_span_db=None, ratio=None, visible=False)
+    if d["knee_s"] is not None:
+        t, db = decay_curve_db(y, FS, f_hz=f1_hz, hop_s=hop)
+        i0 = int(np.argmax(db))
+        top = db[i0]
+        t, db = t[i0:], db[i0:]
+        below = np.flatnonzero(db < top - 50.0)
+        end = int(below[0]) if below.size else len(db)
+        t, db = t[:end], db[:end]
+        k = int(np.argmin(np.abs(t - d["knee_s"])))
+        # the levels of the two fitted lines' ends, read off a light smoothing
+        sm = np.convolve(db, np.ones(5) / 5, mode="same")
+        drop = float(top - sm[k])
+        span = float(sm[k] - sm[max(len(sm) - 3, k)])
+        e, l = d["t60_early_s"], d["t60_late_s"]
+        ratio = (l / e) if (e and l and math.isfinite(e) and e > 0) else (math.inf if e else None)
+        out.update(knee_drop_db=drop, late_span_db=span, ratio=ratio,
+                   visible=bool(ratio is not None and ratio >= LIM["late_early"]
+                                and drop >= KNEE_MIN_DROP_DB and span >= KNEE_MIN_LATE_DB))
+    return out
+
+
+def rms_db(x):
+    ms = float(np.mean(np.square(x)))
+    return 10.0 * math.log10(ms) if ms > 0 else -math.inf
+
+
+# --------------------------------------------------------------------------
+# the report
+# --------------------------------------------------------------------------
+
+@dataclass
+class Row:
+    section: str
+    target: str
+    measured: str
+    limit: str
+    status: str          # PASS, FAIL, INFO, SKIP
+    value: object = None
+    detail: str = ""     # the per-key figures, printed under the table
+
+
+class Report:
+    def __init__(self, args):
+        self.a = args
+        self.quick = args.quick
+        self.r = Renderer(args.preset, tuple(args.set))
+        self.rows: list[Row] = []
+        self.data: dict = {}
+        self.timing: dict = {}
+        self.keys = list(QUICK_KEYS) if self.quick else list(range(21, 109))
+        self.short_s = 1.0                                  # loudness and centroid
+        self.c4_vels = [1, 20, 50, 80, 110, 127] if self.quick else list(range(1, 128))
+        self.curve_vels = [1, 20, 50, 80, 110, 127] if self.quick else \
+            sorted(set([1] + list(range(10, 121, 10)) + [127] + list(SWEEP_VELS)))
+
+    def add(self, section, target, measured, limit, ok, value=None, detail=""):
+        status = ok if isinstance(ok, str) else ("PASS" if ok else "FAIL")
+        self.rows.append(Row(section, target, measured, limit, status, value, detail))
+
+    def long_s(self, key):
+        """Length of the velocity-80 render of a key: long enough for its
+        partial 1 to fall 50 dB (the string's own T60 at f0, from
+        synth.physics.piano), 3 to 30 s (quick: 1.5 to 4 s)."""
+        t = 0.9 * grand_string(key).t60_low_s
+        return min(max(t, 1.5), 4.0) if self.quick else min(max(t, 3.0), 30.0)
+
+    def progress(self, msg):
+        if not self.a.silent:
+            print(msg, file=sys.stderr, flush=True)
+
+    def timed(self, name, fn):
+        t = time.perf_counter()
+        r0 = self.r.render_s
+        fn()
+        self.timing[name] = {"total_s": round(time.perf_counter() - t, 2),
+                             "render_s": round(self.r.render_s - r0, 2)}
+        self.progress(f"  {name}: {self.timing[name]['total_s']:.1f} s "
+                      f"(rendering {self.timing[name]['render_s']:.1f} s)")
+
+    # -- keyboard sweep -------------------------------------------------------
+    def sweep(self):
+        kb = {"keys": self.keys, "velocities": list(SWEEP_VELS), "loudness_lufs": {},
+              "centroid100_hz": {}, "key80": {}}
+        for vel in SWEEP_VELS:
+            L, C = [], []
+            for key in self.keys:
+                sec = self.long_s(key) if vel == 80 else self.short_s
+                y = self.r.note(key, vel, sec, keep_s=4.0)
+                L.append(max_momentary(y[:int(self.short_s * FS)]))
+                C.append(attack_centroid_hz(y))
+                if vel == 80:
+                    f1 = self.r.tuning_hz(key)
+                    seg = (0.05, min(1.05, len(y) / FS))
+                    kb["key80"][key] = {"tuning_hz": f1, "render_s": sec, **tuning(y, key, f1, seg),
+                                        **decay(y, f1)}
+            kb["loudness_lufs"][vel] = L
+            kb["centroid100_hz"][vel] = C
+            self.progress(f"    velocity {vel}: {len(self.keys)} keys")
+        self.data["keyboard"] = kb
+
+    def evenness(self):
+        kb = self.data["keyboard"]
+        keys = np.array(kb["keys"])
+        L = np.array(kb["loudness_lufs"][80])
+        adj = np.flatnonzero(np.diff(keys) == 1)
+        steps = np.diff(L)[adj]
+        j = int(np.argmax(np.abs(steps)))
+        over = [f"{keys[i]}-{keys[i] + 1}: {st:+.1f}" for i, st in zip(adj, steps)
+                if abs(st) > LIM["step_db"]]
+        self.add("evenness", "vel 80: loudness step between adjacent keys",
+                 f"{steps[j]:+.2f} dB (keys {keys[adj[j]]}-{keys[adj[j]] + 1})",
+                 f"|x| <= {LIM['step_db']:g} dB", abs(steps[j]) <= LIM["step_db"], float(steps[j]),
+                 f"{len(over)} of {len(steps)} steps over" + (": " + ", ".join(over) if over else ""))
+        fits = {}
+        for vel in SWEEP_VELS:
+            fits[vel] = np.polyfit(keys, np.array(kb["loudness_lufs"][vel]), 3).tolist()
+        kb["fit_cubic"] = fits
+        dev = L - np.polyval(fits[80], keys)
+        j = int(np.argmax(np.abs(dev)))
+        over = [f"{k}: {d:+.1f}" for k, d in zip(keys, dev) if abs(d) > LIM["fit_db"]]
+        self.add("evenness", "vel 80: key against a smooth fit (cubic in key)",
+                 f"{dev[j]:+.2f} dB (key {keys[j]})", f"|x| <= {LIM['fit_db']:g} dB",
+                 abs(dev[j]) <= LIM["fit_db"], float(dev[j]),
+                 f"RMS {np.sqrt(np.mean(dev ** 2)):.2f} dB; {len(over)} keys over"
+                 + (": " + ", ".join(over) if over else ""))
+        mid = (keys >= 41) & (keys <= 60)
+        top = (keys >= 97) & (keys <= 108)
+        ref = float(np.mean(L[mid]))
+        d = L[top] - ref
+        j = int(np.argmax(np.abs(d)))
+        self.add("evenness", "vel 80: keys 97-108 against keys 41-60",
+                 f"{d[j]:+.2f} dB (key {keys[top][j]})", f"|x| <= {LIM['treble_db']:g} dB",
+                 abs(d[j]) <= LIM["treble_db"], float(d[j]),
+                 f"re the mean of keys 41-60 ({ref:.1f} LUFS): "
+                 + ", ".join(f"{k}: {v:+.1f}" for k, v in zip(keys[top], d)) + " dB")
+
+    # -- dynamics of C4 -------------------------------------------------------
+    def dynamics(self):
+        L, C = [], []
+        for vel in self.c4_vels:
+            y = self.r.note(60, vel, self.short_s)
+            L.append(max_momentary(y))
+            C.append(attack_centroid_hz(y))
+        L, C = np.array(L), np.array(C)
+        self.data["c4_dynamics"] = {"velocities": self.c4_vels, "loudness_lufs": L.tolist(),
+                                    "centroid100_hz": C.tolist()}
+        rng = L[-1] - L[0]
+        self.add("dynamics", "C4 loudness, velocity 1 to 127", f"{rng:.1f} dB",
+                 f">= {LIM['range_db']:g} dB", rng >= LIM["range_db"], float(rng),
+                 f"{L[0]:.1f} LUFS at velocity 1, {L[-1]:.1f} LUFS at 127")
+        st = np.diff(L)
+        j = int(np.argmin(st))
+        self.add("dynamics", "C4 loudness monotonic in velocity",
+                 f"smallest step {st[j]:+.3f} dB ({self.c4_vels[j]}-{self.c4_vels[j + 1]})",
+                 "every step >= 0", bool(st[j] >= 0.0), float(st[j]),
+                 f"{len(L)} velocities: " + ("1 to 127" if len(L) == 127 else
+                                             ", ".join(map(str, self.c4_vels))))
+        c20 = C[self.c4_vels.index(20)]
+        ratio = C[-1] / c20
+        self.add("dynamics", "C4 centroid of the first 100 ms, vel 127 / 20", f"{ratio:.2f}",
+                 f">= {LIM['centroid_ratio']:g}", ratio >= LIM["centroid_ratio"], float(ratio),
+                 f"{c20:.0f} Hz at velocity 20, {C[-1]:.0f} Hz at 127")
+        # the other keys' velocity curves (plots; ranges as information)
+        curves = {}
+        for key in CURVE_KEYS:
+            if key == 60:
+                vels, Lk, Ck = self.c4_vels, L.tolist(), C.tolist()
+            else:
+                vels, Lk, Ck = self.curve_vels, [], []
+                for vel in vels:
+                    y = self.r.note(key, vel, self.short_s)
+                    Lk.append(max_momentary(y))
+                    Ck.append(attack_centroid_hz(y))
+            curves[key] = {"velocities": list(vels), "loudness_lufs": Lk, "centroid100_hz": Ck}
+        self.data["velocity_curves"] = curves
+        rg = {k: c["loudness_lufs"][-1] - c["loudness_lufs"][0] for k, c in curves.items()}
+        cr = {k: c["centroid100_hz"][-1] / c["centroid100_hz"][c["velocities"].index(20)]
+              for k, c in curves.items()}
+        self.add("dynamics", "other keys: loudness range, vel 1 to 127",
+                 f"{min(rg.values()):.1f} to {max(rg.values()):.1f} dB", "(C4's target)", "INFO", None,
+                 ", ".join(f"{k}: {v:.1f}" for k, v in rg.items()) + " dB")
+        self.add("dynamics", "other keys: centroid 100 ms, vel 127 / 20",
+                 f"{min(cr.values()):.2f} to {max(cr.values()):.2f}", "(C4's target)", "INFO", None,
+                 ", ".join(f"{k}: {v:.2f}" for k, v in cr.items()))
+
+    def partial_levels(self):
+        y = self.r.note(60, 80, min(self.long_s(60), 4.0))
+        f1 = self.r.tuning_hz(60)
+        f0, B, _ = law_partials(60, f1)
+        seg = y[int(0.05 * FS):int(1.05 * FS)]
+        _, lv, _ = track_partials(seg, FS, f0, 16, inharmonicity=B)
+        rel = lv - np.nanmax(lv)
+        worst = int(np.argmin(rel[1:8])) + 2
+        self.data["c4_partials_db"] = rel.tolist()
+        self.add("spectrum", "C4 vel 80: partials 2-8 re the strongest",
+                 f"{rel[worst - 1]:+.1f} dB (partial {worst})", f">= {LIM['partial_db']:g} dB",
+                 rel[worst - 1] >= LIM["partial_db"], float(rel[worst - 1]),
+                 "partials 1-16 re the strongest (0.05-1.05 s): "
+                 + ", ".join(f"{n}: {rel[n - 1]:+.1f}" for n in range(1, 17)) + " dB")
+
+    # -- decay ------------------------------------------------------------------
+    def decays(self):
+        k80 = self.data["keyboard"]["key80"]
+        treble = [k for k in self.keys if 100 <= k <= 108]
+        t = {k: k80[k]["t60_s"] for k in treble}
+        j = min(treble, key=lambda k: t[k] if t[k] is not None else -1.0)
+        self.add("decay", "T60 of partial 1, keys 100-108 (vel 80)",
+                 f"{t[j]:.2f} s (key {j})" if t[j] is not None else f"no decay (key {j})",
+                 f">= {LIM['t60_treble_s']:g} s", bool(t[j] is not None and t[j] >= LIM["t60_treble_s"]),
+                 t[j], ", ".join(f"{k}: {t[k]:.2f}" if t[k] is not None else f"{k}: -" for k in treble)
+                 + " s")
+        multi = [k for k in self.keys if grand_string(k).n_strings >= 2]
+        rat = {k: k80[k]["ratio"] for k in multi}
+        vis = [k for k in multi if k80[k]["visible"]]
+        finite = [r for r in rat.values() if r is not None]
+        med = float(np.median(finite)) if finite else float("nan")
+        hi = sum(1 for r in finite if r >= LIM["late_early"])
+        self.add("decay", "two-stage decay, keys with 2-3 strings: late/early T60 >= 3, visible knee",
+                 f"{len(vis)} of {len(multi)} keys", "all", len(vis) == len(multi), len(vis) / len(multi),
+                 f"late/early T60 of partial 1 (vel 80): median {med:.2f}, {hi} of {len(multi)} keys >= "
+                 f"{LIM['late_early']:g}; a knee is visible when the level falls >= {KNEE_MIN_DROP_DB:g} dB "
+                 f"before it and >= {KNEE_MIN_LATE_DB:g} dB after it")
+
+    # -- pedals -----------------------------------------------------------------
+    def pedal(self):
+        off, at = 0.1, 0.6
+        res = {}
+        for key in PEDAL_KEYS:
+            a = int((at - 0.05) * FS), int((at + 0.05) * FS)
+            wet = self.r.note(key, 80, 1.0, sustain=True, off_s=off, exact=True)
+            dry = self.r.note(key, 80, 1.0, off_s=off, exact=True)
+            res[key] = (rms_db(wet[a[0]:a[1]]), rms_db(dry[a[0]:a[1]]))
+        diff = {k: w - d for k, (w, d) in res.items()}
+        j = min(diff, key=diff.get)
+        self.data["pedal_staccato_db"] = {k: list(v) for k, v in res.items()}
+
+        def show(v):
+            return "+inf (the take without is silent)" if v == math.inf else f"{v:+.1f}"
+        self.add("pedal", "staccato tail 0.5 s after key up, pedal - none", f"{show(diff[j])} dB (key {j})",
+                 f">= {LIM['staccato_db']:g} dB", diff[j] >= LIM["staccato_db"], diff[j],
+                 f"vel 80, key up at {off:g} s, RMS of 0.55-0.65 s: "
+                 + ", ".join(f"{k}: {show(v)}" for k, v in diff.items()) + " dB")
+        # the halo of a held note
+        hres = {}
+        for key in HALO_KEYS:
+            wet = self.r.note(key, 80, 4.0, sustain=True, exact=True)
+            dry = self.r.note(key, 80, 4.0, exact=True)
+            f1 = self.r.tuning_hz(key)
+            f0, B, _ = law_partials(key, f1)
+            n = np.arange(1, 400)
+            own = n * f0 * np.sqrt(1.0 + B * n * n)
+            own = own[own < FS / 2]
+            probes = [self.r.tuning_hz(k) for k in range(21, 109) if k != key]
+            s = slice(int(0.5 * FS), int(4.0 * FS))
+            h = halo(wet[s], dry[s], FS, probes, exclude_hz=own, probe_cents=10.0, exclude_cents=40.0)
+            whole = halo(wet, dry, FS, probes, exclude_hz=own)["difference_db"]
+            hres[key] = {"difference_db": whole, "gain_db": h["gain_db"],
+                         "level_with_db": h["level_with_db"], "level_without_db": h["level_without_db"],
+                         "n_probes": int(len(h["probes_hz"])), "identical": bool(np.array_equal(wet, dry))}
+        self.data["halo"] = hres
+
+        def db(v):
+            return "-inf" if v == -math.inf else f"{v:+.1f}"
+        same = [k for k, v in hres.items() if v["identical"]]
+        dmax = max(v["difference_db"] for v in hres.values())
+        self.add("pedal", "halo: held note, pedal down vs up, difference",
+                 "bit-identical" if len(same) == len(hres) else f"{db(dmax)} dB re the note",
+                 "a difference", "INFO", dmax,
+                 ", ".join(f"key {k}: {db(v['difference_db'])} dB" for k, v in hres.items())
+                 + " (the whole 4 s take, re the take without)")
+        g = {k: v["gain_db"] for k, v in hres.items()}
+        j = min(g, key=g.get)
+        self.add("pedal", "halo: energy at the other keys' frequencies, pedal - none",
+                 f"{db(g[j])} dB (key {j})", f">= {LIM['halo_gain_db']:g} dB (proposed)",
+                 g[j] >= LIM["halo_gain_db"], g[j],
+                 "held note, vel 80, 0.5-4 s; bands +-10 cents around the other keys' partial-1 "
+                 "frequencies, those within 40 cents of the note's own partials left out: "
+                 + ", ".join(f"key {k}: {db(v['gain_db'])} dB over {v['n_probes']} keys, "
+                             f"{db(v['level_with_db'])} dB re the note with the pedal"
+                             for k, v in hres.items()))
+
+    def una_corda(self):
+        res = {}
+        for key in SOFT_KEYS:
+            a = self.r.note(key, 80, self.short_s)
+            b = self.r.note(key, 80, self.short_s, soft=True)
+            res[key] = {"centroid100_hz": [attack_centroid_hz(a), attack_centroid_hz(b)],
+                        "loudness_lufs": [max_momentary(a), max_momentary(b)]}
+        ch = {k: v["centroid100_hz"][1] / v["centroid100_hz"][0] - 1.0 for k, v in res.items()}
+        j = min(ch, key=lambda k: abs(ch[k]))
+        self.data["una_corda"] = res
+        self.add("pedal", "una corda: change of the centroid of the first 100 ms",
+                 f"{100 * ch[j]:+.1f} % (key {j})", f"|x| >= {100 * LIM['soft_change']:g} %",
+                 abs(ch[j]) >= LIM["soft_change"], ch[j],
+                 "CC67 down, vel 80: " + ", ".join(f"{k}: {100 * v:+.1f}" for k, v in ch.items()) + " %")
+        dl = {k: v["loudness_lufs"][1] - v["loudness_lufs"][0] for k, v in res.items()}
+        self.add("pedal", "una corda: loudness change", f"{min(dl.values()):+.1f} to {max(dl.values()):+.1f} dB",
+                 "", "INFO", None, ", ".join(f"{k}: {v:+.1f}" for k, v in dl.items()) + " dB")
+
+    # -- tuning -------------------------------------------------------------------
+    def tunings(self):
+        k80 = self.data["keyboard"]["key80"]
+        p1 = {k: k80[k]["partial1_cents"] for k in self.keys}
+        j = max(p1, key=lambda k: abs(p1[k]))
+        self.add("tuning", "partial 1 against the tuning curve", f"{p1[j]:+.3f} cent (key {j})",
+                 f"|x| <= {LIM['cents_p1']:g} cent", abs(p1[j]) <= LIM["cents_p1"], p1[j],
+                 f"{len(self.keys)} keys, vel 80, 0.05-1.05 s")
+        w = {k: k80[k]["worst_cents"] for k in self.keys}
+        j = max(w, key=lambda k: abs(w[k]))
+        over = [k for k in self.keys if abs(w[k]) > LIM["cents_law"]]
+        n_chk = sum(k80[k]["n_checked"] for k in self.keys)
+        first = {k: next((n + 1 for n, c in enumerate(k80[k]["law_cents"])
+                          if c is not None and not math.isnan(c) and abs(c) > LIM["cents_law"]), None)
+                 for k in over}
+        self.add("tuning", "partials to 40 / 10 kHz against the stiff-string law",
+                 f"{w[j]:+.1f} cent (key {j}, partial {k80[j]['worst_n']})",
+                 f"|x| <= {LIM['cents_law']:g} cent", abs(w[j]) <= LIM["cents_law"], w[j],
+                 f"{len(over)} of {len(self.keys)} keys over, {n_chk} partials checked (those within 60 dB "
+                 f"of the strongest); the first partial over 2 cents: "
+                 + (", ".join(f"{k}: {n}" for k, n in first.items()) if first else "none"))
+
+    # -- the MIDI files -----------------------------------------------------------
+    def midi(self):
+        from synth.io.midi import midi_to_events, read_midi_file
+
+        d = Path(self.a.midi_dir)
+        cut = self.a.midi_seconds if self.a.midi_seconds else (4.0 if self.quick else None)
+        files = [d / f for f in MIDI_FILES]
+        missing = [f.name for f in files if not f.is_file()]
+        if missing:
+            self.add("midi", "MIDI files", f"{len(missing)} missing", "", "SKIP", None,
+                     f"not in {d}: {', '.join(missing)}")
+            files = [f for f in files if f.is_file()]
+        res = {}
+        for f in files:
+            ev = midi_to_events(read_midi_file(f))
+            if cut is not None:
+                # the first `cut` seconds, then every key up and the pedals released
+                ev = [e for e in ev if e.time_s < cut]
+                chans = sorted({e.channel for e in ev}) or [0]
+                ev += [Event(cut, "control", cc, 0.0, ch) for ch in chans for cc in (64, 67)]
+                ev += [Event(cut, "control", 123, 0.0, ch) for ch in chans]
+            keys = [int(e.key) for e in ev if e.kind == "note_on" and e.value > 0]
+            last = max(e.time_s for e in ev)
+            eng = self.r.engine(min(keys) if keys else None)
+            t = time.perf_counter()
+            y = eng.render(ev, tail_s=0.5, max_tail_s=10.0)
+            el = time.perf_counter() - t
+            chs = channels(y)
+            pk = [peak_dbfs(c) for c in chs]
+            cl = [click_scan(c, FS) for c in chs]
+            res[f.name] = {"audio_s": len(y) / FS, "notes": len(keys), "render_s": el,
+                           "peak_dbfs": pk, "jump_db": [c["worst_jump_db"] for c in cl],
+                           "jump_s": [c["worst_jump_s"] for c in cl],
+                           "highband_db": [c["worst_highband_db"] for c in cl],
+                           "highband_s": [c["worst_highband_s"] for c in cl],
+                           "voices_left": eng.n_voices, "silent_after_s": len(y) / FS - 0.5 - last,
+                           "cut_s": cut, "finite": bool(np.all(np.isfinite(y)))}
+            self.progress(f"    {f.name}: {len(y) / FS:.1f} s in {el:.1f} s")
+        self.data["midi"] = res
+        if not res:
+            return
+        what = "MIDI files" + (f" (first {cut:g} s)" if cut else "")
+
+        def short(name):
+            return name.split("_")[0] if not name.startswith(("hp", "kw")) else name[:2]
+        pk = {k: max(v["peak_dbfs"]) for k, v in res.items()}
+        j = max(pk, key=pk.get)
+        fin = all(v["finite"] for v in res.values())
+        self.add("midi", f"{what}: sample peak", f"{pk[j]:.1f} dBFS ({short(j)})" + ("" if fin else "; NOT FINITE"),
+                 f"<= {LIM['peak_dbfs']:g} dBFS", pk[j] <= LIM["peak_dbfs"] and fin, pk[j],
+                 ", ".join(f"{k}: {v:.1f}" for k, v in pk.items()) + " dBFS")
+        jm = {k: max(v["jump_db"]) for k, v in res.items()}
+        j = max(jm, key=jm.get)
+        self.add("midi", f"{what}: click scan, largest jump", f"{jm[j]:.1f} dB ({short(j)} "
+                 f"{res[j]['jump_s'][0]:.2f} s)", f"<= {LIM['jump_db']:g} dB", jm[j] <= LIM["jump_db"], jm[j],
+                 "largest second difference of a 5 ms frame over its neighbours' RMS (frames within 50 dB "
+                 "of the loudest): " + ", ".join(f"{k}: {v:.1f}" for k, v in jm.items()) + " dB")
+        hb = {k: max(v["highband_db"]) for k, v in res.items()}
+        j = max(hb, key=hb.get)
+        self.add("midi", f"{what}: high-band scan (tools/click_scan.py)",
+                 f"{hb[j]:.1f} dB ({short(j)} {res[j]['highband_s'][0]:.2f} s)", "(a C8 alone: -12 dB)",
+                 "INFO", hb[j], "largest share of a 5 ms frame's energy above 14 kHz: "
+                 + ", ".join(f"{k}: {v:.1f}" for k, v in hb.items()) + " dB")
+        left = sum(v["voices_left"] for v in res.values())
+        sil = {k: v["silent_after_s"] for k, v in res.items()}
+        self.add("midi", f"{what}: stuck notes (voices 10 s after the end)", f"{left}", "0", left == 0, left,
+                 "every voice silent after the last event in: "
+                 + ", ".join(f"{k}: {v:.1f} s" for k, v in sil.items()))
+        tot = sum(v["render_s"] for v in res.values())
+        aud = sum(v["audio_s"] for v in res.values())
+        self.add("midi", f"{what}: render time", f"{tot / aud:.3f} x real time", "", "INFO", tot / aud,
+                 f"{tot:.1f} s for {aud:.1f} s of audio")
+
+    # -- cost -------------------------------------------------------------------
+    def bench(self):
+        if not self.a.bench:
+            self.add("cost", "bench_grand: sustaining note, pedalled chord", "not run (--bench)",
+                     f"<= {BENCH_FACTOR:g} x today's", "SKIP")
+            return
+        p = subprocess.run([sys.executable, str(ROOT / "tools" / "bench_grand.py"), "--runs", "3"],
+                           capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
+        if p.returncode != 0:
+            raise SynthError(f"tools/bench_grand.py failed: {p.stderr.strip().splitlines()[-1:]}")
+        sus = chord = None
+        for line in p.stdout.splitlines():
+            if line.startswith("Mean over these keys:"):
+                sus = float(line.split(":")[1].split("ms")[0])
+            if "note chord over the keyboard" in line:
+                chord = float(line.split(":")[1].split("%")[0])
+        self.data["bench"] = {"sustain_ms": sus, "chord_pct": chord, "output": p.stdout}
+        for name, v, unit, base in (("bench_grand: sustaining note", sus, "ms/note-s",
+                                     BENCH_BASELINE["sustain_ms"]),
+                                    ("bench_grand: 64-note pedalled chord", chord, "% real time",
+                                     BENCH_BASELINE["chord_pct"])):
+            self.add("cost", name, f"{v:.2f} {unit} ({v / base:.2f} x)", f"<= {BENCH_FACTOR:g} x {base:g}",
+                     v <= BENCH_FACTOR * base, v / base, "tools/bench_grand.py --runs 3: "
+                     + ("mean CPU per second of a sustaining note over its 10 keys" if unit == "ms/note-s"
+                        else "2 s of a 64-note chord over the keyboard, sustain pedal down, whole engine"))
+
+    # -- run ----------------------------------------------------------------------
+    def run(self):
+        t0 = time.perf_counter()
+        self.progress(f"voicing report ({'quick' if self.quick else 'full'}): {len(self.keys)} keys")
+        self.timed("keyboard sweep", self.sweep)
+        self.timed("dynamics", self.dynamics)
+        self.timed("C4 partials", self.partial_levels)
+        self.evenness()
+        self.decays()
+        self.tunings()
+        self.timed("pedals", self.pedal)
+        self.timed("una corda", self.una_corda)
+        self.timed("MIDI files", self.midi)
+        self.timed("cost", self.bench)
+        order = ["dynamics", "spectrum", "evenness", "decay", "pedal", "tuning", "midi", "cost"]
+        self.rows.sort(key=lambda r: order.index(r.section))
+        self.timing["total_s"] = round(time.perf_counter() - t0, 1)
+        self.timing["notes_rendered"] = self.r.renders
+        self.timing["note_audio_s"] = round(self.r.audio_s, 1)
+        self.timing["note_render_s"] = round(self.r.render_s, 1)
+        self.timing["cache_hits"] = self.r.hits
+
+
+def git_commit():
+    try:
+        sha = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
+                             capture_output=True, text=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--untracked-files=no"],
+                               capture_output=True, text=True).stdout.strip()
+        return sha + ("+dirty" if dirty else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def format_table(rows, details=True, before=None) -> str:
+    """The table (status, target, measured, limit), then the details of
+    each row that has any, numbered.  ``before``: {(section, target):
+    measured} of an earlier report (``--before``), shown as a column."""
+    head = ("", "target", "measured", "limit")
+    body = [(r.status, r.target, r.measured, r.limit) for r in rows]
+    if before is not None:
+        head = ("", "target", "before", "measured", "limit")
+        body = [(r.status, r.target, before.get((r.section, r.target), "-"), r.measured, r.limit)
+                for r in rows]
+    nc = len(head) - 1
+    w = [max(len(x[i]) for x in [head] + body) for i in range(nc)]
+    lines = []
+    for i, x in enumerate([head] + body):
+        ref = f"[{i}]" if i and rows[i - 1].detail and details else ""
+        lines.append(("  ".join(c.ljust(w[j]) for j, c in enumerate(x[:nc])) + f"  {x[nc]} {ref}").rstrip())
+        if i == 0:
+            lines.append("  ".join("-" * x for x in w) + "  -----")
+    n = {s: sum(r.status == s for r in rows) for s in ("PASS", "FAIL", "INFO", "SKIP")}
+    lines.append(f"{n['PASS']} passed, {n['FAIL']} failed, {n['INFO']} for information, "
+                 f"{n['SKIP']} skipped")
+    if details:
+        lines.append("")
+        lines += [f"[{i}] {r.detail}" for i, r in enumerate(rows, 1) if r.detail]
+    return "\n".join(lines)
+
+
+def _jsonable(o):
+    if isinstance(o, dict):
+        return {str(k): _jsonable(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_jsonable(v) for v in o]
+    if isinstance(o, (np.floating, float)):
+        v = float(o)
+        if not math.isfinite(v):
+            return None if math.isnan(v) else ("inf" if v > 0 else "-inf")
+        return float(f"{v:.7g}")
+    if isinstance(o, np.integer):
+        return int(o)
+    if isinstance(o, np.ndarray):
+        return _jsonable(o.tolist())
+    if isinstance(o, np.bool_):
+        return bool(o)
+    return o
+
+
+# --------------------------------------------------------------------------
+# plots
+# --------------------------------------------------------------------------
+
+def plots(rep: Report, out: Path) -> list[str]:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    out.mkdir(parents=True, exist_ok=True)
+    kb = rep.data["keyboard"]
+    keys = np.array(kb["keys"])
+    colors = dict(zip(SWEEP_VELS, ("#4575b4", "#74add1", "#1a9850", "#f46d43", "#a50026")))
+    written = []
+
+    def save(fig, name):
+        import io
+
+        fig.tight_layout()
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=100)            # 800 x 500 pixels
+        plt.close(fig)
+        p = out / name
+        try:    # a 64-colour palette keeps a plot of lines well under 100 KB
+            from PIL import Image
+
+            buf.seek(0)
+            Image.open(buf).convert("RGB").quantize(64).save(p, optimize=True)
+        except ImportError:
+            p.write_bytes(buf.getvalue())
+        written.append(str(p))
+
+    mk = "o-" if rep.quick else "-"
+    fig, ax = plt.subplots(figsize=(8, 5))
+    xs = np.linspace(keys.min(), keys.max(), 200)
+    for vel in SWEEP_VELS:
+        ax.plot(keys, kb["loudness_lufs"][vel], mk, ms=3, lw=1, color=colors[vel], label=f"velocity {vel}")
+        ax.plot(xs, np.polyval(kb["fit_cubic"][vel], xs), "--", lw=0.8, color=colors[vel])
+    ax.set_xlabel("MIDI key")
+    ax.set_ylabel("max momentary loudness, LUFS")
+    ax.set_title("Loudness across the keyboard (dashed: cubic fit)")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    save(fig, "loudness_keyboard.png")
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    for vel in SWEEP_VELS:
+        ax.plot(keys, kb["centroid100_hz"][vel], mk, ms=3, lw=1, color=colors[vel], label=f"velocity {vel}")
+    ax.set_yscale("log")
+    ax.set_xlabel("MIDI key")
+    ax.set_ylabel("centroid of the first 100 ms, Hz")
+    ax.set_title("Brightness of the attack across the keyboard")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    save(fig, "centroid_keyboard.png")
+
+    fig, (a1, a2) = plt.subplots(1, 2, figsize=(8, 5))
+    cmap = plt.get_cmap("viridis")
+    for i, (key, c) in enumerate(rep.data["velocity_curves"].items()):
+        col = cmap(i / max(1, len(rep.data["velocity_curves"]) - 1))
+        a1.plot(c["velocities"], c["loudness_lufs"], "-", lw=1.2, color=col, label=f"key {key}")
+        a2.plot(c["velocities"], c["centroid100_hz"], "-", lw=1.2, color=col, label=f"key {key}")
+    a1.set_xlabel("velocity")
+    a1.set_ylabel("max momentary loudness, LUFS")
+    a2.set_xlabel("velocity")
+    a2.set_ylabel("centroid of the first 100 ms, Hz")
+    a2.set_yscale("log")
+    for a in (a1, a2):
+        a.grid(alpha=0.3, which="both")
+    a1.legend(fontsize=7)
+    fig.suptitle("Velocity response")
+    save(fig, "velocity_curves.png")
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    k80 = kb["key80"]
+
+    def col(name):
+        return np.array([k80[k][name] if k80[k][name] is not None else np.nan for k in keys], float)
+    ax.plot(keys, [grand_string(k).t60_low_s for k in keys], "k:", lw=1,
+            label="string table T60 at f0 (synth.physics.piano)")
+    ax.plot(keys, col("t60_s"), mk, ms=3, lw=1.2, color="#1a9850", label="T60, one line (-5..-35 dB)")
+    ax.plot(keys, col("t60_early_s"), ".", ms=4, color="#f46d43", label="early T60 (two-stage)")
+    ax.plot(keys, col("t60_late_s"), ".", ms=4, color="#4575b4", label="late T60 (two-stage)")
+    ax.hlines(LIM["t60_treble_s"], 100, 108, colors="r", lw=2, label="target keys 100-108: >= 0.8 s")
+    ax.set_yscale("log")
+    ax.set_xlabel("MIDI key")
+    ax.set_ylabel("T60 of partial 1, s")
+    ax.set_title("Decay across the keyboard (velocity 80)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    save(fig, "t60_keyboard.png")
+
+    fig, ax = plt.subplots(figsize=(8, 5))
+    ax.plot(keys, col("partial1_cents"), mk, ms=3, lw=1.2, color="#1a9850",
+            label="partial 1 vs the tuning curve")
+    ax.plot(keys, col("worst_cents"), "o", ms=3, color="#a50026",
+            label="worst partial up to 40 / 10 kHz vs the stiff-string law")
+    for lim, st in ((LIM["cents_p1"], ":"), (LIM["cents_law"], "--")):
+        ax.axhline(lim, color="k", ls=st, lw=0.8)
+        ax.axhline(-lim, color="k", ls=st, lw=0.8)
+    ax.set_yscale("symlog", linthresh=3.0, linscale=1.5)
+    big = np.nanmax(np.abs(np.concatenate([col("partial1_cents"), col("worst_cents"), [3.0]])))
+    ticks = [t for t in (1, 2, 3, 10, 30, 100, 300, 1000) if t <= 1.5 * big]
+    ax.set_yticks([-t for t in ticks[::-1]] + [0] + ticks)
+    ax.set_yticklabels([f"{-t:g}" for t in ticks[::-1]] + ["0"] + [f"+{t:g}" for t in ticks])
+    ax.set_ylim(-1.6 * big, 1.6 * big)
+    ax.set_xlabel("MIDI key")
+    ax.set_ylabel("cents (linear within ±3, logarithmic beyond)")
+    ax.set_title("Tuning and partials (velocity 80; dotted ±1, dashed ±2 cents)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    save(fig, "tuning_cents.png")
+    return written
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--quick", action="store_true", help=f"keys {','.join(map(str, QUICK_KEYS))}, short "
+                    "notes, the MIDI files' first 4 s: for development and CI")
+    ap.add_argument("--json", metavar="OUT", help="write the report and every measured value as JSON")
+    ap.add_argument("--plots", metavar="DIR", help="write the PNG plots into DIR (needs matplotlib)")
+    ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                    help="override a preset value (repeatable), as synth note --set")
+    ap.add_argument("--preset", default="grand-piano", help="preset name or .toml path (a grand voice)")
+    ap.add_argument("--midi-dir", default=str(DEFAULT_MIDI_DIR), help="folder of the five piano files")
+    ap.add_argument("--midi-seconds", type=float, default=None,
+                    help="render only the first S seconds of each file (quick: 4)")
+    ap.add_argument("--bench", action="store_true", help="also run tools/bench_grand.py (about 10 s)")
+    ap.add_argument("--before", metavar="JSON", help="an earlier report's --json (e.g. "
+                    "docs/voicing-before.json): its figures as a column")
+    ap.add_argument("--silent", action="store_true", help="no progress on stderr")
+    a = ap.parse_args(argv)
+    before = None
+    if a.before:
+        try:
+            rows = json.loads(Path(a.before).read_text())["rows"]
+            before = {(r["section"], r["target"]): r["measured"] for r in rows}
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            print(f"error: --before {a.before}: not a voicing report JSON ({e})", file=sys.stderr)
+            return 2
+    try:
+        rep = Report(a)
+        rep.run()
+    except SynthError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    commit = git_commit()
+    cmd = " ".join(["python", "tools/voicing_report.py"] + (argv if argv is not None else sys.argv[1:]))
+    t = rep.timing
+    print(f"# voicing report, {a.preset}{' ' + ' '.join(a.set) if a.set else ''}, "
+          f"{'quick' if a.quick else 'full'} mode, commit {commit}, {time.strftime('%Y-%m-%d %H:%M')}")
+    print(f"# {cmd}")
+    print(f"# {t['total_s']:.0f} s in all; {t['notes_rendered']} notes rendered ({t['note_audio_s']:.0f} s "
+          f"of audio in {t['note_render_s']:.0f} s), {t['cache_hits']} served from the cache")
+    print(format_table(rep.rows, before=before))
+    written = []
+    if a.plots:
+        written = plots(rep, Path(a.plots))
+        print(f"plots: {', '.join(written)}")
+    if a.json:
+        doc = {"schema": SCHEMA, "commit": commit, "command": cmd, "preset": a.preset,
+               "overrides": a.set, "quick": a.quick, "timing": rep.timing, "limits": LIM,
+               "rows": [r.__dict__ for r in rep.rows], "data": rep.data, "plots": written}
+        Path(a.json).write_text(json.dumps(_jsonable(doc), indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
