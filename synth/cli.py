@@ -347,7 +347,9 @@ def cmd_analyze(args) -> int:
             _fail(f"{target} is a musical preset: give --key or --f0")
         ev = Event(0.0, "note_on", args.key if args.key is not None else -1, args.velocity / 127.0,
                    f0_hz=args.f0)
-        x = eng.render([ev], duration_s=args.seconds)
+        from .analysis import as_mono
+
+        x = as_mono(eng.render([ev], duration_s=args.seconds))     # stereo: the mean
         fs = eng.fs_out
         title = f"{target}, key {args.key}, velocity {args.velocity}" if args.key is not None \
             else f"{target}, velocity {args.velocity}"

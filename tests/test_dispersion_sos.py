@@ -26,7 +26,6 @@ from synth.physics.dispersion import (
     tune_stiff_loop_sos,
 )
 from synth.physics.piano import grand_string, stretched_f0_hz
-from synth.voices.grand import UNISON_T60
 
 FS = 325000.0
 KEYS = range(21, 109)
@@ -53,9 +52,8 @@ def unison_args(key, f1):
     out = []
     for j, det in enumerate(g.unison_detune_cents):
         fj = f1 * 2.0 ** (det / 1200.0)
-        fac = UNISON_T60[g.n_strings][j]
-        t_lo = g.t60_low_s * fac
-        out.append((fj, t_lo, fj, min(g.t60_high_s * fac, t_lo), max(g.f_high_hz, 1.5 * fj)))
+        t_lo = g.t60_low_s             # every string of the unison: the same own decay
+        out.append((fj, t_lo, fj, min(g.t60_high_s, t_lo), max(g.f_high_hz, 1.5 * fj)))
     return out
 
 

@@ -165,7 +165,7 @@ def test_voices_describe_their_body_and_the_engine_builds_it():
     d = g.body()
     b = g.preset.body
     assert d == BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
-                           seed=b.seed)
+                           seed=b.seed, inputs=b.inputs, outputs=b.outputs)
     e = build_engine("grand-piano", voice=g)
     assert e.body is not None and e.body.n_modes == b.modes and e.body.wet == b.wet
     assert build_voice("sitar").body() is None and build_engine("sitar").body is None

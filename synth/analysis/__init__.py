@@ -26,6 +26,7 @@ from synth.analysis.regimes import (
 )
 from synth.analysis.spectrum import (
     FLOOR_DB,
+    as_mono,
     magnitude_spectrum_db,
     partial_levels_db,
     partial_peaks,
@@ -35,6 +36,7 @@ from synth.analysis.spectrum import (
 
 __all__ = [
     "FLOOR_DB",
+    "as_mono",
     "magnitude_spectrum_db",
     "spectrogram",
     "spectral_centroid_hz",

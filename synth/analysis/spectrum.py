@@ -39,6 +39,18 @@ WINDOWS = ("hann", "hamming", "blackman", "blackmanharris", "nuttall", "rect")
 # private helpers shared by the analysis package
 # --------------------------------------------------------------------------
 
+
+def as_mono(x):
+    """A signal as one channel: a 1-D array as it is, an (n, channels) array
+    (a stereo render or file, soundfile's layout) as the mean of its
+    channels.  Raises ValueError for other shapes."""
+    a = np.asarray(x, dtype=np.float64)
+    if a.ndim == 1:
+        return a
+    if a.ndim == 2 and 1 <= a.shape[1] <= 16:
+        return a.mean(axis=1)
+    raise ValueError(f"x has shape {a.shape}; must be (n,) or (n, channels) with 1-16 channels")
+
 def _real(name, value, low=None, high=None, low_open=False, high_open=False):
     """Return ``value`` as a finite float within the bounds, or raise a one-line ValueError."""
     lo_b = "(" if low_open else "["

@@ -55,6 +55,7 @@ from pathlib import Path
 import numpy as np
 
 from ..analysis import (
+    as_mono,
     cents,
     estimate_f0,
     loudness,
@@ -310,7 +311,7 @@ def render_note(preset, key: int, velocity: int = 100, seconds: float = 2.0,
     ev = [Event(0.0, "note_on", key, velocity / 127.0)]
     if hold_s is not None:
         ev.append(Event(hold_s, "note_off", key, 0.0))
-    y = eng.render(ev, duration_s=seconds)
+    y = as_mono(eng.render(ev, duration_s=seconds))      # a stereo render: its mean
     return y, eng.fs_out, eng.inst.pitch_hz(key)
 
 
@@ -332,7 +333,7 @@ def _render(spec_src: str, r: dict) -> list[Item]:
         keys = [int(e.key) for e in events if e.kind == "note_on" and e.value > 0]
         eng = build_engine(r["preset"], r["set"], fs_out=FS_OUT,
                            extra_low_key=min(keys) if keys else None)
-        y = eng.render(events, duration_s=r["seconds"], tail_s=0.5)
+        y = as_mono(eng.render(events, duration_s=r["seconds"], tail_s=0.5))
         return [Item(r["name"], y, eng.fs_out)]
     from ..io.factory import build_engine
 

@@ -58,7 +58,7 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.analysis import estimate_f0, spectral_centroid_hz, spectrogram
+from synth.analysis import as_mono, estimate_f0, spectral_centroid_hz, spectrogram
 from synth.analysis.loudness import loudness as _loudness
 from synth.io.errors import SynthError, display_path
 
@@ -248,7 +248,9 @@ def _render_preset(stim: Stimulus, req: CompareRequest, events, keys) -> _Render
                              f"{lo}..{hi}; they are played on the string retuned or fretted to that pitch")
         x = eng.render(events, tail_s=0.5)
         f0 = None
-    return _Rendered(stim, np.asarray(x, np.float64), f0, notes)
+    if np.ndim(x) == 2:
+        notes.append(f"{stim.text}: stereo, compared as the mean of its channels (mono)")
+    return _Rendered(stim, as_mono(x), f0, notes)
 
 
 def _et_hz(key: int) -> float:

@@ -68,9 +68,6 @@ _RESPONSE_CHUNK = 2048
 class Body:
     """Soundboard modal bank with a direct part, streaming block by block.
 
-    One input (the decimated mix) and one output (``inputs``, ``outputs``).
-
-
     Parameters
     ----------
     fs : int or float
@@ -109,9 +106,6 @@ class Body:
     dry_gain, wet_gain : float
         The gains of the direct and modal parts for the current ``wet``.
     """
-
-    inputs = 1
-    outputs = 1
 
     def __init__(self, fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, wet=DEFAULT_WET,
                  size=1.0, brightness=0.0, inputs=1, outputs=1):

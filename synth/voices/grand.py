@@ -5,11 +5,15 @@ Grand piano
 Each key (MIDI 21-108) is one, two or three strings
 (:mod:`synth.physics.piano`), each a waveguide string on the engine's grid
 with, at x = L, a loop filter from the key's two T60 values, a cascade of
-first-order allpasses for the string's stiffness (inharmonic partials
-f_n = n f0 sqrt(1 + B n^2), :mod:`synth.physics.dispersion`) and a
-fractional-delay allpass tuning partial 1 exactly to the preset's tuning
-(equal temperament at ``tuning.stretch = 0``, a tuner's stretch for this
-inharmonicity at 1).  Treble strings from C#5 up bear against the capo
+second-order allpasses for the string's stiffness (inharmonic partials
+f_n = n f0 sqrt(1 + B n^2): partials up to 40, or up to 10 kHz, within 2
+cents, :func:`synth.physics.dispersion.tune_stiff_loop_sos`, designed for
+the key and retuned for each string of its unison; a first-order cascade of
+at most ``strings.dispersion_sections`` where no second-order one meets
+that) and a fractional-delay allpass tuning partial 1 exactly to the
+preset's tuning (equal temperament at ``tuning.stretch = 0``, a tuner's
+stretch for this inharmonicity at 1; ``tuning.octave_k_bass`` the octave
+type below A4).  Treble strings from C#5 up bear against the capo
 d'astro bar (thesis section 1.3.2) near x = 0; the others start at an
 agraffe (ideal end).
 
@@ -68,7 +72,7 @@ import numpy as np
 from ..dsp.bank import HammerTemplate, SlotTemplate, StringBank, hammer_template, slot_template
 from ..kernels import strings as K
 from ..physics import piano as P
-from ..physics.dispersion import tune_stiff_loop
+from ..physics.dispersion import retune_sos_loop, tune_stiff_loop_sos
 from ..physics.profiles import Termination, capo
 from ..physics.soundboard import BodyDesign
 from .base import BankSizes, Voice
@@ -97,6 +101,7 @@ class GrandStringSetup:
     extra_delay: int
     n_disp: int
     a_disp: float
+    sos: np.ndarray               # second-order dispersion sections (c1, c2), shape (M, 2)
     tension_n: float
     c_m_per_s: float
     f1_hz: float
@@ -188,12 +193,17 @@ class GrandPianoInstrument(Voice):
         cpl = sp.bridge_coupling if sp.bridge_coupling is not None else 0.0
         t_own = gs.t60_low_s if cpl > 0 else gs.t60_prompt_s
         out = []
+        t_lo = t_own * sp.t60_scale
+        t_hi = min(gs.t60_s(gs.f_high_hz) * t_own / gs.t60_low_s * sp.t60_scale, t_lo)
+        # the key's stiffness: second-order allpasses putting partials up to
+        # 40 (or 10 kHz) within 2 cents of the stiff-string law, designed once
+        # for the key and retuned for each string of its unison
+        key_loop = tune_stiff_loop_sos(f1, B, fs, t_lo, f1, t_hi, max(gs.f_high_hz, 1.5 * f1),
+                                       m_max=sp.dispersion_sections)
         for j, det in enumerate(gs.unison_detune_cents):
             fj = f1 * 2.0 ** (det * sp.detune_scale / 1200.0)
-            t_lo = t_own * sp.t60_scale
-            t_hi = min(gs.t60_s(gs.f_high_hz) * t_own / gs.t60_low_s * sp.t60_scale, t_lo)
-            loop = tune_stiff_loop(fj, B, fs, t_lo, fj, t_hi, max(gs.f_high_hz, 1.5 * fj),
-                                   m_max=sp.dispersion_sections, f_max_hz=18000.0)
+            loop = key_loop if fj == f1 else retune_sos_loop(
+                key_loop, fj, t_lo, fj, t_hi, max(gs.f_high_hz, 1.5 * fj))
             cells = loop.cells
             k = min(max(int(round(gs.strike_position * cells)), 1), cells - 2)
             U = None
@@ -202,7 +212,7 @@ class GrandPianoInstrument(Voice):
                 R = min(R, cells // 3)
                 U = Termination(self._capo, 1, R).sample(dx)
             out.append(GrandStringSetup(cells, k, dt, U, loop.b0, loop.a1, loop.eta,
-                                        loop.extra_delay, loop.M, loop.a_disp,
+                                        loop.extra_delay, loop.n_fo, loop.a_fo, loop.sos,
                                         gs.tension_n, gs.c_m_per_s, fj, sub=M))
         # validated bank rows, so that a note-on in the audio thread only
         # copies them (~10 us per key instead of ~35)
@@ -212,7 +222,7 @@ class GrandPianoInstrument(Voice):
                                  out_mode=1, gain=pre.output.gain,
                                  tension_over_dx=su.tension_n / (su.c_m_per_s * su.dt_s),
                                  b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
-                                 lossy=True, n_disp=su.n_disp, a_disp=su.a_disp,
+                                 lossy=True, n_disp=su.n_disp, a_disp=su.a_disp, sos=su.sos,
                                  glide_s=StringBank.LOSS_GLIDE_S,
                                  bend_glide_s=StringBank.BEND_GLIDE_S,
                                  pan=self.pan(key), sub=su.sub)

@@ -19,7 +19,11 @@ its length, as a harpsichord's jack plucks near the nut.  A regulated
 plectrum lets go of every string at about the same force; with the force
 pluck's dg/dt = F / 2Z (eq. 1.4, Z = sqrt(T mu) the string's impedance) the
 amplitude is therefore ``pluck.amplitude_m`` on middle C's string and scales
-as Z(C4) / Z on the others (the heavy wound bass strings take less).
+as Z(C4) / Z on the others (the heavy wound bass strings take less).  The
+plectra are voiced as a builder voices them, trimmed thinner towards the
+treble so the compass sounds even: the amplitude also scales as (f(C4) /
+f0)^``VOICING_EXPONENT`` (0.5: without it the treble's loudness rose by
+about 3 dB per octave, 12 dB from F1 to F5).
 Velocity changes the level only a little (``play.velocity_exponent``), as on
 a harpsichord.
 No termination (an ideal end at x = 0), bridge-force output, and the
@@ -65,6 +69,10 @@ class PluckedPianoString:
     slot: SlotTemplate
     damper: tuple
     pluck_scale: float      # the pluck's amplitude factor on this key (Z_ref / Z)
+
+
+#: the plectra's voicing across the compass: amplitude x (f(C4) / f0)^this
+VOICING_EXPONENT = 0.5
 
 
 @register_voice("harpsichord")
@@ -150,7 +158,8 @@ class Harpsichord(Voice):
         ref = P.grand_string(self.KEY_REF)
         su = PluckedPianoString(string, cells, k, dt, None, loop.b0, f1, slot,
                                 (loop.b0, f1, t_damped, t_lo),
-                                ref.impedance_ns_per_m / gs.impedance_ns_per_m)
+                                ref.impedance_ns_per_m / gs.impedance_ns_per_m
+                                * (ref.f0_hz / gs.f0_hz) ** VOICING_EXPONENT)
         self._keys[key] = su
         return su
 
