@@ -222,30 +222,20 @@ def tuning(y, key, f1_hz, seg_s=(0.05, 1.05)):
             "n_law": N, "worst_n": j + 1, "worst_cents": float(c[j])}
 
 
-def decay(y, f1_hz):
-    """T60 of partial 1 (one line, -5 to -35 dB, or to -25 / -15 dB if it
-    does not fall that far), and the two-stage fit (to -50 dB) with the
-    knee's drop and the aftersound's span.  Level frames every 10 ms, or
-    every 1/1000 of a render longer than 10 s (the knee search is quadratic
-    in the frames)."""
-    hop = max(0.01, len(y) / FS / 1000.0)
-    out = {"t60_s": None, "t60_range_db": None}
-    for stop in (-35.0, -25.0, -15.0):
-        try:
-            out["t60_s"] = t60_s(y, FS, f_hz=f1_hz, stop_db=stop, hop_s=hop)
-            out["t60_range_db"] = stop
-            break
-        except ValueError:
-            continue
+def _two_stage(y, f_hz, hop):
+    """The two-stage fit (to -50 dB) of the level of ``y`` (the whole note
+    for ``f_hz`` None, else its partial at ``f_hz``), with the knee's drop,
+    the aftersound's span, the late/early ratio and whether the knee is
+    visible."""
     try:
-        d = two_stage_decay(y, FS, f_hz=f1_hz, stop_db=-50.0, hop_s=hop)
+        d = two_stage_decay(y, FS, f_hz=f_hz, stop_db=-50.0, hop_s=hop)
     except ValueError:
         d = {"t60_s": None, "t60_early_s": None, "t60_late_s": None, "knee_s": None}
-    out.update(t60_two_line_s=d["t60_s"], t60_early_s=d["t60_early_s"],
+    out = dict(t60_two_line_s=d["t60_s"], t60_early_s=d["t60_early_s"],
                t60_late_s=d["t60_late_s"], knee_s=d["knee_s"], knee_drop_db=None,
                late_span_db=None, ratio=None, visible=False)
     if d["knee_s"] is not None:
-        t, db = decay_curve_db(y, FS, f_hz=f1_hz, hop_s=hop)
+        t, db = decay_curve_db(y, FS, f_hz=f_hz, hop_s=hop)
         i0 = int(np.argmax(db))
         top = db[i0]
         t, db = t[i0:], db[i0:]
@@ -262,6 +252,30 @@ def decay(y, f1_hz):
         out.update(knee_drop_db=drop, late_span_db=span, ratio=ratio,
                    visible=bool(ratio is not None and ratio >= LIM["late_early"]
                                 and drop >= KNEE_MIN_DROP_DB and span >= KNEE_MIN_LATE_DB))
+    return out
+
+
+def decay(y, f1_hz):
+    """T60 of partial 1 (one line, -5 to -35 dB, or to -25 / -15 dB if it
+    does not fall that far), and the two-stage fit (to -50 dB) of the
+    note's whole level (what a listener hears fall fast, then slowly: the
+    prompt sound and the aftersound) with the knee's drop and the
+    aftersound's span; the same fit of partial 1 alone under ``p1_``
+    (beats between a unison's detuned strings cut notches of 20-40 dB into
+    one partial's level, which a two-line fit takes for a knee).  Level
+    frames every 10 ms, or every 1/1000 of a render longer than 10 s (the
+    knee search is quadratic in the frames)."""
+    hop = max(0.01, len(y) / FS / 1000.0)
+    out = {"t60_s": None, "t60_range_db": None}
+    for stop in (-35.0, -25.0, -15.0):
+        try:
+            out["t60_s"] = t60_s(y, FS, f_hz=f1_hz, stop_db=stop, hop_s=hop)
+            out["t60_range_db"] = stop
+            break
+        except ValueError:
+            continue
+    out.update(_two_stage(y, None, hop))
+    out.update({"p1_" + k: v for k, v in _two_stage(y, f1_hz, hop).items()})
     return out
 
 
@@ -463,9 +477,20 @@ class Report:
         hi = sum(1 for r in finite if r >= LIM["late_early"])
         self.add("decay", "two-stage decay, keys with 2-3 strings: late/early T60 >= 3, visible knee",
                  f"{len(vis)} of {len(multi)} keys", "all", len(vis) == len(multi), len(vis) / len(multi),
-                 f"late/early T60 of partial 1 (vel 80): median {med:.2f}, {hi} of {len(multi)} keys >= "
-                 f"{LIM['late_early']:g}; a knee is visible when the level falls >= {KNEE_MIN_DROP_DB:g} dB "
-                 f"before it and >= {KNEE_MIN_LATE_DB:g} dB after it")
+                 f"late/early T60 of the note's level (vel 80): median {med:.2f}, {hi} of {len(multi)} "
+                 f"keys >= {LIM['late_early']:g}; a knee is visible when the level falls >= "
+                 f"{KNEE_MIN_DROP_DB:g} dB before it and >= {KNEE_MIN_LATE_DB:g} dB after it; below it: "
+                 f"the keys that miss")
+        miss = [k for k in multi if not k80[k]["visible"]]
+        if miss:
+            self.rows[-1].detail += ": " + ", ".join(
+                f"{k} ({k80[k]['ratio']:.2f})" if k80[k]["ratio"] is not None else f"{k} (-)"
+                for k in miss)
+        r1 = [k80[k]["p1_ratio"] for k in multi if k80[k]["p1_ratio"] is not None]
+        v1 = sum(1 for k in multi if k80[k]["p1_visible"])
+        self.add("decay", "two-stage decay of partial 1 alone (its beats cut notches into it)",
+                 f"{v1} of {len(multi)} keys", "", "INFO", v1 / len(multi),
+                 f"late/early T60 of partial 1: median {float(np.median(r1)) if r1 else float('nan'):.2f}")
 
     # -- pedals -----------------------------------------------------------------
     def pedal(self):

@@ -22,12 +22,14 @@ from ..dsp.bank import StringBank
 from ..dsp.body import Body
 from ..dsp.decimator import Decimator
 from ..kernels import strings as K
+from .sympathetic import Sympathetic
 
 NOTE_ON = "note_on"
 NOTE_OFF = "note_off"
 CONTROL = "control"
 PITCH_BEND = "pitch_bend"
 CC_SUSTAIN = 64
+CC_SOSTENUTO = 66
 CC_SOFT = 67
 CC_ALL_SOUND_OFF = 120
 CC_ALL_NOTES_OFF = 123
@@ -132,6 +134,10 @@ class Engine:
         self.by_key: dict[object, int] = {}  # (channel, key) -> voice index
         self.pedal = 0.0                     # sustain pedal CC64, 0..1 (half pedal between)
         self.soft = 0.0                      # soft pedal CC67, 0..1
+        self.sostenuto = False               # sostenuto pedal CC66 (down at 0.5 and above)
+        # voice indices whose dampers the sostenuto holds off (held when it went down)
+        self._latched = np.zeros(self.n_index, dtype=bool)
+        self._latched_keys: set = set()      # their keys (the strings stay free while it is down)
         self.bend = {}                       # pitch bend per channel, -1..1
         # voice indices whose key is up and which are not fading out: the
         # sustain pedal damps exactly these (one array operation per CC64)
@@ -143,6 +149,14 @@ class Engine:
         self.n_shed = 0                      # voices faded out under CPU overload
         self.n_dropped = 0                   # note-ons the instrument could not play
         self.silence_level = 10.0 ** (silence_dbfs / 20.0)
+        #: the strings that ring along through the bridge (the voice's
+        #: sympathetic strings, at the output rate), or None
+        sd = instrument.sympathetic(self.fs_out)
+        self.sym = None if sd is None else Sympathetic(sd, self.fs_out, self.n_dec,
+                                                       self.MAX_BLOCK_OUT, self.silence_level)
+        self._sym_dirty = True
+        self._sym_events: list = []          # (output sample, lift, muted) within this block
+        self.time_out = 0                    # output samples rendered so far
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
         #: count the contacts of the latest note's strings (live ``--stats``;
@@ -195,6 +209,8 @@ class Engine:
         vo = self.voices[v]
         vo.dying = vo.released = True
         self._released[v] = False       # the pedal no longer touches it
+        self._latched[v] = False
+        self._sym_dirty = True
         if self.by_key.get(vo.key) == v:
             del self.by_key[vo.key]
         for s in vo.slots:
@@ -215,6 +231,8 @@ class Engine:
 
     def _free(self, v: int) -> None:
         self._released[v] = False
+        self._latched[v] = False
+        self._sym_dirty = True
         vo = self.voices.pop(v, None)
         if vo is not None and self.by_key.get(vo.key) == v:
             del self.by_key[vo.key]
@@ -234,6 +252,8 @@ class Engine:
 
     def _apply(self, ev: Event, at: int) -> None:
         vk = self._voice_key(ev)
+        if ev.kind in (NOTE_ON, NOTE_OFF, CONTROL):
+            self._sym_dirty = True
         if ev.kind == NOTE_ON and ev.value > 0:
             key = None if ev.key is None or ev.key < 0 else ev.key
             v = self.by_key.get(vk)
@@ -281,13 +301,31 @@ class Engine:
             if cc == CC_SUSTAIN:
                 self.pedal = float(ev.value)
                 # every released voice's dampers at once (a continuous pedal
-                # sends many of these; a loop over voices cost ~5 us each)
-                idx = np.flatnonzero(self._released)
+                # sends many of these; a loop over voices cost ~5 us each);
+                # the sostenuto keeps its voices' dampers off
+                idx = np.flatnonzero(self._released & ~self._latched)
                 if idx.size:
                     slots = (idx[:, None] * self.spv + self._spv_range).ravel()
                     self.bank.apply_dampers(slots, self.inst.damper_lift(self.pedal))
             elif cc == CC_SOFT:
                 self.soft = float(ev.value)
+            elif cc == CC_SOSTENUTO:
+                down = float(ev.value) >= 0.5
+                if down and not self.sostenuto:
+                    # the notes held now keep their dampers off until it comes up
+                    for v, vo in self.voices.items():
+                        self._latched[v] = not vo.released and not vo.dying
+                        if self._latched[v] and vo.key_arg is not None:
+                            self._latched_keys.add(int(round(vo.key_arg)))
+                elif not down and self.sostenuto:
+                    held = np.flatnonzero(self._latched)
+                    self._latched[:] = False
+                    self._latched_keys.clear()
+                    for v in held:
+                        vo = self.voices.get(int(v))
+                        if vo is not None and vo.released and not vo.dying:
+                            self._damp(vo)     # as far as the sustain pedal lets it
+                self.sostenuto = down
             elif cc == CC_ALL_NOTES_OFF:
                 for v in list(self.voices):
                     self._release(v)
@@ -328,7 +366,8 @@ class Engine:
             return
         vo.released = True
         self._released[v] = True
-        self._damp(vo)
+        if not self._latched[v]:
+            self._damp(vo)                 # (the sostenuto holds a latched one's dampers off)
 
     # -- rendering ----------------------------------------------------------------
     def render_block(self, n_out: int, out: np.ndarray | None = None) -> np.ndarray:
@@ -355,6 +394,12 @@ class Engine:
                 bank.render(self.mix, cursor, off - cursor)
                 cursor = off
             self._apply(ev, start + off)
+            if self.sym is not None and self._sym_dirty:
+                # the sympathetic strings' new state, from the output sample
+                # of this event's internal sample (block-size independent)
+                j = (start + off) * self.fs_out // self.fs_in - self.time_out
+                self._sym_events.append((min(max(j, 0), n_out), *self._sympathetic_state()))
+                self._sym_dirty = False
         if cursor < n_in:
             bank.render(self.mix, cursor, n_in - cursor)
         self.time_in = end
@@ -362,7 +407,40 @@ class Engine:
             self._probe.append(bank.probe[:, :, :n_in].copy())
         if self.n_dec < self.buses:
             mix[0] += mix[1]                  # a mono body: the bridge's two ends summed
-        if self.channels == 1:
+        if self.sym is not None:
+            d = self._dout[:, :n_out]
+            for c in range(self.n_dec):
+                self.decs[c].process(mix[c], d[c])
+            # the strings that ring along, driven by the played strings' force
+            # (their dampers and mutes changed at the events' output samples)
+            sym = self.sym
+            c0 = 0
+            for j, lift, muted in self._sym_events:
+                sym.process(d, c0, j - c0)
+                sym.set_dampers(lift, muted)
+                c0 = j
+            self._sym_events.clear()
+            if self._sym_dirty:                 # a voice freed since: from the next block
+                sym.set_dampers(*self._sympathetic_state())
+                self._sym_dirty = False
+            sym.process(d, c0, n_out - c0)
+            if bank.n_active == 0:
+                sym.reap(n_out)
+            y = (self._out if out is None else out)
+            if self.channels == 1:
+                y = y[0] if y.ndim == 2 else y
+                if self.body is not None:
+                    self.body.process(d[0], out=y[:n_out])
+                else:
+                    y[:n_out] = d[0]
+                y = y[:n_out]
+            else:
+                y = y[:, :n_out]
+                if self.body is not None:
+                    self.body.process(d, out=y)
+                else:
+                    y[:] = d
+        elif self.channels == 1:
             y = self.dec.process(mix[0], self._out[0] if out is None else out)
             if self.body is not None:
                 self.body.process(y, out=y)
@@ -377,7 +455,30 @@ class Engine:
                     self.decs[c].process(mix[c], d[c])
                 self.body.process(d, out=y)
         self._reap(n_in)
+        self.time_out += n_out
         return y
+
+    def _sympathetic_state(self):
+        """The sympathetic strings' dampers after a pedal or a note: each
+        key's lift by the sustain pedal (1 for a key the sostenuto holds or
+        a key held down), its string silent while the key sounds as a
+        played note.  Returns (lift, muted), one value per string."""
+        sym = self.sym
+        lift = np.full(sym.n, self.inst.damper_lift(self.pedal))
+        for k in self._latched_keys:
+            i = sym.slot_of.get(k)
+            if i is not None:
+                lift[i] = 1.0
+        muted = np.zeros(sym.n, dtype=bool)
+        for v, vo in self.voices.items():
+            if vo.dying or vo.key_arg is None:
+                continue
+            i = sym.slot_of.get(int(round(vo.key_arg)))
+            if i is not None:
+                muted[i] = True
+                if self._latched[v] or not vo.released:
+                    lift[i] = 1.0
+        return lift, muted
 
     def _reap(self, n_in: int) -> None:
         """Free silent strings (output below the silence level for four

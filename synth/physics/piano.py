@@ -66,9 +66,10 @@ documented design values, not from a table of 88 typed numbers:
   and hardly any from the motions in which they cancel at the bridge (the
   "aftersound").  ``t60_low_s`` is a string's own decay at f0, the
   aftersound: a log-log quadratic in f0 through A0 = 40 s, C4 = 20 s and
-  C8 = 2 s (orders of measured late decay times: Martin 1947; Weinreich
-  1977 fig. 8; Bank, Zambon & Fontana 2010), monotone decreasing over the
-  keyboard.  ``t60_prompt_s`` is the in-phase motion's: ``t60_low_s /
+  C8 = 3.6 s (orders of measured late decay times: Martin 1947; Weinreich
+  1977 fig. 8; Bank, Zambon & Fontana 2010; the top octave's prompt sound,
+  0.9 s at C8, is what one hears of its 1-2 s), monotone decreasing over
+  the keyboard.  ``t60_prompt_s`` is the in-phase motion's: ``t60_low_s /
   PROMPT_RATIO`` (Weinreich's prompt decay rates are 3-10 times the
   aftersound's; 4 for trichords, 6 for bichords), which fixes the bridge's
   resistance per key
@@ -151,7 +152,7 @@ STRIKE_RAMP_WIDTH_ST = 2.0
 #: cents beat faster the higher the note, so the treble is tuned closer)
 UNISON_SPREAD_CENTS = 1.0
 UNISON_SPREAD_HZ = 0.3
-T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 2.0))
+T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 3.6))
 #: aftersound T60 / prompt T60 at f0 (the unison's in-phase motion decays this
 #: much faster), by strings per key: a bichord's two strings mix their motions
 #: less than a trichord's three, so its bridge couples them harder for the
@@ -394,7 +395,7 @@ _T60_C = _t60_low_coeffs()
 def t60_fundamental_s(f0_hz: float) -> float:
     """Aftersound decay time (s) of a grand-piano fundamental at ``f0_hz``
     (20..5000 Hz): the log-log quadratic through A0 = 40 s, C4 = 20 s,
-    C8 = 2 s."""
+    C8 = 3.6 s."""
     f = _check("f0_hz", f0_hz, 20.0, 5000.0)
     x = math.log2(f / T60_ANCHORS[1][0])
     return 2.0 ** (_T60_C[0] + _T60_C[1] * x + _T60_C[2] * x * x)

@@ -40,6 +40,36 @@ from ..physics.soundboard import BodyDesign
 
 
 @dataclass(frozen=True)
+class SympatheticDesign:
+    """The strings of an instrument that ring along without being played
+    (a piano's undamped strings, sympathetic resonance and the pedal's
+    halo), for the engine to run at its output rate.
+
+    keys : tuple of int            the MIDI key of each string
+    slots : tuple of SlotTemplate  each string at the output rate (lossy far
+                                   end, bridge-force output, no excitation)
+    dampers : tuple of tuple       each string's damper row
+                                   (:meth:`StringBank.set_damper`)
+    has_damper : tuple of bool     whether the key has a damper at all
+    resistance_ns_per_m : float    the board's bridge as the strings all hang
+                                   on it: u_b = integral of F / R (N s/m)
+    return_hz : float              its spring's slow return (Hz)
+    force_per_unit : float         N of bridge force per unit of the main
+                                   strings' output (1 / their output gain)
+    max_cells : int                the longest string's cells
+    """
+
+    keys: tuple
+    slots: tuple
+    dampers: tuple
+    has_damper: tuple
+    resistance_ns_per_m: float
+    return_hz: float
+    force_per_unit: float
+    max_cells: int
+
+
+@dataclass(frozen=True)
 class BankSizes:
     """What one engine must allocate for a voice (per string slot).
 
@@ -175,4 +205,13 @@ class Voice:
     def strike_log(self):
         """Probe channels of the last excitation computed apart from the
         bank (the first stage of an injected strike), or None."""
+        return None
+
+    def sympathetic(self, fs_out: float) -> SympatheticDesign | None:
+        """The strings that ring along through the bridge, designed at the
+        engine's output rate ``fs_out`` (Hz), or None (the default: none).
+        The engine runs them on a bank of their own, driven by the played
+        strings' force on the bridge, and lets each ring while its damper
+        is off (the sustain pedal, the sostenuto, a key without damper) and
+        its key is not itself sounding."""
         return None

@@ -75,7 +75,8 @@ from ..physics import piano as P
 from ..physics.dispersion import retune_sos_loop, tune_stiff_loop_sos
 from ..physics.profiles import Termination, capo
 from ..physics.soundboard import BodyDesign
-from .base import BankSizes, Voice
+from ..physics.dispersion import tune_stiff_loop
+from .base import BankSizes, SympatheticDesign, Voice
 from .registry import register_voice
 
 #: per-key string designs, by (preset, internal rate)
@@ -161,6 +162,57 @@ class GrandPianoInstrument(Voice):
         b = self.preset.body
         return BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
                           seed=b.seed, inputs=b.inputs, outputs=b.outputs)
+
+    def sympathetic(self, fs_out: float) -> SympatheticDesign | None:
+        """One string per key (standing for its unison: output x the
+        strings per key) at the output rate, for the keys whose loop holds
+        at least 12 cells there (up to about D7 at 48 kHz: the halo is the
+        low and middle strings'), decaying as one string on the bridge
+        (:func:`synth.physics.piano.single_string_t60_s`), damped as the
+        played strings are; the board's bridge they hang on has the median
+        of the keys' bridge resistances over ``strings.sympathetic`` (0:
+        none)."""
+        sp = self.preset.strings
+        amount = sp.sympathetic or 0.0
+        if amount <= 0.0:
+            return None
+        fs = float(fs_out)
+        keys, slots, dampers, has_damper = [], [], [], []
+        max_cells = 8
+        for key in range(self.KEY_LOW, self.KEY_HIGH + 1):
+            gs = P.grand_string(key)
+            f1 = self.tuning_hz(key)
+            if fs / (2.0 * f1) < 14.0:
+                continue
+            t_free = P.single_string_t60_s(key) * sp.t60_scale
+            t_hi = min(gs.t60_s(gs.f_high_hz) * t_free / gs.t60_low_s, t_free)
+            f_hi = min(max(gs.f_high_hz, 1.5 * f1), 0.4 * fs)
+            if f_hi <= f1:
+                continue
+            try:
+                loop = tune_stiff_loop(f1, gs.inharmonicity_b, fs, t_free, f1, t_hi, f_hi,
+                                       m_max=4, f_max_hz=0.4 * fs)
+            except ValueError:
+                continue
+            if loop.cells < 12:
+                continue
+            dt = 1.0 / fs
+            k = min(max(int(round(gs.strike_distance_m / (gs.c_m_per_s * dt))), 1), loop.cells - 2)
+            slots.append(slot_template(
+                cells=loop.cells, k=k, dt_s=dt, U=None, side=1, out_mode=1,
+                gain=self.preset.output.gain * gs.n_strings,
+                tension_over_dx=gs.tension_n / (gs.c_m_per_s * dt), b0=loop.b0, a1=loop.a1,
+                eta=loop.eta, extra_delay=loop.extra_delay, lossy=True, n_disp=loop.M,
+                a_disp=loop.a_disp, glide_s=StringBank.LOSS_GLIDE_S,
+                bend_glide_s=StringBank.BEND_GLIDE_S, pan=self.pan(key)))
+            t_damped = min(self.release_t60_s(key), t_free) if gs.has_damper else t_free
+            dampers.append((loop.b0, f1, t_damped, t_free))
+            has_damper.append(gs.has_damper)
+            keys.append(key)
+            max_cells = max(max_cells, loop.cells)
+        R = float(np.median([P.bridge_resistance_ns_per_m(k) for k in keys])) / amount
+        return SympatheticDesign(tuple(keys), tuple(slots), tuple(dampers), tuple(has_damper),
+                                 R, BRIDGE_RETURN_HZ, 1.0 / self.preset.output.gain, max_cells)
 
     # -- physics at note-on -------------------------------------------------------
     def tuning_hz(self, key: int) -> float:

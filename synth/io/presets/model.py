@@ -115,6 +115,7 @@ class StringsSpec:
     capo_region_m: float
     capo_grid: int | None = None          # grand: steps per engine sample of the capo strings
     bridge_coupling: float | None = None  # grand: factor on the bridge's admittance (0: rigid)
+    sympathetic: float | None = None      # grand: factor on the board's bridge the free strings see
 
 
 @dataclass(frozen=True)

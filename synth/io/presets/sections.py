@@ -196,6 +196,9 @@ SECTIONS: tuple[Section, ...] = (
         Field("bridge_coupling", "float", "factor on the bridge's admittance that couples a "
               "key's strings (1: the designed two-stage decay; 0: a rigid bridge)", 0.0, 4.0,
               when=When("voice", ("grand",))),
+        Field("sympathetic", "float", "factor on the board's bridge admittance that drives the "
+              "strings whose dampers are off (the pedal's halo; 0: no sympathetic strings)",
+              0.0, 4.0, when=When("voice", ("grand",))),
     ), when=_KEYBOARD),
     Section("dampers", "dampers and sustain pedal of the per-key strings", DampersSpec, (
         Field("release_t60_bass_s", "float", "T60 of a damped bass string, s", 0.02, 5.0),

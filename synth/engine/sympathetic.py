@@ -1,0 +1,145 @@
+"""Sympathetic strings: the undamped strings that ring along through the bridge.
+
+A piano's played strings move the bridge, and every string whose damper is
+off (the sustain pedal down, the sostenuto holding it, a key held, the top
+keys, which have none) is driven at its end by that motion and answers
+where its own partials meet the played ones: the pedal's halo, and the
+ring of a held chord's strings under a staccato note.
+
+How it runs.  The voice describes the strings
+(:meth:`synth.voices.base.Voice.sympathetic`: one per key, at the output
+rate, hanging on an external bridge, :meth:`StringBank.set_external_bridge`).
+Per output block the engine hands this stage the played strings' decimated
+bridge force (the dry buses, before the body); the board's bridge follows it
+(:func:`synth.kernels.bridge.bridge_follow`: u_b = integral of F / R, with a
+slow spring), the free strings render with that displacement at their ends,
+and their own bridge force is added to the buses.  The one-way coupling is
+the model's simplification: the sympathetic strings do not drive the
+bridge back (their force is a thousandth of the played strings' and would
+feed the played strings only at second order), and the bridge they see
+answers the force summed over the keyboard at one point.
+
+Which strings ring.  A key's string is free when its damper is off
+(:meth:`Voice.damper_lift` of the sustain pedal, 1 for a key latched by the
+sostenuto or without damper), and it is silent while the key sounds as a
+played note (the played strings are those strings: a copy would double
+them).  The engine sets these states at the output sample of the event that
+changed them (a live stream and an offline render give the same samples);
+a free string renders from then on, and strings fall silent and are freed
+by the bank's silence scan once nothing is played.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..dsp.bank import StringBank
+from ..kernels.bridge import bridge_follow
+
+
+class Sympathetic:
+    """The sympathetic strings of one engine.
+
+    Parameters
+    ----------
+    design : synth.voices.base.SympatheticDesign
+    fs_out : int
+        The engine's output rate (Hz): the rate these strings run at.
+    buses : int
+        Rows of the engine's dry buses (1 or 2); the strings write theirs.
+    max_block : int
+        Longest block (output samples).
+    silence_level : float
+        Output level under which a string counts as quiet (the engine's).
+    """
+
+    def __init__(self, design, fs_out: int, buses: int, max_block: int, silence_level: float):
+        self.design = design
+        self.keys = tuple(int(k) for k in design.keys)
+        self.n = len(self.keys)
+        self.fs = float(fs_out)
+        self.buses = int(buses)
+        self.slot_of = {k: i for i, k in enumerate(self.keys)}
+        self.bank = StringBank(max(self.n, 1), design.max_cells + 2, 1, max_block)
+        for i, t in enumerate(design.slots):
+            self.bank.configure_from(i, t)
+            self.bank.set_external_bridge(i)
+            self.bank.set_damper(i, design.dampers[i])
+        self._has_damper = np.array(design.has_damper, dtype=bool)
+        dt = 1.0 / self.fs
+        self.a = math.exp(-2.0 * math.pi * design.return_hz * dt)
+        self.b = dt / design.resistance_ns_per_m
+        self.force_per_unit = float(design.force_per_unit)
+        self.state = np.zeros(1)
+        self.force = np.zeros(max_block)
+        self.ub = np.zeros(max_block)
+        self.mix = np.zeros((max(self.buses, 1), max_block))
+        self.level = float(silence_level)
+        self.lift = np.zeros(self.n)           # each string's damper lift now
+        self.muted = np.zeros(self.n, dtype=bool)
+        self._idx = np.arange(self.n, dtype=np.int64)
+
+    # -- state from the engine -------------------------------------------------
+    def set_dampers(self, lift: np.ndarray, muted: np.ndarray) -> None:
+        """Every string's damper lift (0 .. 1) and whether its key sounds as
+        a played note (muted: its string fades out and stays silent); a
+        free string (lifted, not muted) starts rendering now."""
+        lift = np.where(self._has_damper, lift, 1.0)
+        new_mute = muted & ~self.muted
+        for i in np.flatnonzero(new_mute):
+            if self.bank.is_active(int(i)):
+                self.bank.fade(int(i), 0.02, self.fs)
+        back = ~muted & self.muted
+        for i in np.flatnonzero(back):
+            # the played note has gone: the string starts again from rest
+            self.bank.deactivate(int(i))
+            self._configure(int(i))
+        self.muted = muted.copy()
+        self.lift = lift
+        for i in np.flatnonzero(~muted):
+            self.bank.apply_dampers(self._idx[i:i + 1], float(lift[i]))
+            if lift[i] > 0.0 and not self.bank.is_active(int(i)):
+                self.bank.activate(int(i))
+
+    def _configure(self, i: int) -> None:
+        self.bank.configure_from(i, self.design.slots[i])
+        self.bank.set_external_bridge(i)
+        self.bank.set_damper(i, self.design.dampers[i])
+
+    # -- per block --------------------------------------------------------------
+    def process(self, dry: np.ndarray, o0: int, n: int) -> None:
+        """Add the strings' answer to ``dry[:, o0:o0+n]`` (the played
+        strings' decimated output, buses x samples, before the body), in
+        place; the bridge follows the played strings' force whether or not
+        a string renders."""
+        if self.n == 0 or n <= 0:
+            return
+        f = self.force[:n]
+        np.sum(dry[:, o0:o0 + n], axis=0, out=f)
+        f *= self.force_per_unit
+        bridge_follow(f, n, self.a, self.b, self.state, self.ub)
+        if self.bank.n_active == 0:
+            return
+        m = self.mix[:, :n]
+        m[:] = 0.0
+        self.bank.render(self.mix, 0, n, ubx=self.ub)
+        if dry.shape[0] == m.shape[0]:
+            dry[:, o0:o0 + n] += m
+        else:
+            dry[0, o0:o0 + n] += m.sum(axis=0)
+
+    def reap(self, n: int) -> None:
+        """Free the strings that have stayed silent (the bank's silence scan
+        over the last ``n`` samples): called while nothing is played."""
+        if self.bank.n_active:
+            done = self.bank.reap(n, self.level, int(0.05 * self.fs))
+            for s in done.tolist():
+                self.bank.deactivate(int(s))
+                self._configure(int(s))
+
+    @property
+    def n_active(self) -> int:
+        """Sympathetic strings rendering now."""
+        return self.bank.n_active

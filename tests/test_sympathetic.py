@@ -1,0 +1,85 @@
+"""Sympathetic strings (the pedal's halo) and the sostenuto pedal."""
+
+import numpy as np
+import pytest
+
+from helpers import engine
+from synth.analysis import as_mono, halo
+from synth.engine.engine import Event
+
+FS = 48000
+
+
+def _take(events, seconds, sets=()):
+    e = engine("grand-piano", sets)
+    return as_mono(e.render(events, duration_s=seconds)), e
+
+
+def _db(x):
+    return 10 * np.log10(np.mean(np.square(x)) + 1e-300)
+
+
+def test_pedal_down_the_other_strings_ring_along():
+    """C4 held with the sustain pedal down sounds with a halo that the same
+    note without the pedal lacks: energy at the other keys' frequencies
+    (synth.analysis.halo), growing after the attack; the strings of C4
+    itself are not doubled (its sympathetic copy stays silent)."""
+    note = [Event(0.0, "note_on", 60, 0.7)]
+    down, e = _take([Event(0.0, "control", 64, 1.0)] + note, 3.0)
+    up, _ = _take(note, 3.0)
+    assert e.sym is not None and e.sym.n > 50
+    i60 = e.sym.slot_of[60]
+    assert not e.sym.bank.is_active(i60) or e.sym.muted[i60]
+    w = slice(int(0.5 * FS), int(3.0 * FS))
+    inst = e.inst
+    probes = [inst.tuning_hz(k) for k in range(21, 109) if k != 60]
+    f1 = inst.tuning_hz(60)
+    own = [n * f1 for n in range(1, 40) if n * f1 < FS / 2]
+    h = halo(down[w], up[w], FS, probes, own)
+    assert h["gain_db"] >= 6.0, h
+    # the halo is quieter than the note, and absent without the pedal
+    d = down - up
+    assert _db(d[w]) < _db(up[w])
+    assert _db(d[: int(0.05 * FS)]) < _db(up[: int(0.05 * FS)]) - 20
+
+
+def test_no_halo_without_pedal_but_the_top_strings_ring():
+    """With the pedal up only the strings without dampers (the top keys)
+    answer: a low note's halo is small; sympathetic off changes nothing
+    else."""
+    note = [Event(0.0, "note_on", 48, 0.7)]
+    a, e = _take(note, 2.0)
+    b, _ = _take(note, 2.0, ["strings.sympathetic=0"])
+    free = [k for k, hd in zip(e.sym.keys, e.sym.design.has_damper) if not hd]
+    assert free and min(free) > 88
+    assert _db((a - b)[FS // 2:]) < _db(b[FS // 2:]) - 30
+
+
+def test_sostenuto_keeps_the_held_notes_dampers_off():
+    """CC66 pressed while C3 is held: C3 rings on after its key comes up,
+    while a note played after the pedal went down (G4) is damped at its
+    key-up; released, the pedal lets C3's damper fall."""
+    ev = [Event(0.0, "note_on", 48, 0.7), Event(0.1, "control", 66, 1.0),
+          Event(0.2, "note_off", 48, 0.0), Event(0.3, "note_on", 67, 0.7),
+          Event(0.4, "note_off", 67, 0.0)]
+    e = engine("grand-piano", ["strings.sympathetic=0"])
+    e.schedule(ev)
+    for _ in range(int(0.9 * FS / 512)):
+        e.render_block(512)
+    keys = {vo.key_arg for vo in e.voices.values()}
+    assert 48 in keys                            # held by the sostenuto
+    assert 67 not in keys                        # damped and gone
+    held = [v for v, vo in e.voices.items() if vo.key_arg == 48][0]
+    assert e._latched[held]
+    e.schedule([Event(e.time_in / e.fs_in_exact, "control", 66, 0.0)])
+    for _ in range(int(1.0 * FS / 512)):
+        e.render_block(512)
+    assert 48 not in {vo.key_arg for vo in e.voices.values()}   # its damper fell
+
+
+def test_sostenuto_does_not_hold_notes_played_after_it():
+    y_sos, _ = _take([Event(0.0, "control", 66, 1.0), Event(0.05, "note_on", 60, 0.7),
+                      Event(0.2, "note_off", 60, 0.0)], 1.0, ["strings.sympathetic=0"])
+    y_none, _ = _take([Event(0.05, "note_on", 60, 0.7), Event(0.2, "note_off", 60, 0.0)], 1.0,
+                      ["strings.sympathetic=0"])
+    np.testing.assert_allclose(y_sos, y_none, rtol=0, atol=1e-12)
