@@ -41,7 +41,13 @@ def one_pole_from_two_gains(g1: float, f1_hz: float, g2: float, f2_hz: float, fs
     -------
     (b0, a1) with -1 < a1 <= 0.  When the requested tilt is steeper than a
     one-pole allows, the steepest one-pole (pole at 0.999) is used and g1 is
-    honoured.
+    honoured.  The gain at DC, b0 / (1 + a1), is kept at or below
+    ``1 - (1 - g1) / 2`` (the loop's DC content decays at least half as fast
+    as its partial at f1): a lowpass's gain rises towards DC, and a steep
+    tilt on a long, high string (the grand's top octave: T60 of seconds at
+    4 kHz, the high-frequency loss law steeper still) would otherwise pass
+    DC with a gain above 1 and the loop would grow.  The tilt is then
+    shallower than asked (|H| at f2 above g2), with g1 still exact.
     """
     if not (0 < g2 <= g1 < 1):
         raise ValueError(f"loop gains g1 = {g1!r}, g2 = {g2!r} must satisfy 0 < g2 <= g1 < 1")
@@ -56,6 +62,14 @@ def one_pole_from_two_gains(g1: float, f1_hz: float, g2: float, f2_hz: float, fs
         a = -Bq + math.sqrt(Bq * Bq - 1.0) if Bq > 0 else -Bq - math.sqrt(Bq * Bq - 1.0)
         a = max(a, -0.999)
     b0 = g1 * math.sqrt(1.0 + 2.0 * a * math.cos(w1) + a * a)
+    g_dc = 1.0 - 0.5 * (1.0 - g1)
+    if b0 / (1.0 + a) > g_dc:
+        # |H(0)| = g_dc and |H(w1)| = g1: g_dc^2 (1 + a)^2 = g1^2 (1 + 2 a cos w1 + a^2),
+        # a^2 + 2 (c / r) a + 1 = 0 with r = g_dc^2 - g1^2, c = g_dc^2 - g1^2 cos w1
+        r = g_dc * g_dc - g1 * g1
+        c = (g_dc * g_dc - g1 * g1 * math.cos(w1)) / r
+        a = -c + math.sqrt(c * c - 1.0)
+        b0 = g_dc * (1.0 + a)
     return b0, a
 
 

@@ -46,16 +46,18 @@ documented design values, not from a table of 88 typed numbers:
   break (C3 wound 1.0e-4 -> C#3 plain 1.2e-4), then rising monotonically to
   about 2e-2 at C8 (A7: 1.56e-2).  B is therefore monotone only from MIDI 48
   upward; its minimum is in the wound bichord section.
-* Strike position l/L: 1/8 up to about C5, then falling smoothly (a softplus
+* Strike position l/L: 1/8.6 up to about C5 (grands strike at 1/7 to 1/9,
+  Fletcher & Rossing ch. 12; Chaigne & Askenfelt's C4 0.12; exactly 1/8
+  would null partial 8, 16, ...), then falling smoothly (a softplus
   ramp in semitones from E5) so that A7 reproduces the study's l = 2.6 mm of
-  L = 61 mm (0.0426) exactly; C6 is about 1/11, C8 about 1/26 (l = 2.0 mm).
+  L = 61 mm (0.0426) exactly; C6 is about 1/12, C8 about 1/26 (l = 2.0 mm).
 * Dampers on MIDI <= 88 (E6); the top 20 keys (F6..C8) are undamped.
 * Capo d'astro bar: MIDI >= 73 (C#5) terminate on the capo bar (the first
   capo section of a Steinway D starts at C#5); lower strings run through
   agraffes.
 * Unison detune (cents, per string): spread s = 1 cent between the outer
-  strings, or less where that would beat faster than 0.3 Hz (from about A4
-  up: 0.5 cent at C6, 0.12 cent at C8; a tuner tunes unisons by ear to a
+  strings, or less where that would beat faster than 0.6 Hz (from about A5
+  up: 0.5 cent at C7, 0.25 cent at C8; a tuner tunes unisons by ear to a
   slow beat or none, and the same cents beat faster the higher the note;
   Kirk 1959 found unisons mistuned by up to 1-2 cents in the middle
   range); one string (0,), two (-s/2, +s/2), three (-0.55 s, 0, +0.45 s)
@@ -71,7 +73,8 @@ documented design values, not from a table of 88 typed numbers:
   0.9 s at C8, is what one hears of its 1-2 s), monotone decreasing over
   the keyboard.  ``t60_prompt_s`` is the in-phase motion's: ``t60_low_s /
   PROMPT_RATIO`` (Weinreich's prompt decay rates are 3-10 times the
-  aftersound's; 4 for trichords, 6 for bichords), which fixes the bridge's
+  aftersound's; 4 for trichords, easing to 3 over the top octave, 6 for
+  bichords, :func:`prompt_ratio`), which fixes the bridge's
   resistance per key
   (:func:`bridge_resistance_ns_per_m`): R_b = 2 f0 Z n / (sigma_p -
   sigma_a), Z = sqrt(T mu) the string's impedance, n the strings on it (2
@@ -144,14 +147,14 @@ SINGLE_TENSION_N = (1150.0, 1300.0)             # A0 .. F#1
 PAIR_TENSION_N = (900.0, 820.0)                 # G1 .. C3
 SINGLE_CORE_M = (1.60e-3, 1.40e-3)              # A0 .. F#1
 PAIR_CORE_M = (1.27e-3, 1.05e-3)                # G1 .. C3
-STRIKE_RATIO_LOW = 8.0                          # L / l below the treble ramp
+STRIKE_RATIO_LOW = 8.6                          # L / l below the treble ramp
 STRIKE_RAMP_START_MIDI = 76.0
 STRIKE_RAMP_WIDTH_ST = 2.0
 #: unison spread: at most UNISON_SPREAD_CENTS, and at most UNISON_SPREAD_HZ
 #: between the outer strings (a tuner tunes unisons by their beats: the same
 #: cents beat faster the higher the note, so the treble is tuned closer)
 UNISON_SPREAD_CENTS = 1.0
-UNISON_SPREAD_HZ = 0.3
+UNISON_SPREAD_HZ = 0.6
 T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 3.6))
 #: aftersound T60 / prompt T60 at f0 (the unison's in-phase motion decays this
 #: much faster), by strings per key: a bichord's two strings mix their motions
@@ -401,6 +404,17 @@ def t60_fundamental_s(f0_hz: float) -> float:
     return 2.0 ** (_T60_C[0] + _T60_C[1] * x + _T60_C[2] * x * x)
 
 
+def prompt_ratio(midi: int) -> float:
+    """Aftersound T60 / prompt T60 of the key's unison: ``PROMPT_RATIO`` by
+    its strings, easing from 4 to 3 over the top octave of trichords (C7 to
+    C8), whose prompt sound is most of what is heard of them."""
+    m = _check_midi(midi)
+    r = PROMPT_RATIO[n_strings_for(m)]
+    if n_strings_for(m) == 3 and m > 96:
+        r -= (r - 3.0) * (m - 96) / (MIDI_HIGH - 96)
+    return r
+
+
 def _unison_detune(m: int, n: int) -> tuple:
     f0 = et_f0_hz(m)
     s = min(UNISON_SPREAD_CENTS, 1200.0 / math.log(2.0) * UNISON_SPREAD_HZ / f0)
@@ -440,7 +454,7 @@ def _build_string(m: int) -> GrandString:
         youngs_modulus_pa=STEEL_YOUNGS_MODULUS_PA, strike_position=strike_position_for(m),
         has_damper=m <= DAMPER_LAST_MIDI, has_capo=m >= CAPO_FIRST_MIDI,
         unison_detune_cents=_unison_detune(m, n), t60_low_s=t60_low, t60_high_s=t60_low,
-        f_high_hz=f_high, t60_prompt_s=t60_low / PROMPT_RATIO[n])
+        f_high_hz=f_high, t60_prompt_s=t60_low / prompt_ratio(m))
     return replace(proto, t60_high_s=proto.t60_s(f_high))
 
 
@@ -499,18 +513,63 @@ class FourParamHammer(NamedTuple):
     tau0_s: float          #: relaxation time (s)
 
 
-def hammer_three_param(midi: int) -> ThreeParamHammer:
+class HammerVoicing(NamedTuple):
+    """Constants of the three-parameter felt laws (the thesis's forms,
+    eqs. 1.6-1.8): Q0 = q_a exp(q_b n) N/mm^p, p = p_c + p_d n, alpha =
+    alpha_scale exp(alpha_tilt (n - 44)) (259.5 + 0.58 n + 6.6e-2 n^2 -
+    1.25e-3 n^3 + 1.172e-5 n^4) microseconds, n = midi - 20."""
+
+    q_a: float
+    q_b: float
+    p_c: float
+    p_d: float
+    alpha_scale: float
+    alpha_tilt: float
+
+
+#: the felt laws as the thesis prints them (its Abel hammer set, unvoiced)
+THESIS_VOICING = HammerVoicing(183.0, 0.045, 3.7, 0.015, 1.0, 0.0)
+
+#: the same laws voiced for a concert grand (the grand preset's default,
+#: ``action.voicing = "concert"``): a technician voices a set softer in the
+#: bass and harder in the treble than it leaves the factory.  The static
+#: force at 0.3 mm of compression is x0.25 the thesis's at A0, x1.18 at C4
+#: (7.4 N: Chaigne & Askenfelt 1994's C4 felt, K = 4.5e9 N/m^2.5, gives
+#: 7.0 N) and x8 at C8; the exponent rises from 3.7 to 4.3 (thesis 3.7 to
+#: 5.0; Chaigne & Askenfelt's 2.3, 2.5, 3.0 at C2, C4, C7 and Hall &
+#: Askenfelt 1988's 2.2-3.5 rise the same way, less steeply); the
+#: hereditary time is x0.3 at A0, x0.85 at C4, x3 at C8 (it keeps a treble
+#: hammer firm at small compression, so the top keys speak at pp).  Q0, p
+#: and alpha were fitted on the rendered grand (the hammer study of issue
+#: 11: C4's 35 dB from velocity 1 to 127, its partials 2-8 within 25 dB at
+#: velocity 80, the top octave alive at pp), within those measured orders;
+#: with the preset's hammer speeds 0.2-7.5 m/s (Askenfelt & Jansson 1991: ~1
+#: (p) to 5-7 m/s (ff); 0.2 m/s about the slowest hammer that reaches the
+#: string after let-off).  The masses stay the thesis's (eq. 1.9): their
+#: share per string, 4.96 / 2.76 / 2.01 g at C2 / C4 / C7, is Chaigne &
+#: Askenfelt's 4.9 / 2.97 / 2.2 g.
+CONCERT_VOICING = HammerVoicing(44.0, 0.0750, 3.7, 0.0069, 0.95, 0.0265)
+
+#: the voicings a preset may name (``action.voicing``)
+VOICINGS = {"thesis": THESIS_VOICING, "concert": CONCERT_VOICING}
+
+
+def hammer_three_param(midi: int, voicing: HammerVoicing = THESIS_VOICING) -> ThreeParamHammer:
     """Three-parameter hereditary hammer of the key (thesis eqs. 1.6-1.8).
 
     Q0 = 183 exp(0.045 n) N/mm^p, p = 3.7 + 0.015 n, alpha = 259.5 + 0.58 n
     + 6.6e-2 n^2 - 1.25e-3 n^3 + 1.172e-5 n^4 microseconds (the thesis prints
     "ms"; n = 85 gives 0.630 ms while its A7 study uses 0.5312 ms), with the
-    thesis key n = midi - 20.  Returns (Q0 in N/mm^p, p, alpha in s).
+    thesis key n = midi - 20; another ``voicing`` (:class:`HammerVoicing`,
+    e.g. :data:`CONCERT_VOICING`) changes the constants of the same laws.
+    Returns (Q0 in N/mm^p, p, alpha in s).
     """
     n = thesis_key(midi)
-    q0 = 183.0 * math.exp(0.045 * n)
-    p = 3.7 + 0.015 * n
+    v = voicing
+    q0 = v.q_a * math.exp(v.q_b * n)
+    p = v.p_c + v.p_d * n
     alpha_us = 259.5 + 0.58 * n + 6.6e-2 * n ** 2 - 1.25e-3 * n ** 3 + 1.172e-5 * n ** 4
+    alpha_us *= v.alpha_scale * math.exp(v.alpha_tilt * (n - 44))
     return ThreeParamHammer(q0, p, alpha_us * 1e-6)
 
 

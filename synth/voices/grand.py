@@ -18,8 +18,10 @@ d'astro bar (thesis section 1.3.2) near x = 0; the others start at an
 agraffe (ideal end).
 
 Every string is struck by its share of the key's hammer (the thesis's
-per-key felt laws, mass divided by the number of strings), at the key's
-strike position, with the hammer speed given by the velocity curve
+per-key felt laws, their constants voiced by ``action.voicing``,
+:data:`synth.physics.piano.VOICINGS`; mass divided by the number of
+strings struck), at the key's strike distance from the agraffe or bar,
+with the hammer speed given by the velocity curve
 ``speed_min + (speed_max - speed_min) v^e``, v = (velocity - 1/127) /
 (1 - 1/127), e = ``play.velocity_exponent``.
 
@@ -109,6 +111,7 @@ class GrandStringSetup:
     sub: int = 1                            # steps per engine sample (a finer grid)
     slot: SlotTemplate | None = None        # the bank configuration, validated once
     hammer: HammerTemplate | None = None    # its hammer (speed and soft pedal per strike)
+    hammer_soft: HammerTemplate | None = None  # with the una corda: its share of one string fewer
     damper: tuple | None = None             # its damper row (StringBank.set_damper)
 
 
@@ -257,7 +260,10 @@ class GrandPianoInstrument(Voice):
             loop = key_loop if fj == f1 else retune_sos_loop(
                 key_loop, fj, t_lo, fj, t_hi, max(gs.f_high_hz, 1.5 * fj))
             cells = loop.cells
-            k = min(max(int(round(gs.strike_position * cells)), 1), cells - 2)
+            # the strike point at its distance from the agraffe or bar (the
+            # loop filter takes its delay out of the cells, so l/L x cells
+            # would strike nearer the end: at 0.35 l on F7)
+            k = min(max(int(round(gs.strike_distance_m / dx)), 1), cells - 2)
             U = None
             if gs.has_capo and sp.capo_region_m > 0:
                 R = max(1, int(round(sp.capo_region_m / dx)))
@@ -279,12 +285,14 @@ class GrandPianoInstrument(Voice):
                                  bend_glide_s=StringBank.BEND_GLIDE_S,
                                  pan=self.pan(key), sub=su.sub)
             hp = self._hammer(key, len(out), su)
+            hps = self._hammer(key, max(len(out) - 1, 1), su)
             # the damper's felt: T60 from the damped value (release_t60_s, at
             # most the free one) to the free one as the pedal lifts it; keys
             # without dampers ring on (damped = free)
             t_nat = t_own * sp.t60_scale
             t_damped = min(self.release_t60_s(key), t_nat) if gs.has_damper else t_nat
             full.append(replace(su, slot=slot, hammer=hammer_template(dt_s=su.dt_s, **hp),
+                                hammer_soft=hammer_template(dt_s=su.dt_s, **hps),
                                 damper=(su.b0, su.f1_hz, t_damped, t_nat)))
         self._keys[key] = tuple(full)
         return self._keys[key]
@@ -317,7 +325,7 @@ class GrandPianoInstrument(Voice):
         a = self.preset.action
         mass = P.hammer_mass_kg(key, n_strings)
         if a.law == "three-parameter":
-            q0, p, alpha = P.hammer_three_param(key)
+            q0, p, alpha = P.hammer_three_param(key, P.VOICINGS[a.voicing or "thesis"])
             return dict(law=K.EXC_HAMMER3, mass_kg=mass, stiffness=q0, exponent=p, alpha_or_gamma=alpha,
                         tau0_s=0.0, tension_n=su.tension_n, c_m_per_s=su.c_m_per_s,
                         max_flight_s=0.05)
@@ -354,7 +362,9 @@ class GrandPianoInstrument(Voice):
         speeds = P.UNISON_STRIKE[n]
         for j, (slot, su) in enumerate(zip(slots, sus)):
             if j < struck:
-                bank.start_hammer_from(slot, su.hammer, V * speeds[j], stiff)
+                # una corda: the whole hammer on one string fewer
+                h = su.hammer if struck == n else su.hammer_soft
+                bank.start_hammer_from(slot, h, V * speeds[j], stiff)
             # every string sounds: an unstruck one (una corda) through the bridge
             if R_b is not None or j < struck:
                 bank.activate(slot)

@@ -101,6 +101,7 @@ class ActionSpec:
     speed_min_m_per_s: float
     speed_max_m_per_s: float
     soft_stiffness: float
+    voicing: str = "thesis"      # constants of the three-parameter laws (synth.physics.piano.VOICINGS)
 
 
 @dataclass(frozen=True)

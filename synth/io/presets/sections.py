@@ -178,6 +178,9 @@ SECTIONS: tuple[Section, ...] = (
         Field("speed_max_m_per_s", "float", "hammer speed at velocity 127, m/s", 0.1, 15.0),
         Field("soft_stiffness", "float", "felt stiffness factor with the soft pedal fully down "
               "(the hammer meets the strings with a softer part of the felt)", 0.1, 1.0),
+        Field("voicing", "str", "constants of the three-parameter felt laws: the thesis's, or "
+              "voiced for a concert grand (synth.physics.piano.VOICINGS)",
+              choices=("thesis", "concert")),
     ), when=When("voice", ("grand",)), checks=(
         OrderCheck("speed_min_m_per_s", "<", "speed_max_m_per_s"),)),
     Section("strings", "per-key piano strings (scale factors on synth.physics.piano)", StringsSpec, (
