@@ -57,14 +57,19 @@ def test_live_path_equals_offline_render(name):
         duration_s=len(live) / 48000, block=1000, compensate_latency=False)
     assert rt.stats.late_events == 0 and rt.stats.errors == 0
     # the same samples: equal to the float32 output's last place (the
-    # soundboard kernel runs 4 samples per pass, so the float64 sums depend
-    # on block boundaries at 1e-14; once in a while a float32 rounding flips)
+    # soundboard kernel runs 4 samples per pass and the sympathetic strings
+    # render in block-long chunks, so the float64 sums depend on block
+    # boundaries at 1e-13 absolute; once in a while a float32 rounding flips,
+    # and next to a zero crossing float32's last place is finer than that)
     if offline.ndim == 2:
         # a stereo engine into a one-channel device: the mean of left and right
         offline = 0.5 * (offline[:, 0] + offline[:, 1])
     ref = offline[: len(live)].astype(np.float32)
-    assert np.all(np.abs(live - ref) <= np.spacing(np.abs(ref)))
-    assert np.count_nonzero(live != ref) <= len(live) // 10000
+    # (one float32 step at the larger magnitude: at a power of two the two
+    # sides' steps differ by 2x; at least 1e-12, -240 dBFS)
+    tol = np.maximum(np.spacing(np.maximum(np.abs(ref), np.abs(live))), 1e-12)
+    assert np.all(np.abs(live - ref) <= tol)
+    assert np.count_nonzero(np.abs(live - ref) > 1e-12) <= len(live) // 5000     # rare flips
 
 
 def _max_jump(y):

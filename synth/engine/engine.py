@@ -22,6 +22,7 @@ from ..dsp.bank import StringBank
 from ..dsp.body import Body
 from ..dsp.decimator import Decimator
 from ..kernels import strings as K
+from ..physics.soundboard import knock_pulse
 from .sympathetic import Sympathetic
 
 NOTE_ON = "note_on"
@@ -156,6 +157,11 @@ class Engine:
                                                        self.MAX_BLOCK_OUT, self.silence_level)
         self._sym_dirty = True
         self._sym_events: list = []          # (output sample, lift, muted) within this block
+        #: the action's knocks: a unit pulse (its shape), and the force still
+        #: to add to the buses (output samples from the block's start)
+        self._knock_unit = knock_pulse(self.fs_out, 1.0)
+        self._knock = np.zeros((self.n_dec, self.MAX_BLOCK_OUT + len(self._knock_unit)))
+        self._knocking = False
         self.time_out = 0                    # output samples rendered so far
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
@@ -283,6 +289,7 @@ class Engine:
                 self.by_key[vk] = v
                 if self.bend.get(ev.channel):
                     self.inst.pitch_bend(self.bank, slots, key, ev.f0_hz, self.bend[ev.channel])
+            self._add_knock(key, ev, at)
             for s in self._slots(v):
                 self.bank.reset_quiet(s)
             if self.telemetry:
@@ -332,6 +339,26 @@ class Engine:
             elif cc == CC_ALL_SOUND_OFF:
                 for v in list(self.voices):
                     self._free(v)
+
+    def _add_knock(self, key, ev: Event, at: int) -> None:
+        """The action's knock of a note-on at internal sample ``at``: its
+        force pulse (N, times the output gain of the voice's strings) into
+        the knock buffer at the event's output sample, split along the
+        bridge by the key's place."""
+        J = self.inst.knock_impulse_ns(key, ev.value, ev.speed_m_per_s)
+        if J <= 0.0:
+            return
+        j = at * self.fs_out // self.fs_in - self.time_out
+        j = min(max(int(j), 0), self.MAX_BLOCK_OUT - 1)
+        g = J * self.inst.preset.output.gain
+        p = self.inst.pan(int(round(key)))
+        u = self._knock_unit
+        if self.n_dec == 2:
+            self._knock[0, j:j + len(u)] += (1.0 - p) * g * u
+            self._knock[1, j:j + len(u)] += p * g * u
+        else:
+            self._knock[0, j:j + len(u)] += g * u
+        self._knocking = True
 
     def _track(self, v: int, key) -> None:
         """Count the contacts of voice v's strings from now on (and stop
@@ -407,39 +434,22 @@ class Engine:
             self._probe.append(bank.probe[:, :, :n_in].copy())
         if self.n_dec < self.buses:
             mix[0] += mix[1]                  # a mono body: the bridge's two ends summed
-        if self.sym is not None:
+        if self.sym is not None or self._knocking:
             d = self._dout[:, :n_out]
             for c in range(self.n_dec):
                 self.decs[c].process(mix[c], d[c])
-            # the strings that ring along, driven by the played strings' force
-            # (their dampers and mutes changed at the events' output samples)
-            sym = self.sym
-            c0 = 0
-            for j, lift, muted in self._sym_events:
-                sym.process(d, c0, j - c0)
-                sym.set_dampers(lift, muted)
-                c0 = j
-            self._sym_events.clear()
-            if self._sym_dirty:                 # a voice freed since: from the next block
-                sym.set_dampers(*self._sympathetic_state())
-                self._sym_dirty = False
-            sym.process(d, c0, n_out - c0)
-            if bank.n_active == 0:
-                sym.reap(n_out)
-            y = (self._out if out is None else out)
-            if self.channels == 1:
-                y = y[0] if y.ndim == 2 else y
-                if self.body is not None:
-                    self.body.process(d[0], out=y[:n_out])
-                else:
-                    y[:n_out] = d[0]
-                y = y[:n_out]
-            else:
-                y = y[:, :n_out]
-                if self.body is not None:
-                    self.body.process(d, out=y)
-                else:
-                    y[:] = d
+            if self._knocking:
+                # the knocks' force joins the bridge (it drives the board,
+                # and the sympathetic strings hear it)
+                kb = self._knock
+                d += kb[:, :n_out]
+                L = len(self._knock_unit)
+                kb[:, :L] = kb[:, n_out:n_out + L]
+                kb[:, L:] = 0.0
+                self._knocking = bool(kb[:, :L].any())
+            if self.sym is not None:
+                self._sympathetic_block(d, n_out)
+            y = self._finish(d, n_out, out)
         elif self.channels == 1:
             y = self.dec.process(mix[0], self._out[0] if out is None else out)
             if self.body is not None:
@@ -456,6 +466,42 @@ class Engine:
                 self.body.process(d, out=y)
         self._reap(n_in)
         self.time_out += n_out
+        return y
+
+    def _sympathetic_block(self, d: np.ndarray, n_out: int) -> None:
+        """The strings that ring along, driven by the played strings' force
+        in ``d`` (the decimated buses), added to it; their dampers and mutes
+        change at the events' output samples."""
+        sym = self.sym
+        c0 = 0
+        for j, lift, muted in self._sym_events:
+            sym.process(d, c0, j - c0)
+            sym.set_dampers(lift, muted)
+            c0 = j
+        self._sym_events.clear()
+        if self._sym_dirty:                 # a voice freed since: from here on
+            sym.set_dampers(*self._sympathetic_state())
+            self._sym_dirty = False
+        sym.process(d, c0, n_out - c0)
+        if self.bank.n_active == 0:
+            sym.reap(n_out)
+
+    def _finish(self, d: np.ndarray, n_out: int, out) -> np.ndarray:
+        """The output block from the decimated buses ``d``: through the body,
+        or as they are; shape (n_out,) or (channels, n_out)."""
+        y = self._out if out is None else out
+        if self.channels == 1:
+            y = (y[0] if y.ndim == 2 else y)[:n_out]
+            if self.body is not None:
+                self.body.process(d[0], out=y)
+            else:
+                y[:] = d[0]
+            return y
+        y = y[:, :n_out]
+        if self.body is not None:
+            self.body.process(d, out=y)
+        else:
+            y[:] = d
         return y
 
     def _sympathetic_state(self):

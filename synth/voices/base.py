@@ -207,6 +207,20 @@ class Voice:
         bank (the first stage of an injected strike), or None."""
         return None
 
+    def knock_impulse_ns(self, key: float | None, velocity: float,
+                         speed_m_per_s: float | None = None) -> float:
+        """The impulse (N s) of the action's knock on the board at a note-on
+        (the key hitting the keybed, the thump under a struck note): the
+        engine adds it to the bridge buses as a short force pulse
+        (:func:`synth.physics.soundboard.knock_pulse`) at the note's sample,
+        on the key's place along the bridge.  Default 0: no knock."""
+        return 0.0
+
+    def pan(self, key: int) -> float:
+        """Where the key meets the bridge, 0 (bus 0) .. 1 (bus 1): the
+        split of its knock.  Default: the middle."""
+        return 0.5
+
     def sympathetic(self, fs_out: float) -> SympatheticDesign | None:
         """The strings that ring along through the bridge, designed at the
         engine's output rate ``fs_out`` (Hz), or None (the default: none).

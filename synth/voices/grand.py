@@ -6,7 +6,7 @@ Each key (MIDI 21-108) is one, two or three strings
 (:mod:`synth.physics.piano`), each a waveguide string on the engine's grid
 with, at x = L, a loop filter from the key's two T60 values, a cascade of
 second-order allpasses for the string's stiffness (inharmonic partials
-f_n = n f0 sqrt(1 + B n^2): partials up to 40, or up to 10 kHz, within 2
+f_n = n f0 sqrt(1 + B n^2): partials up to 40, or up to 10 kHz, within 1.5
 cents, :func:`synth.physics.dispersion.tune_stiff_loop_sos`, designed for
 the key and retuned for each string of its unison; a first-order cascade of
 at most ``strings.dispersion_sections`` where no second-order one meets
@@ -76,7 +76,7 @@ from ..kernels import strings as K
 from ..physics import piano as P
 from ..physics.dispersion import retune_sos_loop, tune_stiff_loop_sos
 from ..physics.profiles import Termination, capo
-from ..physics.soundboard import BodyDesign
+from ..physics.soundboard import BodyDesign, knock_impulse_ns
 from ..physics.dispersion import tune_stiff_loop
 from .base import BankSizes, SympatheticDesign, Voice
 from .registry import register_voice
@@ -88,6 +88,10 @@ _DESIGNS: dict = {}
 #: note, it only keeps the dashpot from drifting (at 5 Hz its reactance
 #: flattened A0's single string by 1.2 cents; at 1 Hz by 0.2)
 BRIDGE_RETURN_HZ = 1.0
+#: each string's partials within this of the stiff-string law (cents): 1.5
+#: leaves half a cent for the unison's spread, so the note's partials stay
+#: within 2 cents (the design's cost: 1.6 % more sections than at 2 cents)
+DISPERSION_TOL_CENTS = 1.5
 
 
 @dataclass(frozen=True)
@@ -254,6 +258,7 @@ class GrandPianoInstrument(Voice):
         # 40 (or 10 kHz) within 2 cents of the stiff-string law, designed once
         # for the key and retuned for each string of its unison
         key_loop = tune_stiff_loop_sos(f1, B, fs, t_lo, f1, t_hi, max(gs.f_high_hz, 1.5 * f1),
+                                       tol_cents=DISPERSION_TOL_CENTS,
                                        m_max=sp.dispersion_sections)
         for j, det in enumerate(gs.unison_detune_cents):
             fj = f1 * 2.0 ** (det * sp.detune_scale / 1200.0)
@@ -301,6 +306,19 @@ class GrandPianoInstrument(Voice):
         """Where the key's strings meet the bridge, 0 (the bass end, bus 0)
         .. 1 (the treble end, bus 1): linear in the key."""
         return (int(key) - self.KEY_LOW) / (self.KEY_HIGH - self.KEY_LOW)
+
+    def knock_impulse_ns(self, key, velocity: float, speed_m_per_s: float | None = None) -> float:
+        """The action's knock at a note-on (:func:`synth.physics.soundboard.
+        knock_impulse_ns`: ``action.knock`` of the whole hammer's momentum
+        at its speed; 0 for a key off the keyboard)."""
+        if key is None or not (self.KEY_LOW <= int(round(key)) <= self.KEY_HIGH):
+            return 0.0
+        ratio = self.preset.action.knock or 0.0
+        if ratio <= 0.0:
+            return 0.0
+        k = int(round(key))
+        V = self.hammer_speed(velocity) if speed_m_per_s is None else float(speed_m_per_s)
+        return knock_impulse_ns(P.hammer_mass_kg(k, 1), V, ratio)
 
     def bridge_resistance_ns_per_m(self, key: int) -> float | None:
         """The resistance (N s/m) of the bridge the key's strings hang on

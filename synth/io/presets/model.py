@@ -102,6 +102,7 @@ class ActionSpec:
     speed_max_m_per_s: float
     soft_stiffness: float
     voicing: str = "thesis"      # constants of the three-parameter laws (synth.physics.piano.VOICINGS)
+    knock: float | None = None   # the knock's impulse re the hammer's momentum (0: none)
 
 
 @dataclass(frozen=True)

@@ -181,6 +181,8 @@ SECTIONS: tuple[Section, ...] = (
         Field("voicing", "str", "constants of the three-parameter felt laws: the thesis's, or "
               "voiced for a concert grand (synth.physics.piano.VOICINGS)",
               choices=("thesis", "concert")),
+        Field("knock", "float", "impulse of the action's knock on the board (the key on the "
+              "keybed: the thump under a note) re the hammer's momentum (0: none)", 0.0, 1.0),
     ), when=When("voice", ("grand",)), checks=(
         OrderCheck("speed_min_m_per_s", "<", "speed_max_m_per_s"),)),
     Section("strings", "per-key piano strings (scale factors on synth.physics.piano)", StringsSpec, (
