@@ -82,3 +82,20 @@ def test_bad_arguments_are_one_line_errors():
         click_scan(_sine(100.0), FS, context_frames=0)
     with pytest.raises(ValueError, match="at least 2640 required"):
         click_scan(np.zeros(100), FS)
+
+
+def test_ignored_times_are_not_judged():
+    """A step inside the window after an ignored time (a note's attack) is
+    not judged; the same step elsewhere still is."""
+    A, a, f = 0.5, 0.01, 100.0
+    x = _sine(f, A)
+    i = int(0.3001 * FS)
+    x[i:] += a
+    hit = click_scan(x, FS)["worst_jump_db"]
+    r = click_scan(x, FS, ignore_s=[0.2995], ignore_window_s=0.01)
+    assert r["worst_jump_db"] < hit - 20
+    assert not r["judged"][int(0.3001 * FS) // 240]
+    r2 = click_scan(x, FS, ignore_s=[0.5], ignore_window_s=0.01)
+    assert r2["worst_jump_db"] == pytest.approx(hit)
+    with pytest.raises(ValueError, match="ignore_s must hold finite times"):
+        click_scan(x, FS, ignore_s=[np.nan])

@@ -21,7 +21,8 @@ scores:
   alternating jump), but not a low step, and a high note's own partials
   above 14 kHz read like a click (a lone C8 reaches -12 dB).
 
-Frames more than ``floor_db`` below the loudest frame are not judged.
+Frames more than ``floor_db`` below the loudest frame are not judged, nor
+those of ``ignore_s`` (e.g. the notes' onsets).
 """
 
 from __future__ import annotations
@@ -33,7 +34,8 @@ from .spectrum import _int, _positive, _real, _signal
 __all__ = ["click_scan"]
 
 
-def click_scan(x, fs, frame_s=0.005, context_frames=5, floor_db=-50.0, highband_hz=14000.0):
+def click_scan(x, fs, frame_s=0.005, context_frames=5, floor_db=-50.0, highband_hz=14000.0,
+               ignore_s=(), ignore_window_s=0.01):
     """Scan ``x`` for clicks, frame by frame.
 
     Parameters
@@ -52,6 +54,13 @@ def click_scan(x, fs, frame_s=0.005, context_frames=5, floor_db=-50.0, highband_
         are not judged (dB, -200 .. 0); default -50.
     highband_hz : float
         Lower edge of the high band (Hz), 0 < highband_hz < fs/2.
+    ignore_s : array_like
+        Times (s) whose frames are not judged: the frames overlapping
+        [t, t + ``ignore_window_s``] for each t (a note's attack: a
+        hammer's first millisecond moves the output as sharply as a click,
+        and is meant to).
+    ignore_window_s : float
+        Length (s, >= 0) after each ignored time; default 10 ms.
 
     Returns
     -------
@@ -98,6 +107,18 @@ def click_scan(x, fs, frame_s=0.005, context_frames=5, floor_db=-50.0, highband_
         level = np.where(rms > 0, 20.0 * np.log10(rms / top), -np.inf) if top > 0 else \
             np.full(frames, -np.inf)
         judged = level >= floor_db
+        ign = np.asarray(ignore_s, dtype=float).ravel()
+        if ign.size:
+            if not np.all(np.isfinite(ign)):
+                raise ValueError("ignore_s must hold finite times (s)")
+            w = _real("ignore_window_s", ignore_window_s, 0.0, 10.0)
+            a = np.floor(ign * fs / n).astype(np.int64)
+            b = np.floor((ign + w) * fs / n).astype(np.int64)
+            mask = np.zeros(frames + 1, dtype=np.int64)
+            a, b = np.clip(a, 0, frames), np.clip(b + 1, 0, frames)
+            np.add.at(mask, a, 1)
+            np.add.at(mask, b, -1)
+            judged &= np.cumsum(mask)[:frames] == 0
         jump = np.where(judged & (peak > 0),
                         20.0 * np.log10(peak / np.sqrt(np.maximum(ctx, 1e-300))), -np.inf)
         hb = np.where(judged & (tot > 0), 10.0 * np.log10(np.maximum(high, 1e-300) / tot), -np.inf)

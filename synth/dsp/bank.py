@@ -589,17 +589,31 @@ class StringBank:
         self.fst[lead, K.S_UB0] = 0.0
         self.fst[lead, K.S_UBM] = 0.0
 
-    def set_external_bridge(self, s: int) -> None:
+    def set_external_bridge(self, s: int, ease_s: float = 0.02) -> None:
         """Hang slot s (lossy, bridge-force output, no bend line, the
         engine's grid) on an external bridge whose displacement comes to
         :meth:`render` as ``ubx``: a string driven by the rest of the
-        instrument (a sympathetic string)."""
+        instrument (a sympathetic string).  A string that joins the bridge
+        while it is displaced (:meth:`join_bridge`) eases onto it with the
+        time constant ``ease_s`` (s, > 0) instead of stepping there."""
         ip = self.ipar[s]
         if ip[K.I_FILT] != 1 or ip[K.I_OUT] != 1 or ip[K.I_BLEN] != 0 or ip[K.I_SUB] != 1:
             raise ValueError(f"slot {s} cannot hang on an external bridge (it needs a lossy far "
                              f"end, the bridge-force output, no pitch-bend line, sub = 1)")
+        if not (ease_s > 0.0):
+            raise ValueError(f"ease_s = {ease_s!r} is out of range (value > 0)")
         ip[K.I_CPL] = K.CPL_EXTERNAL
         ip[K.I_CPLN] = 0
+        self.fpar[s, K.F_UBOD] = math.exp(-float(self.fpar[s, K.F_DT]) / ease_s)
+
+    def join_bridge(self, s: int, displacement_m: float) -> None:
+        """Slot s (on an external bridge, at rest) starts rendering while
+        the bridge is at ``displacement_m`` (m): its end starts there and
+        eases onto the bridge's motion (a string whose damper lifts was
+        hanging on it all along; without this it would see the bridge's
+        displacement as a step, a click)."""
+        self.fst[s, K.S_UBOFF] = float(displacement_m)
+        self.fst[s, K.S_UBP] = 0.0
 
     # -- contact telemetry (live play's --stats) -------------------------------
     TELEMETRY_GAP_S = 0.0002

@@ -101,6 +101,8 @@ class Sympathetic:
         for i in np.flatnonzero(~muted):
             self.bank.apply_dampers(self._idx[i:i + 1], float(lift[i]))
             if lift[i] > 0.0 and not self.bank.is_active(int(i)):
+                # it joins the bridge where the bridge is now, and eases on
+                self.bank.join_bridge(int(i), float(self.state[0]))
                 self.bank.activate(int(i))
 
     def _configure(self, i: int) -> None:

@@ -199,7 +199,8 @@ F_PAN = F_SOS + 2 * MAX_SOS   # share of the output on bus 1 (I_BUS = 1): (1 - p
 F_BRA = F_PAN + 1
 F_BRB = F_BRA + 1
 F_BTDX = F_BRB + 1
-F_NF = F_BTDX + 1
+F_UBOD = F_BTDX + 1   # external bridge: the offset S_UBOFF decays by this factor per sample
+F_NF = F_UBOD + 1
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -235,7 +236,8 @@ S_SOS = S_HF_PK + 1
 S_UB0 = S_SOS + 4 * MAX_SOS   # coupled group (leader): bridge displacement at the next sample (m)
 S_UBM = S_UB0 + 1             # and at the sample before it
 S_UBP = S_UBM + 1             # a string on a bridge: the bridge displacement of its last sample
-S_NS = S_UBP + 1
+S_UBOFF = S_UBP + 1           # a string on an external bridge: the offset its end eases off
+S_NS = S_UBOFF + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -732,8 +734,13 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
             ubn = 0.0
             if cpl != CPL_NONE:
                 # the end moves with the bridge: the wave leaving it is the
-                # loop filter's minus the bridge's displacement
+                # loop filter's minus the bridge's displacement (an external
+                # bridge's less the offset the string eases off since it
+                # joined it)
                 ubn = ubx[uo + i]
+                if cpl == CPL_EXTERNAL:
+                    ubn -= st[S_UBOFF]
+                    st[S_UBOFF] *= fp[F_UBOD]
                 y -= ubn
                 ring[off + jn] = y
         else:
@@ -1600,10 +1607,20 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, ob, ubx, o0):
         ubw[0] = fst[s, S_UBP]
         ub = ubx[o0:o0 + C]
         un = ubw[1:1 + C]
+        eo = fst[s, S_UBOFF]
+        if eo != 0.0:
+            # the offset the string eases off since it joined the bridge
+            dk = fpar[s, F_UBOD]
+            for i in range(C):
+                un[i] = ub[i] - eo
+                eo *= dk
+            fst[s, S_UBOFF] = eo if abs(eo) > 1e-30 else 0.0
+        else:
+            for i in range(C):
+                un[i] = ub[i]
         for i in range(C):
-            yo[i] -= ub[i]
-            un[i] = ub[i]
-        fst[s, S_UBP] = ub[C - 1]
+            yo[i] -= un[i]
+        fst[s, S_UBP] = un[C - 1]
         return _far_write(s, ring, ipar, fpar, C, yb, ob, ubw, True)
     return _far_write(s, ring, ipar, fpar, C, yb, ob, hb, False)
 
