@@ -414,9 +414,9 @@ class StringBank:
         t60_free_s) (see :meth:`apply_dampers`)."""
         self.damper[s, :] = row
 
-    def apply_dampers(self, slots, lift: float) -> None:
+    def apply_dampers(self, slots, lift) -> None:
         """Set the loss of ``slots`` for dampers lifted by ``lift`` (0: on
-        the strings .. 1: off), all at once: the T60 moves geometrically
+        the strings .. 1: off; one value, or one per slot), all at once: the T60 moves geometrically
         from the damped to the free value with the lift, and the extra
         decay rate sigma = ln(1000)/T60 - ln(1000)/T60_free (1/s, >= 0) scales the
         loop gain, b0 = b0_undamped exp(-sigma / f1) (a pure gain: the
@@ -424,7 +424,11 @@ class StringBank:
         d = self.damper[slots]
         td = d[:, 2]
         tf = d[:, 3]
-        if lift <= 0.0:
+        if np.ndim(lift) == 1:
+            # one lift per slot
+            lf = np.clip(np.asarray(lift, dtype=float), 0.0, 1.0)
+            t = np.exp((1.0 - lf) * np.log(td) + lf * np.log(tf))
+        elif lift <= 0.0:
             t = td
         elif lift >= 1.0:
             t = tf

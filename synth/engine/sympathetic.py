@@ -77,7 +77,7 @@ class Sympathetic:
         self.ub = np.zeros(max_block)
         self.mix = np.zeros((max(self.buses, 1), max_block))
         self.level = float(silence_level)
-        self.lift = np.zeros(self.n)           # each string's damper lift now
+        self.lift = np.full(self.n, -1.0)      # each string's damper lift now (-1: not set yet)
         self.muted = np.zeros(self.n, dtype=bool)
         self._idx = np.arange(self.n, dtype=np.int64)
 
@@ -85,22 +85,26 @@ class Sympathetic:
     def set_dampers(self, lift: np.ndarray, muted: np.ndarray) -> None:
         """Every string's damper lift (0 .. 1) and whether its key sounds as
         a played note (muted: its string fades out and stays silent); a
-        free string (lifted, not muted) starts rendering now."""
+        free string (lifted, not muted) starts rendering now.  Only the
+        strings whose state changed are touched (array operations: a chord's
+        note-ons each call this in the audio thread)."""
         lift = np.where(self._has_damper, lift, 1.0)
         new_mute = muted & ~self.muted
-        for i in np.flatnonzero(new_mute):
-            if self.bank.is_active(int(i)):
-                self.bank.fade(int(i), 0.02, self.fs)
+        for i in np.flatnonzero(new_mute & self.bank._is_active[:self.n]):
+            self.bank.fade(int(i), 0.02, self.fs)
         back = ~muted & self.muted
         for i in np.flatnonzero(back):
             # the played note has gone: the string starts again from rest
             self.bank.deactivate(int(i))
             self._configure(int(i))
+        changed = (~muted) & ((lift != self.lift) | back)
         self.muted = muted.copy()
         self.lift = lift
-        for i in np.flatnonzero(~muted):
-            self.bank.apply_dampers(self._idx[i:i + 1], float(lift[i]))
-            if lift[i] > 0.0 and not self.bank.is_active(int(i)):
+        idx = np.flatnonzero(changed)
+        if idx.size:
+            self.bank.apply_dampers(idx, lift[idx])
+            start = idx[(lift[idx] > 0.0) & ~self.bank._is_active[idx]]
+            for i in start:
                 # it joins the bridge where the bridge is now, and eases on
                 self.bank.join_bridge(int(i), float(self.state[0]))
                 self.bank.activate(int(i))

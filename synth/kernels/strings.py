@@ -1545,10 +1545,11 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
 
 
 @njit(**JIT_OPTS)
-def _far_write(s, ring, ipar, fpar, C, yb, ob, ubw, has_ub):
+def _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, has_ub):
     """Step 4, second half: write the far end's outputs yb[1:C+1] back into
-    the ring and, for the bridge-force output (``I_OUT`` 1), the output into
-    ob[0:C].  Returns the chunk's peak output.
+    the ring and, for the bridge-force output (``I_OUT`` 1), add the output
+    to the mix's buses (mix[:, o0:o0+C], split by ``F_PAN`` as
+    :func:`_bus_add`), in the same pass.  Returns the chunk's peak output.
 
     The force on the bridge.  The loop filter (loss, dispersion, tuning)
     stands for the whole string but acts at x = L; read as sitting just
@@ -1572,29 +1573,51 @@ def _far_write(s, ring, ipar, fpar, C, yb, ob, ubw, has_ub):
     peak = 0.0
     if ipar[s, I_OUT] == 1:
         sc = fpar[s, F_GAIN] * fpar[s, F_TDX]
-        s2 = 2.0 * sc
+        two = ipar[s, I_BUS] == 1 and mix.shape[0] > 1
+        pan = fpar[s, F_PAN]
+        g0 = sc * (1.0 - pan) if two else sc
         yp = yb[0:C]
         yo = yb[1:1 + C]
-        mo = ob[0:C]
+        m0 = mix[0, o0:o0 + C]
         if has_ub:
             up = ubw[0:C]
             un = ubw[1:1 + C]
+            if two:
+                g1 = sc * pan
+                m1 = mix[1, o0:o0 + C]
+                for i in range(C):
+                    v = 2.0 * (yo[i] - yp[i]) + (un[i] - up[i])
+                    m0[i] += g0 * v
+                    m1[i] += g1 * v
+                    a = abs(v)
+                    peak = a if a > peak else peak
+            else:
+                for i in range(C):
+                    v = 2.0 * (yo[i] - yp[i]) + (un[i] - up[i])
+                    m0[i] += g0 * v
+                    a = abs(v)
+                    peak = a if a > peak else peak
+        elif two:
+            g1 = sc * pan
+            m1 = mix[1, o0:o0 + C]
             for i in range(C):
-                v = s2 * (yo[i] - yp[i]) + sc * (un[i] - up[i])
-                mo[i] = v
+                v = 2.0 * (yo[i] - yp[i])
+                m0[i] += g0 * v
+                m1[i] += g1 * v
                 a = abs(v)
                 peak = a if a > peak else peak
         else:
             for i in range(C):
-                v = s2 * (yo[i] - yp[i])
-                mo[i] = v
+                v = 2.0 * (yo[i] - yp[i])
+                m0[i] += g0 * v
                 a = abs(v)
                 peak = a if a > peak else peak
+        peak *= abs(sc)
     return peak
 
 
 @njit(**JIT_OPTS)
-def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, ob, ubx, o0):
+def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, mix, ubx, o0):
     """Step 4 of the fast path over a chunk (:func:`_far_filter`, then
     :func:`_far_write`); a string on an external bridge (``I_CPL`` =
     ``CPL_EXTERNAL``) has the bridge's displacement ubx[o0:o0+C] subtracted
@@ -1621,8 +1644,8 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, ob, ubx, o0):
         for i in range(C):
             yo[i] -= un[i]
         fst[s, S_UBP] = un[C - 1]
-        return _far_write(s, ring, ipar, fpar, C, yb, ob, ubw, True)
-    return _far_write(s, ring, ipar, fpar, C, yb, ob, hb, False)
+        return _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, True)
+    return _far_write(s, ring, ipar, fpar, C, yb, mix, o0, hb, False)
 
 
 @njit(**JIT_OPTS)
@@ -1722,12 +1745,11 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking, u
     _region_step(s, ring, ipar, U, C, w1, w2, w3)
     # ---- 4. far end, and the output ----------------------------------------
     peak = fst[s, S_PEAK]
-    out = False
     if ipar[s, I_FILT] == 1:
-        pk = _far_chunk(s, ring, ipar, fpar, fst, U, C, w1, w2, hb, w3, ubx, o0)
+        # (the bridge-force output goes to the mix in the far end's pass)
+        pk = _far_chunk(s, ring, ipar, fpar, fst, U, C, w1, w2, hb, mix, ubx, o0)
         peak = pk if pk > peak else peak
-        out = ipar[s, I_OUT] == 1
-    _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking, out, peak)
+    _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking, False, peak)
 
 
 @njit(**JIT_OPTS)
@@ -2096,7 +2118,7 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         peak = fst[s, S_PEAK]
         pk = _far_write(s, ring, ipar, fpar, C, cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1],
-                        w3, cw[2 * MAX_CPL * _CW:2 * MAX_CPL * _CW + C + 1], True)
+                        mix, o0, cw[2 * MAX_CPL * _CW:2 * MAX_CPL * _CW + C + 1], True)
         peak = pk if pk > peak else peak
         # this member's g row (for a displacement pickup while it plucks)
         r = -1
@@ -2105,8 +2127,7 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
                 r = q
         plucking = r >= 0
         gb = scratch[(r if r >= 0 else 0) * _GROW:(r if r >= 0 else 0) * _GROW + C]
-        _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gb, plucking,
-                   ipar[s, I_OUT] == 1, peak)
+        _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gb, plucking, False, peak)
 
 
 @njit(**JIT_OPTS)

@@ -48,11 +48,14 @@ three-string unison (una corda shift), which then sounds only through the
 bridge; the felt gets softer continuously (stiffness times 1 - (1 -
 soft_stiffness) * soft).
 
-The strings on the capo bar can run on a finer grid (``strings.capo_grid``
-steps per engine sample, the kernel's ``I_SUB``): at the engine's 325 kHz a
-grid cell is 1.3 mm, wider than the part of the string that lifts onto the
-bar in free vibration, so the bar acts only while the hammer presses the
-string; at 1.3 MHz (4) its contacts continue, as in the thesis's study.
+The strings on the capo bar from ``strings.capo_grid_from_key`` up run on a
+finer grid (``strings.capo_grid`` steps per engine sample, the kernel's
+``I_SUB``): at the engine's 325 kHz a grid cell is 1.3 mm, wider than the
+part of the string that lifts onto the bar in free vibration, so the bar
+acts only while the hammer presses the string; at 1.3 MHz (4) its contacts
+continue through the note, as in the thesis's study (tens of contacts in
+the first 50 ms), and the top keys' strike points no longer fall on the
+first one or two cells (a 6 dB step from B7 to C8 at 325 kHz).
 
 Output: each string writes the force on the bridge into two buses, split by
 the key's place along the bridge (bus 0 the bass end, bus 1 the treble
@@ -147,12 +150,19 @@ class GrandPianoInstrument(Voice):
     # -- sizes for the engine -----------------------------------------------------
     @property
     def capo_grid(self) -> int:
-        """Steps per engine sample of the strings on the capo bar."""
+        """Steps per engine sample of the strings on the finer grid."""
         return int(self.preset.strings.capo_grid or 1)
+
+    @property
+    def fine_grid_key(self) -> int:
+        """The first key whose capo-bar strings run on the finer grid."""
+        k = self.preset.strings.capo_grid_from_key
+        return int(k) if k is not None else P.CAPO_FIRST_MIDI
 
     def max_cells(self, key_low: int | None = None) -> int:
         low = int(self.fs / P.et_f0_hz(self.KEY_LOW, 400.0) / 2) + 4
-        capo = int(self.capo_grid * self.fs / P.et_f0_hz(P.CAPO_FIRST_MIDI, 400.0) / 2) + 4
+        capo = int(self.capo_grid * self.fs
+                   / P.et_f0_hz(max(P.CAPO_FIRST_MIDI, self.fine_grid_key), 400.0) / 2) + 4
         return max(low, capo)
 
     def max_region_points(self) -> int:
@@ -243,7 +253,7 @@ class GrandPianoInstrument(Voice):
         sp = pre.strings
         f1 = self.tuning_hz(key)
         B = gs.inharmonicity_b
-        M = self.capo_grid if gs.has_capo else 1
+        M = self.capo_grid if (gs.has_capo and key >= self.fine_grid_key) else 1
         fs = self.fs * M
         dt = 1.0 / fs
         dx = gs.c_m_per_s * dt

@@ -116,6 +116,7 @@ class StringsSpec:
     capo_radius_m: float
     capo_region_m: float
     capo_grid: int | None = None          # grand: steps per engine sample of the capo strings
+    capo_grid_from_key: int | None = None  # grand: the first key on that finer grid
     bridge_coupling: float | None = None  # grand: factor on the bridge's admittance (0: rigid)
     sympathetic: float | None = None      # grand: factor on the board's bridge the free strings see
 

@@ -198,6 +198,8 @@ SECTIONS: tuple[Section, ...] = (
         Field("capo_grid", "int", "steps per engine sample of the strings on the capo bar (a "
               "finer grid resolves the bar's contacts in free vibration; cost x this)", 1, 8,
               when=When("voice", ("grand",))),
+        Field("capo_grid_from_key", "int", "the first key whose capo-bar strings run on that "
+              "finer grid (MIDI; the bar starts at 73)", 21, 128, when=When("voice", ("grand",))),
         Field("bridge_coupling", "float", "factor on the bridge's admittance that couples a "
               "key's strings (1: the designed two-stage decay; 0: a rigid bridge)", 0.0, 4.0,
               when=When("voice", ("grand",))),
