@@ -67,3 +67,22 @@ def test_a_rendered_string_decays_as_its_loop_is_designed():
     g = abs(su.b0 / (1 + su.a1 * np.exp(-1j * w)))
     expected = -3.0 / (f0 * np.log10(g))
     assert t60_s(y[int(0.2 * FS):], FS, f_hz=f0, stop_db=-20.0) == pytest.approx(expected, rel=0.03)
+
+
+def test_two_stage_summary_reads_a_prompt_sound_and_an_aftersound():
+    """A tone of two components, one falling with T60 1 s from 0 dB, one
+    with T60 8 s from -25 dB: the knee near where they cross, the ratio near
+    8, visible; one component alone has no visible knee."""
+    from synth.analysis import two_stage_summary
+
+    fs = 8000
+    t = np.arange(int(6 * fs)) / fs
+    fast = np.sin(2 * np.pi * 200 * t) * 10 ** (-3 * t / 1.0)
+    slow = 10 ** (-25 / 20) * np.sin(2 * np.pi * 201 * t + 0.4) * 10 ** (-3 * t / 8.0)
+    r = two_stage_summary(fast + slow, fs)
+    assert r["visible"]
+    assert 5.0 < r["ratio"] < 14.0       # (the two components beat near the knee)
+    assert 0.25 < r["knee_s"] < 0.7
+    assert r["knee_drop_db"] > 15 and r["late_span_db"] > 10
+    one = two_stage_summary(fast, fs)
+    assert one["ratio"] == pytest.approx(1.0, abs=0.05) and not one["visible"]

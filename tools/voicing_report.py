@@ -50,7 +50,7 @@ from synth.analysis import (  # noqa: E402
     spectral_centroid_hz,
     t60_s,
     track_partials,
-    two_stage_decay,
+    two_stage_summary,
 )
 from synth.engine.engine import Event  # noqa: E402
 from synth.io.errors import SynthError  # noqa: E402
@@ -224,35 +224,16 @@ def tuning(y, key, f1_hz, seg_s=(0.05, 1.05)):
 
 def _two_stage(y, f_hz, hop):
     """The two-stage fit (to -50 dB) of the level of ``y`` (the whole note
-    for ``f_hz`` None, else its partial at ``f_hz``), with the knee's drop,
-    the aftersound's span, the late/early ratio and whether the knee is
-    visible."""
+    for ``f_hz`` None, else its partial at ``f_hz``):
+    :func:`synth.analysis.two_stage_summary` with the report's limits."""
     try:
-        d = two_stage_decay(y, FS, f_hz=f_hz, stop_db=-50.0, hop_s=hop)
+        d = two_stage_summary(y, FS, f_hz=f_hz, stop_db=-50.0, hop_s=hop,
+                              min_drop_db=KNEE_MIN_DROP_DB, min_late_db=KNEE_MIN_LATE_DB,
+                              min_ratio=LIM["late_early"])
     except ValueError:
-        d = {"t60_s": None, "t60_early_s": None, "t60_late_s": None, "knee_s": None}
-    out = dict(t60_two_line_s=d["t60_s"], t60_early_s=d["t60_early_s"],
-               t60_late_s=d["t60_late_s"], knee_s=d["knee_s"], knee_drop_db=None,
-               late_span_db=None, ratio=None, visible=False)
-    if d["knee_s"] is not None:
-        t, db = decay_curve_db(y, FS, f_hz=f_hz, hop_s=hop)
-        i0 = int(np.argmax(db))
-        top = db[i0]
-        t, db = t[i0:], db[i0:]
-        below = np.flatnonzero(db < top - 50.0)
-        end = int(below[0]) if below.size else len(db)
-        t, db = t[:end], db[:end]
-        k = int(np.argmin(np.abs(t - d["knee_s"])))
-        # the levels of the two fitted lines' ends, read off a light smoothing
-        sm = np.convolve(db, np.ones(5) / 5, mode="same")
-        drop = float(top - sm[k])
-        span = float(sm[k] - sm[max(len(sm) - 3, k)])
-        e, l = d["t60_early_s"], d["t60_late_s"]
-        ratio = (l / e) if (e and l and math.isfinite(e) and e > 0) else (math.inf if e else None)
-        out.update(knee_drop_db=drop, late_span_db=span, ratio=ratio,
-                   visible=bool(ratio is not None and ratio >= LIM["late_early"]
-                                and drop >= KNEE_MIN_DROP_DB and span >= KNEE_MIN_LATE_DB))
-    return out
+        d = {"t60_early_s": None, "t60_late_s": None, "knee_s": None, "ratio": None,
+             "knee_drop_db": None, "late_span_db": None, "visible": False}
+    return d
 
 
 def decay(y, f1_hz):
@@ -304,7 +285,9 @@ class Report:
         self.a = args
         self.quick = args.quick
         self.r = Renderer(args.preset, tuple(args.set))
-        self.dry = Renderer(args.preset, tuple(args.set) + ("body.wet=0",))   # tuning
+        # tuning: the strings alone (no board), their unison spread (+-0.5 cent by
+        # design) taken out: the tuning curve and the stiff-string law are each string's
+        self.dry = Renderer(args.preset, tuple(args.set) + ("body.wet=0", "strings.detune_scale=0"))
         self.rows: list[Row] = []
         self.data: dict = {}
         self.timing: dict = {}
@@ -580,7 +563,7 @@ class Report:
         j = max(p1, key=lambda k: abs(p1[k]))
         self.add("tuning", "partial 1 against the tuning curve", f"{p1[j]:+.3f} cent (key {j})",
                  f"|x| <= {LIM['cents_p1']:g} cent", abs(p1[j]) <= LIM["cents_p1"], p1[j],
-                 f"{len(self.keys)} keys, vel 80, 0.05-1.05 s, strings alone (body.wet = 0)")
+                 f"{len(self.keys)} keys, vel 80, 0.05-1.05 s, strings alone (body.wet = 0), unison spread 0")
         w = {k: k80[k]["worst_cents"] for k in self.keys}
         j = max(w, key=lambda k: abs(w[k]))
         over = [k for k in self.keys if abs(w[k]) > LIM["cents_law"]]

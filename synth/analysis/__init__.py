@@ -7,7 +7,7 @@ never imports numba or other ``synth`` layers (loudness uses pyloudnorm).
 
 from synth.analysis.bands import band_levels_db, halo
 from synth.analysis.clicks import click_scan
-from synth.analysis.decay import decay_curve_db, t60_s, two_stage_decay
+from synth.analysis.decay import decay_curve_db, t60_s, two_stage_decay, two_stage_summary
 from synth.analysis.loudness import crest_factor_db, loudness, momentary_lufs, peak_dbfs
 from synth.analysis.modes import (
     free_mode_energies,
@@ -58,6 +58,7 @@ __all__ = [
     "decay_curve_db",
     "t60_s",
     "two_stage_decay",
+    "two_stage_summary",
     "loudness",
     "momentary_lufs",
     "peak_dbfs",

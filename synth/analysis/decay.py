@@ -175,3 +175,48 @@ def two_stage_decay(x, fs, f_hz=None, stop_db=-50.0, frame_s=None, hop_s=0.01, m
     _, k, s1, s2 = best
     out.update(t60_early_s=t60(s1), t60_late_s=t60(s2), knee_s=float(t[k - 1]))
     return out
+
+
+def two_stage_summary(x, fs, f_hz=None, stop_db=-50.0, hop_s=0.01, min_drop_db=6.0,
+                      min_late_db=10.0, min_ratio=2.0):
+    """The two-stage decay of ``x`` (or of its partial at ``f_hz``) as a
+    listener reads it: :func:`two_stage_decay`'s early and late T60 and
+    knee, their ratio late / early, how far the level has fallen at the
+    knee (``knee_drop_db``) and how far it falls after it within the fit
+    (``late_span_db``), both read off a 5-frame smoothing of the level
+    curve, and whether the knee is visible: the level falls at least
+    ``min_drop_db`` before it and ``min_late_db`` after it.
+
+    Returns
+    -------
+    dict
+        ``t60_early_s``, ``t60_late_s``, ``knee_s`` (None without a knee),
+        ``ratio`` (late / early; inf when the late line does not fall; None
+        without a knee), ``knee_drop_db``, ``late_span_db`` (dB, None
+        without a knee) and ``visible`` (bool).
+    """
+    min_drop_db = _real("min_drop_db", min_drop_db, 0.0, 200.0)
+    min_late_db = _real("min_late_db", min_late_db, 0.0, 200.0)
+    min_ratio = _real("min_ratio", min_ratio, 0.0, 1e6)
+    d = two_stage_decay(x, fs, f_hz=f_hz, stop_db=stop_db, hop_s=hop_s)
+    out = {"t60_early_s": d["t60_early_s"], "t60_late_s": d["t60_late_s"], "knee_s": d["knee_s"],
+           "ratio": None, "knee_drop_db": None, "late_span_db": None, "visible": False}
+    if d["knee_s"] is None:
+        return out
+    t, db = decay_curve_db(x, fs, f_hz, None, hop_s)
+    i0 = int(np.argmax(db))
+    top = db[i0]
+    t, db = t[i0:], db[i0:]
+    below = np.flatnonzero(db < top + stop_db)
+    end = int(below[0]) if below.size else len(db)
+    t, db = t[:end], db[:end]
+    k = int(np.argmin(np.abs(t - d["knee_s"])))
+    sm = np.convolve(db, np.ones(5) / 5, mode="same")
+    drop = float(top - sm[k])
+    span = float(sm[k] - sm[max(len(sm) - 3, k)])
+    e, late = d["t60_early_s"], d["t60_late_s"]
+    ratio = (late / e) if (e and late and np.isfinite(e) and e > 0) else (np.inf if e else None)
+    out.update(ratio=ratio, knee_drop_db=drop, late_span_db=span,
+               visible=bool(ratio is not None and ratio >= min_ratio and drop >= min_drop_db
+                            and span >= min_late_db))
+    return out

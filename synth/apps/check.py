@@ -58,11 +58,16 @@ from ..analysis import (
     as_mono,
     cents,
     estimate_f0,
+    fit_inharmonicity,
+    halo,
     loudness,
+    momentary_lufs,
     partial_peaks,
     peak_dbfs,
     spectral_centroid_hz,
     t60_s,
+    track_partials,
+    two_stage_summary,
 )
 from ..io.errors import SynthError
 
@@ -87,6 +92,7 @@ class Item:
     key: int | None = None
     velocity: int | None = None
     pitch_hz: float | None = None
+    pitch_of: object = None        # the voice's pitch of any key (Hz), for a preset's note
 
     @property
     def label(self) -> str:
@@ -120,7 +126,7 @@ class Spec:
 # --------------------------------------------------------------------------
 
 _RENDER_KEYS = {"name", "preset", "set", "midi", "wav", "key", "keys", "velocity", "velocities",
-                "seconds", "hold_s"}
+                "seconds", "hold_s", "sustain", "soft"}
 _KEYS_RANGE = re.compile(r"^\s*(\d+)\s*\.\.\s*(\d+)\s*(?:/\s*(\d+))?\s*$")
 
 
@@ -209,6 +215,9 @@ def _parse_render(src, base, i, t):
     r["seconds"] = _num(src, r["where"], "seconds", t.get("seconds", 2.0), 0.1, 60.0)
     r["hold_s"] = (_num(src, r["where"], "hold_s", t["hold_s"], 0.0, r["seconds"])
                    if "hold_s" in t else None)
+    # pedals held from the start (CC64 sustain, CC67 soft), 0..1
+    r["sustain"] = _num(src, r["where"], "sustain", t.get("sustain", 0.0), 0.0, 1.0)
+    r["soft"] = _num(src, r["where"], "soft", t.get("soft", 0.0), 0.0, 1.0)
     return r
 
 
@@ -298,17 +307,21 @@ def _parse_expect(src, i, t, names):
 # --------------------------------------------------------------------------
 
 def render_note(preset, key: int, velocity: int = 100, seconds: float = 2.0,
-                overrides=(), hold_s: float | None = None, engine=None):
+                overrides=(), hold_s: float | None = None, engine=None, sustain: float = 0.0,
+                soft: float = 0.0):
     """Render one note of ``preset`` (name or path; ``overrides`` as
     ``--set``) at MIDI ``key`` and ``velocity`` (1..127) for ``seconds``,
-    key up at ``hold_s`` (None: held).  Returns (audio float64 at 48 kHz,
-    fs, the voice's pitch for the key in Hz)."""
+    key up at ``hold_s`` (None: held), the sustain and soft pedals at
+    ``sustain`` and ``soft`` (0..1) from the start.  Returns (audio float64
+    at 48 kHz, the mean of a stereo render's channels; fs; the voice's pitch
+    for the key in Hz)."""
     from ..engine.engine import Event
     from ..io.factory import build_engine
 
     eng = engine if engine is not None else build_engine(preset, overrides, fs_out=FS_OUT,
                                                          extra_low_key=key)
-    ev = [Event(0.0, "note_on", key, velocity / 127.0)]
+    ev = [Event(0.0, "control", cc, v) for cc, v in ((64, sustain), (67, soft)) if v > 0]
+    ev.append(Event(0.0, "note_on", key, velocity / 127.0))
     if hold_s is not None:
         ev.append(Event(hold_s, "note_off", key, 0.0))
     y = as_mono(eng.render(ev, duration_s=seconds))      # a stereo render: its mean
@@ -344,8 +357,9 @@ def _render(spec_src: str, r: dict) -> list[Item]:
             # one voice per preset; a fresh engine per note (no leftovers)
             eng = build_engine(r["preset"], r["set"], fs_out=FS_OUT, extra_low_key=key,
                                voice=None if eng is None else eng.inst)
-            y, fs, f = render_note(None, key, vel, r["seconds"], hold_s=r["hold_s"], engine=eng)
-            out.append(Item(r["name"], y, fs, key, vel, f))
+            y, fs, f = render_note(None, key, vel, r["seconds"], hold_s=r["hold_s"], engine=eng,
+                                   sustain=r["sustain"], soft=r["soft"])
+            out.append(Item(r["name"], y, fs, key, vel, f, pitch_of=eng.inst.pitch_hz))
     return out
 
 
@@ -369,10 +383,14 @@ def measure_partials(item: Item, f0_hz: float, n: int):
 
 
 def measure(item: Item, what: str) -> float:
-    """A scalar of an item: "loudness" (integrated LUFS), "peak" (dBFS) or
-    "centroid" (Hz, over the first second)."""
+    """A scalar of an item: "loudness" (integrated LUFS), "momentary" (the
+    maximum 400 ms momentary loudness, LUFS: a note's loudness as a
+    listener judges it), "peak" (dBFS) or "centroid" (Hz, over the first
+    second)."""
     if what == "loudness":
         return loudness(item.audio, item.fs)["integrated_lufs"]
+    if what == "momentary":
+        return _max_momentary(item)
     if what == "peak":
         return peak_dbfs(item.audio)
     return spectral_centroid_hz(_segment(item, 0.0, 1.0), item.fs)
@@ -414,10 +432,12 @@ def _c_partial_level(it, e):
     f0 = _tuned(it, e)
     nmax = max(16, n)
     nyq = int((0.45 * it.fs) // f0)
-    _, lv = measure_partials(it, f0, max(1, min(nmax, nyq)))
+    seg = _segment(it, e.get("start_s", 0.05), e.get("length_s", 1.0))
+    _, lv = partial_peaks(seg, it.fs, f0, max(1, min(nmax, nyq)), search_cents=60.0)
     rel = lv[n - 1] - np.nanmax(lv)
     return (f"{it.label} partial {n}", f"{rel:+.1f} dB",
-            f"{e['min_db']:g} .. {e['max_db']:g} dB re strongest",
+            f"{e['min_db']:g} .. {e['max_db']:g} dB re strongest "
+            f"({e.get('start_s', 0.05):g}-{e.get('start_s', 0.05) + e.get('length_s', 1.0):g} s)",
             bool(e["min_db"] <= rel <= e["max_db"]))
 
 
@@ -458,7 +478,7 @@ def _groups(items, over):
 
 def _c_evenness(items, e, others):
     what = e.get("measure", "loudness")
-    unit = "LU" if what == "loudness" else "dB"
+    unit = "LU" if what in ("loudness", "momentary") else "dB"
     out = []
     for vel, its in _groups(items, "key").items():
         vals = [measure(it, what) for it in its]
@@ -496,8 +516,10 @@ def _pairs(items, e, others):
 
 def _c_centroid_ratio(items, e, others):
     out = []
+    w = e.get("window_s", 1.0)
     for a, b in _pairs(items, e, others):
-        r = measure(a, "centroid") / measure(b, "centroid")
+        r = (spectral_centroid_hz(_segment(a, 0.0, w), a.fs)
+             / spectral_centroid_hz(_segment(b, 0.0, w), b.fs))
         out.append((f"centroid {a.label} / {b.label}", f"{r:.3f}", f"{e['min']:g} .. {e['max']:g}",
                     bool(e["min"] <= r <= e["max"])))
     return out
@@ -520,6 +542,124 @@ def _c_highband_diff(items, e, others):
     return out
 
 
+def _c_smooth(items, e, others):
+    """Per velocity of a key sweep: the largest distance of a key's
+    maximum momentary loudness from a cubic fit over the keys."""
+    out = []
+    for vel, its in _groups(items, "key").items():
+        if len(its) < 5:
+            raise SpecError(f"check = 'smooth' needs a sweep of at least 5 keys "
+                            f"(render '{items[0].render}' has {len(its)})")
+        k = np.array([it.key for it in its], dtype=float)
+        v = np.array([_max_momentary(it) for it in its])
+        fit = np.polyval(np.polyfit(k, v, 3), k)
+        j = int(np.argmax(np.abs(v - fit)))
+        out.append((f"{items[0].render}[vel {vel}] loudness against a cubic fit over the keys",
+                    f"{v[j] - fit[j]:+.2f} dB (key {its[j].key})", f"|x| <= {e['max_db']:g} dB",
+                    bool(abs(v[j] - fit[j]) <= e["max_db"])))
+    return out
+
+
+def _max_momentary(it):
+    return float(np.max(momentary_lufs(it.audio, it.fs)[1]))
+
+
+def _c_dynamic_range(items, e, others):
+    """Per key of a sweep: the maximum momentary loudness at its highest
+    velocity minus that at its lowest."""
+    out = []
+    for key, its in _groups(items, "velocity").items():
+        if len(its) < 2:
+            raise SpecError(f"check = 'dynamic_range': render '{items[0].render}' has one "
+                            f"velocity for key {key}; give velocities = [LOW, ..., HIGH]")
+        d = _max_momentary(its[-1]) - _max_momentary(its[0])
+        lo, hi = e["min_db"], e.get("max_db", math.inf)
+        out.append((f"{items[0].render}[key {key}] vel {its[0].velocity}..{its[-1].velocity}",
+                    f"{d:.1f} dB", f"{lo:g} .. {hi:g} dB (maximum momentary loudness)",
+                    bool(lo <= d <= hi)))
+    return out
+
+
+def _c_two_stage(it, e):
+    """The note's level falls fast, then slowly: late / early T60 of the
+    two-line fit (:func:`synth.analysis.two_stage_summary`, to ``stop_db``,
+    default -50 dB) at least ``min_ratio``, with a visible knee."""
+    try:
+        d = two_stage_summary(it.audio, it.fs, stop_db=e.get("stop_db", -50.0),
+                              min_ratio=e["min_ratio"],
+                              min_drop_db=e.get("min_drop_db", 6.0),
+                              min_late_db=e.get("min_late_db", 10.0))
+    except ValueError:
+        return (it.label, "no decay to fit", f"late/early >= {e['min_ratio']:g}, a knee", False)
+    if d["ratio"] is None:
+        shown = "no knee"
+    else:
+        shown = (f"late/early {d['ratio']:.2f} (T60 {d['t60_early_s']:.2f} -> "
+                 f"{d['t60_late_s']:.2f} s, knee at {d['knee_s']:.2f} s, -{d['knee_drop_db']:.0f} dB)")
+    return (it.label, shown, f"late/early >= {e['min_ratio']:g}, a visible knee",
+            bool(d["visible"]))
+
+
+def _c_partials_law(it, e):
+    """Partials 1..n (up to ``n``, or ``max_hz``, whichever is fewer; those
+    within 60 dB of the strongest) followed upward from the stiff-string
+    law f_n = n f0 sqrt(1 + B n^2) fitted to them, within ``cents`` of
+    it."""
+    f1 = _tuned(it, e)
+    nmax = int(e.get("n", 40))
+    fmax = float(e.get("max_hz", 10000.0))
+    seg = _segment(it)
+    B0 = 1e-4
+    fa, la = partial_peaks(seg, it.fs, f1, min(8, max(1, int(fmax // f1))), search_cents=60.0)
+    ok = np.isfinite(fa)
+    if ok.sum() >= 3:
+        f0_fit, B0 = fit_inharmonicity(fa[ok], np.arange(1, len(fa) + 1)[ok])
+    else:
+        f0_fit = f1
+    B0 = min(max(B0, 0.0), 0.1)
+    n = np.arange(1, nmax + 1)
+    law = n * f0_fit * np.sqrt(1 + B0 * n * n)
+    K = int(max(1, np.sum(law <= fmax)))
+    if K < 3:
+        # two partials fix f0 and B exactly: nothing left to judge
+        return (f"{it.label} partials 1..{K}", f"{K} partial(s) below {fmax:g} Hz",
+                "at least 3 to judge the law", True)
+    freqs, levels, _ = track_partials(seg, it.fs, f0_fit, K, inharmonicity=B0)
+    good = np.isfinite(freqs) & (levels >= np.nanmax(levels) - 60.0)
+    if good.sum() < 3:
+        return (f"{it.label} partials 1..{K}", f"{int(good.sum())} partial(s) within 60 dB",
+                "at least 3 to judge the law", True)
+    f0_fit, B_fit = fit_inharmonicity(freqs[good], np.arange(1, K + 1)[good])
+    law = np.arange(1, K + 1) * f0_fit * np.sqrt(1 + B_fit * np.arange(1, K + 1) ** 2)
+    c = np.where(good, 1200.0 * np.log2(np.where(good, freqs, 1.0) / law), np.nan)
+    j = int(np.nanargmax(np.abs(c)))
+    return (f"{it.label} partials 1..{K}", f"{c[j]:+.2f} cent (partial {j + 1}; B {B_fit:.2e}, "
+            f"{int(good.sum())} partials)", f"|x| <= {e['cents']:g} cent of the fitted law",
+            bool(abs(c[j]) <= e["cents"]))
+
+
+def _c_halo(items, e, others):
+    """Energy at the other keys' partial-1 frequencies (bands of
+    ``probe_cents``; those within 40 cents of the note's own partials left
+    out), this render over ``against``, item by item, from ``start_s`` on:
+    the halo of strings that ring along (:func:`synth.analysis.halo`)."""
+    out = []
+    for a, b in _pairs(items, e, others):
+        if a.pitch_of is None or a.key is None:
+            raise SpecError(f"check = 'halo' needs a preset's notes (render '{a.render}')")
+        f1 = a.pitch_hz
+        probes = [a.pitch_of(k) for k in range(21, 109) if k != a.key]
+        own = [n * f1 for n in range(1, 64) if n * f1 < 0.45 * a.fs]
+        s0 = int(e.get("start_s", 0.5) * a.fs)
+        n = min(len(a.audio), len(b.audio))
+        h = halo(a.audio[s0:n], b.audio[s0:n], a.fs, probes, own,
+                 probe_cents=e.get("probe_cents", 10.0))
+        g = h["gain_db"]
+        out.append((f"halo {a.label} over {b.label}", f"{g:+.1f} dB",
+                    f">= {e['min_db']:g} dB at the other keys' pitches", bool(g >= e["min_db"])))
+    return out
+
+
 @dataclass(frozen=True)
 class Check:
     run: object
@@ -535,9 +675,11 @@ CHECKS = {
                 {"cents": (0.0, 1200.0, False), "hz": (1.0, 20000.0, False)}),
     "partial": Check(_per_item(_c_partial), ("n", "cents"), ("hz",),
                      {"n": (1, 64, True), "cents": (0.0, 1200.0, False), "hz": (1.0, 20000.0, False)}),
-    "partial_level": Check(_per_item(_c_partial_level), ("n", "min_db", "max_db"), ("hz",),
+    "partial_level": Check(_per_item(_c_partial_level), ("n", "min_db", "max_db"),
+                           ("hz", "start_s", "length_s"),
                            {"n": (1, 64, True), "min_db": _DB, "max_db": _DB,
-                            "hz": (1.0, 20000.0, False)}),
+                            "hz": (1.0, 20000.0, False), "start_s": (0.0, 60.0, False),
+                            "length_s": (0.01, 60.0, False)}),
     "t60": Check(_per_item(_c_t60), ("min_s", "max_s"), ("n", "hz"),
                  {"n": (1, 64, True), "min_s": (0.0, 1000.0, False), "max_s": (0.0, 1000.0, False),
                   "hz": (1.0, 20000.0, False)}),
@@ -546,15 +688,30 @@ CHECKS = {
     "peak": Check(_per_item(_c_peak), ("max_dbfs",), ("min_dbfs",),
                   {"max_dbfs": _DB, "min_dbfs": _DB}),
     "evenness": Check(_c_evenness, ("max_step",), ("measure",), {"max_step": (0.0, 100.0, False)},
-                      {"measure": ("loudness", "peak")}),
+                      {"measure": ("loudness", "momentary", "peak")}),
     "monotonic": Check(_c_monotonic, ("measure", "over"), ("direction", "tolerance"),
                        {"tolerance": (0.0, 1e6, False)},
-                       {"measure": ("loudness", "peak", "centroid"), "over": ("velocity", "key"),
+                       {"measure": ("loudness", "momentary", "peak", "centroid"),
+                        "over": ("velocity", "key"),
                         "direction": ("increasing", "decreasing")}),
-    "centroid_ratio": Check(_c_centroid_ratio, ("against", "min", "max"), (),
-                            {"min": (0.0, 1e3, False), "max": (0.0, 1e3, False)}),
+    "centroid_ratio": Check(_c_centroid_ratio, ("against", "min", "max"), ("window_s",),
+                            {"min": (0.0, 1e3, False), "max": (0.0, 1e3, False),
+                             "window_s": (0.01, 60.0, False)}),
+    "smooth": Check(_c_smooth, ("max_db",), (),
+                    {"max_db": (0.0, 100.0, False)}),
     "highband_diff": Check(_c_highband_diff, ("against", "above_hz", "min_db", "max_db"), (),
                            {"above_hz": (1.0, 24000.0, False), "min_db": _DB, "max_db": _DB}),
+    "dynamic_range": Check(_c_dynamic_range, ("min_db",), ("max_db",),
+                           {"min_db": _DB, "max_db": _DB}),
+    "two_stage": Check(_per_item(_c_two_stage), ("min_ratio",),
+                       ("min_drop_db", "min_late_db", "stop_db"),
+                       {"min_ratio": (0.0, 1e3, False), "min_drop_db": (0.0, 200.0, False),
+                        "min_late_db": (0.0, 200.0, False), "stop_db": (-120.0, -10.0, False)}),
+    "partials_law": Check(_per_item(_c_partials_law), ("cents",), ("n", "max_hz", "hz"),
+                          {"cents": (0.0, 1200.0, False), "n": (2, 64, True),
+                           "max_hz": (100.0, 24000.0, False), "hz": (1.0, 20000.0, False)}),
+    "halo": Check(_c_halo, ("against", "min_db"), ("start_s", "probe_cents"),
+                  {"min_db": _DB, "start_s": (0.0, 60.0, False), "probe_cents": (1.0, 50.0, False)}),
 }
 
 

@@ -256,7 +256,10 @@ MIN_FS = 8000
 #: Allowed numbers of bridge inputs and of outputs.
 MAX_INPUTS = MAX_OUTPUTS = 2
 #: Knock: default pulse duration (s) and impulse re the hammer's momentum.
-KNOCK_DURATION_S = 0.002
+#: 5 ms: the key's stop on the keybed felt, a low thump (flat to ~80 Hz,
+#: first zero at 400 Hz); at 2 ms the pulse reached the board's modes above
+#: 1 kHz and sounded as a click (C4's pp attack centroid 674 -> 1303 Hz)
+KNOCK_DURATION_S = 0.005
 KNOCK_DURATION_RANGE_S = (0.0002, 0.02)
 KNOCK_IMPULSE_RATIO = 0.1
 
@@ -758,7 +761,7 @@ def knock_pulse(fs, impulse_ns, duration_s=KNOCK_DURATION_S):
     ``F(t) = (J / T) (1 - cos(2 pi t / T))`` for 0 <= t < T, sampled at
     ``t = (i + 1/2) / fs``, i = 0 .. N-1, N = max(1, round(T fs)), and scaled
     so that ``sum F / fs = J`` exactly. Its spectrum is flat (|F(f)| = J) to
-    within 1 dB up to about 0.4 / T (200 Hz for the default 2 ms), falls
+    within 1 dB up to about 0.4 / T (80 Hz for the default 5 ms), falls
     by 6 dB at 1 / T and has its first zero at 2 / T: a short push that
     excites the board's low modes evenly (the thump) and little else.
 
@@ -769,7 +772,7 @@ def knock_pulse(fs, impulse_ns, duration_s=KNOCK_DURATION_S):
     impulse_ns : float
         The pulse's area J in N s, 0 .. 10 (see :func:`knock_impulse_ns`).
     duration_s : float
-        Duration T in s, 0.0002 .. 0.02 (default 0.002).
+        Duration T in s, 0.0002 .. 0.02 (default 0.005).
 
     Returns
     -------

@@ -6,7 +6,7 @@ Each key (MIDI 21-108) is one, two or three strings
 (:mod:`synth.physics.piano`), each a waveguide string on the engine's grid
 with, at x = L, a loop filter from the key's two T60 values, a cascade of
 second-order allpasses for the string's stiffness (inharmonic partials
-f_n = n f0 sqrt(1 + B n^2): partials up to 40, or up to 10 kHz, within 1.5
+f_n = n f0 sqrt(1 + B n^2): partials up to 40, or up to 10 kHz, within 1.2
 cents, :func:`synth.physics.dispersion.tune_stiff_loop_sos`, designed for
 the key and retuned for each string of its unison; a first-order cascade of
 at most ``strings.dispersion_sections`` where no second-order one meets
@@ -91,10 +91,11 @@ _DESIGNS: dict = {}
 #: note, it only keeps the dashpot from drifting (at 5 Hz its reactance
 #: flattened A0's single string by 1.2 cents; at 1 Hz by 0.2)
 BRIDGE_RETURN_HZ = 1.0
-#: each string's partials within this of the stiff-string law (cents): 1.5
-#: leaves half a cent for the unison's spread, so the note's partials stay
-#: within 2 cents (the design's cost: 1.6 % more sections than at 2 cents)
-DISPERSION_TOL_CENTS = 1.5
+#: each string's partials within this of the stiff-string law (cents): 1.2
+#: leaves room for the unison's spread and the coupled strings' pull, so the
+#: note's partials stay within 2 cents (1.5 left 2.1-2.7 cents on some bass
+#: keys' partials 17-21; the design's cost: 5 % more sections than at 2)
+DISPERSION_TOL_CENTS = 1.2
 
 
 @dataclass(frozen=True)
