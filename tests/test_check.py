@@ -213,3 +213,173 @@ def test_the_shipped_specs_are_valid_and_cover_every_musical_preset():
     assert musical and musical <= presets
     # and the checks folder is not mistaken for presets
     assert not any(n.startswith("checks/") for n, _ in list_presets())
+
+
+def _stiff(path, f0=110.0, B=1e-4, n=30, seconds=1.5, bend=None, two_stage=False):
+    """Partials n f0 sqrt(1 + B n^2) (one of them moved by ``bend`` =
+    (n, cents)), each at 1/n; with ``two_stage`` a fast and a slow copy."""
+    t = np.arange(int(seconds * FS)) / FS
+    x = np.zeros_like(t)
+    for k in range(1, n + 1):
+        f = k * f0 * np.sqrt(1 + B * k * k)
+        if bend is not None and k == bend[0]:
+            f *= 2 ** (bend[1] / 1200)
+        if f < 0.45 * FS:
+            x += np.sin(2 * np.pi * f * t + k) / k
+    if two_stage:
+        x = x * (np.exp(-np.log(1000) * t / 0.6) + 10 ** (-25 / 20) * np.exp(-np.log(1000) * t / 6))
+    sf.write(path, (0.05 * x).astype(np.float32), FS, subtype="FLOAT")
+    return path
+
+
+def test_partials_law_and_two_stage_on_closed_form_tones(tmp_path):
+    """partials_law fits the stiff-string law and finds a partial moved by
+    3 cents (not one moved by 0.5); two_stage finds a knee where a tone has
+    one, and none in a single exponential."""
+    _stiff(tmp_path / "law.wav")
+    _stiff(tmp_path / "bent.wav", bend=(7, 3.0))
+    _stiff(tmp_path / "near.wav", bend=(7, 0.5))
+    _stiff(tmp_path / "two.wav", seconds=6.0, two_stage=True)
+    _sine(tmp_path / "one.wav", f=220.0, seconds=4.0, t60=1.0)
+    text = ""
+    for name in ("law", "bent", "near"):
+        text += f"""
+[[render]]
+name = "{name}"
+wav = "{name}.wav"
+
+[[expect]]
+render = "{name}"
+check = "partials_law"
+hz = {110.0 * np.sqrt(1 + 1e-4):.6f}
+cents = 2.0
+"""
+    for name in ("two", "one"):
+        text += f"""
+[[render]]
+name = "{name}"
+wav = "{name}.wav"
+
+[[expect]]
+render = "{name}"
+check = "two_stage"
+min_ratio = 3.0
+"""
+    res = {r.name.split()[1]: r for r in run_spec(_spec(tmp_path, text))}
+    assert res["law"].passed and res["near"].passed and not res["bent"].passed
+    assert "partial 7" in res["bent"].measured
+    assert res["two"].passed and not res["one"].passed
+
+
+def test_pedals_dynamic_range_halo_smooth_and_momentary_on_the_grand(tmp_path):
+    """Renders with the sustain and soft pedals down; the grand's dynamic
+    range from velocity 1 to 127, its halo with the pedal, a smooth
+    keyboard, evenness on the momentary loudness; a spec asking the
+    impossible fails."""
+    text = """
+[[render]]
+name = "dyn"
+preset = "grand-piano"
+key = 60
+velocities = [1, 127]
+seconds = 0.8
+
+[[render]]
+name = "pedal"
+preset = "grand-piano"
+key = 48
+seconds = 2.0
+sustain = 1.0
+
+[[render]]
+name = "dry"
+preset = "grand-piano"
+key = 48
+seconds = 2.0
+
+[[render]]
+name = "soft"
+preset = "grand-piano"
+key = 60
+seconds = 0.4
+soft = 1.0
+
+[[render]]
+name = "normal"
+preset = "grand-piano"
+key = 60
+seconds = 0.4
+
+[[render]]
+name = "row"
+preset = "grand-piano"
+keys = "55..65"
+velocity = 80
+seconds = 0.6
+
+[[expect]]
+name = "range"
+render = "dyn"
+check = "dynamic_range"
+min_db = 30.0
+
+[[expect]]
+name = "too much"
+render = "dyn"
+check = "dynamic_range"
+min_db = 80.0
+
+[[expect]]
+name = "halo"
+render = "pedal"
+check = "halo"
+against = "dry"
+min_db = 6.0
+
+[[expect]]
+name = "no halo"
+render = "dry"
+check = "halo"
+against = "dry"
+min_db = 1.0
+
+[[expect]]
+name = "una corda"
+render = "soft"
+check = "centroid_ratio"
+against = "normal"
+window_s = 0.1
+min = 0.1
+max = 0.95
+
+[[expect]]
+name = "smooth"
+render = "row"
+check = "smooth"
+max_db = 5.0
+
+[[expect]]
+name = "even"
+render = "row"
+check = "evenness"
+measure = "momentary"
+max_step = 4.0
+"""
+    res = {r.name.split(":")[0]: r for r in run_spec(_spec(tmp_path, text))}
+    assert res["range"].passed and not res["too much"].passed
+    assert res["halo"].passed and not res["no halo"].passed
+    assert res["una corda"].passed and res["smooth"].passed and res["even"].passed
+    assert "LU" in res["even"].measured
+    with pytest.raises(SpecError, match=r"render 'x'.sustain = 2 is out of range"):
+        load_spec(_spec(tmp_path, """
+[[render]]
+name = "x"
+preset = "grand-piano"
+key = 60
+sustain = 2
+
+[[expect]]
+render = "x"
+check = "peak"
+max_dbfs = 0.0
+""", "bad.toml"))
