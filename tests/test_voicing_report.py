@@ -2,6 +2,7 @@
 quick report end to end."""
 
 import json
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -74,10 +75,17 @@ def test_the_quick_report_runs_and_prints_its_table(tmp_path):
                         "--json", str(out), "--plots", str(tmp_path / "img")],
                        capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert p.returncode == 0, p.stderr
-    for target in ("C4 loudness, velocity 1 to 127", "partials 2-8", "adjacent keys", "smooth fit",
-                   "keys 97-108", "T60 of partial 1, keys 100-108", "two-stage decay", "staccato",
-                   "halo", "una corda", "partial 1 against the tuning curve", "stiff-string law",
-                   "sample peak", "click scan", "stuck notes", "bench_grand"):
+    targets = ["C4 loudness, velocity 1 to 127", "partials 2-8", "adjacent keys", "smooth fit",
+               "keys 97-108", "T60 of partial 1, keys 100-108", "two-stage decay", "staccato",
+               "halo", "una corda", "partial 1 against the tuning curve", "stiff-string law",
+               "bench_grand"]
+    # the five piano files live beside the repository (../shared/midi), not in
+    # it: a checkout without them reports the MIDI rows as skipped
+    if all((vr.DEFAULT_MIDI_DIR / f).is_file() for f in vr.MIDI_FILES):
+        targets += ["sample peak", "click scan", "stuck notes"]
+    else:
+        assert re.search(r"SKIP +MIDI files +5 missing", p.stdout), p.stdout
+    for target in targets:
         assert target in p.stdout, target
     assert "passed," in p.stdout and "failed," in p.stdout
     r = json.loads(out.read_text())
