@@ -268,3 +268,19 @@ def test_pedal_damps_every_released_voice_at_once_and_spares_the_fading():
         if dying[0] in e.voices:
             now = e.bank.fpar[list(e.voices[dying[0]].slots), K.F_B0T]
             assert np.array_equal(now, b0_dying)      # still fading
+
+
+def test_a_board_with_two_bridges_and_one_output_renders_mono():
+    """body.outputs = 1 with the default two inputs: both buses drive the
+    board, the block loop and the render give one channel, as loud as the
+    stereo render's mean channel (within 3 dB)."""
+    ev = [Event(0.0, "note_on", 60, 0.7)]
+    st = engine("grand-piano").render(ev, duration_s=0.5)
+    e = engine("grand-piano", ("body.outputs=1",))
+    mo = e.render(ev, duration_s=0.5)
+    assert st.shape[1] == 2 and mo.ndim == 1 and len(mo) == len(st)
+    assert np.all(np.isfinite(mo))
+    rms = lambda x: 20 * np.log10(np.sqrt(np.mean(x ** 2)))  # noqa: E731
+    assert abs(rms(mo) - rms(as_mono(st))) < 3.0
+    blk = e.render_block(256)                  # the live path: one block
+    assert blk.ndim == 1 and len(blk) == 256

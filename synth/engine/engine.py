@@ -493,7 +493,8 @@ class Engine:
         if self.channels == 1:
             y = (y[0] if y.ndim == 2 else y)[:n_out]
             if self.body is not None:
-                self.body.process(d[0], out=y)
+                # a board with two bridges and one output takes both buses
+                self.body.process(d if self.n_dec > 1 else d[0], out=y)
             else:
                 y[:] = d[0]
             return y
