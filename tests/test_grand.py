@@ -282,5 +282,9 @@ def test_a_board_with_two_bridges_and_one_output_renders_mono():
     assert np.all(np.isfinite(mo))
     rms = lambda x: 20 * np.log10(np.sqrt(np.mean(x ** 2)))  # noqa: E731
     assert abs(rms(mo) - rms(as_mono(st))) < 3.0
-    blk = e.render_block(256)                  # the live path: one block
-    assert blk.ndim == 1 and len(blk) == 256
+    for over in ((), ("strings.sympathetic=0", "action.knock=0")):
+        e = engine("grand-piano", ("body.outputs=1",) + over)   # the live path: blocks
+        e.schedule(ev)
+        blk = [e.render_block(256) for _ in range(4)]
+        assert all(b.ndim == 1 and len(b) == 256 and np.all(np.isfinite(b)) for b in blk)
+        assert np.any(np.concatenate(blk) != 0.0)

@@ -434,7 +434,7 @@ class Engine:
             self._probe.append(bank.probe[:, :, :n_in].copy())
         if self.n_dec < self.buses:
             mix[0] += mix[1]                  # a mono body: the bridge's two ends summed
-        if self.sym is not None or self._knocking:
+        if self.sym is not None or self._knocking or self.n_dec > self.channels:
             d = self._dout[:, :n_out]
             for c in range(self.n_dec):
                 self.decs[c].process(mix[c], d[c])
