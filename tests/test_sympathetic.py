@@ -83,3 +83,26 @@ def test_sostenuto_does_not_hold_notes_played_after_it():
     y_none, _ = _take([Event(0.05, "note_on", 60, 0.7), Event(0.2, "note_off", 60, 0.0)], 1.0,
                       ["strings.sympathetic=0"])
     np.testing.assert_allclose(y_sos, y_none, rtol=0, atol=1e-12)
+
+
+def test_a_played_keys_string_stops_rendering_once_muted():
+    """With the pedal down, the sympathetic string of a key that sounds as a
+    played note fades (it is that note's strings) and stops rendering
+    MUTE_HOLD_S later: only the free keys' strings stay in its bank."""
+    keys = [36, 40, 43, 48, 52, 55, 60, 64, 67, 72]
+    e = engine("grand-piano")
+    e.schedule([Event(0.0, "control", 64, 1.0)]
+               + [Event(0.0, "note_on", k, 0.7) for k in keys])
+    sym = e.sym
+    e.render_block(256)
+    assert sym.n_active == sym.n              # every string at first (the muted ones fading)
+    for _ in range(int((sym.MUTE_HOLD_S + 0.02) * e.fs_out / 256) + 1):
+        e.render_block(256)
+    live = {sym.keys[int(s)] for s in sym.bank.active[:sym.n_active]}
+    assert live == set(sym.keys) - set(keys)
+    # the key let go (pedal still down): its string rings along again
+    e.schedule([Event(e.time_out / e.fs_out, "note_off", 60, 0.0)])
+    for _ in range(8):
+        e.render_block(256)
+    live = {sym.keys[int(s)] for s in sym.bank.active[:sym.n_active]}
+    assert 60 not in live                 # the played note still sounds (the pedal holds it)

@@ -483,8 +483,7 @@ class Engine:
             sym.set_dampers(*self._sympathetic_state())
             self._sym_dirty = False
         sym.process(d, c0, n_out - c0)
-        if self.bank.n_active == 0:
-            sym.reap(n_out)
+        sym.reap(n_out, idle=self.bank.n_active == 0)
 
     def _finish(self, d: np.ndarray, n_out: int, out) -> np.ndarray:
         """The output block from the decimated buses ``d``: through the body,
