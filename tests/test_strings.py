@@ -254,19 +254,21 @@ def test_ended_pluck_on_a_lossy_string_equals_injecting_it_forever(per_sample, s
 
 @pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
 @pytest.mark.parametrize("n_sos", [1, 2, 3, 4, 5, 9])
-def test_second_order_dispersion_sections_equal_the_naive_loop(per_sample, n_sos):
+@pytest.mark.parametrize("n_disp", [0, 1, 2])
+def test_second_order_dispersion_sections_equal_the_naive_loop(per_sample, n_sos, n_disp):
     """The far end's second-order allpass cascade (any count: passes of 1-4
-    sections in the fast path) equals the naive scheme's section-by-section
-    filters, with a termination region, first-order sections and blocks
-    that split chunks."""
-    rng = np.random.default_rng(11 + n_sos)
+    sections in the fast path; with 0 or 1 first-order sections the first
+    four run in the loss's loop, ``_head_sos``) equals the naive scheme's
+    section-by-section filters, with a termination region, first-order
+    sections and blocks that split chunks."""
+    rng = np.random.default_rng(11 + n_sos + 100 * n_disp)
     N, k, R = 300, 225, 12
     dx, dt = 1e-3, 1e-5
     U = _random_profile(rng, R, 1, dx)
     th = rng.uniform(0.05, 2.5, n_sos)
     rad = rng.uniform(0.3, 0.95, n_sos)
     sos = np.column_stack([-2 * rad * np.cos(th), rad * rad])
-    far = dict(b0=0.985, a1=-0.01, eta=0.2, extra_delay=0, n_disp=2, a_disp=-0.3, sos=sos)
+    far = dict(b0=0.985, a1=-0.01, eta=0.2, extra_delay=0, n_disp=n_disp, a_disp=-0.3, sos=sos)
     n = 10 * N
     y, b = run_bank(N, k, 1, 0.004, 0.0008, 0.0, dt, n, U=U, side=1, per_sample=per_sample,
                     block=193, lossy=True, **far)

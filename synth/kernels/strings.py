@@ -353,6 +353,222 @@ def _hammer_steady(I1, g0, fp, st):
 
 
 @njit(**SERIAL_OPTS)
+def _head_sos(xin, yo, n, st, fp, ns, s0, s1, c0, c1, cnt):
+    """The far end's first pass over a chunk for a string with second-order
+    dispersion: the loss glide and the one-pole loss, ``ns`` (1 or 2)
+    first-order allpass sections (as :func:`_head`), then the first ``cnt``
+    (1..4) biquads (as :func:`_biquads`), from xin[0:n] into yo[0:n], in one
+    loop.  Each stage's recurrence waits on one multiply-add of the sample
+    before; in one loop the stages of successive samples overlap, where in
+    separate passes each pass waits on its own chain (a pedalled 64-note
+    chord: see docs/benchmarks.md).  Compiled without
+    re-association, as :func:`_biquads`."""
+    b0 = fp[F_B0]
+    gk = 1.0 - fp[F_B0S]
+    gc = fp[F_B0S] * fp[F_B0T]
+    a1 = fp[F_A1]
+    lp = st[S_LP]
+    x0 = st[s0]
+    y0 = st[s0 + 1]
+    x1 = st[s1]
+    y1 = st[s1 + 1]
+    q0 = S_SOS
+    x10 = st[q0]
+    x20 = st[q0 + 1]
+    ca0 = fp[F_SOS + 0] if cnt > 0 else 0.0
+    cb0 = fp[F_SOS + 1] if cnt > 0 else 0.0
+    y10 = st[q0 + 2] if cnt > 0 else 0.0
+    y20 = st[q0 + 3] if cnt > 0 else 0.0
+    ca1 = fp[F_SOS + 2] if cnt > 1 else 0.0
+    cb1 = fp[F_SOS + 3] if cnt > 1 else 0.0
+    y11 = st[q0 + 6] if cnt > 1 else 0.0
+    y21 = st[q0 + 7] if cnt > 1 else 0.0
+    ca2 = fp[F_SOS + 4] if cnt > 2 else 0.0
+    cb2 = fp[F_SOS + 5] if cnt > 2 else 0.0
+    y12 = st[q0 + 10] if cnt > 2 else 0.0
+    y22 = st[q0 + 11] if cnt > 2 else 0.0
+    ca3 = fp[F_SOS + 6] if cnt > 3 else 0.0
+    cb3 = fp[F_SOS + 7] if cnt > 3 else 0.0
+    y13 = st[q0 + 14] if cnt > 3 else 0.0
+    y23 = st[q0 + 15] if cnt > 3 else 0.0
+    if ns == 1 and cnt == 1:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            h = y0
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            y20 = y10
+            y10 = o0
+            yo[i] = o0
+    elif ns == 1 and cnt == 2:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            h = y0
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            y21 = y11
+            y11 = o1
+            yo[i] = o1
+    elif ns == 1 and cnt == 3:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            h = y0
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            y22 = y12
+            y12 = o2
+            yo[i] = o2
+    elif ns == 1 and cnt == 4:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            h = y0
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            o3 = (cb3 * (o2 - y23) + y22 + ca3 * y12) - ca3 * y13
+            y22 = y12
+            y12 = o2
+            y23 = y13
+            y13 = o3
+            yo[i] = o3
+    elif ns == 2 and cnt == 1:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            h = y1
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            y20 = y10
+            y10 = o0
+            yo[i] = o0
+    elif ns == 2 and cnt == 2:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            h = y1
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            y21 = y11
+            y11 = o1
+            yo[i] = o1
+    elif ns == 2 and cnt == 3:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            h = y1
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            y22 = y12
+            y12 = o2
+            yo[i] = o2
+    elif ns == 2 and cnt == 4:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * xin[i] - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            h = y1
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            o3 = (cb3 * (o2 - y23) + y22 + ca3 * y12) - ca3 * y13
+            y22 = y12
+            y12 = o2
+            y23 = y13
+            y13 = o3
+            yo[i] = o3
+    st[s0] = x0
+    st[s0 + 1] = y0
+    if ns == 2:
+        st[s1] = x1
+        st[s1 + 1] = y1
+    st[S_LP] = lp
+    fp[F_B0] = b0
+    st[q0] = x10
+    st[q0 + 1] = x20
+    if cnt > 0:
+        st[q0 + 2] = y10
+        st[q0 + 3] = y20
+    if cnt > 1:
+        st[q0 + 4] = y10
+        st[q0 + 5] = y20
+        st[q0 + 6] = y11
+        st[q0 + 7] = y21
+    if cnt > 2:
+        st[q0 + 8] = y11
+        st[q0 + 9] = y21
+        st[q0 + 10] = y12
+        st[q0 + 11] = y22
+    if cnt > 3:
+        st[q0 + 12] = y12
+        st[q0 + 13] = y22
+        st[q0 + 14] = y13
+        st[q0 + 15] = y23
+
+
+@njit(**SERIAL_OPTS)
 def _hammer_general(I1, g0, fp, st):
     """Advance the hammer-string contact (eq. 1.4) by one step.
 
@@ -1513,7 +1729,16 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
     c2 = ad if 2 < nd else eta
     s3 = S_D0 + 6 if 3 < nd else S_APX
     c3 = ad if 3 < nd else eta
-    _head(xin, yo, C, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3)
+    nb = ipar[s, I_NSOS]
+    j = 0
+    if nb > 0 and ns <= 2:
+        # loss, first-order sections and the first biquads in one loop
+        j = nb if nb < 4 else 4
+        _head_sos(xin, yo, C, st, fp, ns, s0, s1, c0, c1, j)
+        cnt = ns
+    else:
+        _head(xin, yo, C, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3)
+    jb = j
     j = cnt
     while j < ns:
         cnt = ns - j
@@ -1529,8 +1754,7 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
         c3 = ad if j + 3 < nd else eta
         _sections(yo, C, st, cnt, s0, s1, s2, s3, c0, c1, c2, c3)
         j += cnt
-    nb = ipar[s, I_NSOS]
-    j = 0
+    j = jb
     while j < nb:
         cnt = nb - j
         if cnt > 4:
