@@ -2,12 +2,18 @@
 
     NUMBA_NUM_THREADS=1 python tools/bench_grand.py [--runs 5]
                                                     [--cpu-name {host,haswell,generic,all}]
+                                                    [--set PATH=VALUE ...] [--only keys|chord]
+
+``--set`` prices a feature (``--set strings.sympathetic=0``: the grand
+without sympathetic strings); ``--only`` runs one of the two main measures.
 
 Prints, medians over ``--runs`` repetitions (each after a warm-up render):
 
 1. per key (a sample across the keyboard): CPU time per second of a
    sounding note, after its attack (the hammer phase is timed apart), and ns
-   per string-sample;
+   per string-sample: the engine's time less that of an engine with no note,
+   so it holds the note's strings (with their bridge) and the sympathetic
+   strings of the undamped top keys, which ring whenever a note sounds;
 2. a 64-note chord spread over the keyboard, sustain pedal down: the time to
    render 2 s of it through the whole engine (bank, decimator, soundboard),
    as a fraction of real time, and the number of such notes one core plays in
@@ -44,8 +50,12 @@ from synth.io.factory import build_engine  # noqa: E402
 KEYS = (21, 33, 45, 57, 60, 69, 81, 93, 105, 108)
 
 
+#: preset overrides of this run (``--set``)
+OVERRIDES: tuple = ()
+
+
 def make_engine(polyphony=96):
-    return build_engine("grand-piano", polyphony=polyphony)
+    return build_engine("grand-piano", OVERRIDES, polyphony=polyphony)
 
 
 def time_blocks(e: Engine, seconds: float, block: int = 256) -> float:
@@ -57,7 +67,7 @@ def time_blocks(e: Engine, seconds: float, block: int = 256) -> float:
 
 
 def per_key(runs: int):
-    print("| key | strings | dispersion sections | attack (first 50 ms), ms CPU | sustain, ms CPU per note-second | ns per string-sample |")
+    print("| key | strings | dispersion: biquads + first-order | attack (first 50 ms), ms CPU | sustain, ms CPU per note-second | ns per string-sample |")
     print("|---|---|---|---|---|---|")
     costs = []
     for key in KEYS:
@@ -74,7 +84,8 @@ def per_key(runs: int):
         ns = len(e.inst.setup(key))
         sus_ms = float(np.median(sus)) * 1e3
         costs.append(sus_ms)
-        print(f"| {key} | {ns} | {max(s.n_disp for s in e.inst.setup(key))} | "
+        su0 = e.inst.setup(key)[0]
+        print(f"| {key} | {ns} | {len(su0.sos)} + {su0.n_disp} | "
               f"{float(np.median(att)) * 1e3:.2f} | {sus_ms:.2f} | "
               f"{sus_ms * 1e-3 / (ns * e.fs_in) * 1e9:.2f} |")
     return costs
@@ -151,13 +162,22 @@ def idle(runs: int) -> float:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                    help="a preset value for this run, as `synth note --set` (repeatable), "
+                         "e.g. strings.sympathetic=0 to price a feature")
+    ap.add_argument("--only", choices=("keys", "chord"), default=None,
+                    help="only the per-key table or only the 64-note chord")
     cpu_target.add_cpu_option(ap)
     a = ap.parse_args(argv)
     rc = cpu_target.dispatch(a.cpu_name, argv)
     if rc is not None:
         return rc
 
+    global OVERRIDES
+    OVERRIDES = tuple(a.set)
     print(f"# {time.strftime('%Y-%m-%d %H:%M')}  NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')}")
+    if OVERRIDES:
+        print(f"# preset overrides: {' '.join(OVERRIDES)}")
     print(f"# command: {' '.join([os.path.basename(sys.executable)] + sys.argv)}")
     print(cpu_target.describe())
     # warm-up (compilation, caches)
@@ -165,17 +185,22 @@ def main(argv=None) -> int:
     e.schedule([Event(0.0, "note_on", 60, 0.8)])
     time_blocks(e, 0.2)
     print()
-    costs = per_key(a.runs)
-    mean_ms = float(np.mean(costs))
-    print(f"\nMean over these keys: {mean_ms:.2f} ms of CPU per note-second after the attack "
-          f"-> {1000.0 / mean_ms:.0f} sustained notes in real time on one core (kernel only).")
-    t_idle = idle(a.runs)
-    print(f"Engine with no note (decimator + soundboard, 256-sample blocks): "
-          f"{t_idle * 1e3:.1f} ms per second of audio.")
-    frac, n = chord(a.runs)
-    print(f"\n{n}-note chord over the keyboard, sustain pedal down, whole engine: "
-          f"{frac * 100:.1f} % of real time -> about {n / frac:.0f} such notes in real time "
-          f"on one core.")
+    if a.only in (None, "keys"):
+        costs = per_key(a.runs)
+        mean_ms = float(np.mean(costs))
+        print(f"\nMean over these keys: {mean_ms:.2f} ms of CPU per note-second after the attack "
+              f"-> {1000.0 / mean_ms:.0f} sustained notes in real time on one core (the note's "
+              f"strings, and the undamped top keys' sympathetic strings that ring while it sounds).")
+        t_idle = idle(a.runs)
+        print(f"Engine with no note (decimator + soundboard, 256-sample blocks): "
+              f"{t_idle * 1e3:.1f} ms per second of audio.")
+    if a.only in (None, "chord"):
+        frac, n = chord(a.runs)
+        print(f"\n{n}-note chord over the keyboard, sustain pedal down, whole engine: "
+              f"{frac * 100:.1f} % of real time -> about {n / frac:.0f} such notes in real time "
+              f"on one core.")
+    if a.only is not None:
+        return 0
     n_str, first, contact, flight, free = attack(a.runs)
     print(f"\n10-note chord ({n_str} strings), whole engine, ns per string-sample: hammers "
           f"pressing {contact:.0f}, flying off {flight:.0f}, gone {free:.0f}; the 0.25 ms step "
