@@ -83,7 +83,9 @@ class Sympathetic:
         self.level = float(silence_level)
         self.lift = np.full(self.n, -1.0)      # each string's damper lift now (-1: not set yet)
         self.muted = np.zeros(self.n, dtype=bool)
-        self._mute_left = np.zeros(self.n, dtype=np.int64)   # samples until a muted string stops
+        self.t = 0                                  # output samples processed
+        # the output sample at which a muted string stops rendering
+        self._stop_at = np.full(self.n, np.iinfo(np.int64).max, dtype=np.int64)
         self._idx = np.arange(self.n, dtype=np.int64)
 
     # -- state from the engine -------------------------------------------------
@@ -97,7 +99,7 @@ class Sympathetic:
         new_mute = muted & ~self.muted
         for i in np.flatnonzero(new_mute & self.bank._is_active[:self.n]):
             self.bank.fade(int(i), self.MUTE_T60_S, self.fs)
-        self._mute_left[new_mute] = int(round(self.MUTE_HOLD_S * self.fs))
+        self._stop_at[new_mute] = self.t + int(round(self.MUTE_HOLD_S * self.fs))
         back = ~muted & self.muted
         for i in np.flatnonzero(back):
             # the played note has gone: the string starts again from rest
@@ -132,36 +134,49 @@ class Sympathetic:
         np.sum(dry[:, o0:o0 + n], axis=0, out=f)
         f *= self.force_per_unit
         bridge_follow(f, n, self.a, self.b, self.state, self.ub)
+        t0 = self.t
+        self.t += n
         if self.bank.n_active == 0:
             return
         m = self.mix[:, :n]
         m[:] = 0.0
-        self.bank.render(self.mix, 0, n, ubx=self.ub)
+        # a muted string stops at its own output sample (whatever the
+        # blocks: a live stream and an offline render agree)
+        pos = 0
+        while True:
+            act = self.bank._is_active[:self.n]
+            due = np.flatnonzero(self.muted & act & (self._stop_at < t0 + n))
+            if due.size == 0:
+                break
+            ts = int(self._stop_at[due].min())
+            k = max(ts - t0, pos)
+            if k > pos:
+                self.bank.render(self.mix, pos, k - pos, ubx=self.ub)
+            pos = k
+            for i in due[self._stop_at[due] == ts]:
+                self.bank.deactivate(int(i))
+                self._configure(int(i))
+            if self.bank.n_active == 0:
+                break
+        if pos < n and self.bank.n_active:
+            self.bank.render(self.mix, pos, n - pos, ubx=self.ub)
         if dry.shape[0] == m.shape[0]:
             dry[:, o0:o0 + n] += m
         else:
             dry[0, o0:o0 + n] += m.sum(axis=0)
 
     def reap(self, n: int, idle: bool = True) -> None:
-        """Called once per block of ``n`` samples.  A muted string (its key
-        sounds as a played note) stops ``MUTE_HOLD_S`` after its mute began:
-        its fade (60 dB in ``MUTE_T60_S``) has taken it 300 dB down, though
-        the bridge still drives it.  When ``idle`` (nothing is played), the
-        bank's silence scan frees every silent string.  (While notes sound
-        a quiet free string stays: the bridge may drive it again.)  Muted
-        strings used to render as long as anything was played: for a
-        pedalled 64-note chord, 69 strings where 19 were free, 4 % of real
-        time (`tools/bench_grand.py`)."""
+        """The bank's silence scan over the block's ``n`` samples, while
+        ``idle`` (nothing is played): free every silent string.  (While
+        notes sound a quiet free string stays: the bridge may drive it
+        again.  A muted string, whose key sounds as a played note, stops
+        ``MUTE_HOLD_S`` after its mute, at that output sample, in
+        :meth:`process`: its fade (60 dB in ``MUTE_T60_S``) has taken it
+        300 dB down, though the bridge still drives it.  Muted strings used
+        to render as long as anything was played: for a pedalled 64-note
+        chord, 69 strings where 19 were free, 4 % of real time.)"""
         if self.bank.n_active == 0:
             return
-        left = self._mute_left
-        act = self.bank._is_active[:self.n]
-        going = self.muted & act & (left > 0)
-        if going.any():
-            left[going] -= n
-            for i in np.flatnonzero(going & (left <= 0)):
-                self.bank.deactivate(int(i))
-                self._configure(int(i))
         if idle:
             done = self.bank.reap(n, self.level, int(0.05 * self.fs))
             for s in done.tolist():
