@@ -1,0 +1,167 @@
+"""Does the sitar's jawari buzz on every key, at every velocity, all note long?
+
+Usage
+-----
+    python tools/study_jawari.py [--preset sitar] [--set PATH=VALUE ...]
+                                 [--keys sweep|all|K1,K2,...] [--velocities 40,80,127]
+                                 [--seconds 1.2] [--bands]
+
+For every key and velocity the note is rendered twice, ``synth note``'s way
+(one note-on at t = 0, 48 kHz output): with the preset (plus the ``--set``
+overrides) and with the same overrides and ``termination.profile=none`` (the
+ideal rigid end).  The measure is the *high band*: the energy above 1 kHz
+(one Hann-windowed spectrum of the window) of the render with the jawari
+over that of the render without, in dB, in two windows:
+
+* ``early``: 50-500 ms after the pluck;
+* ``late``: 0.9-1.1 s.
+
+``end`` is the time of the last contact of the string with the termination
+(the kernel's per-sample contact count, engine probe) when it comes before
+the last 50 ms of the render (the buzz stopped); ``on`` when the string
+still touches the jawari at the end.  ``c@1s`` is the share of the samples
+of 0.9-1.1 s in which some region point is in contact (%).
+
+``--keys sweep`` (default) is every third key of 43..74 plus 74; ``all``
+is every key 43..74.  The pass criterion (issue 12): every early >= 6 dB and
+every late >= 3 dB.  The last lines give the worst cases and the render time
+of the jawari notes (the per-sample path with the probe on; ``--bands``
+also prints the high-band level of the rigid-end render, dB re 1).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+import numpy as np
+
+EARLY = (0.05, 0.5)
+LATE = (0.9, 1.1)
+F_CUT_HZ = 1000.0
+
+
+def sweep_keys():
+    return list(range(43, 75, 3)) + [74]
+
+
+def high_band(y, fs, t0, t1, f_cut=F_CUT_HZ):
+    """Energy above ``f_cut`` (Hz) of ``y`` between ``t0`` and ``t1`` (s),
+    from one Hann-windowed spectrum (arbitrary units, linear)."""
+    x = np.asarray(y[int(round(t0 * fs)):int(round(t1 * fs))], float)
+    X = np.fft.rfft(x * np.hanning(len(x)))
+    f = np.fft.rfftfreq(len(x), 1.0 / fs)
+    return float(np.sum(np.abs(X[f >= f_cut]) ** 2))
+
+
+def _db(a, b):
+    if a <= 0.0 and b <= 0.0:
+        return 0.0
+    if b <= 0.0:
+        return float("inf")
+    if a <= 0.0:
+        return float("-inf")
+    return 10.0 * np.log10(a / b)
+
+
+def render(preset, overrides, key, velocity, seconds, probe):
+    """(output at fs_out, fs_out, contact counts per internal sample or None,
+    internal rate, render time s)."""
+    from synth.engine.engine import Event
+    from synth.io.factory import build_engine
+
+    eng = build_engine(preset, list(overrides), probe=probe, extra_low_key=key)
+    t = time.perf_counter()
+    y = eng.render([Event(0.0, "note_on", key, velocity / 127.0)], duration_s=seconds)
+    el = time.perf_counter() - t
+    c = None
+    if probe:
+        from synth.kernels import strings as K
+
+        c = eng.probe_channels(0)[K.P_CONTACT][: int(round(seconds * eng.inst.fs))]
+    return np.asarray(y, float), eng.fs_out, c, eng.inst.fs, el
+
+
+def measure(preset, overrides, key, velocity, seconds=1.2):
+    """One cell of the table: dict with early, late (dB above the rigid end),
+    end (s, or None while the buzz lasts), c1 (contact share 0.9-1.1 s),
+    none_early_db (the rigid end's high band, dB re 1), t_render (s)."""
+    y, fs, c, fsi, el = render(preset, overrides, key, velocity, seconds, True)
+    y0, _, _, _, _ = render(preset, list(overrides) + ["termination.profile=none"],
+                            key, velocity, seconds, False)
+    on = np.flatnonzero(c)
+    end = None
+    if len(on) == 0:
+        end = 0.0
+    elif on[-1] / fsi < seconds - 0.05:
+        end = float(on[-1] / fsi)
+    w = c[int(LATE[0] * fsi):int(LATE[1] * fsi)]
+    return {
+        "early": _db(high_band(y, fs, *EARLY), high_band(y0, fs, *EARLY)),
+        "late": _db(high_band(y, fs, *LATE), high_band(y0, fs, *LATE)),
+        "end": end,
+        "c1": 100.0 * float(np.count_nonzero(w)) / max(1, len(w)),
+        "none_early_db": 10.0 * np.log10(high_band(y0, fs, *EARLY) + 1e-300),
+        "t_render": el,
+    }
+
+
+def _fmt_end(e):
+    return "on" if e is None else f"{e:.3f}"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--preset", default="sitar")
+    ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                    help="override a preset value (repeatable), as synth note --set")
+    ap.add_argument("--keys", default="sweep", help="sweep (43..74 step 3, and 74), all, or K1,K2,...")
+    ap.add_argument("--velocities", default="40,80,127")
+    ap.add_argument("--seconds", type=float, default=1.2)
+    ap.add_argument("--bands", action="store_true", help="also print the rigid end's early high band (dB)")
+    a = ap.parse_args(argv)
+    if a.keys == "sweep":
+        keys = sweep_keys()
+    elif a.keys == "all":
+        keys = list(range(43, 75))
+    else:
+        keys = [int(k) for k in a.keys.split(",")]
+    vels = [int(v) for v in a.velocities.split(",")]
+    if not (LATE[1] + 0.05 <= a.seconds <= 30):
+        raise SystemExit(f"--seconds = {a.seconds} is out of range ({LATE[1] + 0.05} <= value <= 30)")
+    print(f"preset {a.preset}, overrides: {' '.join(a.set) or '(none)'}")
+    print("dB of the high band (> 1 kHz) above the rigid end (termination.profile=none); "
+          "early 50-500 ms, late 0.9-1.1 s; end: last contact (s) or on; c@1s: % of 0.9-1.1 s in contact")
+    head = "key " + "".join(f"| v{v:<3d} early  late   end   c@1s " for v in vels)
+    if a.bands:
+        head += "".join(f"| v{v} none dB " for v in vels)
+    print(head)
+    res = {}
+    t_all = []
+    for k in keys:
+        row = f"{k:3d} "
+        extra = ""
+        for v in vels:
+            m = measure(a.preset, a.set, k, v, a.seconds)
+            res[(k, v)] = m
+            t_all.append(m["t_render"])
+            row += f"| {m['early']:8.1f} {m['late']:5.1f} {_fmt_end(m['end']):>6s} {m['c1']:5.1f} "
+            extra += f"| {m['none_early_db']:10.1f} "
+        print(row + (extra if a.bands else ""), flush=True)
+    we = min(res, key=lambda kv: res[kv]["early"])
+    wl = min(res, key=lambda kv: res[kv]["late"])
+    stopped = [kv for kv in res if res[kv]["end"] is not None]
+    ok = all(m["early"] >= 6.0 and m["late"] >= 3.0 for m in res.values())
+    print(f"worst early: {res[we]['early']:.1f} dB (key {we[0]}, v{we[1]}); "
+          f"worst late: {res[wl]['late']:.1f} dB (key {wl[0]}, v{wl[1]}); "
+          f"buzz stopped before {a.seconds - 0.05:.2f} s in {len(stopped)} of {len(res)} notes"
+          + (f" (earliest {min(res[kv]['end'] for kv in stopped):.3f} s)" if stopped else ""))
+    print(f"criterion (early >= 6 dB and late >= 3 dB everywhere): {'PASS' if ok else 'FAIL'}")
+    print(f"render time of the jawari notes (probe on, {a.seconds:g} s each): "
+          f"median {1e3 * np.median(t_all):.0f} ms, max {1e3 * max(t_all):.0f} ms")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
