@@ -9,8 +9,8 @@ Usage
 For every key and velocity the note is rendered twice, ``synth note``'s way
 (one note-on at t = 0, 48 kHz output): with the preset (plus the ``--set``
 overrides) and with the same overrides and ``termination.profile=none`` (the
-ideal rigid end).  The measure is the *high band*: the energy above 1 kHz
-(one Hann-windowed spectrum of the window) of the render with the jawari
+ideal rigid end; ``termination.*`` overrides apply to the first only).  The measure is the *high band*: the energy above 1 kHz
+(``--f-cut``; one Hann-windowed spectrum of the window) of the render with the jawari
 over that of the render without, in dB, in two windows:
 
 * ``early``: 50-500 ms after the pluck;
@@ -65,13 +65,13 @@ def _db(a, b):
     return 10.0 * np.log10(a / b)
 
 
-def render(preset, overrides, key, velocity, seconds, probe):
+def render(preset, overrides, key, velocity, seconds, probe, fs_internal=None):
     """(output at fs_out, fs_out, contact counts per internal sample or None,
     internal rate, render time s)."""
     from synth.engine.engine import Event
     from synth.io.factory import build_engine
 
-    eng = build_engine(preset, list(overrides), probe=probe, extra_low_key=key)
+    eng = build_engine(preset, list(overrides), probe=probe, extra_low_key=key, fs_internal=fs_internal)
     t = time.perf_counter()
     y = eng.render([Event(0.0, "note_on", key, velocity / 127.0)], duration_s=seconds)
     el = time.perf_counter() - t
@@ -83,13 +83,15 @@ def render(preset, overrides, key, velocity, seconds, probe):
     return np.asarray(y, float), eng.fs_out, c, eng.inst.fs, el
 
 
-def measure(preset, overrides, key, velocity, seconds=1.2):
+def measure(preset, overrides, key, velocity, seconds=1.2, f_cut=F_CUT_HZ, fs_internal=None):
     """One cell of the table: dict with early, late (dB above the rigid end),
     end (s, or None while the buzz lasts), c1 (contact share 0.9-1.1 s),
     none_early_db (the rigid end's high band, dB re 1), t_render (s)."""
-    y, fs, c, fsi, el = render(preset, overrides, key, velocity, seconds, True)
-    y0, _, _, _, _ = render(preset, list(overrides) + ["termination.profile=none"],
-                            key, velocity, seconds, False)
+    y, fs, c, fsi, el = render(preset, overrides, key, velocity, seconds, True, fs_internal)
+    # the rigid end: the same overrides but those of the termination
+    ref = [o for o in overrides if not o.strip().startswith("termination.")]
+    y0, _, _, _, _ = render(preset, ref + ["termination.profile=none"], key, velocity, seconds, False,
+                            fs_internal)
     on = np.flatnonzero(c)
     end = None
     if len(on) == 0:
@@ -98,11 +100,11 @@ def measure(preset, overrides, key, velocity, seconds=1.2):
         end = float(on[-1] / fsi)
     w = c[int(LATE[0] * fsi):int(LATE[1] * fsi)]
     return {
-        "early": _db(high_band(y, fs, *EARLY), high_band(y0, fs, *EARLY)),
-        "late": _db(high_band(y, fs, *LATE), high_band(y0, fs, *LATE)),
+        "early": _db(high_band(y, fs, *EARLY, f_cut), high_band(y0, fs, *EARLY, f_cut)),
+        "late": _db(high_band(y, fs, *LATE, f_cut), high_band(y0, fs, *LATE, f_cut)),
         "end": end,
         "c1": 100.0 * float(np.count_nonzero(w)) / max(1, len(w)),
-        "none_early_db": 10.0 * np.log10(high_band(y0, fs, *EARLY) + 1e-300),
+        "none_early_db": 10.0 * np.log10(high_band(y0, fs, *EARLY, f_cut) + 1e-300),
         "t_render": el,
     }
 
@@ -119,6 +121,10 @@ def main(argv=None) -> int:
     ap.add_argument("--keys", default="sweep", help="sweep (43..74 step 3, and 74), all, or K1,K2,...")
     ap.add_argument("--velocities", default="40,80,127")
     ap.add_argument("--seconds", type=float, default=1.2)
+    ap.add_argument("--f-cut", type=float, default=F_CUT_HZ,
+                    help="lower edge of the high band, Hz (issue 12: 1000)")
+    ap.add_argument("--internal-rate", type=float, default=None,
+                    help="internal rate, Hz (default: the preset's, 325 kHz)")
     ap.add_argument("--bands", action="store_true", help="also print the rigid end's early high band (dB)")
     a = ap.parse_args(argv)
     if a.keys == "sweep":
@@ -130,8 +136,9 @@ def main(argv=None) -> int:
     vels = [int(v) for v in a.velocities.split(",")]
     if not (LATE[1] + 0.05 <= a.seconds <= 30):
         raise SystemExit(f"--seconds = {a.seconds} is out of range ({LATE[1] + 0.05} <= value <= 30)")
-    print(f"preset {a.preset}, overrides: {' '.join(a.set) or '(none)'}")
-    print("dB of the high band (> 1 kHz) above the rigid end (termination.profile=none); "
+    print(f"preset {a.preset}, overrides: {' '.join(a.set) or '(none)'}"
+          + (f", internal rate {a.internal_rate:g} Hz" if a.internal_rate else ""))
+    print(f"dB of the high band (> {a.f_cut:g} Hz) above the rigid end (termination.profile=none); "
           "early 50-500 ms, late 0.9-1.1 s; end: last contact (s) or on; c@1s: % of 0.9-1.1 s in contact")
     head = "key " + "".join(f"| v{v:<3d} early  late   end   c@1s " for v in vels)
     if a.bands:
@@ -143,7 +150,7 @@ def main(argv=None) -> int:
         row = f"{k:3d} "
         extra = ""
         for v in vels:
-            m = measure(a.preset, a.set, k, v, a.seconds)
+            m = measure(a.preset, a.set, k, v, a.seconds, a.f_cut, a.internal_rate)
             res[(k, v)] = m
             t_all.append(m["t_render"])
             row += f"| {m['early']:8.1f} {m['late']:5.1f} {_fmt_end(m['end']):>6s} {m['c1']:5.1f} "
