@@ -83,11 +83,14 @@ def render(preset, overrides, key, velocity, seconds, probe, fs_internal=None):
     return np.asarray(y, float), eng.fs_out, c, eng.inst.fs, el
 
 
-def measure(preset, overrides, key, velocity, seconds=1.2, f_cut=F_CUT_HZ, fs_internal=None):
+def measure(preset, overrides, key, velocity, seconds=1.2, f_cut=F_CUT_HZ, fs_internal=None,
+            above_harmonic=0.0):
     """One cell of the table: dict with early, late (dB above the rigid end),
     end (s, or None while the buzz lasts), c1 (contact share 0.9-1.1 s),
     none_early_db (the rigid end's high band, dB re 1), t_render (s)."""
     y, fs, c, fsi, el = render(preset, overrides, key, velocity, seconds, True, fs_internal)
+    # the band's edge above the note's first partials (0: f_cut only)
+    f_cut = max(f_cut, above_harmonic * 440.0 * 2.0 ** ((key - 69) / 12.0))
     # the rigid end: the same overrides but those of the termination
     ref = [o for o in overrides if not o.strip().startswith("termination.")]
     y0, _, _, _, _ = render(preset, ref + ["termination.profile=none"], key, velocity, seconds, False,
@@ -123,6 +126,9 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=float, default=1.2)
     ap.add_argument("--f-cut", type=float, default=F_CUT_HZ,
                     help="lower edge of the high band, Hz (issue 12: 1000)")
+    ap.add_argument("--above-harmonic", type=float, default=0.0, metavar="H",
+                    help="the band starts at max(f_cut, H f0): 2.5 leaves partials 1-2 out on every "
+                         "key (default 0: f_cut on every key, as issue 12)")
     ap.add_argument("--internal-rate", type=float, default=None,
                     help="internal rate, Hz (default: the preset's, 325 kHz)")
     ap.add_argument("--bands", action="store_true", help="also print the rigid end's early high band (dB)")
@@ -138,7 +144,8 @@ def main(argv=None) -> int:
         raise SystemExit(f"--seconds = {a.seconds} is out of range ({LATE[1] + 0.05} <= value <= 30)")
     print(f"preset {a.preset}, overrides: {' '.join(a.set) or '(none)'}"
           + (f", internal rate {a.internal_rate:g} Hz" if a.internal_rate else ""))
-    print(f"dB of the high band (> {a.f_cut:g} Hz) above the rigid end (termination.profile=none); "
+    edge = f"> {a.f_cut:g} Hz" + (f" and > {a.above_harmonic:g} f0" if a.above_harmonic else "")
+    print(f"dB of the high band ({edge}) above the rigid end (termination.profile=none); "
           "early 50-500 ms, late 0.9-1.1 s; end: last contact (s) or on; c@1s: % of 0.9-1.1 s in contact")
     head = "key " + "".join(f"| v{v:<3d} early  late   end   c@1s " for v in vels)
     if a.bands:
@@ -150,7 +157,7 @@ def main(argv=None) -> int:
         row = f"{k:3d} "
         extra = ""
         for v in vels:
-            m = measure(a.preset, a.set, k, v, a.seconds, a.f_cut, a.internal_rate)
+            m = measure(a.preset, a.set, k, v, a.seconds, a.f_cut, a.internal_rate, a.above_harmonic)
             res[(k, v)] = m
             t_all.append(m["t_render"])
             row += f"| {m['early']:8.1f} {m['late']:5.1f} {_fmt_end(m['end']):>6s} {m['c1']:5.1f} "
