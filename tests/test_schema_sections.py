@@ -167,8 +167,13 @@ def check_values(doc: str, section: str) -> None:
     spec = getattr(preset, section)
     assert type(spec) is sec.cls
     rows = active_rows(sec, context(preset))
-    assert set(rows) == set(table), f"{doc}: [{section}] keys vs the schema's active rows"
+    # an optional key (a row with a default) the file leaves out takes its default
+    optional = {n for n, r in rows.items() if r.default is not None and n not in table}
+    assert set(rows) - optional == set(table), f"{doc}: [{section}] keys vs the schema's active rows"
     for name, row in rows.items():
+        if name in optional:
+            assert getattr(spec, name) == row.default, f"{section}.{name} takes its default"
+            continue
         got, want = getattr(spec, name), table[name]
         if row.type == "points":
             assert got == tuple((float(x), float(u)) for x, u in want)
@@ -190,7 +195,10 @@ def check_out_of_range(doc: str, section: str) -> int:
     for name, row in rows.items():
         if row.type not in ("float", "int") or row.choices is not None:
             continue
-        good = ALL_DOCS[doc][section][name]
+        if name not in ALL_DOCS[doc][section]:
+            # an optional key the file leaves out: pushed out of range from its default
+            assert row.default is not None, f"{section}.{name}"
+        good = ALL_DOCS[doc][section].get(name, row.default)
         for bad in outside(row):
             raw = copy.deepcopy(ALL_DOCS[doc])
             raw[section][name] = bad

@@ -64,6 +64,10 @@ class Field:
         Allowed values (for ``str`` and ``int`` keys).
     when : When or None
         Required iff the condition holds, forbidden otherwise; None = always required.
+    default : value or None
+        With a default the key is optional where its condition holds (absent:
+        the default); forbidden elsewhere still.  Keys added after a schema
+        version's presets were written take one, so those presets stay valid.
     """
 
     name: str
@@ -75,6 +79,7 @@ class Field:
     hi_open: bool = False
     choices: tuple | None = None
     when: When | None = None
+    default: Any = None
 
     def range_text(self) -> str:
         lo_op = "<" if self.lo_open else "<="

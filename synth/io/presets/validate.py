@@ -229,6 +229,14 @@ class _Validator:
                             f"{disc} = {actual}{self._origin(disc)}, only when {allowed}")
         return _ABSENT
 
+    def _optional(self, rows: Sequence[Field]) -> Field | None:
+        """The active row of an absent key when it has a default (the key
+        is then optional), else None."""
+        for r in rows:
+            if r.default is not None and (r.when is None or r.when.holds(self.ctx)):
+                return r
+        return None
+
     def run(self, raw: Mapping[str, Any]) -> dict[str, Any]:
         if not isinstance(raw, Mapping):
             raise self.fail("a preset must be a TOML table")
@@ -251,6 +259,10 @@ class _Validator:
             for name in names:
                 dotted = f"{sec.name}.{name}"
                 rows = [f for f in sec.fields if f.name == name]
+                opt = self._optional(rows) if name not in table else None
+                if opt is not None:
+                    values[name] = self.ctx[dotted] = opt.default
+                    continue
                 when = self.presence(dotted, name in table, [r.when for r in rows])
                 if when is _ABSENT:
                     values[name] = None
