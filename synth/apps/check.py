@@ -39,6 +39,7 @@ monotonic      loudness, peak or centroid rising (falling)      measure, over, [
 centroid_ratio centroid(render) / centroid(against), item by    against, min, max
                item
 highband_diff  energy above above_hz, render minus against, dB  against, above_hz, min_db, max_db
+               over the whole render or a window, s            [start_s], [length_s]
 ============== ================================================ ==================================
 """
 
@@ -525,8 +526,11 @@ def _c_centroid_ratio(items, e, others):
     return out
 
 
-def _highband_db(it, f_hz):
+def _highband_db(it, f_hz, start_s=None, length_s=None):
     x = it.audio
+    if start_s is not None or length_s is not None:
+        a = int(round((start_s or 0.0) * it.fs))
+        x = x[a:] if length_s is None else x[a:a + int(round(length_s * it.fs))]
     spec = np.abs(np.fft.rfft(x * np.hanning(len(x)))) ** 2
     f = np.fft.rfftfreq(len(x), 1.0 / it.fs)
     e = float(np.sum(spec[f >= f_hz]))
@@ -536,8 +540,11 @@ def _highband_db(it, f_hz):
 def _c_highband_diff(items, e, others):
     out = []
     for a, b in _pairs(items, e, others):
-        d = _highband_db(a, e["above_hz"]) - _highband_db(b, e["above_hz"])
-        out.append((f"energy above {e['above_hz']:g} Hz, {a.label} - {b.label}", f"{d:+.1f} dB",
+        w = (e.get("start_s"), e.get("length_s"))
+        d = _highband_db(a, e["above_hz"], *w) - _highband_db(b, e["above_hz"], *w)
+        span = ("" if w == (None, None) else
+                f" ({w[0] or 0.0:g}-" + ("end" if w[1] is None else f"{(w[0] or 0.0) + w[1]:g} s") + ")")
+        out.append((f"energy above {e['above_hz']:g} Hz{span}, {a.label} - {b.label}", f"{d:+.1f} dB",
                     f"{e['min_db']:g} .. {e['max_db']:g} dB", bool(e["min_db"] <= d <= e["max_db"])))
     return out
 
@@ -699,8 +706,10 @@ CHECKS = {
                              "window_s": (0.01, 60.0, False)}),
     "smooth": Check(_c_smooth, ("max_db",), (),
                     {"max_db": (0.0, 100.0, False)}),
-    "highband_diff": Check(_c_highband_diff, ("against", "above_hz", "min_db", "max_db"), (),
-                           {"above_hz": (1.0, 24000.0, False), "min_db": _DB, "max_db": _DB}),
+    "highband_diff": Check(_c_highband_diff, ("against", "above_hz", "min_db", "max_db"),
+                           ("start_s", "length_s"),
+                           {"above_hz": (1.0, 24000.0, False), "min_db": _DB, "max_db": _DB,
+                            "start_s": (0.0, 60.0, False), "length_s": (0.01, 60.0, False)}),
     "dynamic_range": Check(_c_dynamic_range, ("min_db",), ("max_db",),
                            {"min_db": _DB, "max_db": _DB}),
     "two_stage": Check(_per_item(_c_two_stage), ("min_ratio",),
