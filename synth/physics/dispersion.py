@@ -231,7 +231,9 @@ class _Problem:
     """Targets of one design: partials 1 .. K of f0, B at fs in a loop with
     a loss pole a1, tuned as :func:`synth.physics.losses.tune_loop` tunes."""
 
-    def __init__(self, f0_hz: float, B: float, fs: float, K: int, a1: float):
+    def __init__(self, f0_hz: float, B: float, fs: float, K: int, a1: float,
+                 fixed_delay: float = 0.0):
+        self.fixed = float(fixed_delay)               # a pure delay elsewhere in the loop
         n = np.arange(1, K + 1, dtype=float)
         fn = stiff_partials(f0_hz, B, n)
         self.w = 2.0 * math.pi * fn / fs
@@ -245,7 +247,7 @@ class _Problem:
 
     def tune(self, disp1):
         """Cells, extra delay and eta for cascade delays ``disp1`` (array, samples at f1)."""
-        rest = self.P1 - self.lp1 - np.asarray(disp1, dtype=float)
+        rest = self.P1 - self.lp1 - np.asarray(disp1, dtype=float) - self.fixed
         N = np.floor((rest - 0.5) / 2.0)
         rem = rest - 2.0 * N                          # in [0.5, 2.5)
         extra = (rem >= 1.5).astype(int)
@@ -287,9 +289,9 @@ def _golden(cost, lo: float, hi: float, iters: int = _GOLDEN_ITERS) -> tuple[flo
 
 
 def _design(f0_hz: float, B: float, fs: float, m_max: int, K: int, tol_cents: float,
-            a1: float = 0.0) -> DispersionDesign:
+            a1: float = 0.0, fixed_delay: float = 0.0) -> DispersionDesign:
     """Choose (M, a) and the tuning; see the module docstring for the rule."""
-    pb = _Problem(f0_hz, B, fs, K, a1)
+    pb = _Problem(f0_hz, B, fs, K, a1, fixed_delay)
 
     def result(M: int, a: float, n_fit: int) -> DispersionDesign:
         c, N, extra, eta, disp1 = pb.cents(M, a)
@@ -573,7 +575,7 @@ def _stiff_loss_filter(f0: float, B: float, fs: float, t60_low_s: float, f_low_h
 def tune_stiff_loop(f1_hz: float, B: float, fs: float, t60_low_s: float, f_low_hz: float,
                     t60_high_s: float, f_high_hz: float, m_max: int = M_LIMIT, *,
                     n_partials: int | None = None, tol_cents: float = TOL_CENTS,
-                    f_max_hz: float = F_MAX_HZ) -> StiffLoop:
+                    f_max_hz: float = F_MAX_HZ, fixed_delay: float = 0.0) -> StiffLoop:
     """Loss filter, dispersion cascade, integer delay and tuning allpass of a
     stiff string whose partial 1 is exactly ``f1_hz``.
 
@@ -595,6 +597,10 @@ def tune_stiff_loop(f1_hz: float, B: float, fs: float, t60_low_s: float, f_low_h
         flat (T60 at f_high then comes out longer than asked).
     m_max, n_partials, tol_cents, f_max_hz
         As in :func:`design_dispersion`.
+    fixed_delay : float
+        Samples of pure delay taken by something else in the loop (a
+        pitch-bend line at rest, as :func:`synth.physics.losses.tune_loop`),
+        >= 0: the grid and the tuning allpass make up the rest.
 
     Returns
     -------
@@ -620,7 +626,8 @@ def tune_stiff_loop(f1_hz: float, B: float, fs: float, t60_low_s: float, f_low_h
 
     # the cascade also makes up for the loss filter's and the tuning
     # allpass's own (small) dispersion
-    des = _design(f0, B, fs, m_max, K, tol_cents, a1)
+    fixed_delay = _num("fixed_delay", fixed_delay, 0.0, fs / f1_hz / 2.0)
+    des = _design(f0, B, fs, m_max, K, tol_cents, a1, fixed_delay)
     if des.cells < MIN_CELLS:
         raise ValueError(f"f1_hz = {f1_hz!r} is out of range: the loop keeps {des.cells} "
                          f"cells (allowed: >= {MIN_CELLS}, f1 < fs/16)")
