@@ -4,7 +4,7 @@ Usage
 -----
     python tools/study_jawari.py [--preset sitar] [--set PATH=VALUE ...]
                                  [--keys sweep|all|K1,K2,...] [--velocities 40,80,127]
-                                 [--seconds 1.2] [--bands]
+                                 [--seconds 1.2] [--bands] [--pitch]
 
 For every key and velocity the note is rendered twice, ``synth note``'s way
 (one note-on at t = 0, 48 kHz output): with the preset (plus the ``--set``
@@ -27,6 +27,13 @@ is every key 43..74.  The pass criterion (issue 12): every early >= 6 dB and
 every late >= 3 dB.  The last lines give the worst cases and the render time
 of the jawari notes (the per-sample path with the probe on; ``--bands``
 also prints the high-band level of the rigid-end render, dB re 1).
+
+``--pitch`` instead prints, per key and velocity, partial 1 of the preset's
+render (50 ms - 1.05 s, as ``synth check``'s ``f0``) in cents against the
+key, and the mean per velocity: with ``--set
+termination.pitch_rise_cents=0`` that is the rise the contact itself gives,
+the number ``termination.pitch_rise_cents`` tunes out (its value at
+velocity 127; the voice scales it as (velocity buzz)^0.6).
 """
 
 from __future__ import annotations
@@ -112,6 +119,31 @@ def measure(preset, overrides, key, velocity, seconds=1.2, f_cut=F_CUT_HZ, fs_in
     }
 
 
+def pitch_table(preset, overrides, keys, vels, seconds) -> int:
+    """Partial 1 against the key (cents), per key and velocity, and the means."""
+    from synth.analysis import cents, estimate_f0
+    from synth.physics.string import midi_key_to_hz
+
+    print(f"preset {preset}, overrides: {' '.join(overrides) or '(none)'}")
+    print("partial 1 (50 ms - 1.05 s) against the key, cents")
+    print("key " + "".join(f"| v{v:<4d}" for v in vels))
+    acc = {v: [] for v in vels}
+    for k in keys:
+        row = f"{k:3d} "
+        for v in vels:
+            y, fs, _, _, _ = render(preset, overrides, k, v, seconds, False)
+            ref = midi_key_to_hz(k)
+            seg = y[int(0.05 * fs):int(1.05 * fs)]
+            c = float(cents(estimate_f0(seg, fs, ref, search_cents=60.0), ref))
+            acc[v].append(c)
+            row += f"| {c:+5.2f} "
+        print(row, flush=True)
+    print("mean" + "".join(f"| {np.mean(acc[v]):+5.2f} " for v in vels))
+    worst = max(abs(c) for v in vels for c in acc[v])
+    print(f"worst |cents|: {worst:.2f}")
+    return 0
+
+
 def _fmt_end(e):
     return "on" if e is None else f"{e:.3f}"
 
@@ -132,6 +164,8 @@ def main(argv=None) -> int:
     ap.add_argument("--internal-rate", type=float, default=None,
                     help="internal rate, Hz (default: the preset's, 325 kHz)")
     ap.add_argument("--bands", action="store_true", help="also print the rigid end's early high band (dB)")
+    ap.add_argument("--pitch", action="store_true",
+                    help="print partial 1 against the key (cents) per key and velocity instead")
     a = ap.parse_args(argv)
     if a.keys == "sweep":
         keys = sweep_keys()
@@ -142,6 +176,8 @@ def main(argv=None) -> int:
     vels = [int(v) for v in a.velocities.split(",")]
     if not (LATE[1] + 0.05 <= a.seconds <= 30):
         raise SystemExit(f"--seconds = {a.seconds} is out of range ({LATE[1] + 0.05} <= value <= 30)")
+    if a.pitch:
+        return pitch_table(a.preset, a.set, keys, vels, a.seconds)
     print(f"preset {a.preset}, overrides: {' '.join(a.set) or '(none)'}"
           + (f", internal rate {a.internal_rate:g} Hz" if a.internal_rate else ""))
     edge = f"> {a.f_cut:g} Hz" + (f" and > {a.above_harmonic:g} f0" if a.above_harmonic else "")

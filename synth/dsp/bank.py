@@ -355,6 +355,17 @@ class StringBank:
             self.U[ip[K.I_BOFF]: ip[K.I_BOFF] + blen] = 0.0
         self.fst[s, K.S_BD] = t.bend_delay
 
+    def set_region(self, s: int, U: np.ndarray) -> None:
+        """Replace slot s's termination profile U(1..R) (m) from its next
+        sample on (a buzz control on a sounding string); R is the slot's,
+        as configured."""
+        R = int(self.ipar[s, K.I_REG_N])
+        U = np.asarray(U, float)
+        if U.shape != (R,):
+            raise ValueError(f"U has shape {U.shape}; slot {s} has a region of {R} points")
+        off = int(self.ipar[s, K.I_REG_OFF])
+        self.U[off: off + R] = U
+
     def fade(self, s: int, t60_s: float, fs_hz: float) -> None:
         """Fade slot s out: its loop loses 60 dB in ``t60_s`` (s) more than
         it does now (a stolen or shed voice; about 10 ms, never a cut: that

@@ -339,6 +339,11 @@ class Engine:
             elif cc == CC_ALL_SOUND_OFF:
                 for v in list(self.voices):
                     self._free(v)
+            else:
+                # the voice's own controls (the plucked voices' buzz depth, CC1)
+                self.inst.control_change(
+                    self.bank, cc, float(ev.value),
+                    [(vo.slots, vo.key_arg, vo.f0_hz) for vo in self.voices.values()])
 
     def _add_knock(self, key, ev: Event, at: int) -> None:
         """The action's knock of a note-on at internal sample ``at``: its

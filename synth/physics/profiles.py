@@ -114,6 +114,58 @@ def jawari_case3(slope: float, x_a_m: float, x_b_m: float, radius_m: float,
     return U
 
 
+@register_profile("jawari", "radius_m", "extent_m", "thread_m")
+def jawari(radius_m: float, extent_m: float, thread_m: float) -> Profile:
+    """The playable sitar bridge: a curved surface under a grazing string,
+    set by its thread (side +1).
+
+    The string leaves the bridge at its far edge (x = 0, the termination)
+    and runs over the bridge's top, a surface of radius R (the maker's
+    filed *jawari*), to its front edge at x = s (``extent_m``).  A cotton
+    thread of diameter d (``thread_m``) lies under the string at the front
+    edge.  The surface drops s^2/(2R) below its tangent at x = 0 over the
+    bridge, so the thread lifts the string by d - s^2/(2R) above that
+    tangent, and the string's rest line leans away from the surface by the
+    angle theta = (d - s^2/(2R)) / s.  The gap between the rest string and
+    the surface is the profile
+
+        U(x) = theta x + x^2 / (2R)   for 0 < x <= s,  +inf beyond
+
+    (thesis eq. 1.15's ramp and parabola, with the ramp's slope k = theta
+    set by the thread and the parabola starting at x = 0).  A thread just
+    as thick as the drop (theta = 0) lays the string along the surface's
+    tangent: the string grazes the bridge at rest, as a maker's "open"
+    jawari does, and touches it whenever it swings towards it, for as long
+    as the note sounds.  A thicker thread (theta > 0) "closes" the jawari:
+    only a string whose slope at the bridge exceeds theta touches it, and
+    the wave soon reshapes itself below that slope (the thesis's periodic
+    regime, Publication II section 4): the buzz stops while the note rings.
+    The thread itself is cotton, soft next to the bridge; it is not an
+    obstacle here.
+
+    Raises ValueError when the thread is thinner than the drop (the
+    string would lie on the surface: theta < 0).
+    """
+    R, s, d = float(radius_m), float(extent_m), float(thread_m)
+    drop = s * s / (2.0 * R)
+    if d < drop:
+        raise ValueError(f"termination.thread_m = {d:g} is out of range (value >= {drop:g} m, "
+                         f"the bridge's drop extent_m^2/(2 radius_m) under its tangent)")
+    theta = (d - drop) / s
+
+    def U(x):
+        x = np.asarray(x, float)
+        return np.where(x <= s, theta * x + x * x / (2.0 * R), np.inf)
+
+    return U
+
+
+def jawari_angle(radius_m: float, extent_m: float, thread_m: float) -> float:
+    """The rest string's angle over the bridge, theta = (d - s^2/(2R))/s
+    (rad), of :func:`jawari`'s geometry."""
+    return (float(thread_m) - float(extent_m) ** 2 / (2.0 * float(radius_m))) / float(extent_m)
+
+
 @register_profile("table", "points", "side")
 def table(points, side: int) -> Profile:
     """User profile from (x_m, U_m) points, linearly interpolated; beyond the
@@ -161,6 +213,26 @@ class Termination:
         # an obstacle on the wrong side of infinity never touches either
         U[np.isinf(U)] = none
         return U
+
+
+def buzz_profile(U: np.ndarray, buzz: float, side: int) -> np.ndarray:
+    """The profile ``U`` (m, at the region's points) at a buzz depth.
+
+    ``buzz`` in [0, 1] scales the gap between the string at rest and the
+    obstacle by 1/buzz: U / buzz.  At 1 the profile is as given; towards 0
+    the obstacle withdraws from the string, so that a string of amplitude
+    A meets it as one of amplitude A buzz meets the full profile (exactly
+    so where U is linear in x: the jawari's ramp, thesis eqs. 1.14-1.16);
+    at 0 it is out of reach (+inf for side +1, -inf for side -1): the
+    string's contact test never fires and it is the linear string.
+    Returns a new array.
+    """
+    b = float(buzz)
+    if not (0.0 <= b <= 1.0):
+        raise ValueError(f"buzz = {buzz!r} is out of range (0 <= value <= 1)")
+    if b == 0.0:
+        return np.full(len(U), np.inf if side > 0 else -np.inf)
+    return np.asarray(U, float) / b
 
 
 def termination_from_spec(spec) -> Termination | None:

@@ -193,6 +193,16 @@ class Voice:
         """Pitch bend of a sounding note, ``value`` in [-1, 1] of the voice's
         range.  Default: the voice does not bend (a piano)."""
 
+    def control_change(self, bank: StringBank, cc: int, value: float, sounding) -> bool:
+        """A MIDI control change the engine does not handle itself (it
+        takes the pedals 64, 66, 67 and the channel-mode messages).
+
+        cc : controller number, 0 .. 127.  value : normalised, 0 .. 1.
+        sounding : the notes sounding now, as (slots, key, f0_hz) tuples.
+        Returns True when the voice used the control.  Default: ignored.
+        """
+        return False
+
     def pitch_hz(self, key: float | None = None, f0_hz: float | None = None) -> float:
         """The frequency a note sounds at (Hz): ``f0_hz`` if given, else the
         voice's tuning of ``key`` (default: equal temperament, A4 = 440 Hz)."""

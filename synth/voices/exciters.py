@@ -59,7 +59,8 @@ class Exciter:
         return 0
 
     def start(self, bank: StringBank, slot: int, su, velocity: float, *,
-              amplitude_scale: float = 1.0, speed_m_per_s: float | None = None) -> None:
+              amplitude_scale: float = 1.0, speed_m_per_s: float | None = None,
+              length_scale: float = 1.0) -> None:
         """Excite slot ``slot`` from its next sample.
 
         su : the note's string as configured in the slot: any object with
@@ -72,6 +73,8 @@ class Exciter:
             so that it is plucked at the same slope; a keyboard voice: its
             per-key level law), for exciters that scale (the pluck).
         speed_m_per_s : explicit hammer speed (m/s), for hammers.
+        length_scale : the note's speaking length over the open string's
+            (a fretted string), for exciters whose timing follows it.
         """
         raise NotImplementedError
 
@@ -97,11 +100,27 @@ class Pluck(Exciter):
             return A
         return A * amplitude_scale * float(velocity) ** self.play.velocity_exponent
 
-    def start(self, bank, slot, su, velocity, *, amplitude_scale=1.0, speed_m_per_s=None):
+    def duration_s(self, length_scale: float = 1.0) -> float:
+        """Pluck duration t0 (s).  The sitar's kinematic g(t) (eq. 1.13) of a
+        musical preset lasts ``duration_s`` times the note's speaking length
+        over the open string's (``length_scale``, < 1 on a fret):
+        the same pluck shape per period on every fret.  Measured
+        (``tools/study_jawari.py``, key 74, velocity 40): with the open
+        string's 4 ms on the 1.7 ms period the string followed g nearly
+        quasi-statically and swung at the bridge 6.7x less (slope 8.6e-4
+        against 5.8e-3) than the open string does.  The biwa's force pluck
+        is a force in time: it keeps its duration."""
+        t0 = self.spec.duration_s
+        if self.study or self.spec.model != "sitar":
+            return t0
+        return t0 * min(1.0, float(length_scale))
+
+    def start(self, bank, slot, su, velocity, *, amplitude_scale=1.0, speed_m_per_s=None,
+              length_scale=1.0):
         sp = self.spec
         alpha = sp.alpha_per_s if sp.model == "biwa" else 0.0
         bank.start_pluck(slot, PLUCK_MODELS[sp.model], self.amplitude_m(velocity, amplitude_scale),
-                         sp.duration_s, alpha)
+                         self.duration_s(length_scale), alpha)
 
 
 @register_exciter("hammer")
@@ -166,7 +185,8 @@ class FeltHammer(Exciter):
         self.strike_log = b.probe[0, :, :last].copy()
         return b.probe[0, K.P_G, :last].copy()
 
-    def start(self, bank, slot, su, velocity, *, amplitude_scale=1.0, speed_m_per_s=None):
+    def start(self, bank, slot, su, velocity, *, amplitude_scale=1.0, speed_m_per_s=None,
+              length_scale=1.0):
         V = self.speed(velocity, speed_m_per_s)
         if su.U is not None and self.spec.capo_coupling == "injected":
             bank.start_gtable(slot, self.ideal_support_g(su, V))

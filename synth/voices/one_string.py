@@ -35,8 +35,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..dsp.bank import StringBank
+from ..physics.dispersion import tune_stiff_loop
 from ..physics.losses import allpass_for_phase_delay, tune_loop
-from ..physics.profiles import termination_from_spec
+from ..physics.profiles import buzz_profile, termination_from_spec
 from ..physics.string import IdealString, fretted_string, midi_key_to_hz
 from .base import BankSizes, Voice
 from .registry import exciter_for, register_voice
@@ -60,6 +61,9 @@ class StringSetup:
     f0_hz: float
     bend_len: int = 0          # pitch-bend line length (samples), 0: none
     bend_delay: float = 0.0    # its rest delay (samples)
+    n_disp: int = 0            # stiffness: first-order dispersion allpasses ...
+    a_disp: float = 0.0        # ... and their coefficient
+    B: float = 0.0             # this note's inharmonicity coefficient
 
 
 @register_voice("plucked", "piano")
@@ -95,8 +99,15 @@ class OneStringVoice(Voice):
         if not (20_000 <= self.fs <= 2_000_000):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (20000 <= value <= 2000000)")
         self.termination = termination_from_spec(preset.termination)
+        #: buzz depth 0 .. 1 (:func:`synth.physics.profiles.buzz_profile`):
+        #: the preset's ``termination.buzz``, then the ``play.buzz_cc`` control
+        self.buzz = 1.0 if self.termination is None else float(preset.termination.buzz)
+        cc = getattr(preset.play, "buzz_cc", None) if preset.play is not None else None
+        self.buzz_cc = None if cc is None or self.termination is None else int(cc)
         self.exciter = exciter_for(preset, self.fs)
         self._setups: dict = {}
+        #: per bank slot: (pitch bend -1 .. 1, normalised velocity of its note)
+        self._slot_state: dict = {}
 
     def warm(self, keys=range(128)) -> None:
         """Derive every key's string now, so that no note-on has to."""
@@ -133,6 +144,7 @@ class OneStringVoice(Voice):
         if ck in self._setups:
             return self._setups[ck]
         pre = self.preset
+        n_disp, a_disp, B = 0, 0.0, 0.0
         if self.study and own:
             st = self.open_string
             cells = self.cells
@@ -163,6 +175,13 @@ class OneStringVoice(Voice):
                 tl = tune_loop(f0, fs, L.t60_low_s, L.f_low_hz, L.t60_high_s, L.f_high_hz,
                                fixed_delay=D0)
                 cells, b0, a1, eta, xd, lossy = tl.cells, tl.b0, tl.a1, tl.eta, tl.extra_delay, True
+                B = self.inharmonicity(st)
+                if B > 0.0:
+                    # partial 1 on the key, partials n f0 sqrt(1 + B n^2) above it
+                    sl = tune_stiff_loop(f0, B, fs, L.t60_low_s, L.f_low_hz, L.t60_high_s,
+                                         L.f_high_hz, fixed_delay=D0 if blen else 0.0)
+                    cells, b0, a1, eta, xd = sl.cells, sl.b0, sl.a1, sl.eta, sl.extra_delay
+                    n_disp, a_disp = sl.M, sl.a_disp
         # the grid spacing of this string
         dx = st.c_m_per_s * dt
         U = None
@@ -178,9 +197,27 @@ class OneStringVoice(Voice):
         k = min(max(k, 1), cells - 1)
         bl = blen if (not self.study and not own and pre.play.pitch_bend_semitones > 0) else 0
         s = StringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0,
-                        bl, D0 if bl else 0.0)
+                        bl, D0 if bl else 0.0, n_disp, a_disp, B)
         self._setups[ck] = s
         return s
+
+    #: largest B a note gets (:meth:`inharmonicity`)
+    B_MAX = 2e-3
+
+    def inharmonicity(self, st: IdealString) -> float:
+        """B of the string ``st`` (fretted or retuned from the open one):
+        B = pi^3 E d^4 / (64 T L^2) with the wire's E and d unchanged, i.e.
+        the open string's ``string.inharmonicity`` times (T0 / T) (L0 / L)^2
+        (Fletcher & Rossing eq. 12.4; 0 for study presets)."""
+        B0 = getattr(self.preset.string, "inharmonicity", None) or 0.0
+        if self.study or B0 <= 0.0:
+            return 0.0
+        o = self.open_string
+        B = B0 * (o.tension_n / st.tension_n) * (o.length_m / st.length_m) ** 2
+        # retuned far below the playing range (key 5, 10.9 Hz: 0.1 N on the
+        # sitar's wire) the stiffness would rule the partials (B 5e-3,
+        # partial 8 +40 cents): held at a piano's top treble, 2e-3
+        return min(B, self.B_MAX)
 
     def max_cells(self, key_low: int | None = None) -> int:
         """Largest N any playable note needs (for sizing the bank)."""
@@ -207,12 +244,13 @@ class OneStringVoice(Voice):
     def _configure(self, bank: StringBank, slot: int, su: StringSetup, probe_row: int) -> None:
         pre = self.preset
         out_mode = 1 if pre.output.signal == "bridge_force" else 0
-        bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=su.side,
+        U = None if su.U is None else buzz_profile(su.U, self.buzz, su.side)
+        bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=U, side=su.side,
                        out_mode=out_mode, gain=pre.output.gain,
                        tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
                        b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
                        lossy=su.lossy, probe_row=probe_row, bend_len=su.bend_len,
-                       bend_delay=su.bend_delay)
+                       bend_delay=su.bend_delay, n_disp=su.n_disp, a_disp=su.a_disp)
         # the thesis's strings are lossless and never damped
         t_damped = math.inf if self.study else self.preset.loss.release_t60_s
         bank.set_damper(slot, (su.b0, su.f0_hz, t_damped, math.inf))
@@ -227,17 +265,63 @@ class OneStringVoice(Voice):
                              + loop * (2.0 ** (r / 12.0) - 1.0))) + 6
 
     # -- voice contract ------------------------------------------------------------
+    def set_buzz(self, bank: StringBank, value: float, sounding=()) -> None:
+        """Buzz depth ``value`` (0 .. 1) for the notes to come and, from the
+        next sample, for the ``sounding`` ones ((slots, key, f0_hz) tuples):
+        their obstacle moves to U / value (:func:`buzz_profile`)."""
+        self.buzz = min(max(float(value), 0.0), 1.0)
+        if self.termination is None:
+            return
+        for slots, key, f0 in sounding:
+            su = self.setup(key, f0)
+            if su.U is not None:
+                bank.set_region(slots[0], buzz_profile(su.U, self.buzz, su.side))
+                self._retune(bank, slots[0], su)
+
+    def control_change(self, bank: StringBank, cc: int, value: float, sounding) -> bool:
+        """``play.buzz_cc`` (default CC1, the modulation wheel) sets the buzz
+        depth, 0 .. 127 to 0 .. 1 (:meth:`set_buzz`)."""
+        if self.buzz_cc is not None and int(cc) == self.buzz_cc:
+            self.set_buzz(bank, value, sounding)
+            return True
+        return False
+
+    #: the contact's pitch rise grows as (velocity x buzz)**RISE_EXPONENT
+    #: (fit to the sitar's keys 43-74 at velocities 20-127: 0.61, 1.02,
+    #: 1.48, 1.73 cents mean at 20, 40, 80, 127; ``tools/study_jawari.py
+    #: --pitch``)
+    RISE_EXPONENT = 0.6
+
+    def tuned_out_cents(self, velocity: float) -> float:
+        """Cents the player tunes the string down so that it sounds its key
+        with the termination touching it: ``termination.pitch_rise_cents``
+        (the rise at velocity 127 and buzz 1) times (velocity buzz)^0.6.  A
+        grazing jawari shortens the string a little while the string swings
+        against it; a sitar is tuned by ear with the jawari on."""
+        t = self.preset.termination
+        rise = getattr(t, "pitch_rise_cents", None) or 0.0
+        if rise <= 0.0 or self.study:
+            return 0.0
+        return rise * (max(float(velocity), 0.0) * self.buzz) ** self.RISE_EXPONENT
+
+    def _retune(self, bank: StringBank, slot: int, su: StringSetup) -> None:
+        """Set the bend line of ``slot`` from its bend and tuning offset."""
+        if not su.bend_len:
+            return
+        bend, vel = self._slot_state.get(slot, (0.0, 0.0))
+        r = self.preset.play.pitch_bend_semitones * bend - self.tuned_out_cents(vel) / 100.0
+        loop = self.fs / su.f0_hz
+        bank.set_bend_delay(slot, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0))
+
     def pitch_bend(self, bank: StringBank, slots, key, f0_hz, value: float) -> None:
         """Pitch bend, ``value`` in [-1, 1] of ``play.pitch_bend_semitones``:
         the string's loop is shortened or lengthened (as a player deflecting
         the string raises its tension) through the bend line's delay."""
         su = self.setup(key, f0_hz)
-        if not su.bend_len:
-            return
-        r = self.preset.play.pitch_bend_semitones * min(max(value, -1.0), 1.0)
-        loop = self.fs / su.f0_hz
         for slot in slots:
-            bank.set_bend_delay(slot, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0))
+            vel = self._slot_state.get(slot, (0.0, 0.0))[1]
+            self._slot_state[slot] = (min(max(float(value), -1.0), 1.0), vel)
+            self._retune(bank, slot, su)
 
     def note_on(self, bank: StringBank, slots, key: float | None, velocity: float, *,
                 f0_hz: float | None = None, probe_row: int = -1, restrike: bool = False,
@@ -250,9 +334,12 @@ class OneStringVoice(Voice):
             bank.set_loss(slot, su.b0)           # undo a release damping
         else:
             self._configure(bank, slot, su, probe_row)
-        self.exciter.start(bank, slot, su, velocity,
-                           amplitude_scale=su.string.length_m / self.open_string.length_m,
-                           speed_m_per_s=speed_m_per_s)
+        ls = su.string.length_m / self.open_string.length_m
+        self.exciter.start(bank, slot, su, velocity, amplitude_scale=ls,
+                           speed_m_per_s=speed_m_per_s, length_scale=ls)
+        self._slot_state[slot] = (0.0 if not restrike else self._slot_state.get(slot, (0.0, 0.0))[0],
+                                  float(velocity))
+        self._retune(bank, slot, su)
         bank.activate(slot)
 
     def note_off(self, bank: StringBank, slots, key: float | None, f0_hz: float | None,

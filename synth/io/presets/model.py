@@ -33,11 +33,13 @@ __all__ = [
 
 @dataclass(frozen=True)
 class StringSpec:
-    """Physical string: speaking length (m), tension (N), linear density (kg/m)."""
+    """Physical string: speaking length (m), tension (N), linear density (kg/m),
+    and the open string's inharmonicity coefficient B (musical presets)."""
 
     length_m: float
     tension_n: float
     linear_density_kg_per_m: float
+    inharmonicity: float | None = None
 
 
 @dataclass(frozen=True)
@@ -162,8 +164,11 @@ class TerminationSpec:
     x_c_m: float | None = None
     x_a_m: float | None = None
     x_b_m: float | None = None
+    thread_m: float | None = None
     step_m: float | None = None
     points: tuple[tuple[float, float], ...] | None = None
+    buzz: float | None = None
+    pitch_rise_cents: float | None = None
 
 
 @dataclass(frozen=True)
@@ -194,6 +199,7 @@ class PlaySpec:
     velocity_exponent: float
     polyphony: int
     pitch_bend_semitones: float
+    buzz_cc: int | None = None
 
 
 @dataclass(frozen=True)

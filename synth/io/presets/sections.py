@@ -67,6 +67,7 @@ PROFILES = (
     "jawari-case1",
     "jawari-case2",
     "jawari-case3",
+    "jawari",
     "table",
 )
 SIGNALS = ("displacement", "bridge_force")
@@ -93,6 +94,9 @@ SECTIONS: tuple[Section, ...] = (
         Field("length_m", "float", "speaking length L (musical: of the open string), m", 0.01, 3.0),
         Field("tension_n", "float", "tension T, N", 1.0, 5000.0),
         Field("linear_density_kg_per_m", "float", "linear mass density mu, kg/m", 1e-5, 0.1),
+        Field("inharmonicity", "float", "the open string's stiffness B = pi^3 E d^4 / (64 T L^2) "
+              "(partials n f0 sqrt(1 + B n^2); fretted and retuned strings scale it); 0: an "
+              "ideal string", 0.0, 0.01, when=When("kind", ("musical",)), default=0.0),
     ), when=_ONE_STRING),
     Section("grid", "study grid (c*dt = dx exactly)", GridSpec, (
         Field("cells", "int", "number of cells N; internal rate = N*c/L", 20, 100000),
@@ -138,8 +142,15 @@ SECTIONS: tuple[Section, ...] = (
         Field("radius_m", "float", "sawari curvature radius, m", 0.01, 100.0, when=_prof("sawari")),
         Field("radius_m", "float", "jawari curved-part radius, m", 1e-4, 10.0,
               when=_prof("jawari-case2", "jawari-case3")),
+        Field("radius_m", "float", "jawari bridge surface radius, m", 0.01, 100.0,
+              when=_prof("jawari")),
         Field("extent_m", "float", "sawari extent along the string, m", 1e-4, 0.2,
               when=_prof("sawari")),
+        Field("extent_m", "float", "jawari bridge length from its far edge to the thread, m",
+              1e-3, 0.1, when=_prof("jawari")),
+        Field("thread_m", "float", "jawari thread diameter (it lifts the string off the bridge's "
+              "front edge; at extent_m^2/(2 radius_m) the string grazes the bridge), m", 0.0, 0.005,
+              when=_prof("jawari")),
         Field("slope", "float", "jawari slope (dimensionless)", 0.0, 0.2,
               when=_prof("jawari-case1", "jawari-case2", "jawari-case3")),
         Field("x_c_m", "float", "jawari case-1 contact end, m", 1e-4, 0.2,
@@ -152,6 +163,13 @@ SECTIONS: tuple[Section, ...] = (
               when=_prof("jawari-case3")),
         Field("points", "points", "obstacle table [[x_m, U_m], ...], x >= 0 strictly increasing",
               when=_prof("table")),
+        Field("buzz", "float", "buzz depth: the obstacle's gap to the string over this (0: out "
+              "of reach, the linear string; 1: the profile as given); live: play.buzz_cc",
+              0.0, 1.0, when=_when_not(_PROFILE, PROFILES, ("none",)), default=1.0),
+        Field("pitch_rise_cents", "float", "how far the contact raises the pitch at velocity 127 "
+              "and buzz 1, tuned out as (velocity buzz)^0.6 through the bend line (musical "
+              "presets with pitch_bend_semitones > 0; measure: tools/study_jawari.py --pitch)",
+              0.0, 50.0, when=_when_not(_PROFILE, PROFILES, ("none",)), default=0.0),
     ), when=_ONE_STRING, checks=(OrderCheck("x_a_m", "<", "x_b_m"),)),
     Section("loss", "frequency-dependent losses of a musical string", LossSpec, (
         Field("t60_low_s", "float", "T60 decay time at f_low_hz, s", 0.01, 120.0),
@@ -238,5 +256,8 @@ SECTIONS: tuple[Section, ...] = (
               "amplitude = amplitude_m * (velocity/127)**velocity_exponent", 0.2, 5.0),
         Field("polyphony", "int", "maximum simultaneous voices", 1, 512),
         Field("pitch_bend_semitones", "float", "pitch-bend range, semitones", 0.0, 12.0),
+        Field("buzz_cc", "int", "MIDI controller that sets termination.buzz live (1: the "
+              "modulation wheel; the pedals 64, 66, 67 stay the engine's)", 1, 119,
+              when=_ONE_STRING, default=1),
     ), when=When("kind", ("musical",)), checks=(OrderCheck("key_low", "<=", "key_high"),)),
 )
