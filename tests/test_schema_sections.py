@@ -59,6 +59,24 @@ EXTRA_DOCS: dict[str, dict] = {
         "play": {"key_low": 43, "key_high": 74, "velocity_exponent": 1.0, "polyphony": 16,
                  "pitch_bend_semitones": 2.0},
     },
+    # the open jawari of docs/voicing.md ("Voicing the sitar"), with every optional key
+    "extra/sitar-open-jawari": {
+        "schema": 1,
+        "description": "Sitar string grazing an open jawari, stiff steel",
+        "kind": "musical",
+        "voice": "plucked",
+        "string": {"length_m": 0.8, "tension_n": 38.4, "linear_density_kg_per_m": 0.000375,
+                   "inharmonicity": 1.5e-5},
+        "pluck": {"model": "sitar", "position": 0.75, "amplitude_m": 0.01, "duration_s": 0.004},
+        "termination": {"profile": "jawari", "side": 1, "region_points": 48, "radius_m": 0.5,
+                        "extent_m": 0.02, "thread_m": 0.0004, "buzz": 1.0,
+                        "pitch_rise_cents": 1.5},
+        "loss": {"t60_low_s": 7.0, "f_low_hz": 200.0, "t60_high_s": 1.2, "f_high_hz": 6000.0,
+                 "release_t60_s": 0.35},
+        "output": {"signal": "bridge_force", "gain": 0.2},
+        "play": {"key_low": 43, "key_high": 74, "velocity_exponent": 1.0, "polyphony": 16,
+                 "pitch_bend_semitones": 2.0, "buzz_cc": 1},
+    },
 }
 ALL_DOCS: dict[str, dict] = {**DOCS, **EXTRA_DOCS}
 
