@@ -340,10 +340,11 @@ class Engine:
                 for v in list(self.voices):
                     self._free(v)
             else:
-                # the voice's own controls (the plucked voices' buzz depth, CC1)
+                # the voice's own controls (the plucked voices' buzz depth, CC1);
+                # the sounding notes as a generator: built only by a voice that uses the CC
                 self.inst.control_change(
                     self.bank, cc, float(ev.value),
-                    [(vo.slots, vo.key_arg, vo.f0_hz) for vo in self.voices.values()])
+                    ((vo.slots, vo.key_arg, vo.f0_hz) for vo in self.voices.values()))
 
     def _add_knock(self, key, ev: Event, at: int) -> None:
         """The action's knock of a note-on at internal sample ``at``: its

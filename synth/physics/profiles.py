@@ -146,12 +146,12 @@ def jawari(radius_m: float, extent_m: float, thread_m: float) -> Profile:
     Raises ValueError when the thread is thinner than the drop (the
     string would lie on the surface: theta < 0).
     """
-    R, s, d = float(radius_m), float(extent_m), float(thread_m)
-    drop = s * s / (2.0 * R)
-    if d < drop:
-        raise ValueError(f"termination.thread_m = {d:g} is out of range (value >= {drop:g} m, "
-                         f"the bridge's drop extent_m^2/(2 radius_m) under its tangent)")
-    theta = (d - drop) / s
+    R, s = float(radius_m), float(extent_m)
+    theta = jawari_angle(R, s, thread_m)
+    if theta < 0.0:
+        raise ValueError(f"termination.thread_m = {float(thread_m):g} is out of range (value >= "
+                         f"{s * s / (2.0 * R):g} m, the bridge's drop extent_m^2/(2 radius_m) "
+                         f"under its tangent)")
 
     def U(x):
         x = np.asarray(x, float)

@@ -198,7 +198,8 @@ class Voice:
         takes the pedals 64, 66, 67 and the channel-mode messages).
 
         cc : controller number, 0 .. 127.  value : normalised, 0 .. 1.
-        sounding : the notes sounding now, as (slots, key, f0_hz) tuples.
+        sounding : the notes sounding now, an iterable of (slots, key, f0_hz)
+            tuples (read it at most once, during the call).
         Returns True when the voice used the control.  Default: ignored.
         """
         return False

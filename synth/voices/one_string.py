@@ -63,7 +63,6 @@ class StringSetup:
     bend_delay: float = 0.0    # its rest delay (samples)
     n_disp: int = 0            # stiffness: first-order dispersion allpasses ...
     a_disp: float = 0.0        # ... and their coefficient
-    B: float = 0.0             # this note's inharmonicity coefficient
 
 
 @register_voice("plucked", "piano")
@@ -102,7 +101,7 @@ class OneStringVoice(Voice):
         #: buzz depth 0 .. 1 (:func:`synth.physics.profiles.buzz_profile`):
         #: the preset's ``termination.buzz``, then the ``play.buzz_cc`` control
         self.buzz = 1.0 if self.termination is None else float(preset.termination.buzz)
-        cc = getattr(preset.play, "buzz_cc", None) if preset.play is not None else None
+        cc = preset.play.buzz_cc if preset.play is not None else None
         self.buzz_cc = None if cc is None or self.termination is None else int(cc)
         self.exciter = exciter_for(preset, self.fs)
         self._setups: dict = {}
@@ -144,7 +143,7 @@ class OneStringVoice(Voice):
         if ck in self._setups:
             return self._setups[ck]
         pre = self.preset
-        n_disp, a_disp, B = 0, 0.0, 0.0
+        n_disp, a_disp = 0, 0.0
         if self.study and own:
             st = self.open_string
             cells = self.cells
@@ -172,16 +171,16 @@ class OneStringVoice(Voice):
                 # up to D0 + loop (2^(r/12) - 1) for -r
                 D0 = loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0 if r > 0 else 0.0
                 blen = int(math.ceil(D0 + loop * (2.0 ** (r / 12.0) - 1.0))) + 6 if r > 0 else 0
-                tl = tune_loop(f0, fs, L.t60_low_s, L.f_low_hz, L.t60_high_s, L.f_high_hz,
-                               fixed_delay=D0)
-                cells, b0, a1, eta, xd, lossy = tl.cells, tl.b0, tl.a1, tl.eta, tl.extra_delay, True
                 B = self.inharmonicity(st)
                 if B > 0.0:
                     # partial 1 on the key, partials n f0 sqrt(1 + B n^2) above it
-                    sl = tune_stiff_loop(f0, B, fs, L.t60_low_s, L.f_low_hz, L.t60_high_s,
-                                         L.f_high_hz, fixed_delay=D0 if blen else 0.0)
-                    cells, b0, a1, eta, xd = sl.cells, sl.b0, sl.a1, sl.eta, sl.extra_delay
-                    n_disp, a_disp = sl.M, sl.a_disp
+                    tl = tune_stiff_loop(f0, B, fs, L.t60_low_s, L.f_low_hz, L.t60_high_s,
+                                         L.f_high_hz, fixed_delay=D0)
+                    n_disp, a_disp = tl.M, tl.a_disp
+                else:
+                    tl = tune_loop(f0, fs, L.t60_low_s, L.f_low_hz, L.t60_high_s, L.f_high_hz,
+                                   fixed_delay=D0)
+                cells, b0, a1, eta, xd, lossy = tl.cells, tl.b0, tl.a1, tl.eta, tl.extra_delay, True
         # the grid spacing of this string
         dx = st.c_m_per_s * dt
         U = None
@@ -197,7 +196,7 @@ class OneStringVoice(Voice):
         k = min(max(k, 1), cells - 1)
         bl = blen if (not self.study and not own and pre.play.pitch_bend_semitones > 0) else 0
         s = StringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0,
-                        bl, D0 if bl else 0.0, n_disp, a_disp, B)
+                        bl, D0 if bl else 0.0, n_disp, a_disp)
         self._setups[ck] = s
         return s
 
@@ -209,7 +208,7 @@ class OneStringVoice(Voice):
         B = pi^3 E d^4 / (64 T L^2) with the wire's E and d unchanged, i.e.
         the open string's ``string.inharmonicity`` times (T0 / T) (L0 / L)^2
         (Fletcher & Rossing eq. 12.4; 0 for study presets)."""
-        B0 = getattr(self.preset.string, "inharmonicity", None) or 0.0
+        B0 = self.preset.string.inharmonicity or 0.0
         if self.study or B0 <= 0.0:
             return 0.0
         o = self.open_string
@@ -244,8 +243,7 @@ class OneStringVoice(Voice):
     def _configure(self, bank: StringBank, slot: int, su: StringSetup, probe_row: int) -> None:
         pre = self.preset
         out_mode = 1 if pre.output.signal == "bridge_force" else 0
-        U = None if su.U is None else buzz_profile(su.U, self.buzz, su.side)
-        bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=U, side=su.side,
+        bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=self._region(su), side=su.side,
                        out_mode=out_mode, gain=pre.output.gain,
                        tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
                        b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
@@ -264,6 +262,13 @@ class OneStringVoice(Voice):
         return int(math.ceil(loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0
                              + loop * (2.0 ** (r / 12.0) - 1.0))) + 6
 
+    def _region(self, su: StringSetup):
+        """The note's profile at the current buzz depth (:func:`buzz_profile`;
+        the cached one itself at full depth)."""
+        if su.U is None or self.buzz == 1.0:
+            return su.U
+        return buzz_profile(su.U, self.buzz, su.side)
+
     # -- voice contract ------------------------------------------------------------
     def set_buzz(self, bank: StringBank, value: float, sounding=()) -> None:
         """Buzz depth ``value`` (0 .. 1) for the notes to come and, from the
@@ -275,7 +280,7 @@ class OneStringVoice(Voice):
         for slots, key, f0 in sounding:
             su = self.setup(key, f0)
             if su.U is not None:
-                bank.set_region(slots[0], buzz_profile(su.U, self.buzz, su.side))
+                bank.set_region(slots[0], self._region(su))
                 self._retune(bank, slots[0], su)
 
     def control_change(self, bank: StringBank, cc: int, value: float, sounding) -> bool:
@@ -298,8 +303,7 @@ class OneStringVoice(Voice):
         (the rise at velocity 127 and buzz 1) times (velocity buzz)^0.6.  A
         grazing jawari shortens the string a little while the string swings
         against it; a sitar is tuned by ear with the jawari on."""
-        t = self.preset.termination
-        rise = getattr(t, "pitch_rise_cents", None) or 0.0
+        rise = self.preset.termination.pitch_rise_cents or 0.0
         if rise <= 0.0 or self.study:
             return 0.0
         return rise * (max(float(velocity), 0.0) * self.buzz) ** self.RISE_EXPONENT
