@@ -55,14 +55,17 @@ def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=()):
 
 
 def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
-                       extra_delay=0, n_disp=0, a_disp=0.0, sos=()):
+                       extra_delay=0, n_disp=0, a_disp=0.0, sos=(), bend=None):
     """``naive_string`` with the musical far end: the wave arriving at x = L
     goes through [unit delay], the one-pole loss y = b0 x - a1 y1, ``n_disp``
     first-order allpasses (a + z^-1)/(1 + a z^-1) and the tuning allpass
     (eta), then the second-order allpasses ``sos`` ((c1, c2) per section,
-    (c2 + c1 z^-1 + z^-2)/(1 + c1 z^-1 + c2 z^-2)), and leaves inverted:
-    u_l(L) = -y.  g is injected every step,
-    held at its last value forever (no folding).  Returns u_k per step."""
+    (c2 + c1 z^-1 + z^-2)/(1 + c1 z^-1 + c2 z^-2)), then, with ``bend`` =
+    (D, to, r), a delay line read at D + to r^m samples at step m (third-order
+    Lagrange over delays i-1 .. i+2, i = floor; D at rest, a tune-out to
+    decaying by r per step), and leaves inverted: u_l(L) = -y.  g is
+    injected every step, held at its last value forever (no folding).
+    Returns u_k per step."""
     g = np.asarray(g, float)
     n_steps = len(g) if n_steps is None else n_steps
     ur = np.zeros(N + 1)
@@ -73,6 +76,7 @@ def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
     dx1 = np.zeros(n_disp)
     dy1 = np.zeros(n_disp)
     bq = [[0.0, 0.0, 0.0, 0.0] for _ in sos]      # x1, x2, y1, y2 per section
+    hist = np.zeros(n_steps + 8)                  # the bend line's input, hist[m + 4] at step m
     for m in range(n_steps):
         gm = g[m] if m < len(g) else g[-1]
         _step(ur, ul, k, gm, U, side, R)
@@ -93,6 +97,16 @@ def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
             yb = c2 * yo + c1 * h[0] + h[1] - c1 * h[2] - c2 * h[3]
             bq[j] = [yo, h[0], yb, h[2]]
             yo = yb
+        if bend is not None:
+            D0, to, r = bend
+            hist[m + 4] = yo
+            D = D0 + to * r ** m
+            i = int(np.floor(D))
+            f = D - i
+            taps = (-f * (f - 1) * (f - 2) / 6, (f + 1) * (f - 1) * (f - 2) / 2,
+                    -(f + 1) * f * (f - 2) / 2, (f + 1) * f * (f - 1) / 6)
+            yo = sum(h * (hist[m + 4 - d] if m + 4 - d >= 4 else 0.0)
+                     for h, d in zip(taps, (i - 1, i, i + 1, i + 2)))
         ul[N] = -yo
         out[m] = ur[k] + ul[k] - gm
     return out

@@ -70,7 +70,7 @@ EXTRA_DOCS: dict[str, dict] = {
         "pluck": {"model": "sitar", "position": 0.75, "amplitude_m": 0.01, "duration_s": 0.004},
         "termination": {"profile": "jawari", "side": 1, "region_points": 48, "radius_m": 0.5,
                         "extent_m": 0.02, "thread_m": 0.0004, "buzz": 1.0,
-                        "pitch_rise_cents": 1.5},
+                        "pitch_rise_cents": 2.8, "pitch_rise_tau_s": 1.0},
         "loss": {"t60_low_s": 7.0, "f_low_hz": 200.0, "t60_high_s": 1.2, "f_high_hz": 6000.0,
                  "release_t60_s": 0.35},
         "output": {"signal": "bridge_force", "gain": 0.2},

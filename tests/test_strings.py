@@ -11,11 +11,13 @@ from synth.dsp.bank import StringBank
 
 
 def run_bank(N, k, g_model, A, t0, alpha, dt, n, U=None, side=1, per_sample=False,
-             probe=False, block=None, lossy=False, max_bend=0, **kw):
+             probe=False, block=None, lossy=False, max_bend=0, tune_out=None, **kw):
     b = StringBank(1, N + 2, max(1, 0 if U is None else len(U)), 2048, n_probes=1 if probe else 0,
                    max_bend=max_bend)
     b.configure(0, cells=N, k=k, dt_s=dt, U=U, side=side, probe_row=0 if probe else -1,
                 force_per_sample=per_sample, lossy=lossy, **kw)
+    if tune_out is not None:
+        b.set_tune_out(0, *tune_out)
     b.activate(0)
     b.start_pluck(0, g_model, A, t0, alpha)
     mix = np.zeros(n)
@@ -111,6 +113,63 @@ def test_fast_path_equals_per_sample_path(seed, side, N, R, frac, block, model, 
                        lossy=lossy, max_bend=2 * N + 8, **kw)
     scale = np.max(np.abs(slow)) + 1e-30
     assert np.max(np.abs(fast - slow)) <= 1e-12 * scale
+
+
+def _tune_out_case(tau_s, per_sample, block=None):
+    """A lossy string whose bend line (at rest at 10.55 samples) carries a
+    tune-out of 2 x 3.25 samples decaying with ``tau_s``."""
+    N, k, dt = 160, 120, 1e-5
+    n = 4 * N + 300
+    kw = dict(b0=0.97, a1=-0.02, eta=0.1, bend_len=40, bend_delay=10.55)
+    y, b = run_bank(N, k, 1, 0.01, 0.001, 0.0, dt, n, lossy=True, max_bend=64,
+                    per_sample=per_sample, block=block, tune_out=(3.25, tau_s, 2.0), **kw)
+    return y, b, N, k, dt, n
+
+
+@pytest.mark.parametrize("tau_s", [0.002, 0.2])
+def test_tune_out_matches_naive_decaying_delay(tau_s):
+    """The per-sample bend line reads at D + g to r^m, r = exp(-dt/tau)
+    (StringBank.set_tune_out), as a naive delay line does, to round-off;
+    the tune-out left is to r^n."""
+    y, b, N, k, dt, n = _tune_out_case(tau_s, True)
+    r = np.exp(-dt / tau_s)
+    ref = naive_lossy_string(N, k, pluck_g(1, n, dt, 0.01, 0.001, 0.0), b0=0.97, a1=-0.02,
+                             eta=0.1, bend=(10.55, 6.5, r))
+    assert np.max(np.abs(y - ref)) < 1e-13 * np.max(np.abs(ref))
+    assert b.fst[0, K.S_TO] == pytest.approx(3.25 * r ** n, rel=1e-9)
+
+
+@pytest.mark.parametrize("block", [1, 37, 160, 700])
+def test_tune_out_fast_path_matches_per_sample(block):
+    """The fast path computes the decaying tune-out's taps per sample as
+    the per-sample path does (and falls back to it where the delay crosses
+    an integer: here 17 samples, 154 samples in): the same output to
+    round-off, whatever the block, and the same tune-out left."""
+    fast, bf, *_ = _tune_out_case(0.2, False, block)
+    slow, bs, *_ = _tune_out_case(0.2, True)
+    assert bf.ipar[0, K.I_CHUNK] > 0
+    assert np.max(np.abs(fast - slow)) < 1e-12 * np.max(np.abs(slow))
+    assert bf.fst[0, K.S_TO] == pytest.approx(bs.fst[0, K.S_TO], rel=1e-12)
+
+
+def test_tune_out_gain_change_is_continuous():
+    """set_tune_out_gain moves the difference into the bend's glide: the
+    read delay does not step (the next sample equals that of an unchanged
+    gain to within the glide's first step)."""
+    N, k, dt = 160, 120, 1e-5
+    b = StringBank(1, N + 2, 1, 2048, max_bend=64)
+    b.configure(0, cells=N, k=k, dt_s=dt, U=None, lossy=True, b0=0.97, a1=-0.02, eta=0.1,
+                bend_len=40, bend_delay=10.55)
+    b.set_tune_out(0, 3.25, 0.2, 2.0)
+    before = b.fst[0, K.S_BD] + b.fpar[0, K.F_TOG] * b.fst[0, K.S_TO]
+    b.set_tune_out_gain(0, 0.5)
+    after = b.fst[0, K.S_BD] + b.fpar[0, K.F_TOG] * b.fst[0, K.S_TO]
+    assert after == pytest.approx(before, abs=1e-12)
+    assert b.fpar[0, K.F_BDT] == 10.55        # and the glide goes back to the bend's rest
+    with pytest.raises(ValueError, match="tau_s"):
+        b.set_tune_out(0, 1.0, 0.0)
+    with pytest.raises(ValueError, match="gain"):
+        b.set_tune_out_gain(0, -1.0)
 
 
 def grid_energy(u_now, u_prev, tension_n, dx):

@@ -4,7 +4,7 @@ Usage
 -----
     python tools/study_jawari.py [--preset sitar] [--set PATH=VALUE ...]
                                  [--keys sweep|all|K1,K2,...] [--velocities 40,80,127]
-                                 [--seconds 1.2] [--bands] [--pitch]
+                                 [--seconds 1.2] [--bands] [--pitch [--fit]]
 
 For every key and velocity the note is rendered twice, ``synth note``'s way
 (one note-on at t = 0, 48 kHz output): with the preset (plus the ``--set``
@@ -29,11 +29,12 @@ of the jawari notes (the per-sample path with the probe on; ``--bands``
 also prints the high-band level of the rigid-end render, dB re 1).
 
 ``--pitch`` instead prints, per key and velocity, partial 1 of the preset's
-render (50 ms - 1.05 s, as ``synth check``'s ``f0``) in cents against the
-key, and the mean per velocity: with ``--set
-termination.pitch_rise_cents=0`` that is the rise the contact itself gives,
-the number ``termination.pitch_rise_cents`` tunes out (its value at
-velocity 127; the voice scales it as (velocity buzz)^0.6).
+render in cents against the key in several windows: 50 ms - 1.05 s (as
+``synth check``'s ``f0``), 0.8-1.6 s (``tests/test_pitch.py``), the attack
+and later.  With ``--set termination.pitch_rise_cents=0`` that is the rise
+the contact itself gives, which the voice tunes out as pitch_rise_cents
+(velocity buzz)^0.6 exp(-t / pitch_rise_tau_s); ``--fit`` then fits those
+two values (the worst residual over the first two windows).
 """
 
 from __future__ import annotations
@@ -119,29 +120,63 @@ def measure(preset, overrides, key, velocity, seconds=1.2, f_cut=F_CUT_HZ, fs_in
     }
 
 
-def pitch_table(preset, overrides, keys, vels, seconds) -> int:
-    """Partial 1 against the key (cents), per key and velocity, and the means."""
+#: the windows of --pitch (s): synth check's f0 (first), tests/test_pitch.py's,
+#: the attack, and later in the note
+PITCH_WINDOWS = ((0.05, 1.05), (0.8, 1.6), (0.05, 0.35), (0.35, 0.65), (1.6, 2.4), (2.4, 3.2))
+
+
+def pitch_table(preset, overrides, keys, vels):
+    """Partial 1 against the key (cents) in PITCH_WINDOWS, per key and
+    velocity; returns {(key, velocity): [cents per window]}."""
     from synth.analysis import cents, estimate_f0
     from synth.physics.string import midi_key_to_hz
 
+    seconds = max(w[1] for w in PITCH_WINDOWS)
     print(f"preset {preset}, overrides: {' '.join(overrides) or '(none)'}")
-    print("partial 1 (50 ms - 1.05 s) against the key, cents")
-    print("key " + "".join(f"| v{v:<4d}" for v in vels))
-    acc = {v: [] for v in vels}
+    print("partial 1 against the key, cents, in windows (s): "
+          + ", ".join(f"{a:g}-{b:g}" for a, b in PITCH_WINDOWS))
+    print("key vel | " + " ".join(f"{f'{a:g}-{b:g}':>9s}" for a, b in PITCH_WINDOWS))
+    res = {}
     for k in keys:
-        row = f"{k:3d} "
         for v in vels:
             y, fs, _, _, _ = render(preset, overrides, k, v, seconds, False)
             ref = midi_key_to_hz(k)
-            seg = y[int(0.05 * fs):int(1.05 * fs)]
-            c = float(cents(estimate_f0(seg, fs, ref, search_cents=60.0), ref))
-            acc[v].append(c)
-            row += f"| {c:+5.2f} "
-        print(row, flush=True)
-    print("mean" + "".join(f"| {np.mean(acc[v]):+5.2f} " for v in vels))
-    worst = max(abs(c) for v in vels for c in acc[v])
-    print(f"worst |cents|: {worst:.2f}")
-    return 0
+            res[(k, v)] = [float(cents(estimate_f0(y[int(a * fs):int(b * fs)], fs, ref,
+                                                   search_cents=60.0), ref))
+                           for a, b in PITCH_WINDOWS]
+            print(f"{k:3d} {v:3d} | " + " ".join(f"{c:+9.2f}" for c in res[(k, v)]), flush=True)
+    worst = np.max(np.abs(np.array(list(res.values()))), axis=0)
+    print("worst   | " + " ".join(f"{w:9.2f}" for w in worst))
+    return res
+
+
+def fit_rise(res, exponent=0.6, windows=(0, 1)):
+    """Fit the voice's tune-out, R (v/127)^exponent exp(-t/tau) cents, to
+    the rise ``res`` measured with ``termination.pitch_rise_cents=0``: the
+    mean of the model over each window against the measured partial 1,
+    minimising the worst residual over ``windows`` (default: synth check's
+    and tests/test_pitch.py's).  Prints the best R per tau; returns (R, tau)."""
+    def wmean(tau, a, b):
+        return tau * (np.exp(-a / tau) - np.exp(-b / tau)) / (b - a)
+
+    print("fit of R (v/127)^%.1f exp(-t/tau): worst residual (cents) per window" % exponent)
+    print("tau s    R |  fitted " + " ".join(f"{f'{a:g}-{b:g}':>9s}" for a, b in PITCH_WINDOWS))
+    best = None
+    for tau in (0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.2, 1.5):
+        cand = None
+        for R in np.arange(0.5, 8.0, 0.05):
+            r = np.array([[c[i] - R * (v / 127.0) ** exponent * wmean(tau, *PITCH_WINDOWS[i])
+                           for i in range(len(PITCH_WINDOWS))] for (k, v), c in res.items()])
+            m = float(np.max(np.abs(r[:, list(windows)])))
+            if cand is None or m < cand[0]:
+                cand = (m, R, np.max(np.abs(r), axis=0))
+        m, R, per = cand
+        print(f"{tau:5.2f} {R:4.2f} | {m:7.2f} " + " ".join(f"{x:9.2f}" for x in per))
+        if best is None or m < best[0]:
+            best = (m, R, tau)
+    print(f"best: termination.pitch_rise_cents = {best[1]:.2f}, termination.pitch_rise_tau_s = "
+          f"{best[2]:g} (worst residual {best[0]:.2f} cent)")
+    return best[1], best[2]
 
 
 def _fmt_end(e):
@@ -165,7 +200,11 @@ def main(argv=None) -> int:
                     help="internal rate, Hz (default: the preset's, 325 kHz)")
     ap.add_argument("--bands", action="store_true", help="also print the rigid end's early high band (dB)")
     ap.add_argument("--pitch", action="store_true",
-                    help="print partial 1 against the key (cents) per key and velocity instead")
+                    help="print partial 1 against the key (cents) per key and velocity instead, "
+                         "in several windows")
+    ap.add_argument("--fit", action="store_true",
+                    help="with --pitch (and --set termination.pitch_rise_cents=0): fit the "
+                         "voice's decaying tune-out to the rise")
     a = ap.parse_args(argv)
     if a.keys == "sweep":
         keys = sweep_keys()
@@ -177,7 +216,10 @@ def main(argv=None) -> int:
     if not (LATE[1] + 0.05 <= a.seconds <= 30):
         raise SystemExit(f"--seconds = {a.seconds} is out of range ({LATE[1] + 0.05} <= value <= 30)")
     if a.pitch:
-        return pitch_table(a.preset, a.set, keys, vels, a.seconds)
+        res = pitch_table(a.preset, a.set, keys, vels)
+        if a.fit:
+            fit_rise(res)
+        return 0
     print(f"preset {a.preset}, overrides: {' '.join(a.set) or '(none)'}"
           + (f", internal rate {a.internal_rate:g} Hz" if a.internal_rate else ""))
     edge = f"> {a.f_cut:g} Hz" + (f" and > {a.above_harmonic:g} f0" if a.above_harmonic else "")

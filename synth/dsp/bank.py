@@ -448,11 +448,69 @@ class StringBank:
         sigma = np.maximum(_LN1000 / t - _LN1000 / tf, 0.0)
         self.fpar[slots, K.F_B0T] = d[:, 0] * np.exp(-sigma / d[:, 1])
 
+    def _tune_out_samples(self, s: int) -> float:
+        return float(self.fpar[s, K.F_TOG] * self.fst[s, K.S_TO])
+
     def set_bend_delay(self, s: int, delay: float) -> None:
-        """New delay (samples) of slot s's pitch-bend line, glided to."""
+        """New delay (samples) of slot s's pitch-bend line, glided to (kept
+        within the line with the tune-out of :meth:`set_tune_out` added)."""
         blen = int(self.ipar[s, K.I_BLEN])
         if blen:
-            self.fpar[s, K.F_BDT] = min(max(delay, 1.0), blen - 3.0)
+            to = self._tune_out_samples(s)
+            self.fpar[s, K.F_BDT] = min(max(delay, 1.0 - min(to, 0.0)), blen - 3.0 - max(to, 0.0))
+
+    def _tune_out_room(self, s: int) -> tuple[float, float]:
+        """The tune-out (samples) the bend line has room for at its bend."""
+        blen = int(self.ipar[s, K.I_BLEN])
+        return (1.0 - min(self.fst[s, K.S_BD], self.fpar[s, K.F_BDT]),
+                blen - 3.0 - max(self.fst[s, K.S_BD], self.fpar[s, K.F_BDT]))
+
+    def set_tune_out(self, s: int, delay: float, tau_s: float, gain: float = 1.0) -> None:
+        """From slot s's next sample, lengthen its pitch-bend line by ``gain``
+        x ``delay`` samples (negative: shorten it), the delay decaying as
+        exp(-t / ``tau_s``): a pitch offset that fades with the note, such as
+        the tuning out of the rise a termination's contact gives while the
+        string swings wide (:class:`synth.voices.one_string.OneStringVoice`).
+        No-op on a slot without a bend line.
+
+        Parameters
+        ----------
+        delay : float
+            Samples of the internal rate at t = 0 (at gain 1); the line's
+            length less the bend's delay bounds gain x delay.
+        tau_s : float
+            Time constant (s), > 0.
+        gain : float
+            Its scale, >= 0, changed on a sounding string by
+            :meth:`set_tune_out_gain`.
+        """
+        if not (tau_s > 0.0 and math.isfinite(tau_s)):
+            raise ValueError(f"tau_s = {tau_s!r} is not allowed (> 0 s)")
+        if not (gain >= 0.0 and math.isfinite(gain)):
+            raise ValueError(f"gain = {gain!r} is not allowed (>= 0)")
+        if not int(self.ipar[s, K.I_BLEN]):
+            return
+        lo, hi = self._tune_out_room(s)
+        self.fpar[s, K.F_TOG] = gain
+        self.fpar[s, K.F_TOR] = math.exp(-float(self.fpar[s, K.F_DT]) / tau_s)
+        self.fst[s, K.S_TO] = (min(max(gain * float(delay), lo), hi) / gain) if gain > 0.0 else float(delay)
+
+    def set_tune_out_gain(self, s: int, gain: float) -> None:
+        """Rescale slot s's tune-out (:meth:`set_tune_out`) to ``gain`` (>= 0)
+        without a step: the bend line's current delay takes the difference
+        and glides it away at the bend's rate."""
+        if not (gain >= 0.0 and math.isfinite(gain)):
+            raise ValueError(f"gain = {gain!r} is not allowed (>= 0)")
+        if not int(self.ipar[s, K.I_BLEN]):
+            return
+        to = float(self.fst[s, K.S_TO])
+        old = float(self.fpar[s, K.F_TOG])
+        lo, hi = self._tune_out_room(s)
+        if gain > 0.0:
+            to = min(max(gain * to, lo), hi) / gain
+            self.fst[s, K.S_TO] = to
+        self.fst[s, K.S_BD] += (old - gain) * to
+        self.fpar[s, K.F_TOG] = gain
 
     def start_pluck(self, s: int, model: int, amplitude_m: float, duration_s: float,
                     alpha_per_s: float = 0.0) -> None:

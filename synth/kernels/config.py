@@ -20,7 +20,13 @@ a first-order allpass y = c x + x1 - c y1 has one multiply-add on its
 recurrence (4 cycles a sample), but re-associated to c (x - y1) + x1 (which
 LLVM does when it may) it has a subtraction and a multiply-add, and such a
 loop ran at 2.1 instead of 1.1 ns a sample (AVX2 build, Zen 5 host).
-Contraction into FMA stays allowed.
+Contraction into FMA stays allowed.  The pitch-bend line
+(``strings._bend_line`` and ``strings._bend_chunk``) uses it too: while a
+tune-out decays, both compute each sample's delay and taps with the same
+operations, and re-association let LLVM rewrite the chunk loop's (strength
+reduction of ``tog * to`` along the loop), so that a render's last bits
+depended on where its blocks began (2e-14 of full scale on the sitar;
+``tests/test_live.py`` asks for the same samples exactly).
 
 ``error_model="numpy"``: a float division by zero gives inf or NaN instead
 of raising ZeroDivisionError, so numba emits no test and exception path

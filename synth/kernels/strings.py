@@ -200,7 +200,9 @@ F_BRA = F_PAN + 1
 F_BRB = F_BRA + 1
 F_BTDX = F_BRB + 1
 F_UBOD = F_BTDX + 1   # external bridge: the offset S_UBOFF decays by this factor per sample
-F_NF = F_UBOD + 1
+F_TOR = F_UBOD + 1    # pitch bend: the tune-out S_TO decays by this factor per sample
+F_TOG = F_TOR + 1     # and the bend line reads F_TOG S_TO samples further back
+F_NF = F_TOG + 1
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -237,7 +239,10 @@ S_UB0 = S_SOS + 4 * MAX_SOS   # coupled group (leader): bridge displacement at t
 S_UBM = S_UB0 + 1             # and at the sample before it
 S_UBP = S_UBM + 1             # a string on a bridge: the bridge displacement of its last sample
 S_UBOFF = S_UBP + 1           # a string on an external bridge: the offset its end eases off
-S_NS = S_UBOFF + 1
+S_TO = S_UBOFF + 1            # pitch bend: the tune-out, extra delay of the bend line (samples,
+                              #   times F_TOG), decaying by F_TOR per sample (the contact's pitch
+                              #   rise, undone)
+S_NS = S_TO + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -724,16 +729,23 @@ def _fold_offset(ring, off, P, pm, k, G):
         ring[off + j] += G
 
 
-@njit(**JIT_OPTS)
-def _bend_line(y, st, U, boff, blen, bdt, bds):
-    """Pitch-bend line: write y, read at the (gliding) delay with third-order
-    Lagrange interpolation (taps at delays i-1 .. i+2)."""
+@njit(**SERIAL_OPTS)
+def _bend_line(y, st, U, boff, blen, bdt, bds, tor, tog):
+    """Pitch-bend line: write y, read at the (gliding) delay plus the
+    (decaying) tune-out tog S_TO with third-order Lagrange interpolation
+    (taps at delays i-1 .. i+2)."""
     w = int(st[S_BW])
     U[boff + w] = y
     D = st[S_BD] + bds * (bdt - st[S_BD])
     if abs(bdt - D) < 1e-9:
         D = bdt                   # at rest: the fast path's block FIR takes over
     st[S_BD] = D
+    to = st[S_TO]
+    D += tog * to
+    to *= tor
+    if abs(to) < 1e-9:
+        to = 0.0
+    st[S_TO] = to
     i = int(D)
     f = D - i
     h0 = -f * (f - 1.0) * (f - 2.0) / 6.0
@@ -861,6 +873,8 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
     blen = ipar[s, I_BLEN]
     bdt = fp[F_BDT]
     bds = fp[F_BDS]
+    tor = fp[F_TOR]
+    tog = fp[F_TOG]
     st = fst[s]
     pm = ipar[s, I_POS]
     exc = ipar[s, I_EXC]
@@ -945,7 +959,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
             b0 = gk * b0 + gc             # the loss glide toward b0t
             x, y, jn = _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, nb, fsos)
             if blen > 0:
-                y = _bend_line(y, st, U, boff, blen, bdt, bds)
+                y = _bend_line(y, st, U, boff, blen, bdt, bds, tor, tog)
                 ring[off + jn] = y
             ubn = 0.0
             if cpl != CPL_NONE:
@@ -1646,23 +1660,31 @@ def _head(xin, yo, n, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
     fp[F_B0] = b0
 
 
-@njit(**JIT_OPTS)
-def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, hb):
+@njit(**SERIAL_OPTS)
+def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
     """The pitch-bend line over yb[b:b+n], in place.  While the delay glides,
     sample by sample (:func:`_bend_line`); at rest (the usual case) its
-    third-order Lagrange read is a fixed four-tap FIR over the line's last
-    samples and the new ones, laid out contiguously in ``hb``."""
+    third-order Lagrange read is a four-tap FIR over the line's last samples
+    and the new ones, laid out contiguously in ``hb``: fixed taps, or, while
+    a tune-out decays (tog S_TO), taps and integer delay computed per sample
+    exactly as :func:`_bend_line` computes them (the same operations in the
+    same order, each from its own sample's delay, so that the output does
+    not depend on where chunks start)."""
+    to = st[S_TO]
     if st[S_BD] != bdt:
         for i in range(n):
-            yb[b + i] = _bend_line(yb[b + i], st, U, boff, blen, bdt, bds)
+            yb[b + i] = _bend_line(yb[b + i], st, U, boff, blen, bdt, bds, tor, tog)
         return
-    D = bdt
+    D = bdt + tog * to
     iD = int(D)
-    f = D - iD
-    h0 = -f * (f - 1.0) * (f - 2.0) / 6.0
-    h1 = (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0
-    h2 = -(f + 1.0) * f * (f - 2.0) / 2.0
-    h3 = (f + 1.0) * f * (f - 1.0) / 6.0
+    if to != 0.0:
+        # the history covers the run's integer delays (monotonic: its ends)
+        iE = int(bdt + tog * (to * tor ** n))
+        if iE > iD:
+            iD = iE
+        iD += 1
+        if iD > blen - 2:
+            iD = blen - 2
     w = int(st[S_BW])
     H = iD + 2                    # history: the H samples before this run
     j = w - H
@@ -1673,11 +1695,37 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, hb):
     hn = hb[H:H + n]
     for i in range(n):
         hn[i] = y_[i]
-    t0 = hb[3:3 + n]
-    t1 = hb[2:2 + n]
-    t2 = hb[1:1 + n]
-    for i in range(n):
-        y_[i] = h0 * t0[i] + h1 * t1[i] + h2 * t2[i] + h3 * hb[i]
+    if to == 0.0:
+        f = D - iD
+        h0 = -f * (f - 1.0) * (f - 2.0) / 6.0
+        h1 = (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0
+        h2 = -(f + 1.0) * f * (f - 2.0) / 2.0
+        h3 = (f + 1.0) * f * (f - 1.0) / 6.0
+        t0 = hb[3:3 + n]
+        t1 = hb[2:2 + n]
+        t2 = hb[1:1 + n]
+        for i in range(n):
+            y_[i] = h0 * t0[i] + h1 * t1[i] + h2 * t2[i] + h3 * hb[i]
+    else:
+        for i in range(n):
+            D = bdt
+            D += tog * to
+            to *= tor
+            if abs(to) < 1e-9:
+                to = 0.0
+            k = int(D)
+            f = D - k
+            h0 = -f * (f - 1.0) * (f - 2.0) / 6.0
+            h1 = (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0
+            h2 = -(f + 1.0) * f * (f - 2.0) / 2.0
+            h3 = (f + 1.0) * f * (f - 1.0) / 6.0
+            r = H + i - k + 1     # delay k - 1
+            out = h0 * hb[r]
+            out += h1 * hb[r - 1]
+            out += h2 * hb[r - 2]
+            out += h3 * hb[r - 3]
+            y_[i] = out
+        st[S_TO] = to
     m = n if n < blen else blen   # the new samples go into the line (its last blen)
     _ring_put(U, boff, blen, (w + n - m) % blen, hb[H + n - m:H + n], 1.0)
     st[S_BW] = (w + n) % blen
@@ -1765,7 +1813,8 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
         st[S_XD] = xb[C]
     blen = ipar[s, I_BLEN]
     if blen > 0:
-        _bend_chunk(yb, 1, C, st, U, ipar[s, I_BOFF], blen, fp[F_BDT], fp[F_BDS], hb)
+        _bend_chunk(yb, 1, C, st, U, ipar[s, I_BOFF], blen, fp[F_BDT], fp[F_BDS], fp[F_TOR],
+                    fp[F_TOG], hb)
 
 
 @njit(**JIT_OPTS)

@@ -170,7 +170,8 @@ class OneStringVoice(Voice):
                 # the bend line: at rest D0, down to 2 samples for +r semitones,
                 # up to D0 + loop (2^(r/12) - 1) for -r
                 D0 = loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0 if r > 0 else 0.0
-                blen = int(math.ceil(D0 + loop * (2.0 ** (r / 12.0) - 1.0))) + 6 if r > 0 else 0
+                blen = (int(math.ceil(D0 + loop * (2.0 ** (r / 12.0) - 1.0))) + 6
+                        + self._rise_margin(loop) if r > 0 else 0)
                 B = self.inharmonicity(st)
                 if B > 0.0:
                     # partial 1 on the key, partials n f0 sqrt(1 + B n^2) above it
@@ -260,7 +261,7 @@ class OneStringVoice(Voice):
         r = self.preset.play.pitch_bend_semitones
         loop = self.fs / midi_key_to_hz(0)
         return int(math.ceil(loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0
-                             + loop * (2.0 ** (r / 12.0) - 1.0))) + 6
+                             + loop * (2.0 ** (r / 12.0) - 1.0))) + 6 + self._rise_margin(loop)
 
     def _region(self, su: StringSetup):
         """The note's profile at the current buzz depth (:func:`buzz_profile`;
@@ -281,7 +282,8 @@ class OneStringVoice(Voice):
             su = self.setup(key, f0)
             if su.U is not None:
                 bank.set_region(slots[0], self._region(su))
-                self._retune(bank, slots[0], su)
+                if su.bend_len:
+                    bank.set_tune_out_gain(slots[0], self.buzz ** self.RISE_EXPONENT)
 
     def control_change(self, bank: StringBank, cc: int, value: float, sounding) -> bool:
         """``play.buzz_cc`` (default CC1, the modulation wheel) sets the buzz
@@ -297,25 +299,53 @@ class OneStringVoice(Voice):
     #: --pitch``)
     RISE_EXPONENT = 0.6
 
-    def tuned_out_cents(self, velocity: float) -> float:
-        """Cents the player tunes the string down so that it sounds its key
-        with the termination touching it: ``termination.pitch_rise_cents``
-        (the rise at velocity 127 and buzz 1) times (velocity buzz)^0.6.  A
-        grazing jawari shortens the string a little while the string swings
-        against it; a sitar is tuned by ear with the jawari on."""
+    def _rise_cents(self, velocity: float) -> float:
+        """The rise at the pluck at buzz 1 (cents): pitch_rise_cents x velocity^0.6."""
         rise = self.preset.termination.pitch_rise_cents or 0.0
         if rise <= 0.0 or self.study:
             return 0.0
-        return rise * (max(float(velocity), 0.0) * self.buzz) ** self.RISE_EXPONENT
+        return rise * max(float(velocity), 0.0) ** self.RISE_EXPONENT
+
+    def tuned_out_cents(self, velocity: float, t_s: float = 0.0) -> float:
+        """Cents the player's tuning takes off the note ``t_s`` seconds
+        after the pluck so that it sounds its key with the termination
+        touching it: ``termination.pitch_rise_cents`` (the rise at the
+        pluck, velocity 127 and buzz 1) times (velocity buzz)^0.6 times
+        exp(-t / ``termination.pitch_rise_tau_s``).  A grazing jawari
+        shortens the string a little for as long as, and as much as, the
+        string swings against it, and a sitar is tuned by ear with the
+        jawari on; the rise fades with the swing (measured:
+        ``docs/voicing.md``, "Pitch")."""
+        c = self._rise_cents(velocity)
+        if c == 0.0:
+            return 0.0
+        return (c * self.buzz ** self.RISE_EXPONENT
+                * math.exp(-float(t_s) / self.preset.termination.pitch_rise_tau_s))
+
+    def _rise_margin(self, loop: float) -> int:
+        """Samples of bend line the tune-out may take (the rise at velocity 127)."""
+        rise = self.preset.termination.pitch_rise_cents or 0.0
+        return int(math.ceil(loop * (2.0 ** (rise / 1200.0) - 1.0))) if rise > 0.0 else 0
 
     def _retune(self, bank: StringBank, slot: int, su: StringSetup) -> None:
-        """Set the bend line of ``slot`` from its bend and tuning offset."""
+        """Set the bend line of ``slot`` from its bend."""
         if not su.bend_len:
             return
-        bend, vel = self._slot_state.get(slot, (0.0, 0.0))
-        r = self.preset.play.pitch_bend_semitones * bend - self.tuned_out_cents(vel) / 100.0
+        bend = self._slot_state.get(slot, (0.0, 0.0))[0]
+        r = self.preset.play.pitch_bend_semitones * bend
         loop = self.fs / su.f0_hz
         bank.set_bend_delay(slot, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0))
+
+    def _tune_out(self, bank: StringBank, slot: int, su: StringSetup, velocity: float) -> None:
+        """Start the note's decaying tune-out (:meth:`tuned_out_cents`): the
+        bank's, at the pluck's rise, its gain the buzz's share."""
+        c = self._rise_cents(velocity)
+        if not su.bend_len or c == 0.0:
+            return
+        loop = self.fs / su.f0_hz
+        bank.set_tune_out(slot, loop * (2.0 ** (c / 1200.0) - 1.0),
+                          self.preset.termination.pitch_rise_tau_s,
+                          gain=self.buzz ** self.RISE_EXPONENT)
 
     def pitch_bend(self, bank: StringBank, slots, key, f0_hz, value: float) -> None:
         """Pitch bend, ``value`` in [-1, 1] of ``play.pitch_bend_semitones``:
@@ -344,6 +374,7 @@ class OneStringVoice(Voice):
         self._slot_state[slot] = (0.0 if not restrike else self._slot_state.get(slot, (0.0, 0.0))[0],
                                   float(velocity))
         self._retune(bank, slot, su)
+        self._tune_out(bank, slot, su, velocity)
         bank.activate(slot)
 
     def note_off(self, bank: StringBank, slots, key: float | None, f0_hz: float | None,

@@ -169,6 +169,7 @@ class TerminationSpec:
     points: tuple[tuple[float, float], ...] | None = None
     buzz: float | None = None
     pitch_rise_cents: float | None = None
+    pitch_rise_tau_s: float | None = None
 
 
 @dataclass(frozen=True)

@@ -166,10 +166,15 @@ SECTIONS: tuple[Section, ...] = (
         Field("buzz", "float", "buzz depth: the obstacle's gap to the string over this (0: out "
               "of reach, the linear string; 1: the profile as given); live: play.buzz_cc",
               0.0, 1.0, when=_when_not(_PROFILE, PROFILES, ("none",)), default=1.0),
-        Field("pitch_rise_cents", "float", "how far the contact raises the pitch at velocity 127 "
-              "and buzz 1, tuned out as (velocity buzz)^0.6 through the bend line (musical "
-              "presets with pitch_bend_semitones > 0; measure: tools/study_jawari.py --pitch)",
+        Field("pitch_rise_cents", "float", "how far the contact raises the pitch at the pluck, "
+              "at velocity 127 and buzz 1, tuned out as (velocity buzz)^0.6 "
+              "exp(-t/pitch_rise_tau_s) through the bend line (musical presets with "
+              "pitch_bend_semitones > 0; measure: tools/study_jawari.py --pitch --set "
+              "termination.pitch_rise_cents=0)",
               0.0, 50.0, when=_when_not(_PROFILE, PROFILES, ("none",)), default=0.0),
+        Field("pitch_rise_tau_s", "float", "time constant of the rise's fading as the note "
+              "decays, s (the sitar's, measured: 1.0)",
+              0.05, 60.0, when=_when_not(_PROFILE, PROFILES, ("none",)), default=1.0),
     ), when=_ONE_STRING, checks=(OrderCheck("x_a_m", "<", "x_b_m"),)),
     Section("loss", "frequency-dependent losses of a musical string", LossSpec, (
         Field("t60_low_s", "float", "T60 decay time at f_low_hz, s", 0.01, 120.0),
