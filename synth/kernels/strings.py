@@ -730,6 +730,15 @@ def _fold_offset(ring, off, P, pm, k, G):
 
 
 @njit(**SERIAL_OPTS)
+def _lagrange3(f):
+    """Third-order Lagrange taps for the fraction f of a delay i + f, at
+    delays i-1 .. i+2 (one function, so that the bend line's per-sample and
+    chunk paths compute them with the same operations)."""
+    return (-f * (f - 1.0) * (f - 2.0) / 6.0, (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0,
+            -(f + 1.0) * f * (f - 2.0) / 2.0, (f + 1.0) * f * (f - 1.0) / 6.0)
+
+
+@njit(**SERIAL_OPTS)
 def _bend_line(y, st, U, boff, blen, bdt, bds, tor, tog):
     """Pitch-bend line: write y, read at the (gliding) delay plus the
     (decaying) tune-out tog S_TO with third-order Lagrange interpolation
@@ -748,10 +757,7 @@ def _bend_line(y, st, U, boff, blen, bdt, bds, tor, tog):
     st[S_TO] = to
     i = int(D)
     f = D - i
-    h0 = -f * (f - 1.0) * (f - 2.0) / 6.0
-    h1 = (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0
-    h2 = -(f + 1.0) * f * (f - 2.0) / 2.0
-    h3 = (f + 1.0) * f * (f - 1.0) / 6.0
+    h0, h1, h2, h3 = _lagrange3(f)
     r = w - i + 1
     if r < 0:
         r += blen
@@ -1697,10 +1703,7 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
         hn[i] = y_[i]
     if to == 0.0:
         f = D - iD
-        h0 = -f * (f - 1.0) * (f - 2.0) / 6.0
-        h1 = (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0
-        h2 = -(f + 1.0) * f * (f - 2.0) / 2.0
-        h3 = (f + 1.0) * f * (f - 1.0) / 6.0
+        h0, h1, h2, h3 = _lagrange3(f)
         t0 = hb[3:3 + n]
         t1 = hb[2:2 + n]
         t2 = hb[1:1 + n]
@@ -1715,10 +1718,7 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
                 to = 0.0
             k = int(D)
             f = D - k
-            h0 = -f * (f - 1.0) * (f - 2.0) / 6.0
-            h1 = (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0
-            h2 = -(f + 1.0) * f * (f - 2.0) / 2.0
-            h3 = (f + 1.0) * f * (f - 1.0) / 6.0
+            h0, h1, h2, h3 = _lagrange3(f)
             r = H + i - k + 1     # delay k - 1
             out = h0 * hb[r]
             out += h1 * hb[r - 1]

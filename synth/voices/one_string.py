@@ -105,8 +105,8 @@ class OneStringVoice(Voice):
         self.buzz_cc = None if cc is None or self.termination is None else int(cc)
         self.exciter = exciter_for(preset, self.fs)
         self._setups: dict = {}
-        #: per bank slot: (pitch bend -1 .. 1, normalised velocity of its note)
-        self._slot_state: dict = {}
+        #: per bank slot: the pitch bend of its note, -1 .. 1
+        self._bend: dict = {}
 
     def warm(self, keys=range(128)) -> None:
         """Derive every key's string now, so that no note-on has to."""
@@ -306,22 +306,6 @@ class OneStringVoice(Voice):
             return 0.0
         return rise * max(float(velocity), 0.0) ** self.RISE_EXPONENT
 
-    def tuned_out_cents(self, velocity: float, t_s: float = 0.0) -> float:
-        """Cents the player's tuning takes off the note ``t_s`` seconds
-        after the pluck so that it sounds its key with the termination
-        touching it: ``termination.pitch_rise_cents`` (the rise at the
-        pluck, velocity 127 and buzz 1) times (velocity buzz)^0.6 times
-        exp(-t / ``termination.pitch_rise_tau_s``).  A grazing jawari
-        shortens the string a little for as long as, and as much as, the
-        string swings against it, and a sitar is tuned by ear with the
-        jawari on; the rise fades with the swing (measured:
-        ``docs/voicing.md``, "Pitch")."""
-        c = self._rise_cents(velocity)
-        if c == 0.0:
-            return 0.0
-        return (c * self.buzz ** self.RISE_EXPONENT
-                * math.exp(-float(t_s) / self.preset.termination.pitch_rise_tau_s))
-
     def _rise_margin(self, loop: float) -> int:
         """Samples of bend line the tune-out may take (the rise at velocity 127)."""
         rise = self.preset.termination.pitch_rise_cents or 0.0
@@ -331,14 +315,21 @@ class OneStringVoice(Voice):
         """Set the bend line of ``slot`` from its bend."""
         if not su.bend_len:
             return
-        bend = self._slot_state.get(slot, (0.0, 0.0))[0]
-        r = self.preset.play.pitch_bend_semitones * bend
+        r = self.preset.play.pitch_bend_semitones * self._bend.get(slot, 0.0)
         loop = self.fs / su.f0_hz
         bank.set_bend_delay(slot, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0))
 
     def _tune_out(self, bank: StringBank, slot: int, su: StringSetup, velocity: float) -> None:
-        """Start the note's decaying tune-out (:meth:`tuned_out_cents`): the
-        bank's, at the pluck's rise, its gain the buzz's share."""
+        """Start the note's decaying tune-out (``StringBank.set_tune_out``):
+        the cents the player's tuning takes off the note so that it sounds
+        its key with the termination touching it, ``termination.pitch_rise_cents``
+        (the rise at the pluck, velocity 127 and buzz 1) times (velocity
+        buzz)^0.6, fading as exp(-t / ``termination.pitch_rise_tau_s``); the
+        buzz's share is the bank's gain (:meth:`set_buzz` changes it).  A
+        grazing jawari shortens the string a little for as long as, and as
+        much as, the string swings against it, and a sitar is tuned by ear
+        with the jawari on; the rise fades with the swing (measured:
+        ``docs/voicing.md``, "Pitch")."""
         c = self._rise_cents(velocity)
         if not su.bend_len or c == 0.0:
             return
@@ -353,8 +344,7 @@ class OneStringVoice(Voice):
         the string raises its tension) through the bend line's delay."""
         su = self.setup(key, f0_hz)
         for slot in slots:
-            vel = self._slot_state.get(slot, (0.0, 0.0))[1]
-            self._slot_state[slot] = (min(max(float(value), -1.0), 1.0), vel)
+            self._bend[slot] = min(max(float(value), -1.0), 1.0)
             self._retune(bank, slot, su)
 
     def note_on(self, bank: StringBank, slots, key: float | None, velocity: float, *,
@@ -371,8 +361,8 @@ class OneStringVoice(Voice):
         ls = su.string.length_m / self.open_string.length_m
         self.exciter.start(bank, slot, su, velocity, amplitude_scale=ls,
                            speed_m_per_s=speed_m_per_s, length_scale=ls)
-        self._slot_state[slot] = (0.0 if not restrike else self._slot_state.get(slot, (0.0, 0.0))[0],
-                                  float(velocity))
+        if not restrike:
+            self._bend[slot] = 0.0
         self._retune(bank, slot, su)
         self._tune_out(bank, slot, su, velocity)
         bank.activate(slot)
