@@ -199,6 +199,39 @@ def test_finer_grid_is_the_mean_of_its_steps(per_sample, M):
     assert np.max(np.abs(mix - want)) < 1e-12 * np.max(np.abs(want))
 
 
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+@pytest.mark.parametrize("M", [2, 4])
+def test_finer_grid_on_an_external_bridge_reads_m_values_per_sample(per_sample, M):
+    """A string with ``sub`` = M steps per engine sample on an external
+    bridge (a sitar's taraf string on its jawari) reads ubx[(o0 + i) M + m]
+    at step m of sample i, and gives the mean of its M steps: the same as
+    the naive scheme run on its own grid with that displacement, plucked
+    too, whatever the blocks."""
+    rng = np.random.default_rng(10 + M)
+    dt, defs = _group(rng, 1, per_sample)
+    d = defs[0]
+    n = 6 * d["N"] // M
+    t = np.arange(n * M) * dt
+    ubx = 2e-4 * np.sin(2 * np.pi * t / (2 * d["N"] * dt)) * np.exp(-t / (2 * d["N"] * dt))
+    b = StringBank(1, d["N"] + 2, 16, 2048)
+    b.configure(0, cells=d["N"], k=d["k"], dt_s=dt, U=d["U"], side=1, out_mode=1, gain=d["gain"],
+                tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"], eta=d["eta"],
+                extra_delay=d["extra_delay"], lossy=True, force_per_sample=per_sample,
+                n_disp=d["n_disp"], a_disp=d["a_disp"], sos=d["sos"], sub=M)
+    b.set_external_bridge(0)
+    b.activate(0)
+    b.start_pluck(0, K.EXC_SITAR, d["A"], d["t0"])
+    mix = np.zeros(n)
+    for o in range(0, n, 61):
+        b.render(mix, o, min(61, n - o), ubx=ubx)
+    ref, _ = naive_bridge_strings([dict(d, g=_g(d, n * M, dt))], n * M, bra=0.0, brb=0.0, ubx=ubx)
+    want = ref.reshape(n, M).mean(axis=1)
+    assert np.max(np.abs(want)) > 0
+    assert np.max(np.abs(mix - want)) < 1e-10 * np.max(np.abs(want))
+    with pytest.raises(ValueError, match=r"ubx has .* fewer than \(o0 \+ n\) x"):
+        b.render(mix, 0, n, ubx=ubx[: n])
+
+
 def test_bridge_arguments_are_checked():
     rng = np.random.default_rng(1)
     dt, defs = _group(rng, 2, False)

@@ -233,6 +233,10 @@ class StringBank:
         # bridge's displacement when the caller gives none (all zero)
         self.sub = np.zeros((2, K.sub_length(self.max_block)))
         self._still = np.zeros(0)
+        # steps per sample of the strings on the external bridge (ubx holds
+        # that many values per sample; :meth:`set_external_bridge`)
+        self._ext_sub = 1
+        self._ext_sub_set = False
         # dampers, per slot: loss b0 undamped, loop frequency f1 (Hz), T60 with
         # the damper down and T60 free (s; inf: no free decay to keep)
         self.damper = np.zeros((self.capacity, 4))
@@ -663,16 +667,21 @@ class StringBank:
         self.fst[lead, K.S_UBM] = 0.0
 
     def set_external_bridge(self, s: int, ease_s: float = 0.02) -> None:
-        """Hang slot s (lossy, bridge-force output, no bend line, the
-        engine's grid) on an external bridge whose displacement comes to
-        :meth:`render` as ``ubx``: a string driven by the rest of the
+        """Hang slot s (lossy, bridge-force output, no bend line; all such
+        slots of a bank on one grid) on an external bridge whose
+        displacement comes to :meth:`render` as ``ubx``: a string driven by the rest of the
         instrument (a sympathetic string).  A string that joins the bridge
         while it is displaced (:meth:`join_bridge`) eases onto it with the
         time constant ``ease_s`` (s, > 0) instead of stepping there."""
         ip = self.ipar[s]
-        if ip[K.I_FILT] != 1 or ip[K.I_OUT] != 1 or ip[K.I_BLEN] != 0 or ip[K.I_SUB] != 1:
+        if ip[K.I_FILT] != 1 or ip[K.I_OUT] != 1 or ip[K.I_BLEN] != 0:
             raise ValueError(f"slot {s} cannot hang on an external bridge (it needs a lossy far "
-                             f"end, the bridge-force output, no pitch-bend line, sub = 1)")
+                             f"end, the bridge-force output, no pitch-bend line)")
+        M = int(ip[K.I_SUB])
+        if self._ext_sub_set and M != self._ext_sub:
+            raise ValueError(f"slot {s} runs {M} steps per sample; the bank's other strings on "
+                             f"the external bridge run {self._ext_sub} (one ubx serves them all)")
+        self._ext_sub, self._ext_sub_set = M, True
         if not (ease_s > 0.0):
             raise ValueError(f"ease_s = {ease_s!r} is out of range (value > 0)")
         ip[K.I_CPL] = K.CPL_EXTERNAL
@@ -738,17 +747,21 @@ class StringBank:
         output bus, C-contiguous; strings set to two buses split their
         output between rows 0 and 1).  ``ubx``: the displacement (m) of the
         external bridge that strings set by :meth:`set_external_bridge`
-        hang on, per sample, indexed like ``mix`` (None: it stays still)."""
+        hang on, per sample, indexed like ``mix`` (None: it stays still);
+        strings on a finer grid (``sub`` M > 1) read M values per sample,
+        ``ubx[(o0 + i) M + m]`` at step m of sample i."""
         if mix.ndim == 1:
             mix = mix.reshape(1, -1)
         if mix.shape[0] > 2:
             raise ValueError(f"mix rows = {mix.shape[0]} is out of range (1 or 2 buses)")
+        M = self._ext_sub
         if ubx is None:
-            if self._still.shape[0] < mix.shape[1]:
-                self._still = np.zeros(mix.shape[1])
+            if self._still.shape[0] < mix.shape[1] * M:
+                self._still = np.zeros(mix.shape[1] * M)
             ubx = self._still
-        elif ubx.shape[0] < o0 + n:
-            raise ValueError(f"ubx has {ubx.shape[0]} samples, fewer than o0 + n = {o0 + n}")
+        elif ubx.shape[0] < (o0 + n) * M:
+            raise ValueError(f"ubx has {ubx.shape[0]} samples, fewer than (o0 + n) x {M} = "
+                             f"{(o0 + n) * M}")
         if self.n_probes:
             self.ensure_probe_length(o0 + n)
         done = 0

@@ -2498,7 +2498,9 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     iwork : int64[:]          n_active + IWORK_EXTRA samples (work space)
     ubx : float64[:]          an external bridge's displacement per sample
                               (m), indexed like ``mix`` (strings with
-                              ``I_CPL`` = ``CPL_EXTERNAL``; else unused)
+                              ``I_CPL`` = ``CPL_EXTERNAL``; else unused); a
+                              string on a finer grid reads M values per
+                              sample, ubx[(o0 + i) M + m]
     sub : float64[:, :]       staging mix for strings on a finer grid
                               (rows as ``mix``, :func:`sub_length` columns)
 
@@ -2531,7 +2533,9 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                 _render_coupled(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch, iw, ist,
                                 o0, M)
             else:
-                _render_string(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch, ubx, o0, M)
+                # (an external bridge's M steps per sample, from this segment's)
+                _render_string(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch,
+                               ubx[o0 * M:], o0, M)
             _fold_sub(mix, o0, n, sub, M, rows)
         elif cpl >= 0:
             _render_coupled(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
