@@ -95,6 +95,8 @@ OUT_OF_RANGE = {
     "body": ("grand-piano", "modes", 0, "1 <= value <= 1024"),
     "output": ("grand-piano", "gain", 0.0, "1e-06 <= value <= 1e+09"),
     "play": ("sitar", "key_high", 128, "0 <= value <= 127"),
+    "taraf": ("sitar", "grid", 9, "1 <= value <= 8"),
+    "chikari": ("sitar", "strum_s", 0.5, "0 <= value <= 0.1"),
 }
 
 
@@ -196,6 +198,8 @@ def check_values(doc: str, section: str) -> None:
         if row.type == "points":
             assert got == tuple((float(x), float(u)) for x, u in want)
             assert all(type(c) is float for p in got for c in p)
+        elif row.type == "keys":
+            assert got == tuple(want) and all(type(k) is int for k in got)
         else:
             assert type(got) is TYPES[row.type], f"{section}.{name} = {got!r}"
             assert got == want, f"{section}.{name}"
@@ -282,11 +286,19 @@ def test_section_is_forbidden_or_required_as_its_condition_says(section):
         del raw[section]
         assert rejected(raw, home) == f"{source(home)}: missing key '{section}'"
         return
-    # Required where its condition holds ...
     raw = copy.deepcopy(ALL_DOCS[home])
     del raw[section]
-    assert rejected(raw, home).startswith(
-        f"{source(home)}: missing key '{section}' (required when {sec.when.key}")
+    if sec.optional:
+        # optional where its condition holds: absent, it is None (and a
+        # section that needs it goes with it)
+        for other in SECTIONS:
+            if other.requires == section:
+                raw.pop(other.name, None)
+        assert getattr(validate_dict(raw, source(home)), section) is None
+    else:
+        # required where its condition holds ...
+        assert rejected(raw, home).startswith(
+            f"{source(home)}: missing key '{section}' (required when {sec.when.key}")
     # ... and forbidden in every document where it does not.
     others = [d for d in ALL_DOCS if not sec.when.holds(context(build(d)))]
     assert others, f"[{section}] is allowed in every document: nothing to reject"

@@ -24,6 +24,8 @@ __all__ = [
     "DampersSpec",
     "BodySpec",
     "TerminationSpec",
+    "TarafSpec",
+    "ChikariSpec",
     "LossSpec",
     "OutputSpec",
     "PlaySpec",
@@ -173,6 +175,50 @@ class TerminationSpec:
 
 
 @dataclass(frozen=True)
+class TarafSpec:
+    """Sympathetic strings (a sitar's taraf) on the main bridge, each on a
+    small jawari of its own: tunings (MIDI keys), the strings (speaking
+    length m, linear density kg/m, B at the first key), their decay (T60 s
+    at their own pitch and at ``f_high_hz``), the bridge they hang on
+    (resistance N s/m, ``coupling`` factor on its admittance, 0: a rigid
+    bridge, no taraf and no chikari;
+    ``grid`` steps per output sample) and their jawari (radius, extent,
+    thread m, region grid points)."""
+
+    keys: tuple[int, ...]
+    length_m: float
+    linear_density_kg_per_m: float
+    inharmonicity: float
+    t60_low_s: float
+    t60_high_s: float
+    f_high_hz: float
+    bridge_resistance_ns_per_m: float
+    coupling: float
+    grid: int
+    radius_m: float
+    extent_m: float
+    thread_m: float
+    region_points: int
+
+
+@dataclass(frozen=True)
+class ChikariSpec:
+    """Drone strings (a sitar's chikari) on the main bridge and its jawari,
+    strummed by a key range or a MIDI channel: tunings (MIDI keys), speaking
+    length (m), pluck amplitude at velocity 127 (m), the delay between
+    successive strings of a stroke (s), the trigger key range and channel
+    (1-16, 0: none); the material, decay and bridge are the ``[taraf]``'s."""
+
+    keys: tuple[int, ...]
+    length_m: float
+    amplitude_m: float
+    strum_s: float
+    trigger_key_low: int
+    trigger_key_high: int
+    channel: int
+
+
+@dataclass(frozen=True)
 class LossSpec:
     """Frequency-dependent decay: T60 (s) at two frequencies (Hz), release T60 (s)."""
 
@@ -225,6 +271,8 @@ class Preset:
     pluck: PluckSpec | None
     hammer: HammerSpec | None
     termination: TerminationSpec | None
+    taraf: TarafSpec | None
+    chikari: ChikariSpec | None
     loss: LossSpec | None
     tuning: TuningSpec | None
     action: ActionSpec | None

@@ -54,8 +54,10 @@ class Field:
         Key inside its section.
     type : str
         ``"float"`` (int accepted, bool never, must be finite), ``"int"``,
-        ``"str"``, ``"line"`` (non-empty single-line string) or ``"points"``
-        (array of ``[x_m, U_m]`` pairs, at least 2, x >= 0 strictly increasing).
+        ``"str"``, ``"line"`` (non-empty single-line string), ``"points"``
+        (array of ``[x_m, U_m]`` pairs, at least 2, x >= 0 strictly increasing)
+        or ``"keys"`` (array of 1 to 24 integers within ``lo``..``hi``: MIDI
+        keys, stored as a tuple).
     doc : str
         Meaning and unit, one line.
     lo, hi : float or None
@@ -119,6 +121,11 @@ class Section:
     fields: tuple[Field, ...]
     when: When | None = None
     checks: tuple[OrderCheck, ...] = ()
+    #: an optional table: where its condition holds it may be absent (its
+    #: value is then None) instead of being required
+    optional: bool = False
+    #: another section this one needs (absent: an error naming it)
+    requires: str | None = None
 
 
 

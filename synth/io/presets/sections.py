@@ -24,6 +24,7 @@ from __future__ import annotations
 from .model import (
     ActionSpec,
     BodySpec,
+    ChikariSpec,
     DampersSpec,
     GridSpec,
     HammerSpec,
@@ -33,6 +34,7 @@ from .model import (
     PluckSpec,
     StringSpec,
     StringsSpec,
+    TarafSpec,
     TerminationSpec,
     TuningSpec,
 )
@@ -176,6 +178,46 @@ SECTIONS: tuple[Section, ...] = (
               "decays, s (the sitar's, measured: 1.0)",
               0.05, 60.0, when=_when_not(_PROFILE, PROFILES, ("none",)), default=1.0),
     ), when=_ONE_STRING, checks=(OrderCheck("x_a_m", "<", "x_b_m"),)),
+    Section("taraf", "sympathetic strings on the main bridge, each on a jawari of its own "
+            "(optional)", TarafSpec, (
+        Field("keys", "keys", "MIDI keys the strings are tuned to (1 to 24 strings)", 12, 108),
+        Field("length_m", "float", "speaking length of every taraf string, m", 0.05, 2.0),
+        Field("linear_density_kg_per_m", "float", "linear mass density, kg/m (tension follows "
+              "from the key: T = mu (2 L f0)^2)", 1e-5, 0.1),
+        Field("inharmonicity", "float", "B of the string tuned to the first key (the others "
+              "scale as 1/T)", 0.0, 0.01),
+        Field("t60_low_s", "float", "free decay T60 at each string's own pitch, s", 0.05, 120.0),
+        Field("t60_high_s", "float", "free decay T60 at f_high_hz, s", 0.01, 120.0),
+        Field("f_high_hz", "float", "high reference frequency of the decay, Hz", 500.0, 20000.0),
+        Field("bridge_resistance_ns_per_m", "float", "the main bridge as the strings hang on it "
+              "(the tabli's driving point): u_b = integral of F / R, N s/m", 1.0, 1e5),
+        Field("coupling", "float", "factor on that bridge's admittance (0: a rigid bridge, "
+              "the played string alone: no taraf and no [chikari])", 0.0, 4.0),
+        Field("grid", "int", "steps per output sample the strings run at (their jawari's grid; "
+              "cost x this)", 1, 8),
+        Field("radius_m", "float", "taraf jawari surface radius, m", 0.01, 100.0),
+        Field("extent_m", "float", "taraf jawari length from its far edge to the thread, m",
+              1e-3, 0.1),
+        Field("thread_m", "float", "taraf jawari thread diameter (extent_m^2/(2 radius_m): the "
+              "string grazes it), m", 0.0, 0.005),
+        Field("region_points", "int", "largest number of grid points in a taraf string's "
+              "contact region", 1, 200),
+    ), when=When("kind", ("musical",), also=When("voice", ("plucked",))), optional=True,
+       checks=(OrderCheck("t60_high_s", "<=", "t60_low_s"),)),
+    Section("chikari", "drone strings on the main bridge, strummed by a key range or a MIDI "
+            "channel (optional; needs [taraf])", ChikariSpec, (
+        Field("keys", "keys", "MIDI keys the drone strings are tuned to", 12, 108),
+        Field("length_m", "float", "speaking length of the drone strings, m", 0.05, 2.0),
+        Field("amplitude_m", "float", "pluck amplitude at velocity 127 (pluck.model, "
+              "pluck.position, pluck.duration_s), m", 1e-6, 0.05),
+        Field("strum_s", "float", "delay between successive strings of one stroke, s", 0.0, 0.1),
+        Field("trigger_key_low", "int", "lowest MIDI key that strums the drones (outside "
+              "play.key_low..key_high: those keys play the main string)", 0, 127),
+        Field("trigger_key_high", "int", "highest MIDI key that strums the drones", 0, 127),
+        Field("channel", "int", "MIDI channel (1-16) whose every note strums the drones "
+              "(0: none)", 0, 16),
+    ), when=When("kind", ("musical",), also=When("voice", ("plucked",))), optional=True,
+       requires="taraf", checks=(OrderCheck("trigger_key_low", "<=", "trigger_key_high"),)),
     Section("loss", "frequency-dependent losses of a musical string", LossSpec, (
         Field("t60_low_s", "float", "T60 decay time at f_low_hz, s", 0.01, 120.0),
         Field("f_low_hz", "float", "low reference frequency, Hz", 10.0, 2000.0),

@@ -74,6 +74,7 @@ _TYPE_TEXT = {
     "str": "a string",
     "line": "a string",
     "points": "an array of [x_m, U_m] pairs",
+    "keys": "an array of MIDI keys",
 }
 
 
@@ -122,6 +123,8 @@ class _Validator:
                 raise self.fail(f"{shown} must be a non-empty single line")
         elif t == "points":
             return self.points(key, v)
+        elif t == "keys":
+            return self.keys(key, row, v)
         else:  # pragma: no cover - schema error
             raise AssertionError(f"unknown field type {t!r}")
         if row.choices is not None:
@@ -155,6 +158,19 @@ class _Validator:
                                 f"(previous x_m = {_fmt_value(out[-1][0])})")
             out.append((x, u))
         return tuple(out)
+
+    def keys(self, key: str, row: Field, v: Any) -> tuple[int, ...]:
+        o = self._origin(key)
+        if not isinstance(v, list) or not v:
+            raise self.fail(f"{key} = {_fmt_value(v)}{o} has the wrong type "
+                            f"(expected {_TYPE_TEXT['keys']}, at least one)")
+        if len(v) > 24:
+            raise self.fail(f"{key} = {_fmt_value(v)}{o} has {len(v)} keys (at most 24)")
+        for i, k in enumerate(v):
+            if isinstance(k, bool) or not isinstance(k, int) or not row.in_range(k):
+                raise self.fail(f"{key}[{i}] = {_fmt_value(k)}{o} is not a MIDI key "
+                                f"(an integer, {row.range_text()})")
+        return tuple(int(k) for k in v)
 
     # -- tables -----------------------------------------------------------
     def unknown_keys(self, prefix: str, table: Mapping[str, Any], allowed: Sequence[str]) -> None:
@@ -246,9 +262,15 @@ class _Validator:
             if self.presence(row.name, row.name in raw, [row.when]) is not _ABSENT:
                 out[row.name] = self.ctx[row.name] = self.value(row.name, row, raw[row.name])
         for sec in SECTIONS:
+            if sec.optional and sec.name not in raw:
+                out[sec.name] = None
+                continue
             if self.presence(sec.name, sec.name in raw, [sec.when]) is _ABSENT:
                 out[sec.name] = None
                 continue
+            if sec.requires is not None and out.get(sec.requires) is None:
+                raise self.fail(f"[{sec.name}] needs a [{sec.requires}] table "
+                                f"({sec.name}: {sec.doc})")
             table = raw[sec.name]
             if not isinstance(table, Mapping):
                 raise self.fail(f"{sec.name} = {_fmt_value(table)}{self._origin(sec.name)} "
