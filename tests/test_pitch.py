@@ -33,7 +33,8 @@ def test_loss_filter_gives_the_preset_t60(f0):
     from synth.io.factory import build_engine
 
     pre = load_preset("sitar")
-    nt = dataclasses.replace(pre, termination=dataclasses.replace(pre.termination, profile="none"))
+    nt = dataclasses.replace(pre, termination=dataclasses.replace(pre.termination, profile="none"),
+                             taraf=None, chikari=None)
     eng = build_engine(nt)
     inst = eng.inst
     y = eng.render([Event(0.0, "note_on", -1, 1.0, f0_hz=f0)], duration_s=3.0)

@@ -24,6 +24,7 @@ from ..dsp.decimator import Decimator
 from ..kernels import strings as K
 from ..physics.soundboard import knock_pulse
 from .sympathetic import Sympathetic
+from .taraf import Taraf
 
 NOTE_ON = "note_on"
 NOTE_OFF = "note_off"
@@ -157,6 +158,12 @@ class Engine:
                                                        self.MAX_BLOCK_OUT, self.silence_level)
         self._sym_dirty = True
         self._sym_events: list = []          # (output sample, lift, muted) within this block
+        #: the strings on the bridge that no key stops (a sitar's taraf and
+        #: chikari, :mod:`synth.engine.taraf`), or None
+        td = instrument.taraf(self.fs_out)
+        self.taraf = None if td is None else Taraf(td, self.fs_out, self.MAX_BLOCK_OUT,
+                                                   self.silence_level)
+        self._taraf_events: list = []        # (output sample, "strum" | "wake", velocity)
         #: the action's knocks: a unit pulse (its shape), and the force still
         #: to add to the buses (output samples from the block's start)
         self._knock_unit = knock_pulse(self.fs_out, 1.0)
@@ -262,6 +269,13 @@ class Engine:
             self._sym_dirty = True
         if ev.kind == NOTE_ON and ev.value > 0:
             key = None if ev.key is None or ev.key < 0 else ev.key
+            if self.taraf is not None:
+                j = at * self.fs_out // self.fs_in - self.time_out
+                if self.taraf.is_trigger(ev.channel, key):
+                    # a stroke across the drones (no played note)
+                    self._taraf_events.append((j, "strum", float(ev.value)))
+                    return
+                self._taraf_events.append((j, "wake", 0.0))
             v = self.by_key.get(vk)
             if v is not None and any(self.bank.is_active(s) for s in self._slots(v)):
                 # a sounding key is struck again on the same strings
@@ -339,6 +353,8 @@ class Engine:
             elif cc == CC_ALL_SOUND_OFF:
                 for v in list(self.voices):
                     self._free(v)
+                if self.taraf is not None:
+                    self.taraf.silence()
             else:
                 # the voice's own controls (the plucked voices' buzz depth, CC1);
                 # the sounding notes as a generator: built only by a voice that uses the CC
@@ -440,7 +456,8 @@ class Engine:
             self._probe.append(bank.probe[:, :, :n_in].copy())
         if self.n_dec < self.buses:
             mix[0] += mix[1]                  # a mono body: the bridge's two ends summed
-        if self.sym is not None or self._knocking or self.n_dec > self.channels:
+        if (self.sym is not None or self.taraf is not None or self._knocking
+                or self.n_dec > self.channels):
             d = self._dout[:, :n_out]
             for c in range(self.n_dec):
                 self.decs[c].process(mix[c], d[c])
@@ -455,6 +472,8 @@ class Engine:
                 self._knocking = bool(kb[:, :L].any())
             if self.sym is not None:
                 self._sympathetic_block(d, n_out)
+            if self.taraf is not None:
+                self._taraf_block(d, n_out)
             y = self._finish(d, n_out, out)
         elif self.channels == 1:
             y = self.dec.process(mix[0], self._out[0] if out is None else out)
@@ -490,6 +509,24 @@ class Engine:
             self._sym_dirty = False
         sym.process(d, c0, n_out - c0)
         sym.reap(n_out, idle=self.bank.n_active == 0)
+
+    def _taraf_block(self, d: np.ndarray, n_out: int) -> None:
+        """The taraf and chikari, driven by the played strings' force in
+        ``d`` (the decimated buses), added to it; strokes and note-ons act
+        at their output samples."""
+        taraf = self.taraf
+        c0 = 0
+        for j, kind, value in self._taraf_events:
+            j = min(max(int(j), c0), n_out)
+            taraf.process(d, c0, j - c0)
+            c0 = j
+            if kind == "strum":
+                taraf.strum(taraf.t, value)
+            else:
+                taraf.wake()
+        self._taraf_events.clear()
+        taraf.process(d, c0, n_out - c0)
+        taraf.reap(n_out, idle=self.bank.n_active == 0)
 
     def _finish(self, d: np.ndarray, n_out: int, out) -> np.ndarray:
         """The output block from the decimated buses ``d``: through the body,
@@ -584,7 +621,8 @@ class Engine:
         """Render events offline.
 
         duration_s : exact length of the result (s); None: until the last
-            event plus the release tails (voices silent), plus ``tail_s``,
+            event plus the release tails (voices silent, and the taraf's
+            halo: its strings freed as silent), plus ``tail_s``,
             at most ``max_tail_s`` after the last event.
         Returns float64 audio at ``fs_out``, shape (n,) (mono) or (n,
         channels), aligned so that an event at t sounds at t (the
@@ -609,7 +647,8 @@ class Engine:
                 chunks.append(self.render_block(block).copy())
                 n_done += block
                 t = n_done / self.fs_out
-                if t > last and not self._pending and not self.voices:
+                if (t > last and not self._pending and not self.voices
+                        and (self.taraf is None or self.taraf.n_active == 0)):
                     if quiet_after is None:
                         quiet_after = n_done + int(tail_s * self.fs_out) + lat
                     if n_done >= quiet_after:

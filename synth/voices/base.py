@@ -70,6 +70,51 @@ class SympatheticDesign:
 
 
 @dataclass(frozen=True)
+class TarafDesign:
+    """The strings on an instrument's bridge that no key stops: a sitar's
+    sympathetic strings (taraf), always free, ringing with whatever the
+    played strings and the drones put into the bridge, and its drone strings
+    (chikari), strummed by a key range or a MIDI channel and ringing along
+    too.  The engine runs them at its output rate times ``grid``
+    (:class:`synth.engine.taraf.Taraf`).
+
+    slots : tuple of SlotTemplate   the taraf strings (lossy, bridge-force
+                                    output, ``sub`` = grid; no dampers)
+    keys : tuple of int             the MIDI key each is tuned to
+    drone_slots : tuple of SlotTemplate  the drone strings (as ``slots``)
+    drone_keys : tuple of int       their tunings
+    grid : int                      steps per output sample
+    resistance_ns_per_m : float     the bridge as the strings hang on it:
+                                    u_b = integral of F / R (N s/m)
+    return_hz : float               its spring's slow return (Hz)
+    force_per_unit : float          N of bridge force per unit of the played
+                                    strings' output (1 / their output gain)
+    trigger : tuple (lo, hi) or None  MIDI keys that strum the drones
+    channel : int or None           MIDI channel (0-15) whose notes strum them
+    pluck : tuple                   (kernel pluck kind, amplitude m at velocity
+                                    1 per drone, duration s per drone, alpha 1/s,
+                                    velocity exponent)
+    strum_s : float                 delay between successive drones (s)
+    max_cells, max_region : int     the bank's sizes
+    """
+
+    slots: tuple
+    keys: tuple
+    drone_slots: tuple
+    drone_keys: tuple
+    grid: int
+    resistance_ns_per_m: float
+    return_hz: float
+    force_per_unit: float
+    trigger: tuple | None
+    channel: int | None
+    pluck: tuple
+    strum_s: float
+    max_cells: int
+    max_region: int
+
+
+@dataclass(frozen=True)
 class BankSizes:
     """What one engine must allocate for a voice (per string slot).
 
@@ -239,4 +284,10 @@ class Voice:
         strings' force on the bridge, and lets each ring while its damper
         is off (the sustain pedal, the sostenuto, a key without damper) and
         its key is not itself sounding."""
+        return None
+
+    def taraf(self, fs_out: float) -> TarafDesign | None:
+        """The strings on the bridge that no key stops (sympathetic taraf
+        and drone chikari), designed at the engine's output rate ``fs_out``
+        (Hz), or None (the default: none)."""
         return None

@@ -21,6 +21,11 @@ at x = 0 (``[termination]``: any registered profile of
   fretted (shorter, same tension) above its open pitch and retuned below it
   (:func:`synth.physics.string.fretted_string`).  Pitch bend moves a delay
   line in the loop (``play.pitch_bend_semitones``).
+* A musical plucked preset may carry a ``[taraf]`` table (sympathetic
+  strings on the bridge, each on a jawari of its own) and a ``[chikari]``
+  table (drone strings on the main bridge's jawari, strummed by a key range
+  or a MIDI channel): :meth:`OneStringVoice.taraf` designs them and the
+  engine runs them (:mod:`synth.engine.taraf`).
 
 The voice names are the preset schema's: ``plucked`` presets carry
 ``[pluck]``, ``piano`` presets (the A7 study of Publication I) ``[hammer]``.
@@ -34,12 +39,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..dsp.bank import StringBank
+from ..dsp.bank import StringBank, slot_template
+from ..kernels import strings as K
 from ..physics.dispersion import tune_stiff_loop
 from ..physics.losses import allpass_for_phase_delay, tune_loop
-from ..physics.profiles import buzz_profile, termination_from_spec
+from ..physics.profiles import Termination, buzz_profile, jawari, termination_from_spec
 from ..physics.string import IdealString, fretted_string, midi_key_to_hz
-from .base import BankSizes, Voice
+from .base import BankSizes, TarafDesign, Voice
+from .exciters import PLUCK_MODELS
 from .registry import exciter_for, register_voice
 
 
@@ -269,6 +276,101 @@ class OneStringVoice(Voice):
         if su.U is None or self.buzz == 1.0:
             return su.U
         return buzz_profile(su.U, self.buzz, su.side)
+
+    # -- strings on the bridge ----------------------------------------------------
+    #: the bridge's slow spring under the taraf (Hz): keeps u_b from drifting
+    BRIDGE_RETURN_HZ = 5.0
+
+    def _bridge_string(self, key: int, length_m: float, U_of, fs: float, grid: int, k_frac: float):
+        """One string on the bridge, tuned to ``key`` at rate ``fs`` (Hz):
+        the ``[taraf]`` material (T = mu (2 L f0)^2, B from the first taraf
+        key's as 1/T), its decay, and the profile ``U_of(dx)``.  Returns
+        (SlotTemplate, cells, region points)."""
+        t = self.preset.taraf
+        f0 = midi_key_to_hz(key)
+        mu = t.linear_density_kg_per_m
+        T = mu * (2.0 * length_m * f0) ** 2
+        T_first = mu * (2.0 * t.length_m * midi_key_to_hz(t.keys[0])) ** 2
+        B = t.inharmonicity * T_first / T
+        st = IdealString(length_m, T, mu)
+        f_hi = min(t.f_high_hz, 0.4 * fs)
+        if f_hi <= 1.5 * f0:
+            raise ValueError(f"key = {key} is too high for the taraf's grid ({fs:g} Hz)")
+        if B > 0.0:
+            loop = tune_stiff_loop(f0, min(B, self.B_MAX), fs, t.t60_low_s, f0, t.t60_high_s,
+                                   f_hi, m_max=4, f_max_hz=0.4 * fs)
+            n_disp, a_disp = loop.M, loop.a_disp
+        else:
+            loop = tune_loop(f0, fs, t.t60_low_s, f0, t.t60_high_s, f_hi)
+            n_disp, a_disp = 0, 0.0
+        dt = 1.0 / fs
+        dx = st.c_m_per_s * dt
+        U = U_of(dx)
+        if U is not None:
+            U = U[: max(1, min(len(U), loop.cells // 3))]
+        k = min(max(int(round(k_frac * loop.cells)), 1), loop.cells - 2)
+        tpl = slot_template(cells=loop.cells, k=k, dt_s=dt, U=U, side=1, out_mode=1,
+                            gain=self.preset.output.gain, tension_over_dx=T / dx,
+                            b0=loop.b0, a1=loop.a1, eta=loop.eta,
+                            extra_delay=loop.extra_delay, lossy=True, n_disp=n_disp,
+                            a_disp=a_disp, glide_s=StringBank.LOSS_GLIDE_S, sub=grid)
+        return tpl, loop.cells, 0 if U is None else len(U)
+
+    def taraf(self, fs_out: float) -> TarafDesign | None:
+        """The ``[taraf]`` and ``[chikari]`` strings at ``fs_out`` x
+        ``taraf.grid`` (Hz), or None without a ``[taraf]`` table.
+
+        Taraf: one string per ``taraf.keys``, on a jawari of its own
+        (:func:`synth.physics.profiles.jawari` with the table's radius,
+        extent and thread, at most ``region_points`` grid points), hanging on
+        the bridge of resistance ``bridge_resistance_ns_per_m / coupling``
+        (coupling 0: a rigid bridge, the played string alone: no taraf and
+        no chikari, None).  Chikari: one string per ``chikari.keys``, of
+        ``chikari.length_m``, on the main string's ``[termination]`` (they
+        cross the main bridge), plucked at ``pluck.position`` by
+        ``pluck.model`` with ``chikari.amplitude_m`` at velocity 127 and
+        the pluck's duration scaled by length (as a fretted main string's).
+        """
+        t = self.preset.taraf
+        if t is None or self.study or t.coupling <= 0.0:
+            return None
+        grid = int(t.grid)
+        fs = float(fs_out) * grid
+        own = Termination(jawari(t.radius_m, t.extent_m, t.thread_m), 1, int(t.region_points))
+        slots, keys, drones, dkeys = [], [], [], []
+        max_cells, max_region = 8, 1
+        for key in t.keys:
+            tpl, cells, R = self._bridge_string(key, t.length_m, own.sample, fs, grid, 0.5)
+            slots.append(tpl)
+            keys.append(int(key))
+            max_cells, max_region = max(max_cells, cells), max(max_region, R)
+        c = self.preset.chikari
+        trigger = channel = None
+        pluck = (K.EXC_NONE, (), (), 0.0, 1.0)
+        strum = 0.0
+        if c is not None:
+            term = self.termination
+            U_of = (lambda dx: None) if term is None else term.sample
+            pos = self.exciter.position
+            amps, durs = [], []
+            ls = c.length_m / self.open_string.length_m
+            for key in c.keys:
+                tpl, cells, R = self._bridge_string(key, c.length_m, U_of, fs, grid, pos)
+                drones.append(tpl)
+                dkeys.append(int(key))
+                max_cells, max_region = max(max_cells, cells), max(max_region, R)
+                amps.append(c.amplitude_m)
+                durs.append(self.exciter.duration_s(ls))
+            ps = self.preset.pluck
+            pluck = (PLUCK_MODELS[ps.model], tuple(amps), tuple(durs),
+                     float(ps.alpha_per_s or 0.0), float(self.preset.play.velocity_exponent))
+            trigger = (int(c.trigger_key_low), int(c.trigger_key_high))
+            channel = None if c.channel == 0 else int(c.channel) - 1
+            strum = float(c.strum_s)
+        R = t.bridge_resistance_ns_per_m / t.coupling
+        return TarafDesign(tuple(slots), tuple(keys), tuple(drones), tuple(dkeys), grid, R,
+                           self.BRIDGE_RETURN_HZ, 1.0 / self.preset.output.gain, trigger,
+                           channel, pluck, strum, max_cells, max_region)
 
     # -- voice contract ------------------------------------------------------------
     def set_buzz(self, bank: StringBank, value: float, sounding=()) -> None:

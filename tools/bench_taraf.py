@@ -1,0 +1,108 @@
+"""What the sitar's taraf and chikari cost: one note with them against one without.
+
+Usage
+-----
+    python tools/bench_taraf.py [--keys 43,55,60,67,74] [--velocity 100]
+                                [--seconds 4] [--runs 7] [--grid 1,2,4]
+                                [--cpu-name {host,haswell,generic,all}]
+    python tools/bench_taraf.py --quick      # CI: one short run, checks it runs
+
+Each run renders one note per key (a fresh engine per note, one note-on at
+t = 0, ``Engine.render`` in its default blocks) with three variants of the
+shipped ``sitar`` preset, the engine built outside the timing:
+
+* ``bare``: no ``[taraf]``, no ``[chikari]``;
+* ``taraf``: the 11 taraf strings (no chikari), at each ``--grid``
+  (``taraf.grid``: steps per output sample of the taraf's strings);
+* ``both``: taraf and the two chikari (which a played note also sets
+  ringing).
+
+The machine is noisy: the figures are medians over ``--runs`` of each
+variant's time over the bare one's in the same run.  Issue 12's target: a
+note with the 11 taraf costs at most 4x one without.  Run with
+``NUMBA_NUM_THREADS=1``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+import time
+
+import numpy as np
+
+import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
+
+
+def variants(grids):
+    from synth.io.presets import load_preset
+
+    p = load_preset("sitar")
+    out = {"bare": dataclasses.replace(p, taraf=None, chikari=None)}
+    for g in grids:
+        t = dataclasses.replace(p.taraf, grid=g)
+        out[f"taraf grid {g}"] = dataclasses.replace(p, taraf=t, chikari=None)
+        out[f"both grid {g}"] = dataclasses.replace(p, taraf=t)
+    return out
+
+
+def run(preset, keys, velocity, seconds):
+    from synth.engine.engine import Event
+    from synth.io.factory import build_engine
+
+    t = 0.0
+    for k in keys:
+        eng = build_engine(preset)
+        t0 = time.perf_counter()
+        eng.render([Event(0.0, "note_on", k, velocity / 127.0)], duration_s=seconds)
+        t += time.perf_counter() - t0
+    return t
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--keys", default="43,55,60,67,74")
+    ap.add_argument("--velocity", type=float, default=100.0)
+    ap.add_argument("--seconds", type=float, default=4.0)
+    ap.add_argument("--runs", type=int, default=7)
+    ap.add_argument("--grid", default=None,
+                    help="taraf.grid values to time (default: the preset's)")
+    ap.add_argument("--quick", action="store_true", help="one short run (CI)")
+    cpu_target.add_cpu_option(ap)
+    a = ap.parse_args(argv)
+    rc = cpu_target.dispatch(a.cpu_name, argv)
+    if rc is not None:
+        return rc
+    if a.quick:
+        a.runs, a.seconds, a.keys = 1, 0.3, "55"
+    if not (1 <= a.runs <= 1000):
+        raise SystemExit(f"--runs = {a.runs} is out of range (1 <= value <= 1000)")
+    if not (0.1 <= a.seconds <= 600):
+        raise SystemExit(f"--seconds = {a.seconds} is out of range (0.1 <= value <= 600)")
+    keys = [int(k) for k in a.keys.split(",")]
+    from synth.io.presets import load_preset
+
+    grids = ([int(g) for g in a.grid.split(",")] if a.grid
+             else [int(load_preset("sitar").taraf.grid)])
+    vs = variants(grids)
+    print(f"# {time.strftime('%Y-%m-%d %H:%M')}  NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')}")
+    print(cpu_target.describe())
+    for p in vs.values():
+        run(p, keys[:1], a.velocity, 0.2)
+    times = {k: [] for k in vs}
+    for _ in range(a.runs):
+        for k, p in vs.items():
+            times[k].append(run(p, keys, a.velocity, a.seconds))
+    base = np.array(times["bare"])
+    print(f"sitar; keys {keys}, velocity {a.velocity:g}, {a.seconds:g} s each, {a.runs} runs")
+    for k, t in times.items():
+        r = np.array(t) / base
+        print(f"{k:>14}: median {np.median(t):.3f} s, {np.median(r):.2f}x bare "
+              f"(range {r.min():.2f}-{r.max():.2f})")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
