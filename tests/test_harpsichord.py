@@ -31,7 +31,8 @@ def test_every_key_sounds_at_its_tuned_pitch(key):
     f0 = estimate_f0(y[int(0.1 * FS):int(0.6 * FS)], FS, f)
     assert abs(cents(f0, f)) < 1.0
     peak_db = 20 * np.log10(np.max(np.abs(y)))
-    assert np.all(np.isfinite(y)) and -24.0 < peak_db < -6.0
+    # (the gain is set for -20 LUFS on the reference phrase: tools/calibrate_levels.py)
+    assert np.all(np.isfinite(y)) and -24.0 < peak_db < -1.0
 
 
 def test_level_is_even_across_the_keyboard():

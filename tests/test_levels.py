@@ -1,0 +1,49 @@
+"""Issue 12's levels: every calibrated preset's reference phrase, as
+tools/calibrate_levels.py writes it (the levels themselves are held by the
+shipped check specs, ``synth check --shipped``)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+
+import calibrate_levels as cl  # noqa: E402
+from synth.io.midi import midi_to_events, read_midi_file  # noqa: E402
+from synth.io.presets import load_preset  # noqa: E402
+
+
+def test_the_phrase_is_a_melody_in_range_at_velocity_100():
+    p = load_preset("sitar")
+    ev = cl.phrase_events(p)
+    assert len(ev) == len(cl.MELODY)
+    keys = [k for _, _, k, _ in ev]
+    assert min(keys) >= p.play.key_low and max(keys) <= p.play.key_high
+    assert all(v == 100 for *_, v in ev)
+    assert all(b[0] >= a[1] for a, b in zip(ev, ev[1:]))      # one note at a time
+    g = cl.phrase_events(load_preset("grand-piano"))
+    assert len(g) == len(cl.MELODY) + 2 * 3                    # a dyad under each group of four
+
+
+def test_the_midi_file_plays_the_phrase(tmp_path):
+    ev = cl.phrase_events(load_preset("biwa"))
+    f = tmp_path / "p.mid"
+    cl.write_midi(ev, f)
+    got = midi_to_events(read_midi_file(str(f)))
+    on = [(e.time_s, e.key, round(e.value * 127)) for e in got if e.kind == "note_on" and e.value > 0]
+    assert [(k, v) for _, k, v in on] == [(k, v) for _, _, k, v in ev]
+    assert max(abs(t - e[0]) for (t, _, _), e in zip(on, ev)) < 1e-3
+
+
+@pytest.mark.parametrize("name", ["sitar", "biwa", "harpsichord"])
+def test_the_shipped_phrase_is_the_tools_and_its_spec_checks_the_level(name, tmp_path):
+    shipped = cl.PHRASES / f"{name}.mid"
+    fresh = tmp_path / f"{name}.mid"
+    cl.write_midi(cl.phrase_events(load_preset(name)), fresh)
+    assert shipped.read_bytes() == fresh.read_bytes()
+    spec = (ROOT / "synth" / "presets" / "checks" / f"{name}.toml").read_text()
+    assert f'midi = "phrases/{name}.mid"' in spec and "lufs = -20.0" in spec

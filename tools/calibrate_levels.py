@@ -1,0 +1,173 @@
+"""Set every musical preset's output gain from a measurement: its reference phrase at -20 LUFS.
+
+Usage
+-----
+    python tools/calibrate_levels.py            # measure, write the gains and the phrases
+    python tools/calibrate_levels.py --dry-run  # measure and report only
+
+Issue 12: switching presets must not jump in level, so every shipped musical
+preset renders its reference phrase at -20 +- 2 LUFS integrated (BS.1770,
+pyloudnorm), velocity 100.  The gain is not set by hand: this tool
+
+1. writes each preset's reference phrase as a MIDI file,
+   ``synth/presets/checks/phrases/<preset>.mid`` (:func:`phrase_events`: a
+   melody of 12 notes over the middle of the preset's range, and for the
+   keyboards a left-hand dyad under every group of four; all at velocity
+   100; 5.7 s with the last note's ring);
+2. renders it with the preset as shipped and measures its integrated
+   loudness L;
+3. scales ``[output] gain`` by 10^((-20 - L) / 20) in the preset file (the
+   output is linear in the gain: the strings' physics does not see it; the
+   sympathetic strings and the taraf are driven by the force, gain / gain)
+   and renders again to confirm.
+
+The shipped check specs (``synth/presets/checks/<preset>.toml``) render the
+same phrase and hold it within 2 LU of -20 LUFS in CI.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PRESETS = ROOT / "synth" / "presets"
+PHRASES = PRESETS / "checks" / "phrases"
+TARGET_LUFS = -20.0
+#: scale steps of the melody (a major pentatonic over 1.5 octaves, up and down)
+MELODY = (0, 2, 4, 7, 9, 12, 14, 12, 9, 7, 4, 0)
+NOTE_S = 0.35
+VELOCITY = 100
+
+
+def musical_presets() -> list[str]:
+    from synth.io.presets import load_preset
+
+    out = []
+    for p in sorted(PRESETS.glob("*.toml")):
+        if load_preset(str(p)).kind == "musical":
+            out.append(p.stem)
+    return out
+
+
+def phrase_events(preset) -> list[tuple[float, float, int, int]]:
+    """The reference phrase of a preset: (on_s, off_s, key, velocity) tuples.
+    The melody starts where 1.5 octaves fit in the playable range (centred,
+    at most from key 60); keyboards (grand, harpsichord) add a dyad an
+    octave and a fifth below the melody's first note under each group of
+    four notes."""
+    lo, hi = preset.play.key_low, preset.play.key_high
+    span = max(MELODY)
+    base = min(60, lo + max(0, (hi - lo - span) // 2))
+    ev = []
+    t = 0.0
+    for i, step in enumerate(MELODY):
+        last = i == len(MELODY) - 1
+        ev.append((t, t + (1.5 if last else NOTE_S * 0.9), base + step, VELOCITY))
+        t += NOTE_S
+    if preset.voice in ("grand", "harpsichord"):
+        for g in range(0, len(MELODY), 4):
+            t0 = g * NOTE_S
+            for k in (base - 12, base - 5):
+                if lo <= k <= hi:
+                    ev.append((t0, t0 + 4 * NOTE_S * 0.95, k, VELOCITY - 20))
+    return sorted(ev)
+
+
+def write_midi(events, path: Path) -> None:
+    import mido
+
+    tpb, tempo = 480, 500_000           # 120 bpm: 960 ticks per second
+    msgs = []
+    for on, off, key, vel in events:
+        msgs.append((on, mido.Message("note_on", note=key, velocity=vel)))
+        msgs.append((off, mido.Message("note_off", note=key, velocity=64)))
+    msgs.sort(key=lambda m: (m[0], m[1].type == "note_on"))
+    mf = mido.MidiFile(ticks_per_beat=tpb)
+    tr = mido.MidiTrack()
+    mf.tracks.append(tr)
+    tr.append(mido.MetaMessage("set_tempo", tempo=tempo, time=0))
+    now = 0
+    for t, m in msgs:
+        tick = int(round(t * 1e6 / tempo * tpb))
+        tr.append(m.copy(time=tick - now))
+        now = tick
+    path.parent.mkdir(parents=True, exist_ok=True)
+    mf.save(str(path))
+
+
+def phrase_lufs(name: str, midi: Path, gain: float | None = None) -> float:
+    from synth.analysis.loudness import loudness
+    from synth.analysis.spectrum import as_mono
+    from synth.io.factory import build_engine
+    from synth.io.midi import midi_to_events, read_midi_file
+
+    events = midi_to_events(read_midi_file(str(midi)))
+    keys = [int(e.key) for e in events if e.kind == "note_on" and e.value > 0]
+    over = [] if gain is None else [f"output.gain={gain!r}"]
+    eng = build_engine(name, over, extra_low_key=min(keys))
+    y = as_mono(eng.render(events, duration_s=PHRASE_SECONDS, tail_s=0.5))
+    return float(loudness(y, eng.fs_out)["integrated_lufs"])
+
+
+#: length of the rendered phrase (s): the 12 notes and the last one's ring
+PHRASE_SECONDS = 5.7
+
+_GAIN = re.compile(r"^(gain\s*=\s*)([0-9.eE+-]+)(.*)$", re.M)
+
+
+def set_gain(path: Path, gain: float, lufs_before: float) -> None:
+    """Rewrite ``gain`` in the [output] table of ``path``, with a comment
+    saying where it came from."""
+    text = path.read_text("utf-8")
+    head, sep, rest = text.partition("[output]")
+    if not sep:
+        raise SystemExit(f"{path}: no [output] table")
+    m = _GAIN.search(rest)
+    if m is None:
+        raise SystemExit(f"{path}: no gain in [output]")
+    new = (f"{m.group(1)}{gain:.4g}"
+           f"  # tools/calibrate_levels.py: reference phrase at -20 LUFS (was {lufs_before:+.1f} dB off)")
+    path.write_text(head + sep + rest[:m.start()] + new + rest[m.end():], "utf-8")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--dry-run", action="store_true", help="measure and report; write nothing")
+    ap.add_argument("presets", nargs="*", help="preset names (default: every shipped musical one)")
+    a = ap.parse_args(argv)
+    from synth.io.presets import load_preset
+
+    names = a.presets or musical_presets()
+    for name in names:
+        p = load_preset(name)
+        midi = PHRASES / f"{name}.mid"
+        if not a.dry_run:
+            write_midi(phrase_events(p), midi)
+        elif not midi.is_file():
+            import tempfile
+
+            midi = Path(tempfile.mkdtemp()) / f"{name}.mid"
+            write_midi(phrase_events(p), midi)
+        L = phrase_lufs(name, midi)
+        off = L - TARGET_LUFS
+        gain = p.output.gain * 10.0 ** (-off / 20.0)
+        line = f"{name:16s} {L:+7.2f} LUFS at gain {p.output.gain:.4g}"
+        if a.dry_run:
+            print(f"{line}; -20 LUFS at gain {gain:.4g}")
+            continue
+        if abs(off) > 0.05:
+            set_gain(PRESETS / f"{name}.toml", gain, off)
+        L2 = phrase_lufs(name, midi)
+        print(f"{line} -> {L2:+7.2f} LUFS at gain {gain:.4g}")
+        if not math.isfinite(L2) or abs(L2 - TARGET_LUFS) > 0.5:
+            print(f"{name}: the phrase reads {L2:+.2f} LUFS after the change", file=sys.stderr)
+            return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
