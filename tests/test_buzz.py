@@ -162,7 +162,7 @@ _MIDI = __import__("helpers").shared_dir() / "midi" / "ButchersMarchiiThe.mid"
 def test_folk_melody_buzzes():
     """Issue 12's folk target: ButchersMarchiiThe.mid (keys 62-81) rendered
     on the sitar has at least 10 dB more energy above 1 kHz than the same
-    render at buzz 0 (measured +12.4 dB; the old Case-2 jawari: no
+    render at buzz 0 (measured +12.6 dB with the taraf; the old Case-2 jawari: no
     difference)."""
     from synth.io.midi import midi_file_duration_s, midi_to_events, read_midi_file
 
