@@ -36,14 +36,14 @@ def _group(rng, n_str, per_sample, sos=True, region=True):
     return dt, defs
 
 
-def _bank_for(defs, dt, per_sample, cap=None):
+def _bank_for(defs, dt, per_sample, cap=None, sub=1):
     b = StringBank(cap or len(defs), max(d["N"] for d in defs) + 2, 16, 2048)
     for s, d in enumerate(defs):
         b.configure(s, cells=d["N"], k=d["k"], dt_s=dt, U=d["U"], side=1, out_mode=1,
                     gain=d["gain"], tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"],
                     eta=d["eta"], extra_delay=d["extra_delay"], lossy=True,
                     force_per_sample=per_sample, n_disp=d["n_disp"], a_disp=d["a_disp"],
-                    sos=d["sos"])
+                    sos=d["sos"], sub=sub)
     return b
 
 
@@ -185,11 +185,7 @@ def test_finer_grid_is_the_mean_of_its_steps(per_sample, M):
     ref_b.start_pluck(0, K.EXC_SITAR, d["A"], d["t0"])
     fine = np.zeros(n * M)
     ref_b.render(fine, 0, n * M)
-    b = StringBank(1, d["N"] + 2, 16, 2048)
-    b.configure(0, cells=d["N"], k=d["k"], dt_s=dt, U=d["U"], side=1, out_mode=1, gain=d["gain"],
-                tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"], eta=d["eta"],
-                extra_delay=d["extra_delay"], lossy=True, force_per_sample=per_sample,
-                n_disp=d["n_disp"], a_disp=d["a_disp"], sos=d["sos"], sub=M)
+    b = _bank_for([d], dt, per_sample, sub=M)
     b.activate(0)
     b.start_pluck(0, K.EXC_SITAR, d["A"], d["t0"])
     mix = np.zeros(n)
@@ -213,11 +209,7 @@ def test_finer_grid_on_an_external_bridge_reads_m_values_per_sample(per_sample, 
     n = 6 * d["N"] // M
     t = np.arange(n * M) * dt
     ubx = 2e-4 * np.sin(2 * np.pi * t / (2 * d["N"] * dt)) * np.exp(-t / (2 * d["N"] * dt))
-    b = StringBank(1, d["N"] + 2, 16, 2048)
-    b.configure(0, cells=d["N"], k=d["k"], dt_s=dt, U=d["U"], side=1, out_mode=1, gain=d["gain"],
-                tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"], eta=d["eta"],
-                extra_delay=d["extra_delay"], lossy=True, force_per_sample=per_sample,
-                n_disp=d["n_disp"], a_disp=d["a_disp"], sos=d["sos"], sub=M)
+    b = _bank_for([d], dt, per_sample, sub=M)
     b.set_external_bridge(0)
     b.activate(0)
     b.start_pluck(0, K.EXC_SITAR, d["A"], d["t0"])

@@ -33,7 +33,8 @@ import time
 
 import numpy as np
 
-import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
+import bench_ab  # noqa: E402  (tools/, on sys.path when run as a script)
+import cpu_target  # noqa: E402
 
 
 def variants(grids):
@@ -49,16 +50,8 @@ def variants(grids):
 
 
 def run(preset, keys, velocity, seconds):
-    from synth.engine.engine import Event
-    from synth.io.factory import build_engine
-
-    t = 0.0
-    for k in keys:
-        eng = build_engine(preset)
-        t0 = time.perf_counter()
-        eng.render([Event(0.0, "note_on", k, velocity / 127.0)], duration_s=seconds)
-        t += time.perf_counter() - t0
-    return t
+    """Seconds to render one note per key (bench_ab's timing loop)."""
+    return bench_ab.run(preset, (), keys, velocity, seconds)
 
 
 def main(argv=None) -> int:

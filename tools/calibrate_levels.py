@@ -41,6 +41,8 @@ TARGET_LUFS = -20.0
 MELODY = (0, 2, 4, 7, 9, 12, 14, 12, 9, 7, 4, 0)
 NOTE_S = 0.35
 VELOCITY = 100
+#: length of the rendered phrase (s): the 12 notes and the last one's ring
+PHRASE_SECONDS = 5.7
 
 
 def musical_presets() -> list[str]:
@@ -99,7 +101,8 @@ def write_midi(events, path: Path) -> None:
     mf.save(str(path))
 
 
-def phrase_lufs(name: str, midi: Path, gain: float | None = None) -> float:
+def phrase_lufs(name: str, midi: Path) -> float:
+    """Integrated loudness (LUFS) of ``midi`` rendered with preset ``name``."""
     from synth.analysis.loudness import loudness
     from synth.analysis.spectrum import as_mono
     from synth.io.factory import build_engine
@@ -107,14 +110,9 @@ def phrase_lufs(name: str, midi: Path, gain: float | None = None) -> float:
 
     events = midi_to_events(read_midi_file(str(midi)))
     keys = [int(e.key) for e in events if e.kind == "note_on" and e.value > 0]
-    over = [] if gain is None else [f"output.gain={gain!r}"]
-    eng = build_engine(name, over, extra_low_key=min(keys))
+    eng = build_engine(name, extra_low_key=min(keys))
     y = as_mono(eng.render(events, duration_s=PHRASE_SECONDS, tail_s=0.5))
     return float(loudness(y, eng.fs_out)["integrated_lufs"])
-
-
-#: length of the rendered phrase (s): the 12 notes and the last one's ring
-PHRASE_SECONDS = 5.7
 
 _GAIN = re.compile(r"^(gain\s*=\s*)([0-9.eE+-]+)(.*)$", re.M)
 

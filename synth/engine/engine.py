@@ -270,7 +270,7 @@ class Engine:
         if ev.kind == NOTE_ON and ev.value > 0:
             key = None if ev.key is None or ev.key < 0 else ev.key
             if self.taraf is not None:
-                j = at * self.fs_out // self.fs_in - self.time_out
+                j = self._out_sample(at)
                 if self.taraf.is_trigger(ev.channel, key):
                     # a stroke across the drones (no played note)
                     self._taraf_events.append((j, "strum", float(ev.value)))
@@ -362,6 +362,11 @@ class Engine:
                     self.bank, cc, float(ev.value),
                     ((vo.slots, vo.key_arg, vo.f0_hz) for vo in self.voices.values()))
 
+    def _out_sample(self, at: int) -> int:
+        """The output sample of internal sample ``at``, counted from the
+        current block's start (the stages after decimation act there)."""
+        return at * self.fs_out // self.fs_in - self.time_out
+
     def _add_knock(self, key, ev: Event, at: int) -> None:
         """The action's knock of a note-on at internal sample ``at``: its
         force pulse (N, times the output gain of the voice's strings) into
@@ -370,7 +375,7 @@ class Engine:
         J = self.inst.knock_impulse_ns(key, ev.value, ev.speed_m_per_s)
         if J <= 0.0:
             return
-        j = at * self.fs_out // self.fs_in - self.time_out
+        j = self._out_sample(at)
         j = min(max(int(j), 0), self.MAX_BLOCK_OUT - 1)
         g = J * self.inst.preset.output.gain
         p = self.inst.pan(int(round(key)))
@@ -446,7 +451,7 @@ class Engine:
             if self.sym is not None and self._sym_dirty:
                 # the sympathetic strings' new state, from the output sample
                 # of this event's internal sample (block-size independent)
-                j = (start + off) * self.fs_out // self.fs_in - self.time_out
+                j = self._out_sample(start + off)
                 self._sym_events.append((min(max(j, 0), n_out), *self._sympathetic_state()))
                 self._sym_dirty = False
         if cursor < n_in:

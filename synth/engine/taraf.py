@@ -46,10 +46,9 @@ from ..kernels.bridge import bridge_follow
 class _Strings:
     """One bank of strings on one external bridge (taraf or drones)."""
 
-    def __init__(self, templates, grid: int, max_cells: int, max_region: int, max_block: int):
+    def __init__(self, templates, max_cells: int, max_region: int, max_block: int):
         self.templates = tuple(templates)
         self.n = len(self.templates)
-        self.grid = int(grid)
         self.bank = StringBank(max(self.n, 1), max_cells + 2, max(max_region, 1), max_block)
         for i in range(self.n):
             self._configure(i)
@@ -66,13 +65,16 @@ class _Strings:
                 self.bank.join_bridge(i, ub_now)
                 self.bank.activate(i)
 
+    def rest(self, i: int) -> None:
+        """Stop string i and set it up again, at rest, for its next start."""
+        self.bank.deactivate(i)
+        self._configure(i)
+
     def reap(self, n: int, level: float, min_quiet: int) -> None:
         if self.bank.n_active == 0:
             return
-        done = self.bank.reap(n, level, min_quiet)
-        for s in done.tolist():
-            self.bank.deactivate(int(s))
-            self._configure(int(s))
+        for s in self.bank.reap(n, level, min_quiet).tolist():
+            self.rest(int(s))
 
 
 class Taraf:
@@ -94,9 +96,8 @@ class Taraf:
         self.design = design
         self.fs = float(fs_out)
         M = self.M = int(design.grid)
-        self.taraf = _Strings(design.slots, M, design.max_cells, design.max_region, max_block)
-        self.drones = _Strings(design.drone_slots, M, design.max_cells, design.max_region,
-                               max_block)
+        self.taraf = _Strings(design.slots, design.max_cells, design.max_region, max_block)
+        self.drones = _Strings(design.drone_slots, design.max_cells, design.max_region, max_block)
         dt = 1.0 / self.fs
         self.a = math.exp(-2.0 * math.pi * design.return_hz * dt)
         self.b = dt / design.resistance_ns_per_m
@@ -119,8 +120,6 @@ class Taraf:
         self.t = 0                                  # output samples processed
         #: pending drone plucks: (output sample, drone, amplitude m)
         self._plucks: list = []
-        lo, hi = design.trigger if design.trigger is not None else (1, 0)
-        self._trig = (int(lo), int(hi))
         self.n_strums = 0
 
     # -- events from the engine ------------------------------------------------
@@ -128,9 +127,10 @@ class Taraf:
         """Whether a note-on on ``channel`` (0-15) at ``key`` strums the drones."""
         if not self.drones.n:
             return False
-        if self.design.channel is not None and int(channel) == self.design.channel:
+        d = self.design
+        if d.channel is not None and int(channel) == d.channel:
             return True
-        return key is not None and self._trig[0] <= key <= self._trig[1]
+        return key is not None and d.trigger[0] <= key <= d.trigger[1]
 
     def strum(self, at: int, velocity: float) -> None:
         """A stroke across the drones at output sample ``at`` (from the
@@ -138,8 +138,8 @@ class Taraf:
         plucked ``i strum_s`` later, with the pluck's amplitude times
         velocity**exponent."""
         d = self.design
-        kind, amps, durs, alpha, vexp = d.pluck
-        g = max(float(velocity), 0.0) ** vexp
+        amps = d.pluck.amplitudes_m
+        g = max(float(velocity), 0.0) ** d.pluck.velocity_exponent
         step = int(round(d.strum_s * self.fs))
         for i in range(self.drones.n):
             self._plucks.append((int(at) + i * step, i, amps[i] * g))
@@ -157,8 +157,7 @@ class Taraf:
         for part in (self.drones, self.taraf):
             for i in range(part.n):
                 if part.bank._is_active[i]:
-                    part.bank.deactivate(i)
-                    part._configure(i)
+                    part.rest(i)
 
     # -- per block --------------------------------------------------------------
     def _upsample(self, which: int, ub: np.ndarray, n: int, out: np.ndarray) -> None:
@@ -197,6 +196,7 @@ class Taraf:
         if self.drones.n and (self.drones.bank.n_active or self._plucks):
             self._upsample(0, ub, n, self.up_d)
             bank = self.drones.bank
+            pl = self.design.pluck
             pos = 0
             while self._plucks and self._plucks[0][0] < t0 + n:
                 ts, i, amp = self._plucks.pop(0)
@@ -207,8 +207,7 @@ class Taraf:
                 if not bank._is_active[i]:
                     bank.join_bridge(i, float(self.up_d[max(pos * self.M - 1, 0)]))
                     bank.activate(i)
-                kind, amps, durs, alpha, vexp = self.design.pluck
-                bank.start_pluck(i, kind, amp, durs[i], alpha)
+                bank.start_pluck(i, pl.kind, amp, pl.durations_s[i], pl.alpha_per_s)
                 bank.reset_quiet(i)
                 self.taraf.wake(float(self.state_t[0]))
             if pos < n and bank.n_active:

@@ -33,7 +33,7 @@ users and :doc:`docs/architecture.md` point to.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, NamedTuple
 
 from ..dsp.bank import StringBank
 from ..physics.soundboard import BodyDesign
@@ -69,6 +69,18 @@ class SympatheticDesign:
     max_cells: int
 
 
+class DronePluck(NamedTuple):
+    """How the drones are plucked: the kernel's pluck kind (``K.EXC_*``),
+    the amplitude (m) at velocity 1 and the duration (s) per drone, the biwa
+    force pluck's rate (1/s) and the velocity exponent."""
+
+    kind: int
+    amplitudes_m: tuple
+    durations_s: tuple
+    alpha_per_s: float
+    velocity_exponent: float
+
+
 @dataclass(frozen=True)
 class TarafDesign:
     """The strings on an instrument's bridge that no key stops: a sitar's
@@ -91,9 +103,7 @@ class TarafDesign:
                                     strings' output (1 / their output gain)
     trigger : tuple (lo, hi) or None  MIDI keys that strum the drones
     channel : int or None           MIDI channel (0-15) whose notes strum them
-    pluck : tuple                   (kernel pluck kind, amplitude m at velocity
-                                    1 per drone, duration s per drone, alpha 1/s,
-                                    velocity exponent)
+    pluck : DronePluck              how the drones are plucked
     strum_s : float                 delay between successive drones (s)
     max_cells, max_region : int     the bank's sizes
     """
@@ -108,7 +118,7 @@ class TarafDesign:
     force_per_unit: float
     trigger: tuple | None
     channel: int | None
-    pluck: tuple
+    pluck: DronePluck
     strum_s: float
     max_cells: int
     max_region: int

@@ -45,7 +45,7 @@ from ..physics.dispersion import tune_stiff_loop
 from ..physics.losses import allpass_for_phase_delay, tune_loop
 from ..physics.profiles import Termination, buzz_profile, jawari, termination_from_spec
 from ..physics.string import IdealString, fretted_string, midi_key_to_hz
-from .base import BankSizes, TarafDesign, Voice
+from .base import BankSizes, DronePluck, TarafDesign, Voice
 from .exciters import PLUCK_MODELS
 from .registry import exciter_for, register_voice
 
@@ -346,7 +346,7 @@ class OneStringVoice(Voice):
             max_cells, max_region = max(max_cells, cells), max(max_region, R)
         c = self.preset.chikari
         trigger = channel = None
-        pluck = (K.EXC_NONE, (), (), 0.0, 1.0)
+        pluck = DronePluck(K.EXC_NONE, (), (), 0.0, 1.0)
         strum = 0.0
         if c is not None:
             term = self.termination
@@ -362,8 +362,9 @@ class OneStringVoice(Voice):
                 amps.append(c.amplitude_m)
                 durs.append(self.exciter.duration_s(ls))
             ps = self.preset.pluck
-            pluck = (PLUCK_MODELS[ps.model], tuple(amps), tuple(durs),
-                     float(ps.alpha_per_s or 0.0), float(self.preset.play.velocity_exponent))
+            pluck = DronePluck(PLUCK_MODELS[ps.model], tuple(amps), tuple(durs),
+                               float(ps.alpha_per_s or 0.0),
+                               float(self.preset.play.velocity_exponent))
             trigger = (int(c.trigger_key_low), int(c.trigger_key_high))
             channel = None if c.channel == 0 else int(c.channel) - 1
             strum = float(c.strum_s)

@@ -59,6 +59,7 @@ KINDS = ("study", "musical")
 VOICES = ("plucked", "piano", "grand", "harpsichord")
 _KEYBOARD = When("voice", ("grand", "harpsichord"))     # per-key piano strings
 _ONE_STRING = When("voice", ("plucked", "piano"))
+_PLUCKED_MUSICAL = When("kind", ("musical",), also=When("voice", ("plucked",)))
 HAMMER_LAWS = ("three-parameter", "four-parameter")
 CAPO_COUPLINGS = ("direct", "injected")
 PLUCK_MODELS = ("sitar", "biwa")
@@ -202,7 +203,7 @@ SECTIONS: tuple[Section, ...] = (
               "string grazes it), m", 0.0, 0.005),
         Field("region_points", "int", "largest number of grid points in a taraf string's "
               "contact region", 1, 200),
-    ), when=When("kind", ("musical",), also=When("voice", ("plucked",))), optional=True,
+    ), when=_PLUCKED_MUSICAL, optional=True,
        checks=(OrderCheck("t60_high_s", "<=", "t60_low_s"),)),
     Section("chikari", "drone strings on the main bridge, strummed by a key range or a MIDI "
             "channel (optional; needs [taraf])", ChikariSpec, (
@@ -216,7 +217,7 @@ SECTIONS: tuple[Section, ...] = (
         Field("trigger_key_high", "int", "highest MIDI key that strums the drones", 0, 127),
         Field("channel", "int", "MIDI channel (1-16) whose every note strums the drones "
               "(0: none)", 0, 16),
-    ), when=When("kind", ("musical",), also=When("voice", ("plucked",))), optional=True,
+    ), when=_PLUCKED_MUSICAL, optional=True,
        requires="taraf", checks=(OrderCheck("trigger_key_low", "<=", "trigger_key_high"),)),
     Section("loss", "frequency-dependent losses of a musical string", LossSpec, (
         Field("t60_low_s", "float", "T60 decay time at f_low_hz, s", 0.01, 120.0),
