@@ -353,6 +353,50 @@ def test_each_output_never_below_its_direct_part(io):
     assert (np.abs(H) >= floor[:, :, None] * (1.0 - 1e-9)).all()
 
 
+# --- named resonances (peaks) ----------------------------------------------------
+
+
+@pytest.mark.parametrize("f_hz, q, level_db", [(180.0, 20.0, 8.0), (700.0, 30.0, 12.0),
+                                               (3000.0, 60.0, 15.0)])
+def test_a_named_peak_stands_its_level_over_the_diffuse_bank(f_hz, q, level_db):
+    """At its frequency a peak of level L stands L dB over the octave-
+    smoothed response of the diffuse modes alone (within 2.5 dB: the
+    diffuse modes there add with their own phases), its bandwidth is f/q
+    and the white-noise gain stays 0 dB (the normalisation includes it)."""
+    plain = Body(FS, wet=1.0, size=0.5, seed=4)
+    body = Body(FS, wet=1.0, size=0.5, seed=4, peaks=[(f_hz, q, level_db)])
+    k = int(np.flatnonzero(body.freqs_hz == f_hz)[0])
+    assert body.t60_s[k] == pytest.approx(math.log(1000.0) * q / (math.pi * f_hz))
+    # the diffuse modes' smoothed level, in the peak's body's normalisation
+    scale = body.modes.pickup[0, k - 1 if k else k + 1] / plain.modes.pickup[0, k - 1 if k else k + 1]
+    diffuse = sb.smoothed_db(GRID, np.abs(plain.response(GRID)[0, 0]) ** 2, fraction=1.0) \
+        + db(scale ** 2)
+    at = db(np.abs(body.response([f_hz])[0, 0, 0]) ** 2)
+    ref = float(np.interp(f_hz, GRID, diffuse))
+    assert at - ref == pytest.approx(level_db, abs=2.5), (at, ref)
+    half = db(np.abs(body.response([f_hz * (1 + 0.5 / q)])[0, 0, 0]) ** 2)
+    assert at - half > 2.0  # a resonance of bandwidth f/q, not a broad bump
+    x = np.random.default_rng(5).standard_normal(4 * FS)
+    y = body.process(x)[FS // 2:]
+    assert abs(db((y * y).mean() / (x[FS // 2:] ** 2).mean())) <= 1.0
+
+
+@pytest.mark.parametrize("io", CONFIGS)
+def test_peaks_keep_every_output_above_its_direct_part(io):
+    B, C = io
+    b = Body(FS, wet=0.7, inputs=B, outputs=C, seed=3, size=0.3,
+             peaks=[(110.0, 15.0, 6.0), (144.0, 25.0, 8.0), (560.0, 30.0, 4.0)])
+    H = b.response(GRID)
+    floor = b.dry_gain * b.modes.dry
+    assert (np.abs(H) >= floor[:, :, None] * (1.0 - 1e-9)).all()
+    assert b.n_modes == 96 + 3 and np.all(np.diff(b.freqs_hz) >= 0)
+
+
+def test_no_peaks_is_the_same_board():
+    a, b = sb.soundboard_modes(FS, seed=9), sb.soundboard_modes(FS, seed=9, peaks=())
+    assert np.array_equal(a.freqs_hz, b.freqs_hz) and np.array_equal(a.pickup, b.pickup)
+
+
 def test_bridge_split_keeps_the_power_along_the_bridge():
     b = Body(FS, inputs=2, outputs=2)
     G = b.gram()
@@ -547,8 +591,14 @@ def test_knock_bad_parameters_rejected(call, name):
         (dict(wet=1.5), "wet"),
         (dict(wet=-0.1), "wet"),
         (dict(wet=True), "wet"),
-        (dict(size=0.3), "size"),
-        (dict(size=3.0), "size"),
+        (dict(size=0.2), "size"),
+        (dict(size=5.0), "size"),
+        (dict(peaks=[(10.0, 20.0, 0.0)]), "f_hz"),
+        (dict(peaks=[(30000.0, 20.0, 0.0)]), "f_hz"),
+        (dict(peaks=[(200.0, 0.5, 0.0)]), "q"),
+        (dict(peaks=[(200.0, 20.0, 40.0)]), "level_db"),
+        (dict(peaks=[(200.0, 20.0)]), "peaks"),
+        (dict(peaks=[(200.0, 20.0, 0.0)] * 33), "peaks"),
         (dict(brightness=20.0), "brightness"),
         (dict(brightness=float("inf")), "brightness"),
         (dict(inputs=3), "inputs"),

@@ -170,7 +170,11 @@ def test_voices_describe_their_body_and_the_engine_builds_it():
                            seed=b.seed, inputs=b.inputs, outputs=b.outputs)
     e = build_engine("grand-piano", voice=g)
     assert e.body is not None and e.body.n_modes == b.modes and e.body.wet == b.wet
-    assert build_voice("sitar").body() is None and build_engine("sitar").body is None
+    # a one-string voice carries its preset's [body] (the sitar's gourd), or none
+    s = build_voice("sitar")
+    assert s.body().peaks == s.preset.body.peaks and s.body().inputs == 1
+    assert build_voice("hammered-sitar").body() is None
+    assert build_engine("hammered-sitar").body is None
 
 
 def test_bank_fade_reaches_its_t60_and_reap_finds_the_silent_slot():

@@ -200,6 +200,9 @@ def check_values(doc: str, section: str) -> None:
             assert all(type(c) is float for p in got for c in p)
         elif row.type == "keys":
             assert got == tuple(want) and all(type(k) is int for k in got)
+        elif row.type == "peaks":
+            assert got == tuple(tuple(float(c) for c in p) for p in want)
+            assert all(type(c) is float for p in got for c in p)
         else:
             assert type(got) is TYPES[row.type], f"{section}.{name} = {got!r}"
             assert got == want, f"{section}.{name}"

@@ -84,7 +84,7 @@ class Body:
         changed between blocks by assigning ``body.wet`` (an abrupt change
         may click).
     size : float
-        Board scale, 0.5 .. 2 (default 1): mode frequencies divide by it
+        Board scale, 0.25 .. 4 (default 1): mode frequencies divide by it
         (lowest mode 50 / size Hz), decay times multiply by it.
     brightness : float
         Spectral tilt of the board's response in dB per octave re 1 kHz,
@@ -93,6 +93,10 @@ class Body:
         Bridge inputs, 1 or 2 (0: bass end, 1: treble end); default 1.
     outputs : int
         Outputs, 1 or 2 (0: left, 1: right); default 1.
+    peaks : sequence of (f_hz, q, level_db), optional
+        Named resonances on top of the ``n_modes`` diffuse modes (a gourd's
+        air mode, a top plate's first modes), see
+        :func:`synth.physics.soundboard.soundboard_modes`; default none.
 
     Attributes
     ----------
@@ -108,12 +112,13 @@ class Body:
     """
 
     def __init__(self, fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, wet=DEFAULT_WET,
-                 size=1.0, brightness=0.0, inputs=1, outputs=1):
+                 size=1.0, brightness=0.0, inputs=1, outputs=1, peaks=()):
         self.modes = soundboard_modes(fs, n_modes=n_modes, seed=seed, size=size,
-                                      brightness=brightness, inputs=inputs, outputs=outputs)
+                                      brightness=brightness, inputs=inputs, outputs=outputs,
+                                      peaks=peaks)
         m = self.modes
         self.fs = float(fs)
-        self.n_modes = int(n_modes)
+        self.n_modes = m.n_modes  # the diffuse modes and the named peaks
         self.seed = int(seed)
         self.size = float(size)
         self.brightness = float(brightness)
@@ -155,7 +160,7 @@ class Body:
         :class:`synth.physics.soundboard.BodyDesign`) at the rate ``fs`` (Hz)."""
         return cls(fs, n_modes=design.n_modes, seed=design.seed, wet=design.wet,
                    size=design.size, brightness=design.brightness,
-                   inputs=design.inputs, outputs=design.outputs)
+                   inputs=design.inputs, outputs=design.outputs, peaks=design.peaks)
 
     def _bank(self, c, b):
         """Coefficients (3, K) of the modal path from input b to output c."""

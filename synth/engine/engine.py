@@ -166,9 +166,14 @@ class Engine:
         self._taraf_events: list = []        # (output sample, "strum" | "wake", velocity)
         #: the action's knocks: a unit pulse (its shape), and the force still
         #: to add to the buses (output samples from the block's start)
-        self._knock_unit = knock_pulse(self.fs_out, 1.0)
-        self._knock = np.zeros((self.n_dec, self.MAX_BLOCK_OUT + len(self._knock_unit)))
+        self._knock_unit = knock_pulse(self.fs_out, 1.0, instrument.knock_duration_s())
+        #: the knocks join the bridge after decimation: they wait the
+        #: decimator's latency so that they meet the note they belong to
+        self._knock_lag = int(round(self.dec.latency_samples))
+        self._knock_tail = self._knock_lag + len(self._knock_unit)
+        self._knock = np.zeros((self.n_dec, self.MAX_BLOCK_OUT + self._knock_tail))
         self._knocking = False
+        self._hush_body = False              # all sound off: reset the body after this block
         self.time_out = 0                    # output samples rendered so far
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
@@ -355,6 +360,11 @@ class Engine:
                     self._free(v)
                 if self.taraf is not None:
                     self.taraf.silence()
+                # the body stops ringing and no knock is left to come, from
+                # the next block on (this block's output is already under way)
+                self._knock[:] = 0.0
+                self._knocking = False
+                self._hush_body = self.body is not None
             else:
                 # the voice's own controls (the plucked voices' buzz depth, CC1);
                 # the sounding notes as a generator: built only by a voice that uses the CC
@@ -376,7 +386,7 @@ class Engine:
         if J <= 0.0:
             return
         j = self._out_sample(at)
-        j = min(max(int(j), 0), self.MAX_BLOCK_OUT - 1)
+        j = min(max(int(j), 0), self.MAX_BLOCK_OUT - 1) + self._knock_lag
         g = J * self.inst.preset.output.gain
         p = self.inst.pan(int(round(key)))
         u = self._knock_unit
@@ -471,7 +481,7 @@ class Engine:
                 # and the sympathetic strings hear it)
                 kb = self._knock
                 d += kb[:, :n_out]
-                L = len(self._knock_unit)
+                L = self._knock_tail
                 kb[:, :L] = kb[:, n_out:n_out + L]
                 kb[:, L:] = 0.0
                 self._knocking = bool(kb[:, :L].any())
@@ -494,6 +504,9 @@ class Engine:
                 for c in range(self.n_dec):
                     self.decs[c].process(mix[c], d[c])
                 self.body.process(d, out=y)
+        if self._hush_body:
+            self.body.reset()
+            self._hush_body = False
         self._reap(n_in)
         self.time_out += n_out
         return y

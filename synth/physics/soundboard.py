@@ -250,9 +250,19 @@ MIN_SPACING = 0.5
 #: Standard deviation of the log-normal drive spread of each mode at each input (dB).
 DRIVE_SPREAD_DB = 3.0
 #: Allowed ranges of the shape parameters.
-SIZE_RANGE = (0.5, 2.0)
+#: (size: 0.25 for a lute's or a sitar's small body, lowest diffuse mode
+#: 200 Hz, to 4 for a concert grand's board stretched to 12.5 Hz; the
+#: preset schema allows the same range)
+SIZE_RANGE = (0.25, 4.0)
 BRIGHTNESS_RANGE_DB = (-12.0, 12.0)
 MIN_FS = 8000
+#: Named resonances (``peaks``): at most this many, and their allowed
+#: frequency (Hz; also below ``NYQUIST_FRACTION fs``), quality factor and
+#: level re the diffuse bank's smoothed level (dB).
+MAX_PEAKS = 32
+PEAK_HZ_RANGE = (20.0, 20000.0)
+PEAK_Q_RANGE = (1.0, 500.0)
+PEAK_DB_RANGE = (-30.0, 30.0)
 #: Allowed numbers of bridge inputs and of outputs.
 MAX_INPUTS = MAX_OUTPUTS = 2
 #: Knock: default pulse duration (s) and impulse re the hammer's momentum.
@@ -276,6 +286,8 @@ class BodyDesign:
     seed : int          seed of the mode set's random draws (same seed, same board)
     inputs : int        bridge inputs, 1 (the whole bridge) or 2 (0: bass end, 1: treble end)
     outputs : int       outputs, 1 (mono) or 2 (0: left, 1: right)
+    peaks : tuple       named resonances ((f_hz, q, level_db), ...) on top of the
+                        diffuse modes (:func:`soundboard_modes`); () = none
     """
 
     wet: float
@@ -285,6 +297,7 @@ class BodyDesign:
     seed: int = DEFAULT_SEED
     inputs: int = 1
     outputs: int = 1
+    peaks: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -404,7 +417,7 @@ def mode_density_per_hz(f_hz, fs, n_modes=DEFAULT_N_MODES, size=1.0):
     n_modes : int
         Number of modes, 1 .. 1024.
     size : float
-        Board scale, 0.5 .. 2 (frequencies divide by it).
+        Board scale, 0.25 .. 4 (frequencies divide by it).
 
     Returns
     -------
@@ -420,7 +433,7 @@ def mode_density_per_hz(f_hz, fs, n_modes=DEFAULT_N_MODES, size=1.0):
 
 
 def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, brightness=0.0,
-                     inputs=1, outputs=1):
+                     inputs=1, outputs=1, peaks=()):
     """The board's modes, their drive and pickup gains and the direct part.
 
     Parameters
@@ -434,7 +447,7 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
         Seed of the random draws (spacings, drive spreads, pan angles), >= 0.
         The same seed gives the same board for any ``inputs``, ``outputs``.
     size : float
-        Board scale, 0.5 .. 2 (default 1): every frequency is divided by it
+        Board scale, 0.25 .. 4 (default 1): every frequency is divided by it
         (lowest mode ``50 / size`` Hz, spacing ``20 / size`` Hz) and decay
         times are multiplied by it.
     brightness : float
@@ -444,11 +457,26 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
         Bridge inputs B, 1 or 2 (0: bass end, 1: treble end).
     outputs : int
         Outputs C, 1 or 2 (0: left, 1: right).
+    peaks : sequence of (f_hz, q, level_db), optional
+        Named resonances added to the K diffuse modes (at most 32): the
+        body's own low modes that give an instrument its identity -- a
+        gourd's or a box's air (Helmholtz) mode, the top plate's first
+        bending modes -- at frequency ``f_hz`` (20 .. 20000 Hz, below
+        ``NYQUIST_FRACTION fs``), quality factor ``q`` = f / bandwidth
+        (1 .. 500; T60 = 2.2 q / f) and peak ``level_db`` above the diffuse
+        bank's smoothed level at that frequency (-30 .. 30 dB). The smoothed
+        power level of modes of peak gain g, bandwidth B and density n is
+        ``(pi / 2) g^2 B n``, which the diffuse bank holds at ``(pi / 2)
+        tilt(f)^2`` (g = tilt / sqrt(B n)); a peak of level L gets
+        ``g = 10^(L / 20) sqrt(pi / 2) tilt(f)``. Its drive is 1 at every
+        input and its pickup centred (equal at both outputs), so it keeps
+        the positive-real sum: no notch below the direct part.
 
     Returns
     -------
     BoardModes
-        Frequencies (lowest exactly ``50 / size`` Hz), decay times, drive
+        The K diffuse modes and the P peaks sorted by frequency (without
+        peaks the lowest is exactly ``50 / size`` Hz), decay times, drive
         (B, K) > 0, pickup (C, K) >= 0 and dry (C, B) >= 0, scaled so that the
         modal part realised by :func:`resonator_coefs` at ``fs`` and the
         direct part each have a white-noise power gain of 1, averaged over
@@ -461,6 +489,7 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
     brightness = _float_param("brightness", brightness, *BRIGHTNESS_RANGE_DB, unit=" dB/octave")
     B = _int_param("inputs", inputs, 1, MAX_INPUTS)
     C = _int_param("outputs", outputs, 1, MAX_OUTPUTS)
+    pk = _peaks_param(peaks, fs)
 
     f_low, f_high, spacing, f_c, a_dens = _layout(fs, n_modes, size)
     rng = np.random.default_rng(seed)
@@ -495,6 +524,19 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
     g = 10.0 ** (brightness * np.log2(freqs / 1000.0) / 20.0) / np.sqrt(bw_hz * rho)
     drive = 10.0 ** (spread_db[:B] / 20.0)
     pickup = np.vstack((np.cos(theta), np.sin(theta))) if C == 2 else np.ones((1, K))
+    if pk.shape[0]:
+        fp, qp, lp = pk.T
+        gp = 10.0 ** ((brightness * np.log2(fp / 1000.0) + lp) / 20.0) * math.sqrt(0.5 * math.pi)
+        freqs = np.concatenate((freqs, fp))
+        t60 = np.concatenate((t60, math.log(1000.0) * qp / (math.pi * fp)))
+        g = np.concatenate((g, gp))
+        drive = np.hstack((drive, np.ones((B, fp.size))))
+        centre = np.full((C, fp.size), math.sqrt(0.5) if C == 2 else 1.0)
+        pickup = np.hstack((pickup, centre))
+        order = np.argsort(freqs, kind="stable")
+        freqs, t60, g = freqs[order], t60[order], g[order]
+        drive, pickup = drive[:, order], pickup[:, order]
+        K = freqs.size
     pickup = pickup * g
     unit = resonator_coefs(fs, freqs, t60, np.ones(K))
     gram = _modal_gram(unit, drive, pickup)
@@ -503,6 +545,33 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
     gram = gram * scale * scale
     dry = _dry_matrix(B, C, gram)
     return BoardModes(freqs, t60, np.ascontiguousarray(drive), np.ascontiguousarray(pickup), dry)
+
+
+def _peaks_param(peaks, fs):
+    """``peaks`` as a (P, 3) float array of (f_hz, q, level_db) rows, validated."""
+    try:
+        a = np.asarray(peaks if peaks is not None else (), dtype=np.float64)
+    except (TypeError, ValueError):
+        raise ValueError(f"peaks = {peaks!r} must be a sequence of (f_hz, q, level_db) triples") \
+            from None
+    if a.size == 0:
+        return np.zeros((0, 3))
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise ValueError(f"peaks has shape {a.shape}; must be (P, 3) rows of (f_hz, q, level_db)")
+    if a.shape[0] > MAX_PEAKS:
+        raise ValueError(f"peaks has {a.shape[0]} rows; at most {MAX_PEAKS}")
+    f_hi = min(PEAK_HZ_RANGE[1], NYQUIST_FRACTION * fs)
+    for i, (f, q, level) in enumerate(a):
+        if not (math.isfinite(f) and PEAK_HZ_RANGE[0] <= f <= f_hi):
+            raise ValueError(f"peaks[{i}] f_hz = {f:g} Hz is out of range "
+                             f"({PEAK_HZ_RANGE[0]:g} <= value <= {f_hi:g})")
+        if not (math.isfinite(q) and PEAK_Q_RANGE[0] <= q <= PEAK_Q_RANGE[1]):
+            raise ValueError(f"peaks[{i}] q = {q:g} is out of range "
+                             f"({PEAK_Q_RANGE[0]:g} <= value <= {PEAK_Q_RANGE[1]:g})")
+        if not (math.isfinite(level) and PEAK_DB_RANGE[0] <= level <= PEAK_DB_RANGE[1]):
+            raise ValueError(f"peaks[{i}] level_db = {level:g} dB is out of range "
+                             f"({PEAK_DB_RANGE[0]:g} <= value <= {PEAK_DB_RANGE[1]:g})")
+    return a
 
 
 def _modal_gram(unit_coefs, drive, pickup):

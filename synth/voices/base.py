@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 from ..dsp.bank import StringBank
-from ..physics.soundboard import BodyDesign
+from ..physics.soundboard import KNOCK_DURATION_S, BodyDesign
 
 
 @dataclass(frozen=True)
@@ -199,9 +199,16 @@ class Voice:
         raise NotImplementedError(f"{type(self).__name__} must define sizes()")
 
     def body(self) -> BodyDesign | None:
-        """The body (soundboard) the engine applies to the voice's mix after
-        decimation, or None (the default: bare strings)."""
-        return None
+        """The body (soundboard, gourd, wooden box) the engine applies to the
+        voice's mix after decimation: the preset's ``[body]`` table, or None
+        when it has none (bare strings).  Bridge inputs and outputs are the
+        table's (the grand's) or 1 and 1."""
+        b = getattr(self.preset, "body", None)
+        if b is None:
+            return None
+        return BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
+                          seed=b.seed, inputs=b.inputs or 1, outputs=b.outputs or 1,
+                          peaks=tuple(b.peaks or ()))
 
     def warm(self) -> None:
         """Derive every note's physics now, so that no note-on in the audio
@@ -281,6 +288,11 @@ class Voice:
         (:func:`synth.physics.soundboard.knock_pulse`) at the note's sample,
         on the key's place along the bridge.  Default 0: no knock."""
         return 0.0
+
+    def knock_duration_s(self) -> float:
+        """Duration (s) of the knock's force pulse (:meth:`knock_impulse_ns`);
+        default the piano action's 5 ms."""
+        return KNOCK_DURATION_S
 
     def pan(self, key: int) -> float:
         """Where the key meets the bridge, 0 (bus 0) .. 1 (bus 1): the

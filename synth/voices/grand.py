@@ -79,7 +79,7 @@ from ..kernels import strings as K
 from ..physics import piano as P
 from ..physics.dispersion import retune_sos_loop, tune_stiff_loop_sos
 from ..physics.profiles import Termination, capo
-from ..physics.soundboard import BodyDesign, knock_impulse_ns
+from ..physics.soundboard import knock_impulse_ns
 from ..physics.dispersion import tune_stiff_loop
 from .base import BankSizes, SympatheticDesign, Voice
 from .registry import register_voice
@@ -175,11 +175,6 @@ class GrandPianoInstrument(Voice):
         return BankSizes(strings_per_voice=self.strings_per_voice,
                          max_cells=self.max_cells(extra_low_key),
                          max_region=self.max_region_points())
-
-    def body(self) -> BodyDesign:
-        b = self.preset.body
-        return BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
-                          seed=b.seed, inputs=b.inputs, outputs=b.outputs)
 
     def sympathetic(self, fs_out: float) -> SympatheticDesign | None:
         """One string per key (standing for its unison: output x the

@@ -49,7 +49,6 @@ import numpy as np
 from ..dsp.bank import SlotTemplate, StringBank, slot_template
 from ..physics import piano as P
 from ..physics.dispersion import tune_stiff_loop
-from ..physics.soundboard import BodyDesign
 from ..physics.string import IdealString
 from .base import BankSizes, Voice
 from .registry import exciter_for, register_voice
@@ -110,12 +109,6 @@ class Harpsichord(Voice):
                          max_cells=int(self.fs / P.et_f0_hz(lo, 400.0) / 2) + 4,
                          max_gtable=self.exciter.max_gtable())
 
-    def body(self) -> BodyDesign:
-        b = self.preset.body
-        return BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
-                          seed=b.seed)
-
-    # -- physics at note-on -------------------------------------------------------
     def pitch_hz(self, key: float | None = None, f0_hz: float | None = None) -> float:
         """Partial-1 frequency of ``key`` as tuned (Hz), or ``f0_hz``."""
         if f0_hz is not None:

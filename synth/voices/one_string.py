@@ -26,6 +26,13 @@ at x = 0 (``[termination]``: any registered profile of
   table (drone strings on the main bridge's jawari, strummed by a key range
   or a MIDI channel): :meth:`OneStringVoice.taraf` designs them and the
   engine runs them (:mod:`synth.engine.taraf`).
+* A musical preset may carry a ``[body]`` table (:meth:`Voice.body`: the
+  sitar's gourd and tabli, the biwa's wooden box, as named resonances over
+  a diffuse modal bank, :func:`synth.physics.soundboard.soundboard_modes`)
+  that the engine puts on the bridge force.  A plucked one may add the
+  plectrum's stroke on that body (``pluck.bachi_impulse_ns``, the biwa's
+  bachi): a short force pulse into the body at every note-on, scaled with
+  velocity as the pluck (:meth:`OneStringVoice.knock_impulse_ns`).
 
 The voice names are the preset schema's: ``plucked`` presets carry
 ``[pluck]``, ``piano`` presets (the A7 study of Publication I) ``[hammer]``.
@@ -315,6 +322,22 @@ class OneStringVoice(Voice):
                             extra_delay=loop.extra_delay, lossy=True, n_disp=n_disp,
                             a_disp=a_disp, glide_s=StringBank.LOSS_GLIDE_S, sub=grid)
         return tpl, loop.cells, 0 if U is None else len(U)
+
+    def knock_impulse_ns(self, key, velocity: float, speed_m_per_s: float | None = None) -> float:
+        """The plectrum's stroke on the body at a note-on (N s):
+        ``pluck.bachi_impulse_ns`` x velocity^velocity_exponent (the pluck
+        amplitude's law; velocity normalised 0 .. 1), 0 without one."""
+        p = getattr(self.preset, "pluck", None)
+        J = float(getattr(p, "bachi_impulse_ns", None) or 0.0)
+        if J <= 0.0 or self.preset.kind != "musical":
+            return 0.0
+        return J * max(float(velocity), 0.0) ** float(self.preset.play.velocity_exponent)
+
+    def knock_duration_s(self) -> float:
+        """The stroke's pulse duration, ``pluck.bachi_duration_s`` (s)."""
+        p = getattr(self.preset, "pluck", None)
+        d = getattr(p, "bachi_duration_s", None)
+        return float(d) if d else super().knock_duration_s()
 
     def taraf(self, fs_out: float) -> TarafDesign | None:
         """The ``[taraf]`` and ``[chikari]`` strings at ``fs_out`` x

@@ -60,6 +60,8 @@ class PluckSpec:
     amplitude_m: float
     duration_s: float
     alpha_per_s: float | None = None
+    bachi_impulse_ns: float | None = None
+    bachi_duration_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -138,7 +140,8 @@ class DampersSpec:
 
 @dataclass(frozen=True)
 class BodySpec:
-    """Soundboard: modal bank on the 48 kHz bridge signal(s) (synth.physics.soundboard);
+    """Body: modal bank on the 48 kHz bridge signal(s) (synth.physics.soundboard);
+    ``peaks``: named resonances ((f_hz, q, level_db), ...);
     ``inputs``/``outputs`` (grand only, else None): bridge inputs and outputs, 1 or 2."""
 
     wet: float
@@ -146,6 +149,7 @@ class BodySpec:
     size: float
     brightness: float
     seed: int
+    peaks: tuple = ()
     inputs: int | None = None
     outputs: int | None = None
 

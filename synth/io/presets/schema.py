@@ -56,8 +56,11 @@ class Field:
         ``"float"`` (int accepted, bool never, must be finite), ``"int"``,
         ``"str"``, ``"line"`` (non-empty single-line string), ``"points"``
         (array of ``[x_m, U_m]`` pairs, at least 2, x >= 0 strictly increasing)
-        or ``"keys"`` (array of 1 to 24 integers within ``lo``..``hi``: MIDI
-        keys, stored as a tuple).
+        ``"keys"`` (array of 1 to 24 integers within ``lo``..``hi``: MIDI
+        keys, stored as a tuple) or ``"peaks"`` (array of 0 to 32
+        ``[f_hz, q, level_db]`` triples, f strictly increasing within
+        ``lo``..``hi`` Hz, q 1 .. 500, level -30 .. 30 dB: a body's named
+        resonances, stored as a tuple of tuples).
     doc : str
         Meaning and unit, one line.
     lo, hi : float or None

@@ -113,6 +113,11 @@ SECTIONS: tuple[Section, ...] = (
         Field("duration_s", "float", "pluck duration t0, s", 1e-4, 0.05),
         Field("alpha_per_s", "float", "biwa force-pluck rate alpha, 1/s", 1.0, 1e6,
               when=When("pluck.model", ("biwa",))),
+        Field("bachi_impulse_ns", "float", "the plectrum's stroke on the body (the biwa's bachi) "
+              "at velocity 127: impulse of its force pulse into [body], N s (0: none; scales "
+              "as the amplitude with velocity)", 0.0, 1.0, when=_PLUCKED_MUSICAL, default=0.0),
+        Field("bachi_duration_s", "float", "duration of the stroke's force pulse, s", 2e-4, 0.02,
+              when=_PLUCKED_MUSICAL, default=0.001),
     ), when=When("voice", ("plucked", "harpsichord"))),
     Section("hammer", "felt hammer striking the string (voice piano)", HammerSpec, (
         Field("law", "str", "felt law: three-parameter (eq. 1.5) or four-parameter (Pub. III eq. 3)",
@@ -280,18 +285,23 @@ SECTIONS: tuple[Section, ...] = (
         Field("half_pedal_high", "float", "pedal value above which the dampers are fully lifted",
               0.0, 1.0),
     ), when=_KEYBOARD, checks=(OrderCheck("half_pedal_low", "<", "half_pedal_high"),)),
-    Section("body", "soundboard", BodySpec, (
-        Field("wet", "float", "share of the soundboard's modes in the output (0: its direct part "
+    Section("body", "the instrument's body (soundboard, gourd, wooden box) as a modal filter "
+            "on the bridge force (optional: absent, the bare strings)", BodySpec, (
+        Field("wet", "float", "share of the body's modes in the output (0: its direct part "
               "only, flat)", 0.0, 1.0),
-        Field("modes", "int", "number of soundboard modes", 1, 1024),
-        Field("size", "float", "board size factor (divides all mode frequencies)", 0.25, 4.0),
-        Field("brightness", "float", "spectral tilt of the board, dB/octave", -12.0, 12.0),
+        Field("modes", "int", "number of diffuse modes", 1, 1024),
+        Field("size", "float", "body size factor (divides all diffuse mode frequencies: "
+              "lowest 50/size Hz)", 0.25, 4.0),
+        Field("brightness", "float", "spectral tilt of the body, dB/octave", -12.0, 12.0),
         Field("seed", "int", "random seed of the mode set (deterministic)", 0, 2 ** 31 - 1),
+        Field("peaks", "peaks", "named resonances on top of the diffuse modes (air mode, "
+              "top-plate modes): [f_hz, q, level_db re the diffuse level], ...", 20.0, 20000.0,
+              default=()),
         Field("inputs", "int", "bridge inputs of the board: 1 (whole bridge) or 2 (bass end, "
               "treble end)", 1, 2, when=When("voice", ("grand",))),
         Field("outputs", "int", "outputs of the board: 1 (mono) or 2 (left, right)", 1, 2,
               when=When("voice", ("grand",))),
-    ), when=_KEYBOARD),
+    ), when=When("kind", ("musical",)), optional=True),
     Section("output", "what is written to the WAV", OutputSpec, (
         Field("signal", "str", "displacement u(l,t) at the pluck point (m) or bridge force at x=L (N)",
               choices=SIGNALS),

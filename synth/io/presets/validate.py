@@ -75,6 +75,7 @@ _TYPE_TEXT = {
     "line": "a string",
     "points": "an array of [x_m, U_m] pairs",
     "keys": "an array of MIDI keys",
+    "peaks": "an array of [f_hz, q, level_db] triples",
 }
 
 
@@ -125,6 +126,8 @@ class _Validator:
             return self.points(key, v)
         elif t == "keys":
             return self.keys(key, row, v)
+        elif t == "peaks":
+            return self.peaks(key, row, v)
         else:  # pragma: no cover - schema error
             raise AssertionError(f"unknown field type {t!r}")
         if row.choices is not None:
@@ -171,6 +174,32 @@ class _Validator:
                 raise self.fail(f"{key}[{i}] = {_fmt_value(k)}{o} is not a MIDI key "
                                 f"(an integer, {row.range_text()})")
         return tuple(int(k) for k in v)
+
+    def peaks(self, key: str, row: Field, v: Any) -> tuple[tuple[float, float, float], ...]:
+        o = self._origin(key)
+        if not isinstance(v, list):
+            raise self.fail(f"{key} = {_fmt_value(v)}{o} has the wrong type "
+                            f"(expected {_TYPE_TEXT['peaks']})")
+        if len(v) > 32:
+            raise self.fail(f"{key} = {_fmt_value(v)}{o} has {len(v)} peaks (at most 32)")
+        out: list[tuple[float, float, float]] = []
+        for i, p in enumerate(v):
+            item = f"{key}[{i}] = {_fmt_value(p)}{o}"
+            if (not isinstance(p, list) or len(p) != 3
+                    or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in p)):
+                raise self.fail(f"{item} is not an [f_hz, q, level_db] triple of numbers")
+            f, q, level = (float(c) for c in p)
+            if not (math.isfinite(f) and row.in_range(f)):
+                raise self.fail(f"{item} has f_hz out of range ({row.range_text()})")
+            if not (math.isfinite(q) and 1.0 <= q <= 500.0):
+                raise self.fail(f"{item} has q out of range (1 <= value <= 500)")
+            if not (math.isfinite(level) and -30.0 <= level <= 30.0):
+                raise self.fail(f"{item} has level_db out of range (-30 <= value <= 30)")
+            if out and f <= out[-1][0]:
+                raise self.fail(f"{item} has f_hz not strictly increasing "
+                                f"(previous f_hz = {_fmt_value(out[-1][0])})")
+            out.append((f, q, level))
+        return tuple(out)
 
     # -- tables -----------------------------------------------------------
     def unknown_keys(self, prefix: str, table: Mapping[str, Any], allowed: Sequence[str]) -> None:
