@@ -39,7 +39,7 @@ def test_the_midi_file_plays_the_phrase(tmp_path):
     assert max(abs(t - e[0]) for (t, _, _), e in zip(on, ev)) < 1e-3
 
 
-@pytest.mark.parametrize("name", ["sitar", "biwa", "harpsichord"])
+@pytest.mark.parametrize("name", ["sitar", "biwa", "harpsichord", "grand-piano"])
 def test_the_shipped_phrase_is_the_tools_and_its_spec_checks_the_level(name, tmp_path):
     shipped = cl.PHRASES / f"{name}.mid"
     fresh = tmp_path / f"{name}.mid"

@@ -20,6 +20,7 @@ import numpy as np
 
 from ..dsp.bank import StringBank
 from ..dsp.body import Body
+from ..dsp.limiter import Limiter
 from ..dsp.decimator import Decimator
 from ..kernels import strings as K
 from ..physics.soundboard import knock_pulse
@@ -174,6 +175,11 @@ class Engine:
         self._knock = np.zeros((self.n_dec, self.MAX_BLOCK_OUT + self._knock_tail))
         self._knocking = False
         self._hush_body = False              # all sound off: reset the body after this block
+        #: the output's peak limiter (``[output] limiter = "on"``), the last stage
+        o = instrument.preset.output
+        self.limiter = (Limiter(self.fs_out, o.limit_dbfs, o.limit_release_s,
+                                channels=self.channels)
+                        if getattr(o, "limiter", "off") == "on" else None)
         self.time_out = 0                    # output samples rendered so far
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
@@ -372,6 +378,13 @@ class Engine:
                     self.bank, cc, float(ev.value),
                     ((vo.slots, vo.key_arg, vo.f0_hz) for vo in self.voices.values()))
 
+    @property
+    def latency_samples(self) -> int:
+        """Output samples between an event and its sound: the decimator's
+        integer latency plus the limiter's look-ahead (when it is on)."""
+        lim = self.limiter.latency_samples if self.limiter is not None else 0
+        return int(self.dec.latency_samples) + lim
+
     def _out_sample(self, at: int) -> int:
         """The output sample of internal sample ``at``, counted from the
         current block's start (the stages after decimation act there)."""
@@ -504,6 +517,8 @@ class Engine:
                 for c in range(self.n_dec):
                     self.decs[c].process(mix[c], d[c])
                 self.body.process(d, out=y)
+        if self.limiter is not None:
+            self.limiter.process(y, out=y)
         if self._hush_body:
             self.body.reset()
             self._hush_body = False
@@ -644,11 +659,11 @@ class Engine:
             at most ``max_tail_s`` after the last event.
         Returns float64 audio at ``fs_out``, shape (n,) (mono) or (n,
         channels), aligned so that an event at t sounds at t (the
-        decimator's integer latency is removed).
+        decimator's integer latency and the limiter's are removed).
         """
         events = list(events)
         self.schedule(events)
-        lat = int(self.dec.latency_samples) if compensate_latency else 0
+        lat = self.latency_samples if compensate_latency else 0
         last = max((e.time_s for e in events), default=0.0)
         chunks = []
         n_done = 0

@@ -235,10 +235,14 @@ class LossSpec:
 
 @dataclass(frozen=True)
 class OutputSpec:
-    """Output signal ("displacement" in m or "bridge_force" in N) and its gain to full scale."""
+    """Output signal ("displacement" in m or "bridge_force" in N) and its gain to full
+    scale; the output's peak limiter ("on"/"off", ceiling dBFS, release s)."""
 
     signal: str
     gain: float
+    limiter: str = "off"
+    limit_dbfs: float = -1.0
+    limit_release_s: float = 0.05
 
 
 @dataclass(frozen=True)

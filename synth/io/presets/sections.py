@@ -306,6 +306,11 @@ SECTIONS: tuple[Section, ...] = (
         Field("signal", "str", "displacement u(l,t) at the pluck point (m) or bridge force at x=L (N)",
               choices=SIGNALS),
         Field("gain", "float", "linear factor from the signal to WAV full scale (1.0)", 1e-6, 1e9),
+        Field("limiter", "str", "look-ahead peak limiter on the output (1.5 ms; the rare "
+              "loudest peaks held under limit_dbfs)", choices=("off", "on"), default="off"),
+        Field("limit_dbfs", "float", "the limiter's ceiling, dBFS", -20.0, 0.0, default=-1.0),
+        Field("limit_release_s", "float", "the limiter's release time constant, s", 0.001, 2.0,
+              default=0.05),
     )),
     Section("play", "musical play range", PlaySpec, (
         Field("key_low", "int", "lowest playable MIDI key", 0, 127),
