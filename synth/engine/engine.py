@@ -176,10 +176,8 @@ class Engine:
         self._knocking = False
         self._hush_body = False              # all sound off: reset the body after this block
         #: the output's peak limiter (``[output] limiter = "on"``), the last stage
-        o = instrument.preset.output
-        self.limiter = (Limiter(self.fs_out, o.limit_dbfs, o.limit_release_s,
-                                channels=self.channels)
-                        if getattr(o, "limiter", "off") == "on" else None)
+        lim = instrument.limiter()
+        self.limiter = None if lim is None else Limiter(self.fs_out, *lim, channels=self.channels)
         self.time_out = 0                    # output samples rendered so far
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
