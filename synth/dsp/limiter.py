@@ -83,13 +83,13 @@ class Limiter:
         N = max(2, int(round(la * fs)))
         self.lookahead = N
         self.latency_samples = N - 1
-        Q = 1 << (N + 1 - 1).bit_length()
-        self._delay = np.zeros((self.channels, N))
-        self._box = np.ones(N)
-        self._dq_val = np.ones(Q)
-        self._dq_idx = np.zeros(Q, dtype=np.int64)
-        self._f = np.array([1.0, float(N)])
-        self._i = np.zeros(4, dtype=np.int64)
+        Q = 1 << N.bit_length()  # a power of two > N: the deque holds up to N + 1
+        self._delay = np.empty((self.channels, N))
+        self._box = np.empty(N)
+        self._dq_val = np.empty(Q)
+        self._dq_idx = np.empty(Q, dtype=np.int64)
+        self._f = np.empty(2)
+        self._i = np.empty(4, dtype=np.int64)
         self.reset()
 
     def reset(self):

@@ -174,7 +174,7 @@ class Engine:
         self._knock_tail = self._knock_lag + len(self._knock_unit)
         self._knock = np.zeros((self.n_dec, self.MAX_BLOCK_OUT + self._knock_tail))
         self._knocking = False
-        self._hush_body = False              # all sound off: reset the body after this block
+        self._hush = False                   # all sound off: reset the output stages after this block
         #: the output's peak limiter (``[output] limiter = "on"``), the last stage
         lim = instrument.limiter()
         self.limiter = None if lim is None else Limiter(self.fs_out, *lim, channels=self.channels)
@@ -364,11 +364,13 @@ class Engine:
                     self._free(v)
                 if self.taraf is not None:
                     self.taraf.silence()
-                # the body stops ringing and no knock is left to come, from
-                # the next block on (this block's output is already under way)
+                # the output stages after the strings fall silent too: no
+                # knock is left to come, and the body's ring and the
+                # limiter's delay line are cleared from the next block on
+                # (this block's output is already under way)
                 self._knock[:] = 0.0
                 self._knocking = False
-                self._hush_body = self.body is not None
+                self._hush = True
             else:
                 # the voice's own controls (the plucked voices' buzz depth, CC1);
                 # the sounding notes as a generator: built only by a voice that uses the CC
@@ -517,9 +519,11 @@ class Engine:
                 self.body.process(d, out=y)
         if self.limiter is not None:
             self.limiter.process(y, out=y)
-        if self._hush_body:
-            self.body.reset()
-            self._hush_body = False
+        if self._hush:
+            for stage in (self.body, self.limiter):
+                if stage is not None:
+                    stage.reset()
+            self._hush = False
         self._reap(n_in)
         self.time_out += n_out
         return y

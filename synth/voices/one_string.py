@@ -326,10 +326,11 @@ class OneStringVoice(Voice):
     def knock_impulse_ns(self, key, velocity: float, speed_m_per_s: float | None = None) -> float:
         """The plectrum's stroke on the body at a note-on (N s):
         ``pluck.bachi_impulse_ns`` x velocity^velocity_exponent (the pluck
-        amplitude's law; velocity normalised 0 .. 1), 0 without one."""
+        amplitude's law; velocity normalised 0 .. 1), 0 without one (the
+        schema allows it on musical plucked presets only)."""
         p = getattr(self.preset, "pluck", None)
         J = float(getattr(p, "bachi_impulse_ns", None) or 0.0)
-        if J <= 0.0 or self.preset.kind != "musical":
+        if J <= 0.0:
             return 0.0
         return J * max(float(velocity), 0.0) ** float(self.preset.play.velocity_exponent)
 

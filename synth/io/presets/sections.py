@@ -38,6 +38,8 @@ from .model import (
     TerminationSpec,
     TuningSpec,
 )
+from synth.physics.soundboard import PEAK_HZ_RANGE
+
 from .schema import Field, OrderCheck, Section, When, _when_not
 
 __all__ = [
@@ -295,7 +297,7 @@ SECTIONS: tuple[Section, ...] = (
         Field("brightness", "float", "spectral tilt of the body, dB/octave", -12.0, 12.0),
         Field("seed", "int", "random seed of the mode set (deterministic)", 0, 2 ** 31 - 1),
         Field("peaks", "peaks", "named resonances on top of the diffuse modes (air mode, "
-              "top-plate modes): [f_hz, q, level_db re the diffuse level], ...", 20.0, 20000.0,
+              "top-plate modes): [f_hz, q, level_db re the diffuse level], ...", *PEAK_HZ_RANGE,
               default=()),
         Field("inputs", "int", "bridge inputs of the board: 1 (whole bridge) or 2 (bass end, "
               "treble end)", 1, 2, when=When("voice", ("grand",))),

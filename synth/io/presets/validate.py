@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from synth.io.errors import PresetError
+from synth.physics.soundboard import MAX_PEAKS, PEAK_DB_RANGE, PEAK_Q_RANGE
 
 from .model import Preset
 from .schema import Field, When, _fmt_value, _unique_names
@@ -180,8 +181,8 @@ class _Validator:
         if not isinstance(v, list):
             raise self.fail(f"{key} = {_fmt_value(v)}{o} has the wrong type "
                             f"(expected {_TYPE_TEXT['peaks']})")
-        if len(v) > 32:
-            raise self.fail(f"{key} = {_fmt_value(v)}{o} has {len(v)} peaks (at most 32)")
+        if len(v) > MAX_PEAKS:
+            raise self.fail(f"{key} = {_fmt_value(v)}{o} has {len(v)} peaks (at most {MAX_PEAKS})")
         out: list[tuple[float, float, float]] = []
         for i, p in enumerate(v):
             item = f"{key}[{i}] = {_fmt_value(p)}{o}"
@@ -191,10 +192,12 @@ class _Validator:
             f, q, level = (float(c) for c in p)
             if not (math.isfinite(f) and row.in_range(f)):
                 raise self.fail(f"{item} has f_hz out of range ({row.range_text()})")
-            if not (math.isfinite(q) and 1.0 <= q <= 500.0):
-                raise self.fail(f"{item} has q out of range (1 <= value <= 500)")
-            if not (math.isfinite(level) and -30.0 <= level <= 30.0):
-                raise self.fail(f"{item} has level_db out of range (-30 <= value <= 30)")
+            (q_lo, q_hi), (l_lo, l_hi) = PEAK_Q_RANGE, PEAK_DB_RANGE
+            if not (math.isfinite(q) and q_lo <= q <= q_hi):
+                raise self.fail(f"{item} has q out of range ({q_lo:g} <= value <= {q_hi:g})")
+            if not (math.isfinite(level) and l_lo <= level <= l_hi):
+                raise self.fail(f"{item} has level_db out of range "
+                                f"({l_lo:g} <= value <= {l_hi:g})")
             if out and f <= out[-1][0]:
                 raise self.fail(f"{item} has f_hz not strictly increasing "
                                 f"(previous f_hz = {_fmt_value(out[-1][0])})")
