@@ -16,8 +16,11 @@ that time before a peak instead of stepping, so a limited attack is not a
 click; the output is delayed by ``latency_samples`` (71 at 48 kHz), which
 :meth:`synth.engine.engine.Engine.render` removes from offline renders and
 which live play adds to the stream's latency.  The ceiling is on sample
-values (not inter-sample true peaks).  Below the ceiling the output is the
-input delayed, sample for sample.
+values (not inter-sample true peaks), and it holds after the engine's
+float32 output: the kernel limits to ``ceiling * FLOAT32_MARGIN`` (2.4e-7
+under it, 2e-6 dB), so that rounding to float32 (half an ulp, 6e-8
+relative) cannot lift a limited peak over it.  Below the ceiling the
+output is the input delayed, sample for sample.
 """
 
 from __future__ import annotations
@@ -29,13 +32,16 @@ import numpy as np
 
 from synth.kernels.limiter import limiter_process as _kernel
 
-__all__ = ["Limiter", "LOOKAHEAD_S", "CEILING_RANGE_DBFS", "RELEASE_RANGE_S"]
+__all__ = ["Limiter", "LOOKAHEAD_S", "CEILING_RANGE_DBFS", "RELEASE_RANGE_S", "FLOAT32_MARGIN"]
 
 #: Look-ahead (s): the gain's ramp before a peak, and the latency.
 LOOKAHEAD_S = 0.0015
 #: Allowed ceilings (dBFS) and release times (s).
 CEILING_RANGE_DBFS = (-20.0, 0.0)
 RELEASE_RANGE_S = (0.001, 2.0)
+#: The kernel's ceiling relative to the nominal one: 4 float32 half-ulps
+#: under it, so that the float32 output stays at or below the nominal ceiling.
+FLOAT32_MARGIN = 1.0 - 2.0 ** -22
 
 
 def _float(name, value, lo, hi, unit):
@@ -131,6 +137,6 @@ class Limiter:
         if out.shape != x.shape or out.dtype != np.float64:
             raise ValueError(f"out has shape {out.shape}; must be {x.shape} (float64)")
         o2 = out.reshape(1, -1) if out.ndim == 1 else out
-        _kernel(x2, x2.shape[1], self.ceiling, self.release_coef, self._delay, self._box,
+        _kernel(x2, x2.shape[1], self.ceiling * FLOAT32_MARGIN, self.release_coef, self._delay, self._box,
                 self._dq_val, self._dq_idx, self._f, self._i, o2)
         return out
