@@ -39,7 +39,13 @@ def test_the_midi_file_plays_the_phrase(tmp_path):
     assert max(abs(t - e[0]) for (t, _, _), e in zip(on, ev)) < 1e-3
 
 
-@pytest.mark.parametrize("name", ["sitar", "biwa", "harpsichord", "grand-piano"])
+def test_every_musical_preset_is_calibrated():
+    """Issue 12: every musical preset, not a list that a new one could miss."""
+    assert set(cl.musical_presets()) == {"sitar", "biwa", "harpsichord", "grand-piano",
+                                         "hammered-sitar"}
+
+
+@pytest.mark.parametrize("name", cl.musical_presets())
 def test_the_shipped_phrase_is_the_tools_and_its_spec_checks_the_level(name, tmp_path):
     shipped = cl.PHRASES / f"{name}.mid"
     fresh = tmp_path / f"{name}.mid"
