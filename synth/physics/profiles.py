@@ -7,6 +7,10 @@ contact.  Cases follow thesis eqs. 1.12, 1.14-1.16 and physics notes
 section 2 (Case 2 continuous: ``+ k x_b`` on the parabola).
 
 Every profile function takes ``x`` in metres (array) and returns U in metres.
+An edge of a profile (where it ends, or where a piece ends) includes the
+points within ``EDGE_RTOL`` of it: a grid point meant to lie on the edge,
+x = n dx with dx = c dt, is often an ulp or two beyond it (the sawari's
+10 mm at 96 kHz), and must not drop out of the obstacle by rounding.
 
 Registry.  Each profile a preset can name (``termination.profile``) is
 registered with :func:`register_profile`: its name, the termination-section
@@ -27,6 +31,15 @@ from typing import Callable
 import numpy as np
 
 Profile = Callable[[np.ndarray], np.ndarray]
+
+#: Relative tolerance of a profile's edges (see the module docstring): 1e-9
+#: of 10 mm is 1e-11 m, thousands of ulps and a hundred-millionth of a cell.
+EDGE_RTOL = 1e-9
+
+
+def _upto(x: np.ndarray, edge: float) -> np.ndarray:
+    """x <= edge, with the edge's rounding tolerance (``EDGE_RTOL``)."""
+    return x <= edge + EDGE_RTOL * abs(edge)
 
 
 @dataclass(frozen=True)
@@ -69,7 +82,7 @@ def sawari(radius_m: float, extent_m: float) -> Profile:
 
     def U(x):
         x = np.asarray(x, float)
-        return np.where(x <= s, -x * x / (2.0 * R), -np.inf)
+        return np.where(_upto(x, s), -x * x / (2.0 * R), -np.inf)
 
     return U
 
@@ -81,7 +94,7 @@ def jawari_case1(slope: float, x_c_m: float) -> Profile:
 
     def U(x):
         x = np.asarray(x, float)
-        return np.where(x <= xc, k * x, np.inf)
+        return np.where(_upto(x, xc), k * x, np.inf)
 
     return U
 
@@ -94,7 +107,7 @@ def jawari_case2(slope: float, x_b_m: float, radius_m: float) -> Profile:
 
     def U(x):
         x = np.asarray(x, float)
-        return np.where(x <= xb, k * x, (x - xb) ** 2 / (2.0 * R) + k * xb)
+        return np.where(_upto(x, xb), k * x, (x - xb) ** 2 / (2.0 * R) + k * xb)
 
     return U
 
@@ -109,7 +122,8 @@ def jawari_case3(slope: float, x_a_m: float, x_b_m: float, radius_m: float,
 
     def U(x):
         x = np.asarray(x, float)
-        return np.where(x <= xa, k * x, np.where(x <= xb, k * x + y, (x - xb) ** 2 / (2.0 * R) + K))
+        return np.where(_upto(x, xa), k * x,
+                        np.where(_upto(x, xb), k * x + y, (x - xb) ** 2 / (2.0 * R) + K))
 
     return U
 
@@ -155,7 +169,7 @@ def jawari(radius_m: float, extent_m: float, thread_m: float) -> Profile:
 
     def U(x):
         x = np.asarray(x, float)
-        return np.where(x <= s, theta * x + x * x / (2.0 * R), np.inf)
+        return np.where(_upto(x, s), theta * x + x * x / (2.0 * R), np.inf)
 
     return U
 
@@ -180,33 +194,51 @@ def table(points, side: int) -> Profile:
 
     def U(x):
         x = np.asarray(x, float)
-        return np.where((x >= xs[0]) & (x <= xs[-1]), np.interp(x, xs, us), none)
+        inside = (x >= xs[0] - EDGE_RTOL * abs(xs[0])) & _upto(x, xs[-1])
+        return np.where(inside, np.interp(x, xs, us), none)
 
     return U
 
 
 @dataclass(frozen=True)
 class Termination:
-    """A rigid obstacle at x = 0: a profile, the side, and how many grid
-    points (x = dx, 2 dx, ...) of the string it may touch."""
+    """A rigid obstacle at x = 0: a profile, the side, and the part of the
+    string it may touch.
+
+    ``region_points`` grid points (x = dx, 2 dx, ...) on the grid the
+    preset was designed on; ``rate_scale`` is the internal rate over that
+    grid's (dx_design / dx for the same string).  The region keeps its
+    length in metres at any rate: :attr:`points` = ceil(region_points
+    rate_scale) grid points (issue 13: a re-gridded study string kept 25
+    points, and above 530 kHz jawari Case 1's obstacle was cut short).
+    """
 
     profile: Profile
     side: int
     region_points: int
+    rate_scale: float = 1.0
 
     def __post_init__(self) -> None:
         if self.side not in (-1, 1):
             raise ValueError(f"side = {self.side!r} is not allowed (choose -1 or +1)")
         if not (1 <= int(self.region_points) <= 100000):
             raise ValueError(f"region_points = {self.region_points!r} is out of range (1 <= value <= 100000)")
+        if not (0.01 <= float(self.rate_scale) <= 100.0):
+            raise ValueError(f"rate_scale = {self.rate_scale!r} is out of range (0.01 <= value <= 100)")
+
+    @property
+    def points(self) -> int:
+        """Grid points of the region at this rate: the design grid's
+        ``region_points`` over the same length (at least 1)."""
+        return max(1, int(np.ceil(int(self.region_points) * float(self.rate_scale) * (1.0 - 1e-12))))
 
     def sample(self, dx_m: float) -> np.ndarray:
-        """U at grid points n = 1..region_points (x = n dx), metres.
+        """U at grid points n = 1..:attr:`points` (x = n dx), metres.
 
-        Returns an array of length ``region_points``; entries where the
+        Returns an array of length :attr:`points`; entries where the
         obstacle cannot be touched are +inf (side +1) or -inf (side -1).
         """
-        x = dx_m * np.arange(1, int(self.region_points) + 1, dtype=float)
+        x = dx_m * np.arange(1, self.points + 1, dtype=float)
         U = np.asarray(self.profile(x), float).copy()
         none = np.inf if self.side > 0 else -np.inf
         U[np.isnan(U)] = none
@@ -235,11 +267,13 @@ def buzz_profile(U: np.ndarray, buzz: float, side: int) -> np.ndarray:
     return np.asarray(U, float) / b
 
 
-def termination_from_spec(spec) -> Termination | None:
+def termination_from_spec(spec, rate_scale: float = 1.0) -> Termination | None:
     """The :class:`Termination` a preset's ``[termination]`` section
     describes (any object with its keys as attributes: ``profile``,
     ``side``, ``region_points`` and the profile's parameters), or None for
-    the ideal rigid end (``profile = "none"``)."""
+    the ideal rigid end (``profile = "none"``).  ``rate_scale``: the
+    internal rate over the rate the preset's ``region_points`` counts at
+    (:class:`Termination`)."""
     name = spec.profile
     if name == "none":
         return None
@@ -248,4 +282,4 @@ def termination_from_spec(spec) -> Termination | None:
         raise ValueError(f"termination.profile = {name!r} is not a registered profile "
                          f"(registered: {', '.join(PROFILES)})")
     prof = kind.build(**{p: getattr(spec, p) for p in kind.params})
-    return Termination(prof, int(spec.side), int(spec.region_points))
+    return Termination(prof, int(spec.side), int(spec.region_points), float(rate_scale))

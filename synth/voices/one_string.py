@@ -111,7 +111,10 @@ class OneStringVoice(Voice):
             self.fs = float(fs_internal or self.DEFAULT_RATE)
         if not (20_000 <= self.fs <= 2_000_000):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (20000 <= value <= 2000000)")
-        self.termination = termination_from_spec(preset.termination)
+        # the region keeps its metres at any rate: region_points counts at
+        # the study grid's own rate, or at DEFAULT_RATE for a musical preset
+        scale = (self.cells / preset.grid.cells) if self.study else self.fs / self.DEFAULT_RATE
+        self.termination = termination_from_spec(preset.termination, scale)
         #: buzz depth 0 .. 1 (:func:`synth.physics.profiles.buzz_profile`):
         #: the preset's ``termination.buzz``, then the ``play.buzz_cc`` control
         self.buzz = 1.0 if self.termination is None else float(preset.termination.buzz)
@@ -247,7 +250,7 @@ class OneStringVoice(Voice):
         return int(self.fs / midi_key_to_hz(lo) / 2) + 2
 
     def sizes(self, extra_low_key: int | None = None) -> BankSizes:
-        R = 0 if self.termination is None else self.termination.region_points
+        R = 0 if self.termination is None else self.termination.points
         return BankSizes(strings_per_voice=1, max_cells=self.max_cells(extra_low_key),
                          max_region=R, max_gtable=self.exciter.max_gtable(),
                          max_bend=self.max_bend_len())

@@ -146,7 +146,9 @@ SECTIONS: tuple[Section, ...] = (
         Field("side", "int", "+1: obstacle above the string (u <= U); -1: below it (u >= U)",
               choices=(-1, 1),
               when=_when_not(_PROFILE, PROFILES, ("none",))),
-        Field("region_points", "int", "number of grid points in the contact region", 1, 2000,
+        Field("region_points", "int", "number of grid points in the contact region, counted on the "
+              "preset's own grid (a study preset's grid.cells; 325 kHz for a musical one): at another "
+              "internal rate the region keeps its length in metres", 1, 2000,
               when=_when_not(_PROFILE, PROFILES, ("none",))),
         Field("radius_m", "float", "capo bar radius, m", 0.0005, 10.0, when=_prof("capo")),
         Field("radius_m", "float", "sawari curvature radius, m", 0.01, 100.0, when=_prof("sawari")),
