@@ -145,6 +145,10 @@ def hammer_on_ideal_string(N, k, dt, n_steps, *, law, m, V, Q, p, A, tau0, T, c)
     direct quadrature (scipy.integrate.quad) of y linear in the step, and the
     implicit step is solved with scipy.optimize.brentq.  Returns g per step.
     law 4: three-parameter (A = alpha); law 5: four-parameter (A = gamma).
+
+    Time convention (every exciter's, issue 13): step mm holds t = mm dt.
+    The hammer reaches the string at t = 0 (g[0] = 0, no force yet); step
+    mm >= 1 advances it from t - dt to t against the incoming wave of step mm.
     """
     from scipy.integrate import quad
     from scipy.optimize import brentq
@@ -177,7 +181,7 @@ def hammer_on_ideal_string(N, k, dt, n_steps, *, law, m, V, Q, p, A, tau0, T, c)
         return Q * quad(lambda s: yl(s) - A / tau0 * Phi(s), 0, dt, limit=200)[0]
 
     gprev = 0.0
-    for mm in range(n_steps):
+    for mm in range(1, n_steps):
         I1 = incoming(mm)
 
         def parts(g1):

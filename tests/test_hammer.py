@@ -69,8 +69,10 @@ def test_a7_contact_duration_and_force():
 
 def _contact_end_s(ch, dt):
     """End of contact from the step-mean force dg/(K dt) (at mid-step),
-    extrapolated linearly to zero from its last two positive values."""
-    g = np.concatenate([[0.0], ch[K.P_G]])
+    extrapolated linearly to zero from its last two positive values
+    (sample i holds t = i dt, g(0) = 0)."""
+    g = ch[K.P_G]
+    assert g[0] == 0.0
     Fm = np.diff(g)
     e = int(np.flatnonzero(Fm > 0)[-1])
     f1, f0 = Fm[e], Fm[e - 1]
@@ -90,7 +92,7 @@ def test_strike_converges_at_second_order_with_the_internal_rate(params):
         gs[j] = ch[K.P_G]
         durs.append(_contact_end_s(ch, dt))
     n0 = len(gs[0])
-    idx = [(np.arange(n0) + 1) * 2 ** j - 1 for j in range(J + 1)]
+    idx = [np.arange(n0) * 2 ** j for j in range(J + 1)]      # t = i dt_0 on every grid
     m = int(np.sum(idx[J] < len(gs[J])))
     ref = gs[J][idx[J][:m]]
     err = np.array([np.max(np.abs(gs[j][idx[j][:m]] - ref)) for j in range(J - 1)])
@@ -111,7 +113,7 @@ def test_mode_energies_from_shape_equal_those_from_the_force_history():
     E_shape = free_mode_energies(u0, u1, dt, L, MU, T, 40)
     F = ch[K.P_F]
     last = int(np.flatnonzero(F > 0)[-1]) + 2
-    g = np.concatenate([[0.0], ch[K.P_G, :last]])
+    g = ch[K.P_G, :last]                   # g(0) = 0 at sample 0
     E_force = struck_mode_energies(g, dt, 2 / 46, L, MU, T, 40)
     lvl = 10 * np.log10(E_force / E_force[0])
     for i in range(40):
@@ -348,3 +350,33 @@ def test_hammers_stepped_together_equal_the_per_sample_path(seed, law, block):
     for (a, b_), (c, d) in zip(rails_slow, rails_fast):
         amp = np.max(np.abs(a)) + np.max(np.abs(b_)) + 1e-30
         assert np.max(np.abs(a - c)) <= 1e-10 * amp and np.max(np.abs(b_ - d)) <= 1e-10 * amp
+
+
+def test_one_time_convention_for_every_exciter():
+    """Issue 13: probe sample i holds t = i dt for every exciter.  A pluck's
+    g is eq. 1.13 at t = i dt; a hammer arrives at t = 0 (g = F = z = 0 at
+    sample 0) and, while w ~ V t (a hammer of law eq. 1.5 with alpha = 0,
+    before the string pushes back), g(t) = (c / 2T) Q (1000 V)^p t^(p + 1)
+    / (p + 1).  Sample i held t = (i + 1) dt before: 11 % too much g at
+    sample 30."""
+    cells = 46 * 16
+    p, Q, V = A7["exponent"], A7["stiffness"], 5.0
+    hammer = dict(A7, alpha_or_gamma=0.0)
+    _, ch, dt = strike(cells, 2 * 16, V, hammer, 60)
+    assert ch[K.P_G, 0] == 0.0 and ch[K.P_F, 0] == 0.0 and ch[K.P_Z, 0] == 0.0
+    assert ch[K.P_F, 1] > 0.0                       # the first contact force: t = dt
+    i = np.arange(20, 41)
+    t = i * dt
+    g_law = C / (2 * T) * Q * (1000 * V) ** p * t ** (p + 1) / (p + 1)
+    assert np.all(ch[K.P_G, i] < 1e-3 * V * t)      # the string has not pushed back yet
+    assert np.max(np.abs(ch[K.P_G, i] / g_law - 1)) < 0.02
+    # the pluck on the same kind of grid: g(i dt) exactly
+    b = StringBank(1, cells + 2, 1, 4096, n_probes=1)
+    b.configure(0, cells=cells, k=2 * 16, dt_s=dt, U=None, probe_row=0)
+    b.activate(0)
+    A, t0 = 1e-3, 20 * dt
+    b.start_pluck(0, K.EXC_SITAR, A, t0, 0.0)
+    b.render(np.zeros(60), 0, 60)
+    tt = np.arange(21) * dt
+    gp = A * (tt / t0) ** 2 * np.exp(2 * (1 - tt / t0))
+    np.testing.assert_allclose(b.probe[0, K.P_G, :21], gp, rtol=1e-12, atol=1e-18)

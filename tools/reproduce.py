@@ -104,7 +104,7 @@ def piano_section() -> None:
     inst, su, ch, _ = a7_run("paper/piano-a7-ideal")
     F = ch[K.P_F]
     hit = np.flatnonzero(F > 0)
-    g = np.concatenate([[0.0], ch[K.P_G]])
+    g = ch[K.P_G]                     # sample i holds t = i dt, g(0) = 0
     Fm = np.diff(g)
     e = int(np.flatnonzero(Fm > 0)[-1])
     t_end = (e + 0.5 + Fm[e] / (Fm[e - 1] - Fm[e])) / inst.fs

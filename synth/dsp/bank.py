@@ -616,7 +616,13 @@ class StringBank:
         fp[K.F_HDTV] = t.dt_s * speed_m_per_s
         if stiffness_factor != 1.0:
             fp[_HAMMER_Q_COLS] *= stiffness_factor
-        st[K.S_HZ] = u_now
+        # One time convention for every exciter (issue 13): sample i of the
+        # excitation holds t = i dt, as a pluck's g(i dt) does.  A kernel
+        # hammer step advances the hammer from t - dt to t, so the hammer
+        # starts one step before the string: at sample 0 it arrives (z = u,
+        # w = 0, F = 0, g(0) = 0) and its first contact force acts at t = dt.
+        # (It started at the string, and sample i held t = (i + 1) dt.)
+        st[K.S_HZ] = u_now - fp[K.F_HDTV]
         st[K.S_HY] = 0.0
         st[K.S_HPHI] = 0.0
         st[K.S_HW] = 0.0
