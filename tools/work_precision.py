@@ -1,0 +1,335 @@
+"""Work-precision diagrams: error against run time, one curve per method (issue 13).
+
+Usage
+-----
+    python tools/work_precision.py                      # every problem, tables and PNGs
+    python tools/work_precision.py --out docs/img       # where the PNGs go ([plots] extra)
+    python tools/work_precision.py --quick              # CI: a few grids, asserts the orders
+
+In the style of the SciMLBenchmarks work-precision diagrams: for each
+problem, the error of a quantity against its converged value (the finest
+setting, or its Richardson extrapolation where the order is known) is
+plotted against the run time, one curve per method.  The problems are the
+thesis's studies on its own string models, re-gridded with the internal
+rate (a study preset's ``cells``; c dt = dx on every grid):
+
+* **jawari Cases 1-3** (Publication II): u(l, t) at the pluck point over
+  the first ``WAVE_S`` (relative L2 error at the coarsest grid's instants),
+  and the end of the aperiodic regime t_np (-40 dB; the thesis's figures
+  beside it);
+* **biwa sawari** (Publication I section 4.2): the first contact time and
+  the contacts by 16.4 ms;
+* **A7 hammer** (Publication I): the contact duration and the peak force of
+  the study's three-parameter felt at 5 m/s on ideal supports (second order
+  in dt: the error is measured against the Richardson extrapolation of the
+  two finest grids).
+
+Methods: the internal rate (cells = ``BASE`` x 2^j, one run per grid); the
+kernel's fast path and its per-sample path (the reference scheme, forced
+per string) at each rate.  Run times are medians of ``--repeats`` runs of
+the bank alone (one core, ``NUMBA_NUM_THREADS=1`` recommended), the first
+run (compilation) discarded.
+
+Observed order between two grids: log2(e_j / e_{j+1}).  ``--quick`` runs
+the four coarsest grids of each problem and asserts: the hammer's contact
+g(t) and peak force converge at order >= 1.8; the two paths agree to
+1e-12 of the signal; the jawari's u(l, t) error never grows with the rate
+and falls by half or more over the grids.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import statistics
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: the waveform window (s) for the jawari's u(l, t) error
+WAVE_S = 0.05
+#: the study string's cells on the coarsest grid, and grids per problem
+BASE = {"jawari": 203, "sawari": 203, "hammer": 46}
+GRIDS = {"jawari": 5, "sawari": 5, "hammer": 6}
+QUICK_GRIDS = 4
+THESIS_TNP = {1: 0.13, 2: 0.16, 3: 0.30}
+
+
+# ---- running one study string -------------------------------------------------------
+def _bank_for(voice, n_block):
+    from synth.dsp.bank import StringBank
+
+    sz = voice.sizes()
+    return StringBank(1, sz.max_cells, max_region=max(sz.max_region, 1), max_block=n_block,
+                      n_probes=1, max_gtable=sz.max_gtable, max_bend=sz.max_bend)
+
+
+def run_study(name: str, cells: int, seconds: float, per_sample: bool, *, contacts: bool = False):
+    """The study preset ``name`` re-gridded to ``cells`` cells: u(l, t) per
+    internal sample over ``seconds`` (m), the contact flag per sample (with
+    ``contacts``, per-sample path only), the internal rate and the run time
+    (s) of the bank's render."""
+    from synth.io.factory import build_voice
+    from synth.io.presets import load_preset
+    from synth.kernels import strings as K
+
+    p = load_preset(name)
+    c = math.sqrt(p.string.tension_n / p.string.linear_density_kg_per_m)
+    fs = cells * c / p.string.length_m
+    v = build_voice(name, fs_internal=fs)
+    n = int(round(seconds * v.fs))
+    block = 4096
+    b = _bank_for(v, block)
+    v.note_on(b, [0], None, 1.0, probe_row=0 if contacts else -1)
+    if per_sample:
+        b.ipar[0, K.I_CHUNK] = 0
+        b.ipar[0, K.I_CHUNK_FREE] = 0
+    if contacts:
+        b.ensure_probe_length(n + 2)
+    gain = float(b.fpar[0, K.F_GAIN])
+    mix = np.zeros(n)
+    t0 = time.perf_counter()
+    done = 0
+    while done < n:
+        m = min(block, n - done)
+        b.render(mix, done, m)
+        done += m
+    dt = time.perf_counter() - t0
+    u = mix / gain
+    cont = b.probe[0, K.P_CONTACT, :n].copy() if contacts else None
+    return u, cont, v.fs, dt
+
+
+def timed(fn, repeats):
+    """fn() repeated; (last result, median run time)."""
+    fn()                                      # compile / warm
+    times, res = [], None
+    for _ in range(max(1, repeats)):
+        res = fn()
+        times.append(res[-1])
+    return res, statistics.median(times)
+
+
+def orders(errors):
+    e = np.asarray(errors, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.log2(e[:-1] / e[1:])
+
+
+# ---- problems ----------------------------------------------------------------------
+def jawari(case: int, n_grids: int, repeats: int):
+    """u(l, t) over WAVE_S and t_np at -40 dB, per grid and path."""
+    from synth.analysis import aperiodic_end
+
+    name = f"paper/sitar-case{case}"
+    rows = []
+    runs = {}
+    for j in range(n_grids):
+        cells = BASE["jawari"] * 2 ** j
+        for path in ("fast", "per-sample"):
+            (u, _, fs, _), t = timed(lambda: run_study(name, cells, WAVE_S, path == "per-sample"),
+                                     repeats)
+            runs[(j, path)] = (u, fs, t)
+    J = n_grids - 1
+    ref = runs[(J, "per-sample")][0]
+    n0 = len(runs[(0, "fast")][0])
+    for j in range(n_grids):
+        idx = np.arange(n0) * 2 ** j
+        idx_ref = np.arange(n0) * 2 ** J
+        for path in ("fast", "per-sample"):
+            u, fs, t = runs[(j, path)]
+            m = min(len(idx), int(np.sum(idx_ref < len(ref))), int(np.sum(idx < len(u))))
+            err = float(np.linalg.norm(u[idx[:m]] - ref[idx_ref[:m]]) / np.linalg.norm(ref[idx_ref[:m]]))
+            rows.append(dict(cells=BASE["jawari"] * 2 ** j, fs=fs, path=path, time_s=t,
+                             error=err if j < J else float("nan")))
+    # t_np: a longer run per grid (fast path), its period exact on every grid
+    tnp = []
+    for j in range(n_grids):
+        cells = BASE["jawari"] * 2 ** j
+        u, _, fs, _ = run_study(name, cells, 0.6 if case < 3 else 0.9, False)
+        tnp.append(aperiodic_end(u, fs, 2 * cells, -40))
+    paths_agree = max(float(np.max(np.abs(runs[(j, "fast")][0] - runs[(j, "per-sample")][0])))
+                      / float(np.max(np.abs(runs[(j, "per-sample")][0]))) for j in range(n_grids))
+    return rows, tnp, paths_agree
+
+
+def sawari(n_grids: int, repeats: int):
+    """First contact and contacts by 16.4 ms (per-sample path: contact
+    telemetry needs the probe), per grid."""
+    from synth.analysis import episode_times
+
+    rows = []
+    for j in range(n_grids):
+        cells = BASE["sawari"] * 2 ** j
+        (u, cont, fs, _), t = timed(lambda: run_study("paper/biwa-sawari", cells, 0.0175, True,
+                                                      contacts=True), repeats)
+        st = episode_times(cont > 0, fs, int(0.2e-3 * fs))
+        rows.append(dict(cells=cells, fs=fs, time_s=t, first_ms=float(st[0]) * 1e3 if len(st) else math.nan,
+                         contacts=int(np.sum(st <= 16.4e-3))))
+    return rows
+
+
+def hammer(n_grids: int, repeats: int):
+    """The A7 study's strike on ideal supports at 5 m/s (the bank alone,
+    as tests/test_hammer.py): contact duration and peak force per grid."""
+    from synth.dsp.bank import StringBank
+    from synth.kernels import strings as K
+
+    L, T, MU = 0.061, 774.6, 0.0042
+    C = math.sqrt(T / MU)
+    A7 = dict(law=4, mass_kg=0.0018, stiffness=8387.4, exponent=4.975, alpha_or_gamma=0.0005312,
+              tau0_s=0.0, tension_n=T, c_m_per_s=C)
+    rows = []
+    for j in range(n_grids):
+        cells, k = 46 * 2 ** j, 2 * 2 ** j
+        dt = L / (cells * C)
+        n = int(0.4e-3 / dt)
+
+        def strike():
+            b = StringBank(1, cells + 2, 1, 4096, n_probes=1)
+            b.configure(0, cells=cells, k=k, dt_s=dt, U=None, side=1, probe_row=0)
+            b.activate(0)
+            b.start_hammer(0, speed_m_per_s=5.0, **A7)
+            mix = np.zeros(n)
+            t0 = time.perf_counter()
+            b.render(mix, 0, n)
+            return b.probe[0, :, :n].copy(), time.perf_counter() - t0
+
+        (ch, _), t = timed(strike, repeats)
+        g = ch[K.P_G]
+        Fm = np.diff(g) / (C / (2 * T) * dt)          # step-mean force, at mid-step
+        e = int(np.flatnonzero(Fm > 0)[-1])
+        dur = (e + 0.5 + Fm[e] / (Fm[e - 1] - Fm[e])) * dt
+        # the peak force: a parabola through the step-mean forces around their maximum
+        i = int(np.argmax(Fm))
+        y0, y1, y2 = Fm[i - 1], Fm[i], Fm[i + 1]
+        peak = y1 + 0.125 * (y0 - y2) ** 2 / (2 * y1 - y0 - y2)
+        rows.append(dict(cells=cells, fs=1 / dt, time_s=t, duration_s=dur, peak_n=float(peak), g=g))
+    # g(t) at the coarsest grid's instants t = i dt_0 against the finest grid
+    J = len(rows) - 1
+    n0 = len(rows[0]["g"])
+    gJ = rows[J]["g"][np.arange(n0) * 2 ** J]
+    for j, r in enumerate(rows):
+        r["g_err"] = float(np.max(np.abs(r["g"][np.arange(n0) * 2 ** j] - gJ)) / np.max(np.abs(gJ)))
+    # Richardson (order 2) from the two finest grids
+    for q in ("duration_s", "peak_n"):
+        a, b = rows[-2][q], rows[-1][q]
+        ext = b + (b - a) / 3.0
+        for r in rows:
+            r[q + "_err"] = abs(r[q] - ext) / abs(ext)
+        rows[0][q + "_extrapolated"] = ext
+    return rows
+
+
+# ---- output ------------------------------------------------------------------------
+def plot(path: Path, title: str, curves, xlabel="run time (s)", ylabel="relative error"):
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise SystemExit("tools/work_precision.py: the plots need matplotlib: pip install -e '.[plots]'")
+    fig, ax = plt.subplots(figsize=(5.2, 3.6), dpi=110)
+    for label, xs, ys, ann in curves:
+        ax.loglog(xs, ys, "o-", ms=4, lw=1.2, label=label)
+        for x, y, a in zip(xs, ys, ann):
+            ax.annotate(a, (x, y), fontsize=6, xytext=(3, 3), textcoords="offset points")
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title, fontsize=9)
+    ax.grid(True, which="both", lw=0.3)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--quick", action="store_true", help="CI: three grids per problem, assert the orders")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--out", type=Path, default=None, help="directory for the PNGs (none: no plots)")
+    a = ap.parse_args(argv)
+    ng = (lambda p: QUICK_GRIDS) if a.quick else (lambda p: GRIDS[p])
+    reps = 1 if a.quick else a.repeats
+    ok = True
+
+    print("## A7 hammer, ideal supports, 5 m/s (three-parameter felt)\n")
+    hr = hammer(ng("hammer"), reps)
+    print("| cells | rate (MHz) | run time (ms) | g(t) error | contact (ms) | error | peak force (N) | error |")
+    print("|---|---|---|---|---|---|---|---|")
+    for r in hr:
+        print(f"| {r['cells']} | {r['fs'] / 1e6:.3f} | {r['time_s'] * 1e3:.3f} | {r['g_err']:.2e} "
+              f"| {r['duration_s'] * 1e3:.5f} | {r['duration_s_err']:.2e} | {r['peak_n']:.3f} "
+              f"| {r['peak_n_err']:.2e} |")
+    og = orders([r["g_err"] for r in hr[:-1]])
+    op = orders([abs(r["peak_n"] - hr[-1]["peak_n"]) for r in hr[:-1]])
+    print(f"\ng(t): the largest difference at the coarsest grid's instants from the finest grid, over "
+          f"max |g|.  Richardson (order 2) from the two finest grids: contact "
+          f"{hr[0]['duration_s_extrapolated'] * 1e3:.5f} ms (thesis: about 0.3 ms), peak "
+          f"{hr[0]['peak_n_extrapolated']:.3f} N.  Observed orders against the finest grid: g(t) "
+          f"{', '.join(f'{x:.2f}' for x in og)}; peak force {', '.join(f'{x:.2f}' for x in op)} (the "
+          f"contact's end, read from the step-mean force crossing zero, is not smooth in dt).\n")
+    if a.quick and not (np.all(og > 1.8) and np.all(op > 1.8)):
+        print(f"FAIL: the hammer's orders {og}, {op} are under 1.8", file=sys.stderr)
+        ok = False
+
+    curves_j = []
+    print(f"## Jawari Cases 1-3: u(l, t) over the first {WAVE_S * 1e3:.0f} ms and t_np\n")
+    for case in (1, 2, 3):
+        rows, tnp, agree = jawari(case, ng("jawari"), reps)
+        print(f"Case {case} (error against the finest grid's per-sample run; the two paths agree to "
+              f"{agree:.1e} of the signal on every grid):\n")
+        print("| cells | rate (kHz) | path | run time (ms) | u(l, t) error | t_np -40 dB (s) |")
+        print("|---|---|---|---|---|---|")
+        for r in rows:
+            j = int(round(math.log2(r["cells"] / BASE["jawari"])))
+            print(f"| {r['cells']} | {r['fs'] / 1e3:.1f} | {r['path']} | {r['time_s'] * 1e3:.1f} "
+                  f"| {r['error']:.2e} | {tnp[j]:.3f} |")
+        errs = [r["error"] for r in rows if r["path"] == "fast"][:-1]
+        print(f"\nt_np: thesis {THESIS_TNP[case]:.2f} s.  Observed orders of the waveform error: "
+              f"{', '.join(f'{x:.2f}' for x in orders(errs))}.\n")
+        for path in ("fast", "per-sample"):
+            rr = [r for r in rows if r["path"] == path][:-1]
+            curves_j.append((f"Case {case}, {path}", [r["time_s"] for r in rr], [r["error"] for r in rr],
+                             [f"{r['fs'] / 1e3:.0f}k" for r in rr]))
+        if agree > 1e-12:
+            print(f"FAIL: Case {case}: the paths differ by {agree:.2e}", file=sys.stderr)
+            ok = False
+        # the error never grows with the rate, and falls over the grids (203 and
+        # 406 cells round the pluck point 3L/4 to the same l = 0.7488 L, and
+        # the scheme at c dt = dx then gives the same wave on both)
+        falls = all(e1 <= e0 * (1 + 1e-3) for e0, e1 in zip(errs, errs[1:])) and errs[-1] < 0.5 * errs[0]
+        if a.quick and not falls:
+            print(f"FAIL: Case {case}: the waveform error does not fall with the rate: {errs}",
+                  file=sys.stderr)
+            ok = False
+
+    print("## Biwa sawari: contacts (per-sample path)\n")
+    sr = sawari(ng("sawari"), reps)
+    print("| cells | rate (kHz) | run time (ms) | first contact (ms) | contacts by 16.4 ms |")
+    print("|---|---|---|---|---|")
+    for r in sr:
+        print(f"| {r['cells']} | {r['fs'] / 1e3:.1f} | {r['time_s'] * 1e3:.1f} | {r['first_ms']:.3f} | {r['contacts']} |")
+    print("\nThesis: first contact after about 3 ms, 3 contacts by 16.4 ms.\n")
+
+    if a.out is not None:
+        a.out.mkdir(parents=True, exist_ok=True)
+        plot(a.out / "wp-hammer.png", "A7 strike: g(t), contact duration and peak force",
+             [("g(t), max error", [r["time_s"] for r in hr[:-1]], [r["g_err"] for r in hr[:-1]],
+               ["" for _ in hr[:-1]]),
+              ("contact duration", [r["time_s"] for r in hr[:-1]], [r["duration_s_err"] for r in hr[:-1]],
+               [f"{r['fs'] / 1e6:.1f}M" for r in hr[:-1]]),
+              ("peak force", [r["time_s"] for r in hr[:-1]], [r["peak_n_err"] for r in hr[:-1]],
+               ["" for _ in hr[:-1]])])
+        plot(a.out / "wp-jawari.png", f"Jawari Cases 1-3: u(l, t), first {WAVE_S * 1e3:.0f} ms", curves_j)
+        print(f"plots: {a.out / 'wp-hammer.png'}, {a.out / 'wp-jawari.png'}")
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
