@@ -401,3 +401,20 @@ def test_energy_rise_per_step(name, max_rise, n_over):
     d = np.diff(E) / E[0]
     assert d.max() < max_rise, f"{name}: a step rose by {d.max():.3g} of E0"
     assert np.sum(d > 1e-12) <= n_over
+
+
+def test_render_refuses_to_write_past_the_mix():
+    """The kernel writes without bounds checks: the wrapper must refuse a
+    mix too short for o0 + n (tools/stress.py found heap corruption when a
+    4096-sample mix took a 5885-sample render)."""
+    b = StringBank(1, 102, 1, 256)
+    b.configure(0, cells=100, k=25, dt_s=1e-5, U=None, side=1)
+    b.activate(0)
+    b.start_pluck(0, 1, 1e-3, 1e-3, 0.0)
+    mix = np.zeros(300)
+    with pytest.raises(ValueError, match=r"o0 \+ n = 100 \+ 201 is out of range"):
+        b.render(mix, 100, 201)
+    with pytest.raises(ValueError, match="C-contiguous float64"):
+        b.render(np.zeros(300, dtype=np.float32), 0, 10)
+    b.render(mix, 100, 200)          # exactly to the end: fine
+    assert np.any(mix[100:300]) and not np.any(mix[:100])

@@ -760,6 +760,13 @@ class StringBank:
             mix = mix.reshape(1, -1)
         if mix.shape[0] > 2:
             raise ValueError(f"mix rows = {mix.shape[0]} is out of range (1 or 2 buses)")
+        # the kernel does not check its bounds (numba): a short mix would be
+        # written past its end (found by tools/stress.py: heap corruption)
+        if mix.dtype != np.float64 or not mix.flags.c_contiguous:
+            raise ValueError("mix must be a C-contiguous float64 array")
+        if not (0 <= int(o0) and 0 <= int(n) and int(o0) + int(n) <= mix.shape[1]):
+            raise ValueError(f"o0 + n = {int(o0)} + {int(n)} is out of range "
+                             f"(0 <= o0, 0 <= n, o0 + n <= {mix.shape[1]}, the mix's samples)")
         M = self._ext_sub
         if ubx is None:
             if self._still.shape[0] < mix.shape[1] * M:
