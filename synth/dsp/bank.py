@@ -415,9 +415,14 @@ class StringBank:
                 return self._done[:nk]
         return done
 
-    def reset_quiet(self, s: int) -> None:
-        """Restart slot s's silence count (a note-on: it sounds again)."""
-        self.quiet[s] = 0
+    def reset_quiet(self, s: int, before: int = 0) -> None:
+        """Restart slot s's silence count (a note-on: it sounds again)
+        ``before`` samples into the current block: the next :meth:`reap`
+        adds the whole block, and those samples, before the note, must not
+        count as its silence.  (They did: a harpsichord note plucked in the
+        last 80 output samples of a 1024-sample block, its wave not yet at
+        the bridge, was freed as silent before it sounded.)"""
+        self.quiet[s] = -int(before)
 
     def set_loss(self, s: int, b0: float) -> None:
         """New loss filter gain b0 for slot s (a damper falling or lifting):

@@ -314,7 +314,8 @@ class Engine:
                     self.inst.pitch_bend(self.bank, slots, key, ev.f0_hz, self.bend[ev.channel])
             self._add_knock(key, ev, at)
             for s in self._slots(v):
-                self.bank.reset_quiet(s)
+                # the block's samples before the note are not its silence
+                self.bank.reset_quiet(s, max(at - self.time_in, 0))
             if self.telemetry:
                 self._track(v, ev.key if ev.f0_hz is None else None)
         elif ev.kind in (NOTE_OFF, NOTE_ON):
@@ -387,8 +388,13 @@ class Engine:
 
     def _out_sample(self, at: int) -> int:
         """The output sample of internal sample ``at``, counted from the
-        current block's start (the stages after decimation act there)."""
-        return at * self.fs_out // self.fs_in - self.time_out
+        current block's start (the stages after decimation act there): the
+        first output sample at or after it, ceil(at fs_out / fs_in).  (With
+        the floor, an event in a block's first internal samples could map
+        to the previous block's last output sample, and the knock, the
+        taraf and the sympathetic strings then acted one sample later than
+        in a render with other block sizes: found by tools/stress.py.)"""
+        return -((-at * self.fs_out) // self.fs_in) - self.time_out
 
     def _add_knock(self, key, ev: Event, at: int) -> None:
         """The action's knock of a note-on at internal sample ``at``: its
