@@ -4,7 +4,7 @@
     synth presets
     synth note PRESET [--key K | --f0 HZ] [--velocity V] [--seconds S]
                [--internal-rate HZ] [--set PATH=VALUE ...] -o OUT.wav [--probe OUT.npy]
-    synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] -o OUT.wav
+    synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] [--max-seconds S] -o OUT.wav
     synth check SPEC.toml [...] [--shipped] [--junit OUT.xml]
     synth analyze AUDIO.wav|PRESET [--key K | --f0 HZ] [--velocity V] [--json] [--plot OUT.png]
     synth play --preset PRESET [--midi-port NAME] [--audio-device NAME] [--block N]
@@ -15,7 +15,9 @@
 
 MIDI values (0-127) are normalised here, once; everything below works in SI
 units and [0, 1].  User errors print one line (``synth: error: ...``) and
-exit with status 2; no half-written file is left behind.
+exit with status 2; no half-written file is left behind.  Ctrl-C (and
+SIGTERM during ``render``) print one line (``synth: interrupted ...``) and
+exit with status 130 (143).
 """
 
 from __future__ import annotations
@@ -30,6 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from .io.errors import SynthError
+from .io.interrupt import Interrupted
 
 
 def _fail(msg: str) -> None:
@@ -198,30 +201,15 @@ def _write_hammer_log(path: str, inst, eng) -> None:
 
 
 def cmd_render(args) -> int:
-    from .io.midi import midi_to_events, read_midi_file
+    """A MIDI file through a preset into a WAV file (synth.apps.render: the
+    30-minute warning, --max-seconds, the progress bar, Ctrl-C and SIGTERM)."""
+    from .apps.render import RenderRequest, render_midi
 
     _check_output(args.output, "-o")
-    midi = read_midi_file(args.midi_file)
-    events = midi_to_events(midi)
-    notes = [e for e in events if e.kind == "note_on" and e.value > 0]
-    if not notes:
-        _fail(f"{args.midi_file}: the file has no notes to play")
-    keys = [int(e.key) for e in notes]
-    preset, inst, eng = _engine_for(args.preset, args.set, args.internal_rate, low_key=min(keys))
-    if preset.kind == "musical":
-        lo, hi = preset.play.key_low, preset.play.key_high
-        out_of = sum(1 for k in keys if not (lo <= k <= hi))
-        if out_of:
-            print(f"note: {out_of} of {len(keys)} notes are outside {args.preset}'s range "
-                  f"{lo}..{hi}; they are played on the string retuned or fretted to that pitch",
-                  file=sys.stderr)
-    t = time.perf_counter()
-    y = eng.render(events, tail_s=0.5)
-    el = time.perf_counter() - t
-    info = _write(args.output, y, eng.fs_out, args.pcm24)
-    dur = len(y) / eng.fs_out
-    print(f"{args.output}: {dur:.1f} s, {len(notes)} notes on {args.preset}, {info}, "
-          f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)")
+    req = RenderRequest(midi_file=args.midi_file, preset=args.preset, output=args.output,
+                        overrides=tuple(args.set), internal_rate=args.internal_rate,
+                        pcm24=args.pcm24, max_seconds=args.max_seconds)
+    print(render_midi(req).summary)
     return 0
 
 
@@ -452,13 +440,20 @@ def build_parser() -> argparse.ArgumentParser:
                         "hammer position")
     n.set_defaults(func=cmd_note)
 
-    r = sub.add_parser("render", help="render a MIDI file with a preset to a WAV file")
+    r = sub.add_parser("render", help="render a MIDI file with a preset to a WAV file",
+                       description="Render a Standard MIDI File with a preset to a WAV file. On a "
+                       "terminal, a render longer than 2 s shows a progress bar with the time left; "
+                       "more than 30 min of audio is announced with a warning first. Ctrl-C stops "
+                       "it and leaves no file (an existing one as it was).")
     r.add_argument("midi_file")
     r.add_argument("--preset", required=True)
     r.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
     r.add_argument("--internal-rate", type=float)
     r.add_argument("-o", "--output", required=True)
     r.add_argument("--pcm24", action="store_true")
+    r.add_argument("--max-seconds", type=float, metavar="S",
+                   help="render at most the first S seconds of audio (0 < S <= 21600): later notes "
+                        "are left out, the sound is cut at S with a 10 ms fade-out")
     r.set_defaults(func=cmd_render)
 
     a = sub.add_parser("analyze", help="partials, inharmonicity, T60s, centroid and loudness of a "
@@ -562,6 +557,9 @@ def main(argv=None) -> int:
     except (OSError, ValueError) as e:
         print(f"synth: error: {e}", file=sys.stderr)
         return 2
+    except Interrupted as e:                 # SIGINT or SIGTERM (synth.io.interrupt)
+        print(f"synth: {e}", file=sys.stderr)
+        return e.exit_status
     except KeyboardInterrupt:
         print("synth: interrupted", file=sys.stderr)
         return 130

@@ -658,13 +658,19 @@ class Engine:
         return ch[K.P_U], ch[K.P_CONTACT]
 
     def render(self, events, duration_s: float | None = None, tail_s: float = 1.0,
-               max_tail_s: float = 30.0, block: int = 1024, compensate_latency: bool = True) -> np.ndarray:
+               max_tail_s: float = 30.0, block: int = 1024, compensate_latency: bool = True,
+               progress=None) -> np.ndarray:
         """Render events offline.
 
         duration_s : exact length of the result (s); None: until the last
             event plus the release tails (voices silent, and the taraf's
             halo: its strings freed as silent), plus ``tail_s``,
             at most ``max_tail_s`` after the last event.
+        progress : callable or None
+            Called after every block with the number of output samples
+            rendered so far (the latency compensation's included); None
+            (the default) calls nothing.  The rendered samples are the same
+            either way.
         Returns float64 audio at ``fs_out``, shape (n,) (mono) or (n,
         channels), aligned so that an event at t sounds at t (the
         decimator's integer latency and the limiter's are removed).
@@ -681,12 +687,16 @@ class Engine:
                 n = min(block, total - n_done)
                 chunks.append(self.render_block(n).copy())
                 n_done += n
+                if progress is not None:
+                    progress(n_done)
         else:
             hard = int((last + max_tail_s) * self.fs_out) + lat
             quiet_after = None
             while n_done < hard:
                 chunks.append(self.render_block(block).copy())
                 n_done += block
+                if progress is not None:
+                    progress(n_done)
                 t = n_done / self.fs_out
                 if (t > last and not self._pending and not self.voices
                         and (self.taraf is None or self.taraf.n_active == 0)):

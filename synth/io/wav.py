@@ -5,10 +5,19 @@ then ``os.replace`` it onto the destination, so a failure (a full disk, an
 exception, a kill between the two steps) never leaves a half-written file
 under the requested name, and an existing file is either fully replaced or
 left untouched.
+
+libsndfile writes a WAV file through the temporary file's descriptor (its own
+C I/O), not through soundfile's virtual I/O, whose Python write callback runs
+inside a cffi callback: an exception there (``OSError`` from a full disk, or
+``KeyboardInterrupt`` from Ctrl-C) is printed as a traceback and swallowed by
+cffi, and the write goes on.  A failing write is reported by libsndfile and
+raised here as an ``OSError`` naming the system's reason (``No space left on
+device``).
 """
 
 from __future__ import annotations
 
+import errno
 import math
 import os
 import secrets
@@ -21,7 +30,8 @@ import soundfile as sf
 
 from synth.io.errors import SynthError, display_path
 
-__all__ = ["WavWriteResult", "write_wav", "write_npy_atomic", "FS_MIN_HZ", "FS_MAX_HZ", "SUBTYPES"]
+__all__ = ["WavWriteResult", "write_wav", "write_npy_atomic", "write_text_atomic", "write_bytes_atomic",
+           "wav_max_frames", "FS_MIN_HZ", "FS_MAX_HZ", "SUBTYPES"]
 
 FS_MIN_HZ = 8000
 FS_MAX_HZ = 384000
@@ -30,6 +40,35 @@ SUBTYPES = ("float", "pcm24")
 _PCM24_SCALE = float(1 << 23)
 _PCM24_MAX = 1.0 - 1.0 / _PCM24_SCALE  # largest representable sample, full scale is [-1, 1)
 _WAV_MAX_DATA_BYTES = 0xFFFFFFFF - 1024  # RIFF sizes are 32-bit
+#: frames per libsndfile write call: an interruption (a signal's handler
+#: runs between calls) is noticed at least this often
+_WRITE_FRAMES = 1 << 20
+
+
+def wav_max_frames(channels: int, subtype: str = "float") -> int:
+    """The most frames a WAV file of `channels` channels and `subtype`
+    (``"float"``: 4 bytes a sample, ``"pcm24"``: 3) can hold (RIFF sizes are
+    32-bit: about 4 GiB of samples)."""
+    return _WAV_MAX_DATA_BYTES // (channels * (4 if subtype == "float" else 3))
+
+
+def _libsndfile_failure(snd: sf.SoundFile, e: sf.LibsndfileError) -> OSError:
+    """The OSError behind a libsndfile write error, with the system's
+    reason when libsndfile kept it (``System error : No space left on
+    device.`` -> ``OSError(ENOSPC, 'No space left on device')``)."""
+    text = str(e)
+    try:
+        from soundfile import _ffi, _snd  # the handle's own message holds strerror(errno)
+
+        handle = getattr(snd, "_file", None)
+        text = _ffi.string(_snd.sf_strerror(handle if handle is not None else _ffi.NULL)).decode(
+            "utf-8", "replace") or text
+    except (ImportError, AttributeError, TypeError):
+        pass
+    for code in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO, errno.EROFS):
+        if os.strerror(code) in text:
+            return OSError(code, os.strerror(code))
+    return OSError(text.removeprefix("System error : ").rstrip(".") or "libsndfile write error")
 
 
 @dataclass(frozen=True)
@@ -133,16 +172,16 @@ def write_wav(path: str | os.PathLike[str], audio: np.ndarray, fs: int,
         raise SynthError(f"{shown}: audio has shape {np.shape(audio)}, expected (frames,) or "
                          f"(frames, channels) with 1 <= channels <= {MAX_CHANNELS}")
     frames, channels = a.shape
-    a = a.astype(np.float64, copy=False)
+    if a.dtype not in (np.float32, np.float64):
+        a = a.astype(np.float64)       # (float32 is kept: no float64 copy of a long render)
     n_bad = int(a.size - np.count_nonzero(np.isfinite(a)))
     if n_bad:
         raise SynthError(f"{shown}: audio has {n_bad} non-finite samples (NaN or inf) of {a.size}; "
                          "nothing written")
-    bytes_per_sample = 4 if subtype == "float" else 3
-    if a.size * bytes_per_sample > _WAV_MAX_DATA_BYTES:
+    if frames > wav_max_frames(channels, subtype):
         raise SynthError(f"{shown}: {frames} frames x {channels} channels is too long for a WAV "
                          f"file (4 GiB limit)")
-    peak = float(np.max(np.abs(a))) if a.size else 0.0
+    peak = float(max(a.max(), -a.min())) if a.size else 0.0
     peak_dbfs = 20.0 * math.log10(peak) if peak > 0 else -math.inf
 
     if subtype == "float":
@@ -158,9 +197,21 @@ def write_wav(path: str | os.PathLike[str], audio: np.ndarray, fs: int,
         sf_subtype = "PCM_24"
 
     def write(f: BinaryIO) -> None:
-        with sf.SoundFile(f, mode="w", samplerate=fs, channels=channels,
-                          subtype=sf_subtype, format="WAV") as snd:
-            snd.write(data)
+        f.flush()
+        snd = sf.SoundFile(f.fileno(), mode="w", samplerate=fs, channels=channels,
+                           subtype=sf_subtype, format="WAV", closefd=False)
+        try:
+            for i in range(0, frames, _WRITE_FRAMES):
+                snd.write(data[i:i + _WRITE_FRAMES])
+            snd.close()                   # the header's sizes
+        except sf.LibsndfileError as e:
+            raise _libsndfile_failure(snd, e) from None
+        finally:
+            if not snd.closed:
+                try:
+                    snd.close()
+                except sf.SoundFileError:
+                    pass                  # the first error is the one to report
 
     _atomic_write(path, write)
     return WavWriteResult(frames=int(frames), channels=int(channels),

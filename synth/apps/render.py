@@ -1,0 +1,379 @@
+"""``synth render``: a Standard MIDI File played by a preset into a WAV file.
+
+Long work shows itself and can be stopped:
+
+* On a terminal, a render that runs longer than :data:`PROGRESS_DELAY_S`
+  (2 s) shows a progress bar (tqdm) on stderr: seconds of audio done, the
+  time elapsed and the time left. Not on a terminal (a pipe, a file, CI) or
+  for a shorter render, nothing is shown.
+* A file whose audio lasts more than :data:`LONG_RENDER_S` (30 min) is
+  announced before any work with one line on stderr (``warning: FILE lasts
+  3:00:00 (10800 s): rendering more than 30 min of audio; --max-seconds S
+  renders only the first S seconds``); the render then goes on. A
+  mutated file with huge delta times, or three hours of silence before one
+  note, no longer renders for minutes without a word.
+* ``--max-seconds S`` caps the audio at S seconds: notes starting at S or
+  later are left out and, when the music goes on past S, the result is
+  exactly S seconds long, ending in a :data:`CUT_FADE_S` (10 ms) fade-out (a
+  note line on stderr says so). With ``--max-seconds`` the user has chosen
+  the length: no 30-minute warning.
+* A length no WAV file can hold (4 GiB of samples: 3 h 6 min of stereo
+  32-bit float) is refused before rendering, naming the limit.
+* Ctrl-C (SIGINT) and SIGTERM stop the render (:mod:`synth.io.interrupt`):
+  no output file and no temporary file is left, an existing output file is
+  kept as it was, and the exit status is 130 or 143.
+* The file is written atomically (:mod:`synth.io.wav`): a full disk gives a
+  one-line error (``out.wav: writing failed (No space left on device)``)
+  and no partial file.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..io.errors import SynthError, display_path
+from ..io.interrupt import Interrupted, interruptible
+from ..io.midi import MAX_DURATION_S
+
+__all__ = [
+    "RenderRequest",
+    "RenderPlan",
+    "RenderResult",
+    "plan_render",
+    "render_midi",
+    "format_length",
+    "LONG_RENDER_S",
+    "PROGRESS_DELAY_S",
+    "TAIL_S",
+    "MAX_TAIL_S",
+    "CUT_FADE_S",
+]
+
+#: renders longer than this (s of audio) are announced with a warning
+LONG_RENDER_S = 30 * 60.0
+#: the progress bar appears only once a render has run this long (s), on a terminal
+PROGRESS_DELAY_S = 2.0
+#: silence kept after the last voice has died away (s)
+TAIL_S = 0.5
+#: the longest release tail after the last event (s)
+MAX_TAIL_S = 30.0
+#: the fade-out where --max-seconds cuts a sounding render (s)
+CUT_FADE_S = 0.010
+
+
+@dataclass(frozen=True)
+class RenderRequest:
+    """What ``synth render`` was asked to do (validated by :func:`render_midi`).
+
+    Attributes
+    ----------
+    midi_file : str
+        The Standard MIDI File.
+    preset : str
+        Preset name or ``.toml`` path.
+    output : str
+        The WAV file to write (replaced atomically if it exists).
+    overrides : tuple of str
+        ``--set PATH=VALUE`` overrides of the preset.
+    internal_rate : float or None
+        Internal rate of the strings (Hz); None: the preset's.
+    pcm24 : bool
+        24-bit PCM instead of 32-bit float.
+    max_seconds : float or None
+        ``--max-seconds``: the longest audio to render (s), 0 < value <=
+        :data:`~synth.io.midi.MAX_DURATION_S`; None: the whole file.
+    """
+
+    midi_file: str
+    preset: str
+    output: str
+    overrides: tuple[str, ...] = ()
+    internal_rate: float | None = None
+    pcm24: bool = False
+    max_seconds: float | None = None
+
+
+@dataclass(frozen=True)
+class RenderPlan:
+    """What will be rendered, decided from the file's events alone (no engine).
+
+    Attributes
+    ----------
+    events : list of synth.engine.engine.Event
+        The events to play (those before ``--max-seconds``).
+    keys : list of int
+        The keys of their note-ons.
+    file_length_s : float
+        Time of the file's last event (s).
+    last_s : float
+        Time of the last event played (s).
+    expected_s : float
+        The least audio the render gives (s): up to the last event plus
+        :data:`TAIL_S`, or exactly ``max_seconds`` when the file is cut.
+    duration_s : float or None
+        Exact length to render (the file cut at ``max_seconds``), or None:
+        until the sound has died away, at most ``max_tail_s`` after the last
+        event.
+    max_tail_s : float
+        The longest release tail after the last event (s).
+    cut : bool
+        ``max_seconds`` leaves events of the file out.
+    notes : list of str
+        Lines for stderr (``warning: ...``, ``note: ...``), printed before
+        rendering.
+    """
+
+    events: list
+    keys: list
+    file_length_s: float
+    last_s: float
+    expected_s: float
+    duration_s: float | None
+    max_tail_s: float
+    cut: bool
+    notes: list = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class RenderResult:
+    """What :func:`render_midi` wrote.
+
+    Attributes
+    ----------
+    seconds : float
+        Length of the audio written (s).
+    notes : int
+        Note-ons played.
+    elapsed_s : float
+        Time the render took (s), without reading and writing.
+    summary : str
+        The one-line report for stdout.
+    """
+
+    seconds: float
+    notes: int
+    elapsed_s: float
+    summary: str
+
+
+def format_length(seconds: float) -> str:
+    """A length for messages: ``"42.0 s"`` below a minute, else ``"3:00:05
+    (10805 s)"`` or ``"31:00 (1860 s)"``."""
+    if seconds < 60.0:
+        return f"{seconds:.1f} s"
+    s = int(round(seconds))
+    h, rest = divmod(s, 3600)
+    m, sec = divmod(rest, 60)
+    hms = f"{h}:{m:02d}:{sec:02d}" if h else f"{m}:{sec:02d}"
+    return f"{hms} ({s} s)"
+
+
+def _check_max_seconds(max_seconds: float | None) -> None:
+    if max_seconds is None:
+        return
+    if not (0.0 < max_seconds <= MAX_DURATION_S):     # also NaN
+        raise SynthError(f"--max-seconds = {max_seconds:g} is out of range "
+                         f"(0 < value <= {MAX_DURATION_S:g} s)")
+
+
+def plan_render(events: Sequence, max_seconds: float | None = None, shown: str = "MIDI file") -> RenderPlan:
+    """Decide what to render: the events kept, the expected length, the warnings.
+
+    Parameters
+    ----------
+    events : sequence of synth.engine.engine.Event
+        The file's events (:func:`synth.io.midi.midi_to_events`).
+    max_seconds : float or None
+        ``--max-seconds`` (validated here), or None.
+    shown : str
+        The file's name in messages.
+
+    Returns
+    -------
+    RenderPlan
+
+    Raises
+    ------
+    SynthError
+        ``--max-seconds`` out of range, a file without notes, or no note
+        starting before ``--max-seconds``.
+    """
+    _check_max_seconds(max_seconds)
+    events = list(events)
+    notes = [e for e in events if e.kind == "note_on" and e.value > 0]
+    if not notes:
+        raise SynthError(f"{shown}: the file has no notes to play")
+    file_len = max(e.time_s for e in events)
+    lines = []
+    if max_seconds is not None and file_len >= max_seconds:
+        kept = [e for e in events if e.time_s < max_seconds]
+        kept_notes = [e for e in kept if e.kind == "note_on" and e.value > 0]
+        if not kept_notes:
+            raise SynthError(f"{shown}: no note starts in the first {max_seconds:g} s "
+                             f"(--max-seconds); the first starts at {format_length(notes[0].time_s)}")
+        lines.append(f"note: {shown} lasts {format_length(file_len)}; rendering its first "
+                     f"{format_length(max_seconds)} (--max-seconds {max_seconds:g})")
+        last = max(e.time_s for e in kept)
+        return RenderPlan(kept, [int(e.key) for e in kept_notes], file_len, last,
+                          float(max_seconds), float(max_seconds), 0.0, True, lines)
+    max_tail = MAX_TAIL_S if max_seconds is None else min(MAX_TAIL_S, max_seconds - file_len)
+    expected = file_len + TAIL_S if max_seconds is None else min(file_len + TAIL_S, max_seconds)
+    if max_seconds is None and expected > LONG_RENDER_S:
+        lines.append(f"warning: {shown} lasts {format_length(file_len)}: rendering more than "
+                     f"{LONG_RENDER_S / 60:g} min of audio; --max-seconds S renders only the "
+                     f"first S seconds")
+    return RenderPlan(events, [int(e.key) for e in notes], file_len, file_len, expected, None,
+                      max_tail, False, lines)
+
+
+def _is_terminal(stream) -> bool:
+    try:
+        return bool(stream is not None and stream.isatty())
+    except (AttributeError, ValueError, OSError):    # no isatty, or a closed stream
+        return False
+
+
+class _Progress:
+    """The render's progress bar on a terminal (tqdm, shown after
+    :data:`PROGRESS_DELAY_S`), fed output samples by ``Engine.render``."""
+
+    BAR_FORMAT = ("{desc}: {percentage:3.0f}%|{bar}| {n:.0f}/{total:.0f} s of audio "
+                  "[{elapsed} elapsed, {remaining} left]")
+
+    def __init__(self, total_s: float, fs: int, stream, desc: str) -> None:
+        from tqdm import tqdm
+
+        self.fs = fs
+        # nrows given: tqdm hides a bar below the screen's last row, and a
+        # terminal that reports no size (0 x 0: a bare pty) would hide it
+        self.bar = tqdm(total=max(total_s, 1e-3), file=stream, delay=PROGRESS_DELAY_S, leave=False,
+                        desc=desc, unit="s", bar_format=self.BAR_FORMAT, mininterval=0.25,
+                        nrows=24)
+
+    def __call__(self, n_out: int) -> None:
+        s = n_out / self.fs
+        bar = self.bar
+        if s > bar.total:           # the release tail beyond the expected length
+            bar.total = s
+        bar.update(s - bar.n)
+
+    def close(self) -> None:
+        self.bar.close()
+
+
+def _fade_out(y: np.ndarray, n: int) -> None:
+    """A raised-cosine fade over the last `n` samples of `y` ((frames,) or (frames, channels)), in place."""
+    n = min(n, len(y))
+    if n <= 0:
+        return
+    ramp = 0.5 * (1.0 + np.cos(np.pi * (np.arange(1, n + 1) / n)))
+    y[-n:] *= ramp if y.ndim == 1 else ramp[:, None]
+
+
+def render_midi(req: RenderRequest, *, log: Callable[[str], None] | None = None,
+                stream=None) -> RenderResult:
+    """Render a MIDI file with a preset into a WAV file (``synth render``).
+
+    Parameters
+    ----------
+    req : RenderRequest
+        The file, the preset and the options.
+    log : callable or None
+        Receives the ``note:``/``warning:`` lines (default: print to stderr).
+    stream : file or None
+        Where the progress bar goes (default ``sys.stderr``); it is shown
+        only if this is a terminal.
+
+    Returns
+    -------
+    RenderResult
+
+    Raises
+    ------
+    SynthError
+        One line: bad ``--max-seconds``, an unreadable or broken MIDI file,
+        no notes, a bad preset, a length beyond what a WAV file holds, a
+        failed write (a full disk). Nothing is left at ``req.output``.
+    Interrupted
+        SIGINT or SIGTERM: nothing written, an existing output file kept,
+        no temporary file left; its ``detail`` says so.
+    """
+    if log is None:
+        def log(line: str) -> None:
+            print(line, file=sys.stderr, flush=True)
+    if stream is None:
+        stream = sys.stderr
+    _check_max_seconds(req.max_seconds)
+    shown_out = display_path(req.output)
+    existed = os.path.lexists(req.output)
+    with interruptible():
+        try:
+            return _render(req, log, stream)
+        except Interrupted as e:
+            kept = "was left as it was" if existed else "was not written"
+            raise Interrupted(e.signum, f"{shown_out} {kept}") from None
+
+
+def _render(req: RenderRequest, log, stream) -> RenderResult:
+    from ..io.factory import build_engine
+    from ..io.midi import midi_to_events, read_midi_file     # looked up now: tests patch them
+    from ..io.wav import wav_max_frames, write_wav
+
+    shown = display_path(req.midi_file)
+    events = midi_to_events(read_midi_file(req.midi_file))
+    plan = plan_render(events, req.max_seconds, shown)
+    for line in plan.notes:
+        log(line)
+    eng = build_engine(req.preset, req.overrides, fs_internal=req.internal_rate,
+                       extra_low_key=min(plan.keys))
+    preset = eng.inst.preset
+    if preset.kind == "musical":
+        lo, hi = preset.play.key_low, preset.play.key_high
+        out_of = sum(1 for k in plan.keys if not (lo <= k <= hi))
+        if out_of:
+            log(f"note: {out_of} of {len(plan.keys)} notes are outside {req.preset}'s range "
+                f"{lo}..{hi}; they are played on the string retuned or fretted to that pitch")
+    fs = eng.fs_out
+    subtype = "pcm24" if req.pcm24 else "float"
+    limit_s = wav_max_frames(eng.channels, subtype) / fs
+    if plan.expected_s > limit_s:
+        kind = {1: "mono", 2: "stereo"}.get(eng.channels, f"{eng.channels}-channel")
+        raise SynthError(f"{shown}: {format_length(plan.expected_s)} of {kind} "
+                         f"{'24-bit PCM' if req.pcm24 else '32-bit float'} audio is more than a WAV "
+                         f"file holds ({format_length(limit_s)}); give --max-seconds "
+                         f"(0 < value <= {math.floor(limit_s)} s)")
+    bar = _Progress(plan.expected_s, fs, stream, f"rendering {shown}") if _is_terminal(stream) else None
+    t = time.perf_counter()
+    try:
+        if plan.duration_s is not None:
+            y = eng.render(plan.events, duration_s=plan.duration_s, progress=bar)
+        else:
+            y = eng.render(plan.events, tail_s=TAIL_S, max_tail_s=plan.max_tail_s, progress=bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    el = time.perf_counter() - t
+    if req.max_seconds is not None:
+        n_max = int(round(req.max_seconds * fs))
+        if plan.cut or len(y) > n_max:
+            if not plan.cut:
+                log(f"note: the sound is cut at {format_length(req.max_seconds)} "
+                    f"(--max-seconds {req.max_seconds:g}), before it has died away")
+            y = y[:n_max]
+            _fade_out(y, int(round(CUT_FADE_S * fs)))
+    audio = y.astype(np.float32)
+    del y
+    res = write_wav(req.output, audio, fs, subtype)
+    clip = f", {res.n_clipped} samples clipped" if res.n_clipped else ""
+    dur = len(audio) / fs
+    summary = (f"{req.output}: {dur:.1f} s, {len(plan.keys)} notes on {req.preset}, "
+               f"peak {res.peak_dbfs:.1f} dBFS{clip}, "
+               f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)")
+    return RenderResult(dur, len(plan.keys), el, summary)

@@ -1,0 +1,94 @@
+"""Ctrl-C and SIGTERM during long work: one exception, raised once.
+
+Python turns SIGINT into :class:`KeyboardInterrupt` but leaves SIGTERM to
+its default action, which ends the process at once: a temporary file being
+written is left behind. Inside :func:`interruptible` both signals raise
+:class:`Interrupted` (a :class:`KeyboardInterrupt`) in the main thread, so
+every ``finally`` and ``except BaseException`` on the way out runs (the
+atomic writers of :mod:`synth.io.wav` delete their temporary file there and
+an existing file is never touched). The first signal also ignores further
+ones until the block is left, so a second Ctrl-C cannot interrupt that
+clean-up. The CLI exits with status 128 + the signal's number (130 for
+SIGINT, 143 for SIGTERM), as a shell reports a process killed by it.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+__all__ = ["Interrupted", "interruptible", "HANDLED_SIGNALS"]
+
+#: the signals :func:`interruptible` turns into :class:`Interrupted`
+HANDLED_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGINT or SIGTERM arrived.
+
+    Parameters
+    ----------
+    signum : int
+        The signal's number.
+    detail : str
+        What was left undone, for the one-line message (``"out.wav was
+        not written"``); empty for none.
+    """
+
+    def __init__(self, signum: int, detail: str = "") -> None:
+        super().__init__(signum, detail)
+        self.signum = int(signum)
+        self.detail = detail
+
+    @property
+    def signal_name(self) -> str:
+        """``"SIGINT"``, ``"SIGTERM"``, ..."""
+        try:
+            return signal.Signals(self.signum).name
+        except ValueError:
+            return f"signal {self.signum}"
+
+    @property
+    def exit_status(self) -> int:
+        """128 + the signal's number, as a shell reports a process it ended."""
+        return 128 + self.signum
+
+    def __str__(self) -> str:
+        return f"interrupted by {self.signal_name}" + (f": {self.detail}" if self.detail else "")
+
+
+@contextmanager
+def interruptible(signals=HANDLED_SIGNALS) -> Iterator[None]:
+    """Raise :class:`Interrupted` in the main thread on SIGINT or SIGTERM.
+
+    Parameters
+    ----------
+    signals : sequence of int
+        The signals to handle. One that is ignored on entry (``SIG_IGN``, a
+        job started with ``nohup`` or in the background) stays ignored.
+
+    Notes
+    -----
+    Outside the main thread (where Python cannot set handlers) this does
+    nothing. The previous handlers are restored on leaving the block.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = {s: signal.getsignal(s) for s in signals}
+    mine = [s for s in signals if old[s] != signal.SIG_IGN]
+
+    def handler(signum, frame):
+        for s in mine:
+            signal.signal(s, signal.SIG_IGN)   # no second interruption of the clean-up
+        raise Interrupted(signum)
+
+    for s in mine:
+        signal.signal(s, handler)
+    try:
+        yield
+    finally:
+        for s in mine:
+            signal.signal(s, old[s] if old[s] is not None else signal.SIG_DFL)
