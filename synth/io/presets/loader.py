@@ -106,6 +106,11 @@ def _read_toml(path: Path, shown: str) -> dict[str, Any]:
         raise PresetError(f"{shown}: not UTF-8 text (byte {e.start})") from None
     except tomllib.TOMLDecodeError as e:
         raise PresetError(f"{shown}: invalid TOML: {str(e).splitlines()[0]}") from None
+    except ValueError as e:
+        # tomllib lets Python's int() refuse an integer of more than 4300 digits
+        raise PresetError(f"{shown}: invalid TOML: {str(e).splitlines()[0]}") from None
+    except RecursionError:
+        raise PresetError(f"{shown}: invalid TOML: arrays or tables nested too deeply") from None
 
 
 def list_presets() -> list[tuple[str, str]]:

@@ -69,6 +69,17 @@ _check_schema()
 
 _ABSENT: Any = When("<absent>", ())  # sentinel returned by _Validator.presence
 
+
+def _float(v: int | float) -> float:
+    """A TOML number as a float; an integer too large for one (TOML has
+    them: ``1`` and 400 zeros) is +-inf, which the callers reject as not
+    finite, instead of raising OverflowError."""
+    try:
+        return float(v)
+    except OverflowError:
+        return math.inf if v > 0 else -math.inf
+
+
 _TYPE_TEXT = {
     "float": "a number",
     "int": "an integer",
@@ -112,7 +123,7 @@ class _Validator:
         if t == "float":
             if isinstance(v, bool) or not isinstance(v, (int, float)):
                 raise self.fail(f"{shown} has the wrong type (expected {_TYPE_TEXT[t]})")
-            v = float(v)
+            v = _float(v)
             if not math.isfinite(v):
                 raise self.fail(f"{shown} is not a finite number ({row.range_text()})")
         elif t == "int":
@@ -152,7 +163,7 @@ class _Validator:
             if (not isinstance(p, list) or len(p) != 2
                     or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in p)):
                 raise self.fail(f"{item} is not an [x_m, U_m] pair of numbers")
-            x, u = float(p[0]), float(p[1])
+            x, u = _float(p[0]), _float(p[1])
             if not (math.isfinite(x) and math.isfinite(u)):
                 raise self.fail(f"{item} is not finite")
             if x < 0:
@@ -189,7 +200,7 @@ class _Validator:
             if (not isinstance(p, list) or len(p) != 3
                     or any(isinstance(c, bool) or not isinstance(c, (int, float)) for c in p)):
                 raise self.fail(f"{item} is not an [f_hz, q, level_db] triple of numbers")
-            f, q, level = (float(c) for c in p)
+            f, q, level = (_float(c) for c in p)
             if not (math.isfinite(f) and row.in_range(f)):
                 raise self.fail(f"{item} has f_hz out of range ({row.range_text()})")
             (q_lo, q_hi), (l_lo, l_hi) = PEAK_Q_RANGE, PEAK_DB_RANGE
@@ -425,6 +436,11 @@ def parse_override(text: str) -> tuple[str, Any]:
         value = value_text.strip()
         if _LOOSE_FLOAT.fullmatch(value):
             value = float(value)  # ".5", "-.5", "5.", "1.e-3": decimals TOML rejects
+    except (ValueError, RecursionError) as e:
+        # an integer of more than 4300 digits (Python's limit), or arrays
+        # nested too deeply for the parser
+        why = "nested too deeply" if isinstance(e, RecursionError) else str(e).splitlines()[0]
+        raise PresetError(f"--set {path}=...: the value cannot be read ({why})") from None
     return path, value
 
 
