@@ -22,7 +22,10 @@ rate (a study preset's ``cells``; c dt = dx on every grid):
 * **A7 hammer** (Publication I): the contact duration and the peak force of
   the study's three-parameter felt at 5 m/s on ideal supports (second order
   in dt: the error is measured against the Richardson extrapolation of the
-  two finest grids).
+  two finest grids);
+* **the grand's stiffness**: the worst partial error (cents, partials up to
+  40 or 10 kHz, against the stiff-string law) of a key's loop designed to a
+  tolerance, against its dispersion sections and its run time.
 
 Methods: the internal rate (cells = ``BASE`` x 2^j, one run per grid); the
 kernel's fast path and its per-sample path (the reference scheme, forced
@@ -225,6 +228,74 @@ def hammer(n_grids: int, repeats: int):
     return rows
 
 
+#: grand keys and design tolerances (cents) of the dispersion problem
+DISP_KEYS = (33, 48, 60, 72, 84)
+DISP_TOLS = (0.5, 1.0, 2.0, 4.0, 8.0, 16.0)
+
+
+def dispersion(keys, tols, repeats: int):
+    """The grand's stiffness: for each key and design tolerance, the loop of
+    :func:`synth.physics.dispersion.tune_stiff_loop_sos` as the voice
+    designs it (the key's loss at 325 kHz; 2 cents is the preset's), its
+    exact partials' worst error against n f0 sqrt(1 + B n^2) over partials
+    1 .. K (up to 40 or 10 kHz), its sections, and the run time of one
+    such string for 0.5 s on the fast path; plus the loop with no
+    dispersion filter at all (the harmonic string)."""
+    from synth.dsp.bank import StringBank
+    from synth.io.factory import build_voice
+    from synth.physics import piano as PI
+    from synth.physics.dispersion import stiff_partials, tune_stiff_loop, tune_stiff_loop_sos
+
+    v = build_voice("grand-piano")
+    fs = v.fs
+    rows = []
+    for key in keys:
+        gs = PI.grand_string(key)
+        f1 = v.tuning_hz(key)
+        B = gs.inharmonicity_b
+        t_lo = gs.t60_low_s
+        t_hi = min(gs.t60_s(gs.f_high_hz), t_lo)
+        fh = max(gs.f_high_hz, 1.5 * f1)
+        loops = [("none", tune_stiff_loop(f1, 0.0, fs, t_lo, f1, t_hi, fh, m_max=0))]
+        loops += [(tol, tune_stiff_loop_sos(f1, B, fs, t_lo, f1, t_hi, fh, tol_cents=tol, m_max=16))
+                  for tol in tols]
+        K = loops[-1][1].n_partials
+        target = stiff_partials(f1 / math.sqrt(1 + B), B, np.arange(1, K + 1))
+        for tol, loop in loops:
+            if tol == "none":
+                # the harmonic loop's partials are n f1: their error against the stiff law
+                worst = float(np.max(np.abs(1200 * np.log2(f1 * np.arange(1, K + 1) / target))))
+                sections, sos, n_fo, a_fo = 0, None, 0, 0.0
+            else:
+                worst = float(loop.worst_cents)
+                sos = loop.sos if len(loop.sos) else None
+                n_fo, a_fo = int(loop.n_fo), float(loop.a_fo)
+                sections = 2 * len(loop.sos) + n_fo       # cost units: a biquad = 2 first-order
+
+            def render():
+                b = StringBank(1, loop.cells + 2, 1, 4096)
+                b.configure(0, cells=loop.cells, k=max(2, loop.cells // 8), dt_s=1.0 / fs, U=None,
+                            out_mode=1, tension_over_dx=1.0, b0=loop.b0, a1=loop.a1, eta=loop.eta,
+                            extra_delay=loop.extra_delay, lossy=True, n_disp=n_fo, a_disp=a_fo,
+                            sos=sos)
+                b.activate(0)
+                b.start_pluck(0, 1, 1e-3, 1e-3, 0.0)
+                mix = np.zeros(4096)
+                n = int(0.5 * fs)
+                t0 = time.perf_counter()
+                done = 0
+                while done < n:
+                    m = min(4096, n - done)
+                    b.render(mix, 0, m)
+                    done += m
+                return (time.perf_counter() - t0,)
+
+            (_,), tm = timed(render, repeats)
+            rows.append(dict(key=key, tol=tol, sections=sections, kind=getattr(loop, "kind", "-"),
+                             worst=worst, K=K, time_s=tm))
+    return rows
+
+
 # ---- output ------------------------------------------------------------------------
 def plot(path: Path, title: str, curves, xlabel="run time (s)", ylabel="relative error"):
     try:
@@ -317,6 +388,26 @@ def main(argv=None) -> int:
         print(f"| {r['cells']} | {r['fs'] / 1e3:.1f} | {r['time_s'] * 1e3:.1f} | {r['first_ms']:.3f} | {r['contacts']} |")
     print("\nThesis: first contact after about 3 ms, 3 contacts by 16.4 ms.\n")
 
+    print("## The grand's stiffness: dispersion sections against partial error\n")
+    dr = dispersion(DISP_KEYS[::2] if a.quick else DISP_KEYS, (0.5, 2.0, 8.0) if a.quick else DISP_TOLS,
+                    reps)
+    print("| key | design tolerance (cents) | kind | cost units (biquad = 2) | worst error, partials "
+          "1..K (cents) | K | run time, 0.5 s of one string (ms) |")
+    print("|---|---|---|---|---|---|---|")
+    for r in dr:
+        tol = r["tol"] if r["tol"] == "none" else f"{r['tol']:g}"
+        print(f"| {r['key']} | {tol} | {r['kind']} | {r['sections']} | {r['worst']:.2f} | {r['K']} "
+              f"| {r['time_s'] * 1e3:.2f} |")
+    print("\n'none': the loop with no dispersion filter (a harmonic string), its partials against the "
+          "stiff-string law.  The preset designs to 2 cents (`strings.dispersion_sections` = 8 is the "
+          "first-order fallback's limit).\n")
+    for key in sorted({r["key"] for r in dr}):
+        rr = [r for r in dr if r["key"] == key and r["tol"] != "none"]
+        bad = [r for r in rr if r["kind"] == "sos" and r["worst"] > r["tol"] * 1.0001]
+        if bad:
+            print(f"FAIL: key {key}: a design misses its tolerance: {bad}", file=sys.stderr)
+            ok = False
+
     if a.out is not None:
         a.out.mkdir(parents=True, exist_ok=True)
         plot(a.out / "wp-hammer.png", "A7 strike: g(t), contact duration and peak force",
@@ -327,7 +418,14 @@ def main(argv=None) -> int:
               ("peak force", [r["time_s"] for r in hr[:-1]], [r["peak_n_err"] for r in hr[:-1]],
                ["" for _ in hr[:-1]])])
         plot(a.out / "wp-jawari.png", f"Jawari Cases 1-3: u(l, t), first {WAVE_S * 1e3:.0f} ms", curves_j)
-        print(f"plots: {a.out / 'wp-hammer.png'}, {a.out / 'wp-jawari.png'}")
+        curves_d = []
+        for key in sorted({r["key"] for r in dr}):
+            rr = [r for r in dr if r["key"] == key]
+            curves_d.append((f"key {key}", [r["time_s"] for r in rr], [max(r["worst"], 1e-3) for r in rr],
+                             [str(r["sections"]) for r in rr]))
+        plot(a.out / "wp-dispersion.png", "Grand: worst partial error (cents) against cost",
+             curves_d, ylabel="worst partial error, cents (labels: cost units)")
+        print(f"plots: {a.out / 'wp-hammer.png'}, {a.out / 'wp-jawari.png'}, {a.out / 'wp-dispersion.png'}")
     return 0 if ok else 1
 
 
