@@ -71,7 +71,8 @@ def _bank_for(voice, n_block):
                       n_probes=1, max_gtable=sz.max_gtable, max_bend=sz.max_bend)
 
 
-def run_study(name: str, cells: int, seconds: float, per_sample: bool, *, contacts: bool = False):
+def run_study(name: str, cells: int, seconds: float, per_sample: bool, *, contacts: bool = False,
+              sets=()):
     """The study preset ``name`` re-gridded to ``cells`` cells: u(l, t) per
     internal sample over ``seconds`` (m), the contact flag per sample (with
     ``contacts``, per-sample path only), the internal rate and the run time
@@ -80,10 +81,10 @@ def run_study(name: str, cells: int, seconds: float, per_sample: bool, *, contac
     from synth.io.presets import load_preset
     from synth.kernels import strings as K
 
-    p = load_preset(name)
+    p = load_preset(name, sets)
     c = math.sqrt(p.string.tension_n / p.string.linear_density_kg_per_m)
     fs = cells * c / p.string.length_m
-    v = build_voice(name, fs_internal=fs)
+    v = build_voice(name, sets, fs_internal=fs)
     n = int(round(seconds * v.fs))
     block = 4096
     b = _bank_for(v, block)
@@ -225,6 +226,25 @@ def hammer(n_grids: int, repeats: int):
         for r in rows:
             r[q + "_err"] = abs(r[q] - ext) / abs(ext)
         rows[0][q + "_extrapolated"] = ext
+    return rows
+
+
+#: region lengths (points on the study's 812-cell grid, 0.985 mm each) of the region problem
+REGION_POINTS = (2, 4, 6, 8, 10, 12, 15, 20, 25, 40)
+
+
+def region(case: int, points, repeats: int):
+    """u(l, t) over WAVE_S on the study grid with the termination region
+    cut to ``points`` grid points, against the region of 100 points (98.5
+    mm: more than the string ever reaches), and its run time (fast path)."""
+    name = f"paper/sitar-case{case}"
+    ref = run_study(name, 812, WAVE_S, False, sets=("termination.region_points=100",))[0]
+    rows = []
+    for R in points:
+        (u, _, fs, _), t = timed(lambda: run_study(name, 812, WAVE_S, False,
+                                                   sets=(f"termination.region_points={R}",)), repeats)
+        rows.append(dict(points=R, length_mm=R * 0.8 / 812 * 1e3, time_s=t,
+                         error=float(np.linalg.norm(u - ref) / np.linalg.norm(ref))))
     return rows
 
 
@@ -388,6 +408,23 @@ def main(argv=None) -> int:
         print(f"| {r['cells']} | {r['fs'] / 1e3:.1f} | {r['time_s'] * 1e3:.1f} | {r['first_ms']:.3f} | {r['contacts']} |")
     print("\nThesis: first contact after about 3 ms, 3 contacts by 16.4 ms.\n")
 
+    print(f"## The termination region's length: u(l, t) over {WAVE_S * 1e3:.0f} ms, 812 cells\n")
+    print("| case | region points | length (mm) | run time (ms) | error against 100 points |")
+    print("|---|---|---|---|---|")
+    curves_r = []
+    for case in (1, 2):
+        rr = region(case, (4, 15, 25) if a.quick else REGION_POINTS, reps)
+        for r in rr:
+            print(f"| {case} | {r['points']} | {r['length_mm']:.1f} | {r['time_s'] * 1e3:.2f} | {r['error']:.2e} |")
+        curves_r.append((f"Case {case}", [r["time_s"] for r in rr], [max(r["error"], 1e-17) for r in rr],
+                         [str(r["points"]) for r in rr]))
+        if a.quick and not rr[-1]["error"] <= 1e-12:
+            print(f"FAIL: Case {case}: 25 points are not the whole obstacle ({rr[-1]['error']:.2e})",
+                  file=sys.stderr)
+            ok = False
+    print("\nCase 1's ramp ends at 15 mm (15 points); Case 2's parabola goes on, and the string reaches "
+          "it only so far.\n")
+
     print("## The grand's stiffness: dispersion sections against partial error\n")
     dr = dispersion(DISP_KEYS[::2] if a.quick else DISP_KEYS, (0.5, 2.0, 8.0) if a.quick else DISP_TOLS,
                     reps)
@@ -423,9 +460,11 @@ def main(argv=None) -> int:
             rr = [r for r in dr if r["key"] == key]
             curves_d.append((f"key {key}", [r["time_s"] for r in rr], [max(r["worst"], 1e-3) for r in rr],
                              [str(r["sections"]) for r in rr]))
+        plot(a.out / "wp-region.png", "Jawari: region length (labels: points)", curves_r)
         plot(a.out / "wp-dispersion.png", "Grand: worst partial error (cents) against cost",
              curves_d, ylabel="worst partial error, cents (labels: cost units)")
-        print(f"plots: {a.out / 'wp-hammer.png'}, {a.out / 'wp-jawari.png'}, {a.out / 'wp-dispersion.png'}")
+        print(f"plots: {a.out / 'wp-hammer.png'}, {a.out / 'wp-jawari.png'}, {a.out / 'wp-region.png'}, "
+              f"{a.out / 'wp-dispersion.png'}")
     return 0 if ok else 1
 
 
