@@ -400,3 +400,31 @@ def test_validation_messages(call, name):
     with pytest.raises(ValueError, match=name) as exc:
         call()
     assert "\n" not in str(exc.value)
+
+
+def test_grid_energy_is_the_fdtd_energy():
+    """At rest in a shape (u_now = u_prev) it is the potential (T/2dx)
+    sum du^2; a uniform shift is free of potential and counts as motion."""
+    from synth.analysis import grid_energy
+
+    u = np.array([0.0, 1e-3, 2e-3, 1e-3, 0.0])
+    assert math.isclose(grid_energy(u, u, 10.0, 0.1), 10.0 / 0.2 * 4 * 1e-6, rel_tol=1e-12)
+    assert math.isclose(grid_energy(u + 1e-3, u, 10.0, 0.1),
+                        10.0 / 0.2 * (4 * 1e-6 + 5 * 1e-6), rel_tol=1e-12)
+    with pytest.raises(ValueError, match="u_prev shape"):
+        grid_energy(u, u[:-1], 10.0, 0.1)
+
+
+def test_highband_db_is_the_energy_above_the_edge():
+    from synth.analysis import highband_db
+
+    fs = 48_000
+    t = np.arange(fs) / fs
+    low, high = np.sin(2 * np.pi * 500 * t), 0.1 * np.sin(2 * np.pi * 4000 * t)
+    assert highband_db(low, fs, 1000.0) < highband_db(low + high, fs, 1000.0) - 60
+    assert math.isclose(highband_db(low + high, fs, 1000.0) - highband_db(high / 0.1, fs, 1000.0),
+                        -20.0, abs_tol=0.01)
+    assert highband_db(np.zeros(100), fs, 1000.0) == -math.inf
+    # a window: only its part counts
+    x = np.concatenate([high, np.zeros(fs)])
+    assert highband_db(x, fs, 1000.0, start_s=1.0) == -math.inf

@@ -134,7 +134,7 @@ def test_strike_is_stable_and_passive_over_the_velocity_range(params, V):
     assert np.all(np.isfinite(ch))
     F = ch[K.P_F]
     assert F.max() > 0 and F[-1] == 0
-    from test_strings import grid_energy  # the string's energy on the grid
+    from synth.analysis import grid_energy  # the string's energy on the grid
     u0 = b.displacement(0)
     b.render(np.zeros(1), 0, 1)
     E = grid_energy(b.displacement(0), u0, T, L / 46)

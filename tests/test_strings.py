@@ -7,6 +7,7 @@ from hypothesis import given, settings, strategies as st
 from reference import closed_form_uk, naive_lossy_string, naive_string
 from synth.kernels import strings as K
 from synth.physics.plucks import biwa_g, sitar_g
+from synth.analysis import grid_energy
 from synth.dsp.bank import StringBank
 
 
@@ -170,21 +171,6 @@ def test_tune_out_gain_change_is_continuous():
         b.set_tune_out(0, 1.0, 0.0)
     with pytest.raises(ValueError, match="gain"):
         b.set_tune_out_gain(0, -1.0)
-
-
-def grid_energy(u_now, u_prev, tension_n, dx):
-    """Energy (J) of the string on the grid, from u at two successive steps.
-
-    The waveguide with c dt = dx is the FDTD scheme at CFL 1, whose exactly
-    conserved energy is (T / 2dx) [sum du^n du^(n-1) + sum (u^n - u^(n-1))^2]
-    (differences du along x; mu dx / dt^2 = T / dx).  The energy of the two
-    rails, T/dx sum (d u_r)^2 + (d u_l)^2, is conserved too without contact,
-    but a clamp notches one rail and that measure can rise for a few steps
-    while the string itself loses energy (measured: up to 0.8 % for jawari
-    Case 1), so it is not the quantity to test.
-    """
-    return tension_n / (2 * dx) * (np.sum(np.diff(u_now) * np.diff(u_prev))
-                                   + np.sum((u_now - u_prev) ** 2))
 
 
 def _energy_series(U, side, model, A, t0, alpha, N=812, k=609, every=50, n_total=60000):

@@ -26,7 +26,7 @@ import math
 
 import numpy as np
 
-from synth.analysis import (aperiodic_end, episode_times, f0_track, free_mode_energies,
+from synth.analysis import (aperiodic_end, episode_times, f0_track, free_mode_energies, grid_energy,
                             mode_energies)
 from synth.engine.engine import Event
 from synth.kernels import strings as K
@@ -193,9 +193,6 @@ def energy_steps(n_steps: int = 30000) -> None:
                                0.01, 0.004, 0.0),
              "sawari": (PR.sawari(2.0, 0.01), -1, K.EXC_BIWA, 0.002, 0.0025, 2000.0)}
 
-    def energy(u, up):
-        return T / (2 * dx) * (np.sum(np.diff(u) * np.diff(up)) + np.sum((u - up) ** 2))
-
     print(f"Grid energy after the pluck, step by step over {n_steps} steps "
           f"({n_steps * dt * 1e3:.0f} ms), relative to its value E0 just after the pluck:\n")
     print("| profile | largest one-step rise / E0 | at t (ms) | steps rising > 1e-15 E0 | > 1e-12 E0 "
@@ -215,7 +212,7 @@ def energy_steps(n_steps: int = 30000) -> None:
         for i in range(n_steps):
             b.render(mix, 0, 1)
             u = b.displacement(0)
-            E[i] = energy(u, up)
+            E[i] = grid_energy(u, up, T, dx)
             up = u
         d = np.diff(E) / E[0]
         j = int(np.argmax(d))

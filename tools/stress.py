@@ -320,6 +320,7 @@ def check(case: Case) -> list[str]:
 
 
 def _check_energy(case: Case) -> list[str]:
+    from synth.analysis import grid_energy
     from synth.dsp.bank import StringBank
     from synth.kernels import strings as K
     from synth.physics import profiles as P
@@ -350,8 +351,7 @@ def _check_energy(case: Case) -> list[str]:
     def energy():
         u1 = b.displacement(0)
         b.render(mix, 0, 1)
-        u2 = b.displacement(0)
-        return T / (2 * dx) * (np.sum(np.diff(u2) * np.diff(u1)) + np.sum((u2 - u1) ** 2))
+        return grid_energy(b.displacement(0), u1, T, dx)
 
     E = [energy()]
     for _ in range(int(0.03 / dt) // 64):

@@ -34,16 +34,8 @@ ROOT = Path(__file__).resolve().parents[1]
 TARGET_LUFS = -20.0
 
 
-def _highband_db(x, fs, f_hz=1000.0, start_s=0.05, length_s=0.45):
-    a = int(round(start_s * fs))
-    x = x[a:a + int(round(length_s * fs))]
-    spec = np.abs(np.fft.rfft(x * np.hanning(len(x)))) ** 2
-    f = np.fft.rfftfreq(len(x), 1.0 / fs)
-    e = float(np.sum(spec[f >= f_hz]))
-    return 10.0 * math.log10(e) if e > 0 else -math.inf
-
-
 def measure(preset: str, sets: list[str]) -> dict:
+    from synth.analysis import highband_db
     from synth.analysis.loudness import loudness
     from synth.analysis.spectrum import as_mono
     from synth.engine.engine import Event
@@ -70,7 +62,8 @@ def measure(preset: str, sets: list[str]) -> dict:
             ev = [Event(0.0, "note_on", key, vel / 127.0)]
             a = as_mono(build_engine(preset, sets).render(ev, duration_s=1.2))
             b = as_mono(build_engine(preset, sets + ["termination.buzz=0"]).render(ev, duration_s=1.2))
-            buzz.append((_highband_db(a, fs) - _highband_db(b, fs), key, vel))
+            buzz.append((highband_db(a, fs, 1000.0, 0.05, 0.45) - highband_db(b, fs, 1000.0, 0.05, 0.45),
+                         key, vel))
     buzz.sort()
     off = TARGET_LUFS - L
     return dict(lufs=L, phrase_peak=phrase_peak + off, note_peak=worst + off, note_key=worst_key,

@@ -5,12 +5,13 @@ Used by the tests, the reproduction scripts and the analysis commands;
 never imports numba or other ``synth`` layers (loudness uses pyloudnorm).
 """
 
-from synth.analysis.bands import band_levels_db, halo
+from synth.analysis.bands import band_levels_db, halo, highband_db
 from synth.analysis.clicks import click_scan
 from synth.analysis.decay import decay_curve_db, t60_s, two_stage_decay, two_stage_summary
 from synth.analysis.loudness import crest_factor_db, loudness, momentary_lufs, peak_dbfs
 from synth.analysis.modes import (
     free_mode_energies,
+    grid_energy,
     mode_energies,
     mode_levels_db,
     string_energy,
@@ -50,6 +51,7 @@ __all__ = [
     "free_mode_energies",
     "struck_mode_energies",
     "string_energy",
+    "grid_energy",
     "mode_levels_db",
     "period_deviation",
     "aperiodic_end",
@@ -65,6 +67,7 @@ __all__ = [
     "crest_factor_db",
     "band_levels_db",
     "halo",
+    "highband_db",
     "click_scan",
     "track_partials",
 ]

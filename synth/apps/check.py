@@ -61,6 +61,7 @@ from ..analysis import (
     estimate_f0,
     fit_inharmonicity,
     halo,
+    highband_db,
     loudness,
     momentary_lufs,
     partial_peaks,
@@ -526,22 +527,12 @@ def _c_centroid_ratio(items, e, others):
     return out
 
 
-def _highband_db(it, f_hz, start_s=None, length_s=None):
-    x = it.audio
-    if start_s is not None or length_s is not None:
-        a = int(round((start_s or 0.0) * it.fs))
-        x = x[a:] if length_s is None else x[a:a + int(round(length_s * it.fs))]
-    spec = np.abs(np.fft.rfft(x * np.hanning(len(x)))) ** 2
-    f = np.fft.rfftfreq(len(x), 1.0 / it.fs)
-    e = float(np.sum(spec[f >= f_hz]))
-    return 10.0 * np.log10(e) if e > 0 else -math.inf
-
-
 def _c_highband_diff(items, e, others):
     out = []
     for a, b in _pairs(items, e, others):
         w = (e.get("start_s"), e.get("length_s"))
-        d = _highband_db(a, e["above_hz"], *w) - _highband_db(b, e["above_hz"], *w)
+        d = (highband_db(a.audio, a.fs, e["above_hz"], *w)
+             - highband_db(b.audio, b.fs, e["above_hz"], *w))
         span = ("" if w == (None, None) else
                 f" ({w[0] or 0.0:g}-" + ("end" if w[1] is None else f"{(w[0] or 0.0) + w[1]:g} s") + ")")
         out.append((f"energy above {e['above_hz']:g} Hz{span}, {a.label} - {b.label}", f"{d:+.1f} dB",
