@@ -213,11 +213,14 @@ def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
     loop filter read as standing just before the end) are summed into F(m),
     and u_b(m+1) = bra u_b(m) + brb F(m).  With
     ``ubx`` (one value per step) the bridge is external: u_b(m) = ubx[m] and
-    F is not fed back.
+    F is not fed back.  A string with ``on`` = (m0, m1) hangs on the bridge
+    only at steps m0 <= m < m1 (an open bridge: it joins and leaves); off it
+    its end is still; at its first step on it, its force reads the bridge's
+    previous displacement as its own, and after it leaves its own is 0.
 
     strings : list of dicts with N, k, g (outgoing wave per step, held at
         its last value), b0, a1, eta, tdx (T/dx, N/m), gain, and optional
-        extra_delay, n_disp, a_disp, sos, U, side.
+        extra_delay, n_disp, a_disp, sos, U, side, on.
     Returns (summed output per step, u_b per step).
     """
     st = []
@@ -230,6 +233,7 @@ def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
     out = np.zeros(n_steps)
     ubs = np.zeros(n_steps)
     ub = 0.0
+    ub_last = 0.0
     for m in range(n_steps):
         if ubx is not None:
             ub = ubx[m]
@@ -258,14 +262,23 @@ def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
                 yb = c2 * yo + c1 * h[0] + h[1] - c1 * h[2] - c2 * h[3]
                 d["bq"][j] = [yo, h[0], yb, h[2]]
                 yo = yb
-            yo -= ub
+            on0, on1 = d.get("on", (0, n_steps))
+            hang = on0 <= m < on1
+            if m == on0 and on0 > 0:
+                d["ubprev"] = ub_last
+            elif m == on1:
+                d["ubprev"] = 0.0
+            ube = ub if hang else 0.0
+            yo -= ube
             ul[N] = -yo
             # the force on the bridge, Z (v_in - v_out) with the loop filter
             # just before the end: T/dx (2 (y - y_prev) + (u_b - u_b_prev))
-            f = d["tdx"] * (2 * (yo - d.get("yprev", 0.0)) + (ub - d.get("ubprev", 0.0)))
-            d["yprev"], d["ubprev"] = yo, ub
-            F += f
+            f = d["tdx"] * (2 * (yo - d.get("yprev", 0.0)) + (ube - d.get("ubprev", 0.0)))
+            d["yprev"], d["ubprev"] = yo, ube
+            if hang:
+                F += f
             out[m] += d["gain"] * f
+        ub_last = ub
         if ubx is None:
             ub = bra * ub + brb * F
     return out, ubs

@@ -228,8 +228,10 @@ def test_bridge_arguments_are_checked():
     rng = np.random.default_rng(1)
     dt, defs = _group(rng, 2, False)
     b = _bank_for(defs, dt, False, cap=3)
-    with pytest.raises(ValueError, match=r"slots = \[0, 2\] is out of range"):
-        b.couple([0, 2], 5.0)
+    with pytest.raises(ValueError, match=r"slots = \[1, 1\] is out of range"):
+        b.couple([1, 1], 5.0)
+    with pytest.raises(ValueError, match=r"slots = \[0, 1, 2, 0, 1\] is out of range"):
+        b.couple([0, 1, 2, 0, 1], 5.0)
     with pytest.raises(ValueError, match="resistance_ns_per_m = 0.0 is out of range"):
         b.couple([0, 1], 0.0)
     b.configure(2, cells=100, k=10, dt_s=dt, U=None, out_mode=0, lossy=True)
@@ -237,6 +239,18 @@ def test_bridge_arguments_are_checked():
         b.couple([1, 2], 5.0)
     with pytest.raises(ValueError, match="slot 2 cannot hang on an external bridge"):
         b.set_external_bridge(2)
+    with pytest.raises(ValueError, match="lead = 0 is out of range"):
+        b.join(0, 1)                   # no open bridge led by slot 0
+    b.open_bridge(0, 5.0)
+    with pytest.raises(ValueError, match="slot 2 cannot hang on a bridge"):
+        b.join(0, 2)
+    with pytest.raises(ValueError, match=r"holds 4 strings, the most this bank takes"):
+        full = StringBank(6, 300, 16, 256)
+        for s in range(6):
+            full.configure(s, cells=100, k=10, dt_s=dt, U=None, out_mode=1, lossy=True)
+        full.open_bridge(0, 5.0)
+        for s in range(1, 5):
+            full.join(0, s)
 
 
 @pytest.mark.parametrize("key,law,block", [(40, 4, 866), (60, 5, 97), (80, 4, 301)])
@@ -277,3 +291,106 @@ def test_struck_unison_on_its_bridge_fast_equals_per_sample(key, law, block):
     slow, fast = outs
     assert np.all(np.isfinite(fast)) and np.max(np.abs(slow)) > 0
     assert np.max(np.abs(fast - slow)) <= 1e-10 * np.max(np.abs(slow))
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+def test_an_open_bridge_equals_the_naive_scheme_as_strings_join_and_leave(per_sample):
+    """An open bridge (a sitar's taraf and played strings): its members are
+    any slots, in any order, with strings off the bridge rendering between
+    them; one string joins while the bridge moves and another leaves, at
+    block boundaries.  Equal to the naive scheme to round-off, on the fast
+    path's lockstep chunks and per sample."""
+    rng = np.random.default_rng(21)
+    dt, defs = _group(rng, 5, per_sample)
+    b = StringBank(6, max(d["N"] for d in defs) + 2, 16, 2048, max_group=6)
+    for s, d in enumerate(defs):
+        b.configure(s, cells=d["N"], k=d["k"], dt_s=dt, U=d["U"], side=1, out_mode=1,
+                    gain=d["gain"], tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"],
+                    eta=d["eta"], extra_delay=d["extra_delay"], lossy=True,
+                    force_per_sample=per_sample, n_disp=d["n_disp"], a_disp=d["a_disp"],
+                    sos=d["sos"])
+    R_b, f_ret = 3.0, 5.0
+    n = 8 * defs[0]["N"]
+    j_in, j_out = 3 * 211, 5 * 211
+    b.open_bridge(3, R_b, f_ret)
+    b.join(3, 0)
+    b.join(3, 2)
+    assert b.group(3) == (3, 0, 2)
+    for s, d in enumerate(defs):
+        b.activate(s)
+        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
+    mix = np.zeros(n)
+    for o in range(0, n, 211):
+        if o == j_in:
+            b.join(3, 4)               # string 4 (ringing, off the bridge) joins
+        if o == j_out:
+            b.leave(0)
+        b.render(mix, o, min(211, n - o))
+    assert b.group(3) == (3, 2, 4)
+    on = {3: (0, n), 0: (0, j_out), 2: (0, n), 4: (j_in, n), 1: (n, n)}
+    order = [3, 0, 2, 4, 1]
+    bra, brb = math.exp(-2 * math.pi * f_ret * dt), dt / R_b
+    ref, ub = naive_bridge_strings([dict(defs[s], g=_g(defs[s], n, dt), on=on[s]) for s in order],
+                                   n, bra=bra, brb=brb)
+    assert np.max(np.abs(ub[j_in:])) > 1e-4 * max(d["A"] for d in defs)   # it moves as 4 joins
+    assert np.max(np.abs(mix - ref)) < 1e-10 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+def test_a_string_with_a_pitch_bend_line_hangs_on_a_bridge(per_sample):
+    """A played sitar string carries its tune-out's bend line onto the
+    bridge: the lockstep chunks equal the per-sample path (the bend line
+    between the loop filter and the bridge in both)."""
+    outs = []
+    for ps in (per_sample, True):
+        b = StringBank(3, 400, 16, 1024, max_bend=64)
+        dt = 1e-5
+        for s, N in enumerate((300, 331, 277)):
+            b.configure(s, cells=N, k=40 + s, dt_s=dt, U=None, out_mode=1, gain=1e-3,
+                        tension_over_dx=400.0 + 50 * s, b0=0.998, a1=-0.01, eta=0.2,
+                        lossy=True, force_per_sample=ps, bend_len=64 if s == 1 else 0,
+                        bend_delay=7.3 if s == 1 else 0.0)
+        b.set_tune_out(1, 5.0, 0.003)
+        b.open_bridge(0, 2.0)
+        b.join(0, 1)
+        b.join(0, 2)
+        for s in range(3):
+            b.activate(s)
+        b.start_pluck(1, K.EXC_SITAR, 0.002, 0.0007)
+        mix = np.zeros(4000)
+        for o in range(0, 4000, 397):
+            b.render(mix, o, min(397, 4000 - o))
+        outs.append(mix)
+    assert np.max(np.abs(outs[0])) > 0
+    assert np.max(np.abs(outs[0] - outs[1])) < 1e-11 * np.max(np.abs(outs[1]))
+
+
+def test_an_open_bridge_frees_its_members_alone_and_its_leader_last():
+    rng = np.random.default_rng(9)
+    dt, defs = _group(rng, 3, False, region=False)
+    b = StringBank(4, max(d["N"] for d in defs) + 2, 16, 2048, max_group=4)
+    for s, d in enumerate(defs):
+        b.configure(s, cells=d["N"], k=d["k"], dt_s=dt, U=None, out_mode=1, gain=d["gain"],
+                    tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"], eta=d["eta"], lossy=True)
+    b.open_bridge(0, 5.0)
+    b.join(0, 1)
+    b.join(0, 2)
+    for s in range(3):
+        b.activate(s)
+    b.start_pluck(1, K.EXC_SITAR, 0.001, 0.0005)
+    mix = np.zeros(2048)
+    b.render(mix, 0, 2048)
+    assert b.fst[2, K.S_PEAK] > 0               # string 2 rings through the bridge
+    # every string quiet: the members may go alone, the leader only with them
+    done = sorted(b.reap(2048, 1e9, 1).tolist())
+    assert done == [0, 1, 2]
+    b.deactivate(2)
+    assert b.group(0) == (0, 1) and b.ipar[1, K.I_CPLNX] == -1
+    b.deactivate(0)                             # the leader ends the group
+    assert b.group(0) == () and b.ipar[1, K.I_CPL] == K.CPL_NONE
+    # a member reconfigured is off its bridge
+    b.open_bridge(1, 5.0)
+    b.configure(2, cells=defs[2]["N"], k=5, dt_s=dt, U=None, out_mode=1, lossy=True)
+    b.join(1, 2)
+    b.configure(2, cells=defs[2]["N"], k=5, dt_s=dt, U=None, out_mode=1, lossy=True)
+    assert b.group(1) == (1,) and b.ipar[2, K.I_CPL] == K.CPL_NONE

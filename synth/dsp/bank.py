@@ -102,6 +102,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     ip[K.I_NSOS] = len(sos)
     ip[K.I_BUS] = 0 if pan is None else 1
     ip[K.I_CPL] = K.CPL_NONE
+    ip[K.I_CPLNX] = -1
     ip[K.I_SUB] = int(sub)
     ip[K.I_BLEN] = int(bend_len)
     ip[K.I_XDELAY] = int(extra_delay)
@@ -207,12 +208,16 @@ class StringBank:
 
     def __init__(self, capacity: int, max_cells: int, max_region: int = 64,
                  max_block: int = 4096, n_probes: int = 0, max_gtable: int = 0,
-                 max_bend: int = 0):
+                 max_bend: int = 0, max_group: int = K.MAX_CPL):
         if not (1 <= capacity <= 4096):
             raise ValueError(f"capacity = {capacity!r} is out of range (1 <= value <= 4096)")
         if not (8 <= max_cells <= 1_000_000):
             raise ValueError(f"max_cells = {max_cells!r} is out of range (8 <= value <= 1000000)")
+        if not (1 <= max_group <= capacity or max_group == K.MAX_CPL):
+            raise ValueError(f"max_group = {max_group!r} is out of range "
+                             f"(1 <= value <= {capacity}, the capacity)")
         self.capacity = int(capacity)
+        self.max_group = int(max_group)
         self.max_cells = int(max_cells)
         self.max_region = int(max_region)
         self.max_block = int(max_block)
@@ -227,7 +232,8 @@ class StringBank:
         # region profiles, g tables and pitch-bend lines, in one flat table array
         self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable + self.max_bend)))
         # fast-path chunks never exceed max_block (the kernel's scratch layout)
-        self.scratch = np.zeros(K.scratch_length(self.max_block, self.max_region, self.max_bend))
+        self.scratch = np.zeros(K.scratch_length(self.max_block, self.max_region, self.max_bend,
+                                                 self.max_group))
         self.iwork = np.zeros(self.capacity + K.IWORK_EXTRA, dtype=np.int64)
         # staging mix of strings on a finer grid (two buses); an external
         # bridge's displacement when the caller gives none (all zero)
@@ -259,7 +265,14 @@ class StringBank:
                                       + s * self.max_bend)
             self.ipar[s, K.I_PROBE] = -1
             self.ipar[s, K.I_CPL] = K.CPL_NONE
+            self.ipar[s, K.I_CPLNX] = -1
             self.ipar[s, K.I_SUB] = 1
+        # coupled groups (:meth:`couple`, :meth:`open_bridge`): the members
+        # of each, by leader, in their chain's order; each slot's leader
+        # (-1: none); the leaders of open groups (strings join and leave)
+        self._members: dict[int, list[int]] = {}
+        self._leader = np.full(self.capacity, -1, dtype=np.int64)
+        self._open: set[int] = set()
 
     # -- slot management ------------------------------------------------------
     def activate(self, s: int) -> None:
@@ -270,7 +283,11 @@ class StringBank:
             self.n_active += 1
 
     def deactivate(self, s: int) -> None:
-        """Stop rendering slot s and clear its state (no denormal residue)."""
+        """Stop rendering slot s and clear its state (no denormal residue);
+        it leaves its coupled group (a group's leader takes the group
+        with it)."""
+        if self._leader[s] >= 0:
+            self.leave(s)
         if self._is_active[s]:
             self._is_active[s] = False
             idx = [int(x) for x in self.active[: self.n_active] if x != s]
@@ -341,6 +358,8 @@ class StringBank:
         blen = int(t.ipar[K.I_BLEN])
         if blen > self.max_bend:
             raise ValueError(f"bend_len = {blen!r} is out of range (0 <= value <= {self.max_bend})")
+        if self._leader[s] >= 0:
+            self.leave(s)              # a new string: off its bridge
         self.clear(s)                  # (free when the slot is already clean)
         ip = self.ipar[s]
         keep = [int(ip[c]) for c in _SLOT_COLS]
@@ -401,13 +420,16 @@ class StringBank:
                             self.last_peak, n_in, level, min_quiet, self._done)
         done = self._done[:nd]
         if nd and np.any(self.ipar[done, K.I_CPL] >= 0):
-            # a coupled group goes only as a whole (its leader renders it)
+            # a coupled group goes only as a whole (its leader renders it);
+            # a member of an open group other than its leader goes alone
             lead = self.ipar[done, K.I_CPL]
+            gone = set(done.tolist())
             keep = np.ones(nd, dtype=bool)
             for j in np.flatnonzero(lead >= 0):
-                L, G = int(lead[j]), int(self.ipar[lead[j], K.I_CPLN])
-                members = range(L, L + G)
-                if not all((m in done) or not self._is_active[m] for m in members):
+                L, s = int(lead[j]), int(done[j])
+                if L in self._open and s != L:
+                    continue
+                if not all((m in gone) or not self._is_active[m] for m in self._members[L]):
                     keep[j] = False
             if not keep.all():
                 nk = int(np.count_nonzero(keep))
@@ -642,40 +664,123 @@ class StringBank:
 
     # -- bridges ----------------------------------------------------------------
     def couple(self, slots, resistance_ns_per_m: float, return_hz: float = 5.0) -> None:
-        """Put the strings of ``slots`` (consecutive, 1 .. ``K.MAX_CPL``,
-        configured lossy, with the bridge-force output, no pitch-bend line,
-        the same grid) on one bridge: a dashpot of resistance
-        ``resistance_ns_per_m`` (N s/m, > 0) with a spring that brings it
-        back at ``return_hz`` (Hz, >= 0; keeps it from drifting), driven by
-        the strings' summed force, whose motion every string's end follows
-        (Weinreich's coupled unison).  Every slot must be activated
-        (:meth:`activate`): the group renders from its first slot.  The
-        bridge starts at rest."""
+        """Put the strings of ``slots`` (1 .. ``max_group`` distinct slots,
+        configured lossy, with the bridge-force output, the same grid) on
+        one bridge: a dashpot of resistance ``resistance_ns_per_m`` (N s/m,
+        > 0) with a spring that brings it back at ``return_hz`` (Hz, >= 0;
+        keeps it from drifting), driven by the strings' summed force, whose
+        motion every string's end follows (Weinreich's coupled unison).
+        Every slot must be activated (:meth:`activate`): the group renders
+        from its first slot.  The bridge starts at rest.  The group goes as
+        a whole (:meth:`reap`)."""
         slots = [int(x) for x in slots]
         G = len(slots)
-        if not (1 <= G <= K.MAX_CPL) or slots != list(range(slots[0], slots[0] + G)):
-            raise ValueError(f"slots = {slots!r} is out of range (1 to {K.MAX_CPL} consecutive slots)")
+        if not (1 <= G <= self.max_group) or len(set(slots)) != G:
+            raise ValueError(f"slots = {slots!r} is out of range (1 to {self.max_group} "
+                             f"distinct slots)")
+        self._new_bridge(slots[0], resistance_ns_per_m, return_hz)
+        for s in slots[1:]:
+            self._check_member(s, slots[0])
+        self._members[slots[0]] = slots
+        self._chain(slots[0])
+
+    def open_bridge(self, lead: int, resistance_ns_per_m: float, return_hz: float = 5.0) -> None:
+        """A bridge (as :meth:`couple`) that strings join and leave while it
+        sounds (:meth:`join`, :meth:`leave`; a deactivated member leaves),
+        led by slot ``lead``, its first member: a sitar's taraf, chikari and
+        played strings on one bridge.  The leader must stay active while
+        the group has other members; deactivating it ends the group."""
+        self._new_bridge(int(lead), resistance_ns_per_m, return_hz)
+        self._members[int(lead)] = [int(lead)]
+        self._open.add(int(lead))
+        self._chain(int(lead))
+
+    def join(self, lead: int, s: int) -> None:
+        """Slot s (configured, lossy, bridge-force output, on the leader's
+        grid) joins the open bridge led by ``lead`` from its next sample:
+        from then on its end follows the bridge (a string joins at its
+        note-on, so the end's step, the bridge's displacement, falls under
+        the note's attack), and its force drives it."""
+        lead, s = int(lead), int(s)
+        if lead not in self._open:
+            raise ValueError(f"lead = {lead} is out of range (the leader of an open bridge)")
+        mem = self._members[lead]
+        if s in mem:
+            return
+        if len(mem) >= self.max_group:
+            raise ValueError(f"the bridge led by slot {lead} holds {len(mem)} strings, the "
+                             f"most this bank takes (max_group = {self.max_group})")
+        if self._leader[s] >= 0:
+            self.leave(s)
+        self._check_member(s, lead)
+        mem.append(s)
+        self._chain(lead)
+        # the force of its first sample on the bridge reads the bridge's last
+        # step as its own (the lockstep path's reading, :func:`_bridge`)
+        self.fst[s, K.S_UBP] = self.fst[lead, K.S_UBM]
+
+    def leave(self, s: int) -> None:
+        """Slot s leaves its coupled group (its end on a rigid support from
+        its next sample: a string leaves as it is freed or set up anew);
+        the leader's leaving ends the group."""
+        s = int(s)
+        lead = int(self._leader[s])
+        if lead < 0:
+            return
+        mem = self._members[lead]
+        if s == lead:
+            for m in mem:
+                self._unhook(m)
+            del self._members[lead]
+            self._open.discard(lead)
+            return
+        mem.remove(s)
+        self._unhook(s)
+        self._chain(lead)
+
+    def group(self, lead: int) -> tuple:
+        """The slots on the bridge led by ``lead`` (empty: no such group)."""
+        return tuple(self._members.get(int(lead), ()))
+
+    def _new_bridge(self, lead: int, resistance_ns_per_m: float, return_hz: float) -> None:
         if not (resistance_ns_per_m > 0.0) or not math.isfinite(resistance_ns_per_m):
             raise ValueError(f"resistance_ns_per_m = {resistance_ns_per_m!r} is out of range (value > 0)")
         if not (return_hz >= 0.0):
             raise ValueError(f"return_hz = {return_hz!r} is out of range (value >= 0)")
-        lead = slots[0]
-        for s in slots:
-            ip = self.ipar[s]
-            if ip[K.I_FILT] != 1 or ip[K.I_OUT] != 1 or ip[K.I_BLEN] != 0:
-                raise ValueError(f"slot {s} cannot hang on a bridge (it needs a lossy far end, "
-                                 f"the bridge-force output and no pitch-bend line)")
-            if ip[K.I_SUB] != self.ipar[lead, K.I_SUB]:
-                raise ValueError(f"slot {s} runs on another grid than slot {lead}")
+        if self._leader[lead] >= 0:
+            self.leave(lead)
+        self._check_member(lead, lead)
         dt = float(self.fpar[lead, K.F_DT])
-        for s in slots:
-            self.ipar[s, K.I_CPL] = lead
-            self.ipar[s, K.I_CPLN] = G
         self.fpar[lead, K.F_BRB] = dt / resistance_ns_per_m
         self.fpar[lead, K.F_BRA] = math.exp(-2.0 * math.pi * return_hz * dt)
-        self.fpar[lead, K.F_BTDX] = float(np.sum(self.fpar[slots, K.F_TDX]))
         self.fst[lead, K.S_UB0] = 0.0
         self.fst[lead, K.S_UBM] = 0.0
+
+    def _check_member(self, s: int, lead: int) -> None:
+        ip = self.ipar[s]
+        if ip[K.I_FILT] != 1 or ip[K.I_OUT] != 1:
+            raise ValueError(f"slot {s} cannot hang on a bridge (it needs a lossy far end "
+                             f"and the bridge-force output)")
+        if ip[K.I_SUB] != self.ipar[lead, K.I_SUB]:
+            raise ValueError(f"slot {s} runs on another grid than slot {lead}")
+
+    def _chain(self, lead: int) -> None:
+        """Write the group's chain into the kernel's columns."""
+        mem = self._members[lead]
+        G = len(mem)
+        for i, m in enumerate(mem):
+            self.ipar[m, K.I_CPL] = lead
+            self.ipar[m, K.I_CPLN] = G
+            self.ipar[m, K.I_CPLNX] = mem[i + 1] if i + 1 < G else -1
+            self._leader[m] = lead
+        self.fpar[lead, K.F_BTDX] = float(np.sum(self.fpar[mem, K.F_TDX]))
+
+    def _unhook(self, s: int) -> None:
+        self.fst[s, K.S_UBP] = 0.0
+        self.ipar[s, K.I_CPL] = K.CPL_NONE
+        self.ipar[s, K.I_CPLN] = 0
+        self.ipar[s, K.I_CPLNX] = -1
+        self._leader[s] = -1
 
     def set_external_bridge(self, s: int, ease_s: float = 0.02) -> None:
         """Hang slot s (lossy, bridge-force output, no bend line; all such

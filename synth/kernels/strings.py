@@ -123,13 +123,17 @@ I_NSOS = 22      # dispersion: number of second-order allpass sections (0..MAX_S
 I_BUS = 23       # output buses: 0 bus 0 only; 1 split between buses 0 and 1 by F_PAN
 I_CPL = 24       # bridge coupling: CPL_NONE; the leader slot of a coupled group (>= 0);
                  #   or CPL_EXTERNAL (the bridge's motion comes from the ``ubx`` array)
-I_CPLN = 25      # strings in the coupled group (slots I_CPL .. I_CPL + I_CPLN - 1)
+I_CPLN = 25      # strings in the coupled group (its leader's row counts them)
 I_SUB = 26       # steps per engine sample (a finer grid: the string runs at I_SUB x the rate)
-I_NI = 27
+I_CPLNX = 27     # the next member of the coupled group after this one (-1: the last);
+                 #   a group is the chain leader -> ... (any slots, not only consecutive)
+I_NI = 28
 
 CPL_NONE = -1
 CPL_EXTERNAL = -2
-#: most strings in a coupled group (a piano key's unison)
+#: most strings in a coupled group by default (a piano key's unison); a bank
+#: sized for more (``max_group``: a sitar's taraf and its played strings on one
+#: bridge) holds :func:`coupled_scratch` samples more scratch
 MAX_CPL = 4
 #: finest grid: steps per engine sample
 MAX_SUB = 8
@@ -2092,15 +2096,22 @@ def _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking,
 #: x (C + 2) and y (C + 1) windows, and the bridge's row, for chunks of at most
 #: GROUP_CHUNK samples
 _CW = GROUP_CHUNK + 8
-_SCRATCH_CPL = (2 * MAX_CPL + 1) * _CW
 
 
-def scratch_length(max_block: int, max_region: int, max_bend: int) -> int:
+def coupled_scratch(max_group: int) -> int:
+    """Samples at the end of ``scratch`` for coupled groups of at most
+    ``max_group`` strings (a group of G uses its last (2 G + 1) _CW)."""
+    return (2 * int(max_group) + 1) * _CW
+
+
+def scratch_length(max_block: int, max_region: int, max_bend: int,
+                   max_group: int = MAX_CPL) -> int:
     """Samples of ``scratch`` that :func:`render_bank` needs for chunks of
-    at most ``max_block`` samples, regions of at most ``max_region`` points
-    and pitch-bend lines of at most ``max_bend`` samples."""
+    at most ``max_block`` samples, regions of at most ``max_region`` points,
+    pitch-bend lines of at most ``max_bend`` samples and coupled groups of
+    at most ``max_group`` strings."""
     return (_SCRATCH_GROUP + max_block + 3 * (max_block + max_region + 2 + 512) + max_bend
-            + max_block + 8 + _SCRATCH_CPL)
+            + max_block + 8 + coupled_scratch(max_group))
 
 
 def sub_length(max_block: int) -> int:
@@ -2297,7 +2308,7 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
 
 
 @njit(**JIT_OPTS)
-def _bridge(lead, G, fpar, fst, C, cw):
+def _bridge(lead, G, ipar, fpar, fst, C, cw):
     """The bridge of a coupled group over a chunk: from the members'
     loop-filter outputs z (their far-end windows in ``cw``), the bridge
     displacement u_b per sample by the recurrence
@@ -2312,20 +2323,23 @@ def _bridge(lead, G, fpar, fst, C, cw):
     outgoing wave y = z - u_b.  F(i) = f(i) + BTDX (u_b(i-1) - u_b(i)),
     where f, the force with the bridge held still, is summed over the
     members first (vectorised), so the serial recurrence is on u_b alone.
-    The bridge row of ``cw`` gets u_b of the sample before the chunk and of
-    its C samples (for the members' force outputs)."""
+    The bridge row of ``cw`` (after the G members' windows) gets u_b of the
+    sample before the chunk and of its C samples (for the members' force
+    outputs).  The members are the chain from ``lead`` (``I_CPLNX``)."""
     a = fpar[lead, F_BRA]
     b = fpar[lead, F_BRB]
     tdx_all = fpar[lead, F_BTDX]
     ub0 = fst[lead, S_UB0]
     ubm = fst[lead, S_UBM]
-    row = cw[2 * MAX_CPL * _CW:2 * MAX_CPL * _CW + C + 1]
+    row = cw[2 * G * _CW:2 * G * _CW + C + 1]
     fo = row[1:1 + C]
     for i in range(C):
         fo[i] = 0.0
+    s = lead
     for m in range(G):
         yb = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
-        t2 = 2.0 * fpar[lead + m, F_TDX]
+        t2 = 2.0 * fpar[s, F_TDX]
+        s = ipar[s, I_CPLNX]
         y_prev = yb[0]
         yb[0] = y_prev + ubm          # z(-1), the filter's own previous output
         zo = yb[1:1 + C]
@@ -2341,57 +2355,63 @@ def _bridge(lead, G, fpar, fst, C, cw):
         ub0 = a * ub0 + b * F
     fst[lead, S_UB0] = ub0
     fst[lead, S_UBM] = ubm
+    s = lead
     for m in range(G):
         yo = cw[(2 * m + 1) * _CW + 1:(2 * m + 1) * _CW + 1 + C]
         for i in range(C):
             yo[i] -= fo[i]
-        fst[lead + m, S_UBP] = ubm
+        fst[s, S_UBP] = ubm
+        s = ipar[s, I_CPLNX]
 
 
 @njit(**JIT_OPTS)
 def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist):
-    """C samples of a coupled group (the strings lead .. lead+G-1 on one
-    bridge) in lockstep on the fast path: excitation (running hammers
-    stepped together, :func:`_excite_group`), each string's region and
-    loop filter, the bridge (:func:`_bridge`), then each string's far-end
-    write and output.  C is within every member's fast-path limit."""
+    """C samples of a coupled group (the G strings of the chain from
+    ``lead`` on one bridge) in lockstep on the fast path: excitation
+    (running hammers stepped together, :func:`_excite_group`), each
+    string's region and loop filter, the bridge (:func:`_bridge`), then
+    each string's far-end write and output.  C is within every member's
+    fast-path limit, and at most GROUP members excite."""
     # ---- 2. excitation: member m's g row at scratch[row * _GROW:]
     # (the kinds are read before any step: a hammer that ends in this chunk
     # is EXC_ENDED afterwards and must not be injected again)
     nh = 0
+    s = lead
     for m in range(G):
-        s = lead + m
         _fold_if_ended(s, ring, ipar, fst)
         if ipar[s, I_EXC] >= EXC_HAMMER3:
             iw[nh] = s
             nh += 1
+        s = ipar[s, I_CPLNX]
     row = nh
+    s = lead
     for m in range(G):
-        s = lead + m
         exc = ipar[s, I_EXC]
         if exc != EXC_NONE and exc < EXC_HAMMER3:
             iw[row] = s
             row += 1
+        s = ipar[s, I_CPLNX]
     if nh > 0:
         _excite_group(ring, ipar, fpar, fst, C, iw, nh, scratch, ist)
     for r in range(nh, row):
         _excite_chunk(iw[r], ring, ipar, fpar, fst, U, C, scratch[r * _GROW:r * _GROW + C])
     # ---- 3. regions, and 4. the loop filters into the coupled area
     work = scratch[_SCRATCH_GROUP:]
-    cw = scratch[scratch.shape[0] - _SCRATCH_CPL:]
+    cw = scratch[scratch.shape[0] - (2 * G + 1) * _CW:]
+    s = lead
     for m in range(G):
-        s = lead + m
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         _region_step(s, ring, ipar, U, C, w1, w2, w3)
         _far_filter(s, ring, ipar, fpar, fst, U, C, cw[2 * m * _CW:2 * m * _CW + C + 2],
                     cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1], hb)
-    _bridge(lead, G, fpar, fst, C, cw)
+        s = ipar[s, I_CPLNX]
+    _bridge(lead, G, ipar, fpar, fst, C, cw)
+    s = lead
     for m in range(G):
-        s = lead + m
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         peak = fst[s, S_PEAK]
         pk = _far_write(s, ring, ipar, fpar, C, cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1],
-                        mix, o0, cw[2 * MAX_CPL * _CW:2 * MAX_CPL * _CW + C + 1], True)
+                        mix, o0, cw[2 * G * _CW:2 * G * _CW + C + 1], True)
         peak = pk if pk > peak else peak
         # this member's g row (for a displacement pickup while it plucks)
         r = -1
@@ -2401,6 +2421,7 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
         plucking = r >= 0
         gb = scratch[(r if r >= 0 else 0) * _GROW:(r if r >= 0 else 0) * _GROW + C]
         _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gb, plucking, False, peak)
+        s = ipar[s, I_CPLNX]
 
 
 @njit(**JIT_OPTS)
@@ -2417,9 +2438,11 @@ def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, on
         one[0] = ub0
         one[1] = 0.0
         cf = one[1:2]
+        s = lead
         for m in range(G):
-            _render_per_sample(lead + m, ring, ipar, fpar, fst, U, 1, o0 + i, mix, probe, one, 0,
+            _render_per_sample(s, ring, ipar, fpar, fst, U, 1, o0 + i, mix, probe, one, 0,
                                cf, po0 + i // psub, 1)
+            s = ipar[s, I_CPLNX]
         fst[lead, S_UBM] = ub0
         fst[lead, S_UB0] = a * ub0 + b * one[1]
 
@@ -2428,13 +2451,16 @@ def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, on
 def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub):
     """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
     lockstep fast-path chunks (:func:`_coupled_chunk`) as long as every
-    member allows one, else per sample (:func:`_coupled_per_sample`, a
-    member with a probe or telemetry takes the whole block that way)."""
+    member allows one and at most GROUP of them excite, else per sample
+    (:func:`_coupled_per_sample`, a member with a probe or telemetry takes
+    the whole block that way)."""
     G = ipar[lead, I_CPLN]
     diag = False
+    s = lead
     for m in range(G):
-        if ipar[lead + m, I_PROBE] >= 0 or ipar[lead + m, I_TELEM] != 0:
+        if ipar[s, I_PROBE] >= 0 or ipar[s, I_TELEM] != 0:
             diag = True
+        s = ipar[s, I_CPLNX]
     one = scratch[scratch.shape[0] - 2:]
     done = 0
     while done < n:
@@ -2442,11 +2468,13 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
         if C > GROUP_CHUNK:
             C = GROUP_CHUNK
         slow = diag
+        nexc = 0
+        s = lead
         for m in range(G):
-            s = lead + m
             exc = ipar[s, I_EXC]
             c = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
             if exc > EXC_NONE:
+                nexc += 1
                 left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
                 if left < c:
                     c = left
@@ -2454,6 +2482,9 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
                 slow = True
             elif c < C:
                 C = c
+            s = ipar[s, I_CPLNX]
+        if nexc > GROUP:
+            slow = True                # more excitations than the chunk's g rows
         if slow:
             if not diag and C > 64:
                 C = 64                 # look again soon: the fast path may apply
@@ -2506,7 +2537,10 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
 
     Strings whose hammer is running on the fast path render GROUP at a
     time (:func:`_render_group`); a coupled group (a piano key's unison on
-    its bridge) renders as a unit from its leader (:func:`_render_coupled`);
+    its bridge; a sitar's taraf with its played strings: the chain of
+    ``I_CPLNX`` from the leader) renders as a unit from its leader
+    (:func:`_render_coupled`; the leader must be active while it has
+    members, and ``scratch`` must hold :func:`coupled_scratch` of its size);
     a string or group on a finer grid (``I_SUB`` = M > 1) renders n M steps
     into ``sub`` and is added as the mean of each sample's M steps; the
     others render one by one.
