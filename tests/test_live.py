@@ -150,7 +150,9 @@ def test_engine_ignores_kinds_it_does_not_play():
     a = engine("sitar").render(note(57, 0.0, 0.8), duration_s=0.05)
     b = engine("sitar").render(note(57, 0.0, 0.8) + [Event(0.01, "aftertouch", -1, 0.7)],
                                duration_s=0.05)
-    assert np.array_equal(a, b) and np.max(np.abs(a)) > 1e-4
+    # (the event splits the block's render; the sitar's bridge group steps in
+    # other chunks then, the same samples to round-off)
+    assert np.max(np.abs(a - b)) < 1e-12 * np.max(np.abs(a)) and np.max(np.abs(a)) > 1e-4
     bend = live.normalise(mido.Message("pitchwheel", pitch=4096))
     c = engine("sitar").render(note(57, 0.0, 0.8) + [Event(0.01, bend.kind, bend.key, bend.value)],
                                duration_s=0.05)

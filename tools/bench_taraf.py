@@ -3,7 +3,7 @@
 Usage
 -----
     python tools/bench_taraf.py [--keys 43,55,60,67,74] [--velocity 100]
-                                [--seconds 4] [--runs 7] [--grid 1,2,4]
+                                [--seconds 4] [--runs 7] [--set taraf.coupling=4 ...]
                                 [--cpu-name {host,haswell,generic,all}]
     python tools/bench_taraf.py --quick      # CI: one short run, checks it runs
 
@@ -12,10 +12,12 @@ t = 0, ``Engine.render`` in its default blocks) with three variants of the
 shipped ``sitar`` preset, the engine built outside the timing:
 
 * ``bare``: no ``[taraf]``, no ``[chikari]``;
-* ``taraf``: the 11 taraf strings (no chikari), at each ``--grid``
-  (``taraf.grid``: steps per output sample of the taraf's strings);
-* ``both``: taraf and the two chikari (which a played note also sets
+* ``taraf``: the 11 taraf strings (no chikari), on one bridge with the
+  played string at the internal rate;
+* ``taraf and chikari``: the two chikari too (which a played note also sets
   ringing).
+
+``--set`` overrides (as ``synth note --set``) apply to every variant.
 
 The machine is noisy: the figures are medians over ``--runs`` of each
 variant's time over the bare one's in the same run.  Issue 12's target: a
@@ -37,16 +39,13 @@ import bench_ab  # noqa: E402  (tools/, on sys.path when run as a script)
 import cpu_target  # noqa: E402
 
 
-def variants(grids):
+def variants(overrides=()):
     from synth.io.presets import load_preset
 
-    p = load_preset("sitar")
-    out = {"bare": dataclasses.replace(p, taraf=None, chikari=None)}
-    for g in grids:
-        t = dataclasses.replace(p.taraf, grid=g)
-        out[f"taraf grid {g}"] = dataclasses.replace(p, taraf=t, chikari=None)
-        out[f"both grid {g}"] = dataclasses.replace(p, taraf=t)
-    return out
+    p = load_preset("sitar", list(overrides))
+    return {"bare": dataclasses.replace(p, taraf=None, chikari=None),
+            "taraf": dataclasses.replace(p, chikari=None),
+            "taraf and chikari": p}
 
 
 def run(preset, keys, velocity, seconds):
@@ -60,8 +59,8 @@ def main(argv=None) -> int:
     ap.add_argument("--velocity", type=float, default=100.0)
     ap.add_argument("--seconds", type=float, default=4.0)
     ap.add_argument("--runs", type=int, default=7)
-    ap.add_argument("--grid", default=None,
-                    help="taraf.grid values to time (default: the preset's)")
+    ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                    help="preset override for every variant (repeatable)")
     ap.add_argument("--quick", action="store_true", help="one short run (CI)")
     cpu_target.add_cpu_option(ap)
     a = ap.parse_args(argv)
@@ -75,11 +74,7 @@ def main(argv=None) -> int:
     if not (0.1 <= a.seconds <= 600):
         raise SystemExit(f"--seconds = {a.seconds} is out of range (0.1 <= value <= 600)")
     keys = [int(k) for k in a.keys.split(",")]
-    from synth.io.presets import load_preset
-
-    grids = ([int(g) for g in a.grid.split(",")] if a.grid
-             else [int(load_preset("sitar").taraf.grid)])
-    vs = variants(grids)
+    vs = variants(a.set)
     print(f"# {time.strftime('%Y-%m-%d %H:%M')}  NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')}")
     print(cpu_target.describe())
     for p in vs.values():
@@ -92,7 +87,7 @@ def main(argv=None) -> int:
     print(f"sitar; keys {keys}, velocity {a.velocity:g}, {a.seconds:g} s each, {a.runs} runs")
     for k, t in times.items():
         r = np.array(t) / base
-        print(f"{k:>14}: median {np.median(t):.3f} s, {np.median(r):.2f}x bare "
+        print(f"{k:>17}: median {np.median(t):.3f} s, {np.median(r):.2f}x bare "
               f"(range {r.min():.2f}-{r.max():.2f})")
     return 0
 

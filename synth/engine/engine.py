@@ -116,10 +116,23 @@ class Engine:
         #: output buses the strings write (the bridge's bass and treble ends)
         self.buses = int(instrument.buses)
         max_in = self.dec.inputs_needed(self.MAX_BLOCK_OUT) + 16
-        self.bank = StringBank(self.n_index * self.spv, sizes.max_cells,
-                               max_region=max(sizes.max_region, 1), max_block=4096,
+        #: the strings on the bridge that no key stops (a sitar's taraf and
+        #: chikari, :mod:`synth.engine.taraf`): in the bank after the voices'
+        #: slots, on one bridge with every sounding played string
+        td = instrument.taraf()
+        n_voice_slots = self.n_index * self.spv
+        n_taraf = 0 if td is None else len(td.slots) + len(td.drone_slots)
+        max_cells, max_region, max_group = sizes.max_cells, sizes.max_region, K.MAX_CPL
+        if td is not None:
+            max_cells = max(max_cells, td.max_cells)
+            max_region = max(max_region, td.max_region)
+            max_group = max(max_group, n_taraf + n_voice_slots)
+        self.bank = StringBank(n_voice_slots + n_taraf, max_cells,
+                               max_region=max(max_region, 1), max_block=4096,
                                n_probes=self.spv if probe else 0, max_gtable=sizes.max_gtable,
-                               max_bend=sizes.max_bend)
+                               max_bend=sizes.max_bend, max_group=max_group)
+        self.taraf = None if td is None else Taraf(td, self.bank, n_voice_slots,
+                                                   self.fs_in_exact)
         #: the body (soundboard) stage after decimation, if the instrument has one
         design = instrument.body()
         self.body = None if design is None else Body.from_design(fs_out, design)
@@ -159,12 +172,6 @@ class Engine:
                                                        self.MAX_BLOCK_OUT, self.silence_level)
         self._sym_dirty = True
         self._sym_events: list = []          # (output sample, lift, muted) within this block
-        #: the strings on the bridge that no key stops (a sitar's taraf and
-        #: chikari, :mod:`synth.engine.taraf`), or None
-        td = instrument.taraf(self.fs_out)
-        self.taraf = None if td is None else Taraf(td, self.fs_out, self.MAX_BLOCK_OUT,
-                                                   self.silence_level)
-        self._taraf_events: list = []        # (output sample, "strum" | "wake", velocity)
         #: the action's knocks: a unit pulse (its shape), and the force still
         #: to add to the buses (output samples from the block's start)
         self._knock_unit = knock_pulse(self.fs_out, 1.0, instrument.knock_duration_s())
@@ -220,7 +227,7 @@ class Engine:
         """Last block's peak output of every voice index (the loudest of its
         strings), in one array operation (a note-on with the pool full must
         not cost Python work per voice)."""
-        return self.bank.last_peak.reshape(self.n_index, self.spv).max(axis=1)
+        return self.bank.last_peak[:self.n_index * self.spv].reshape(self.n_index, self.spv).max(axis=1)
 
     def _quietest(self, candidates: list) -> int:
         lv = self._levels()
@@ -279,18 +286,19 @@ class Engine:
         if ev.kind == NOTE_ON and ev.value > 0:
             key = None if ev.key is None or ev.key < 0 else ev.key
             if self.taraf is not None:
-                j = self._out_sample(at)
                 if self.taraf.is_trigger(ev.channel, key):
                     # a stroke across the drones (no played note)
-                    self._taraf_events.append((j, "strum", float(ev.value)))
+                    self.taraf.strum(at, float(ev.value))
                     return
-                self._taraf_events.append((j, "wake", 0.0))
+                self.taraf.wake()
             v = self.by_key.get(vk)
             if v is not None and any(self.bank.is_active(s) for s in self._slots(v)):
                 # a sounding key is struck again on the same strings
                 vo = self.voices[v]
                 self.inst.note_on(self.bank, vo.slots, key, ev.value, f0_hz=ev.f0_hz,
                                   restrike=True, **self._extra(ev))
+                if self.taraf is not None:
+                    self.taraf.join(vo.slots)
                 vo.start, vo.released = at, False
                 self._released[v] = False
             else:
@@ -308,6 +316,8 @@ class Engine:
                         self.bank.deactivate(s)
                     return
                 self.voices[v] = _Voice(vk, at, slots, key, ev.f0_hz)
+                if self.taraf is not None:
+                    self.taraf.join(slots)
                 self._released[v] = False
                 self.by_key[vk] = v
                 if self.bend.get(ev.channel):
@@ -470,7 +480,20 @@ class Engine:
             bank.probe[:, :, :n_in] = 0.0
         cursor = 0
         pend = self._pending
-        while pend and pend[0][0] < end:
+        taraf = self.taraf
+        while True:
+            tp = None if taraf is None else taraf.next_pluck()
+            if tp is not None and tp < end and (not pend or tp < pend[0][0]):
+                # a drone of a stroke is plucked (a stroke's later strings
+                # come after their event)
+                off = max(tp - start, 0)
+                if off > cursor:
+                    bank.render(self.mix, cursor, off - cursor)
+                    cursor = off
+                taraf.pluck_due(start + off, off)
+                continue
+            if not (pend and pend[0][0] < end):
+                break
             at, _, ev = pend.pop(0)
             off = max(at - start, 0)
             if off > cursor:
@@ -490,8 +513,7 @@ class Engine:
             self._probe.append(bank.probe[:, :, :n_in].copy())
         if self.n_dec < self.buses:
             mix[0] += mix[1]                  # a mono body: the bridge's two ends summed
-        if (self.sym is not None or self.taraf is not None or self._knocking
-                or self.n_dec > self.channels):
+        if self.sym is not None or self._knocking or self.n_dec > self.channels:
             d = self._dout[:, :n_out]
             for c in range(self.n_dec):
                 self.decs[c].process(mix[c], d[c])
@@ -506,8 +528,6 @@ class Engine:
                 self._knocking = bool(kb[:, :L].any())
             if self.sym is not None:
                 self._sympathetic_block(d, n_out)
-            if self.taraf is not None:
-                self._taraf_block(d, n_out)
             y = self._finish(d, n_out, out)
         elif self.channels == 1:
             y = self.dec.process(mix[0], self._out[0] if out is None else out)
@@ -550,24 +570,6 @@ class Engine:
             self._sym_dirty = False
         sym.process(d, c0, n_out - c0)
         sym.reap(n_out, idle=self.bank.n_active == 0)
-
-    def _taraf_block(self, d: np.ndarray, n_out: int) -> None:
-        """The taraf and chikari, driven by the played strings' force in
-        ``d`` (the decimated buses), added to it; strokes and note-ons act
-        at their output samples."""
-        taraf = self.taraf
-        c0 = 0
-        for j, kind, value in self._taraf_events:
-            j = min(max(int(j), c0), n_out)
-            taraf.process(d, c0, j - c0)
-            c0 = j
-            if kind == "strum":
-                taraf.strum(taraf.t, value)
-            else:
-                taraf.wake()
-        self._taraf_events.clear()
-        taraf.process(d, c0, n_out - c0)
-        taraf.reap(n_out, idle=self.bank.n_active == 0)
 
     def _finish(self, d: np.ndarray, n_out: int, out) -> np.ndarray:
         """The output block from the decimated buses ``d``: through the body,
@@ -624,6 +626,10 @@ class Engine:
         if len(done) == 0 or self.inst.study:
             return
         done = done.tolist()
+        if self.taraf is not None:
+            # the bridge's own strings go only while nothing is played
+            self.taraf.reap(done, idle=not self.voices)
+            done = [s for s in done if not self.taraf.owns(s)]
         for s in done:
             bank.deactivate(s)
         for v in {s // self.spv for s in done}:

@@ -87,20 +87,18 @@ class TarafDesign:
     sympathetic strings (taraf), always free, ringing with whatever the
     played strings and the drones put into the bridge, and its drone strings
     (chikari), strummed by a key range or a MIDI channel and ringing along
-    too.  The engine runs them at its output rate times ``grid``
-    (:class:`synth.engine.taraf.Taraf`).
+    too.  The engine runs them in its bank, at its internal rate, on one
+    bridge with the played strings (:class:`synth.engine.taraf.Taraf`).
 
     slots : tuple of SlotTemplate   the taraf strings (lossy, bridge-force
-                                    output, ``sub`` = grid; no dampers)
+                                    output, at the voice's rate; no dampers)
     keys : tuple of int             the MIDI key each is tuned to
     drone_slots : tuple of SlotTemplate  the drone strings (as ``slots``)
     drone_keys : tuple of int       their tunings
-    grid : int                      steps per output sample
-    resistance_ns_per_m : float     the bridge as the strings hang on it:
-                                    u_b = integral of F / R (N s/m)
+    resistance_ns_per_m : float     the bridge all of them and the played
+                                    strings hang on: u_b = integral of F / R
+                                    (N s/m)
     return_hz : float               its spring's slow return (Hz)
-    force_per_unit : float          N of bridge force per unit of the played
-                                    strings' output (1 / their output gain)
     trigger : tuple (lo, hi) or None  MIDI keys that strum the drones
     channel : int or None           MIDI channel (0-15) whose notes strum them
     pluck : DronePluck              how the drones are plucked
@@ -112,10 +110,8 @@ class TarafDesign:
     keys: tuple
     drone_slots: tuple
     drone_keys: tuple
-    grid: int
     resistance_ns_per_m: float
     return_hz: float
-    force_per_unit: float
     trigger: tuple | None
     channel: int | None
     pluck: DronePluck
@@ -317,8 +313,8 @@ class Voice:
         its key is not itself sounding."""
         return None
 
-    def taraf(self, fs_out: float) -> TarafDesign | None:
+    def taraf(self) -> TarafDesign | None:
         """The strings on the bridge that no key stops (sympathetic taraf
-        and drone chikari), designed at the engine's output rate ``fs_out``
-        (Hz), or None (the default: none)."""
+        and drone chikari), designed at the voice's internal rate, or None
+        (the default: none)."""
         return None

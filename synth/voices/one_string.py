@@ -291,7 +291,7 @@ class OneStringVoice(Voice):
     #: the bridge's slow spring under the taraf (Hz): keeps u_b from drifting
     BRIDGE_RETURN_HZ = 5.0
 
-    def _bridge_string(self, key: int, length_m: float, U_of, fs: float, grid: int, k_frac: float):
+    def _bridge_string(self, key: int, length_m: float, U_of, fs: float, k_frac: float):
         """One string on the bridge, tuned to ``key`` at rate ``fs`` (Hz):
         the ``[taraf]`` material (T = mu (2 L f0)^2, B from the first taraf
         key's as 1/T), its decay, and the profile ``U_of(dx)``.  Returns
@@ -323,7 +323,7 @@ class OneStringVoice(Voice):
                             gain=self.preset.output.gain, tension_over_dx=T / dx,
                             b0=loop.b0, a1=loop.a1, eta=loop.eta,
                             extra_delay=loop.extra_delay, lossy=True, n_disp=n_disp,
-                            a_disp=a_disp, glide_s=StringBank.LOSS_GLIDE_S, sub=grid)
+                            a_disp=a_disp, glide_s=StringBank.LOSS_GLIDE_S)
         return tpl, loop.cells, 0 if U is None else len(U)
 
     def knock_impulse_ns(self, key, velocity: float, speed_m_per_s: float | None = None) -> float:
@@ -343,9 +343,10 @@ class OneStringVoice(Voice):
         d = getattr(p, "bachi_duration_s", None)
         return float(d) if d else super().knock_duration_s()
 
-    def taraf(self, fs_out: float) -> TarafDesign | None:
-        """The ``[taraf]`` and ``[chikari]`` strings at ``fs_out`` x
-        ``taraf.grid`` (Hz), or None without a ``[taraf]`` table.
+    def taraf(self) -> TarafDesign | None:
+        """The ``[taraf]`` and ``[chikari]`` strings at the voice's internal
+        rate (the played strings': one bridge steps them all), or None
+        without a ``[taraf]`` table.
 
         Taraf: one string per ``taraf.keys``, on a jawari of its own
         (:func:`synth.physics.profiles.jawari` with the table's radius,
@@ -361,13 +362,12 @@ class OneStringVoice(Voice):
         t = self.preset.taraf
         if t is None or self.study or t.coupling <= 0.0:
             return None
-        grid = int(t.grid)
-        fs = float(fs_out) * grid
+        fs = float(self.fs)
         own = Termination(jawari(t.radius_m, t.extent_m, t.thread_m), 1, int(t.region_points))
         slots, keys, drones, dkeys = [], [], [], []
         max_cells, max_region = 8, 1
         for key in t.keys:
-            tpl, cells, R = self._bridge_string(key, t.length_m, own.sample, fs, grid, 0.5)
+            tpl, cells, R = self._bridge_string(key, t.length_m, own.sample, fs, 0.5)
             slots.append(tpl)
             keys.append(int(key))
             max_cells, max_region = max(max_cells, cells), max(max_region, R)
@@ -382,7 +382,7 @@ class OneStringVoice(Voice):
             amps, durs = [], []
             ls = c.length_m / self.open_string.length_m
             for key in c.keys:
-                tpl, cells, R = self._bridge_string(key, c.length_m, U_of, fs, grid, pos)
+                tpl, cells, R = self._bridge_string(key, c.length_m, U_of, fs, pos)
                 drones.append(tpl)
                 dkeys.append(int(key))
                 max_cells, max_region = max(max_cells, cells), max(max_region, R)
@@ -396,9 +396,9 @@ class OneStringVoice(Voice):
             channel = None if c.channel == 0 else int(c.channel) - 1
             strum = float(c.strum_s)
         R = t.bridge_resistance_ns_per_m / t.coupling
-        return TarafDesign(tuple(slots), tuple(keys), tuple(drones), tuple(dkeys), grid, R,
-                           self.BRIDGE_RETURN_HZ, 1.0 / self.preset.output.gain, trigger,
-                           channel, pluck, strum, max_cells, max_region)
+        return TarafDesign(tuple(slots), tuple(keys), tuple(drones), tuple(dkeys), R,
+                           self.BRIDGE_RETURN_HZ, trigger, channel, pluck, strum, max_cells,
+                           max_region)
 
     # -- voice contract ------------------------------------------------------------
     def set_buzz(self, bank: StringBank, value: float, sounding=()) -> None:

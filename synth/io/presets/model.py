@@ -185,9 +185,8 @@ class TarafSpec:
     length m, linear density kg/m, B at the first key), their decay (T60 s
     at their own pitch and at ``f_high_hz``), the bridge they hang on
     (resistance N s/m, ``coupling`` factor on its admittance, 0: a rigid
-    bridge, no taraf and no chikari;
-    ``grid`` steps per output sample) and their jawari (radius, extent,
-    thread m, region grid points)."""
+    bridge, no taraf and no chikari; the played strings hang on it too) and
+    their jawari (radius, extent, thread m, region grid points)."""
 
     keys: tuple[int, ...]
     length_m: float
@@ -198,7 +197,6 @@ class TarafSpec:
     f_high_hz: float
     bridge_resistance_ns_per_m: float
     coupling: float
-    grid: int
     radius_m: float
     extent_m: float
     thread_m: float

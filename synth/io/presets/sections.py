@@ -200,12 +200,11 @@ SECTIONS: tuple[Section, ...] = (
         Field("t60_low_s", "float", "free decay T60 at each string's own pitch, s", 0.05, 120.0),
         Field("t60_high_s", "float", "free decay T60 at f_high_hz, s", 0.01, 120.0),
         Field("f_high_hz", "float", "high reference frequency of the decay, Hz", 500.0, 20000.0),
-        Field("bridge_resistance_ns_per_m", "float", "the main bridge as the strings hang on it "
-              "(the tabli's driving point): u_b = integral of F / R, N s/m", 1.0, 1e5),
+        Field("bridge_resistance_ns_per_m", "float", "the main bridge that the played strings, "
+              "the taraf and the chikari hang on (the tabli's driving point): u_b = integral "
+              "of F / R, N s/m", 1.0, 1e5),
         Field("coupling", "float", "factor on that bridge's admittance (0: a rigid bridge, "
               "the played string alone: no taraf and no [chikari])", 0.0, 4.0),
-        Field("grid", "int", "steps per output sample the strings run at (their jawari's grid; "
-              "cost x this)", 1, 8),
         Field("radius_m", "float", "taraf jawari surface radius, m", 0.01, 100.0),
         Field("extent_m", "float", "taraf jawari length from its far edge to the thread, m",
               1e-3, 0.1),
