@@ -33,7 +33,11 @@ def test_the_region_keeps_its_length_in_metres(name, rate):
     design_m = p.termination.region_points * L / p.grid.cells
     v, su, dx = _setup(name, rate)
     n = v.termination.points
-    assert len(su.U) == n if su.U is not None else True
+    # the string's region: those points (within its first third), less the
+    # trailing ones out of reach (+inf: past the profile's end)
+    full = v.termination.sample(dx)[: max(1, min(n, su.cells // 3))]
+    assert su.U is not None and np.array_equal(su.U, full[:len(su.U)])
+    assert np.all(np.isinf(full[len(su.U):])) and np.isfinite(su.U[-1])
     # covers the design length, and not more than one cell beyond it
     assert n * dx >= design_m * (1 - 1e-9)
     assert (n - 1) * dx < design_m * (1 + 1e-9)
@@ -94,3 +98,31 @@ def test_a_musical_preset_scales_from_325_khz():
 def test_rate_scale_out_of_range_is_one_clear_error():
     with pytest.raises(ValueError, match="rate_scale"):
         Termination(sawari(2.0, 0.01), -1, 10, rate_scale=0.0)
+
+
+def test_points_out_of_reach_are_trimmed_and_the_samples_do_not_change():
+    """``trim_unreachable`` drops a region's trailing +-inf points (past a
+    profile's end); the string's samples stay the same to round-off, and
+    a region no point of which can be touched is none at all."""
+    from synth.dsp.bank import StringBank
+    from synth.kernels import strings as K
+    from synth.physics.profiles import trim_unreachable
+
+    U = np.array([1e-4, 2e-4, 4e-4, np.inf, np.inf, np.inf, np.inf])
+    assert trim_unreachable(U).tolist() == [1e-4, 2e-4, 4e-4]
+    assert trim_unreachable(-U)[-1] == -4e-4
+    assert trim_unreachable(np.full(5, np.inf)) is None and trim_unreachable(None) is None
+    dx, dt = 1e-3, 1e-5
+    outs = []
+    for region in (U, trim_unreachable(U)):
+        b = StringBank(1, 400, 16, 1024)
+        b.configure(0, cells=300, k=200, dt_s=dt, U=(region - 3e-4), out_mode=0, lossy=True,
+                    b0=0.999, a1=-0.01, eta=0.1)
+        b.activate(0)
+        b.start_pluck(0, K.EXC_SITAR, 0.002, 0.0008)
+        y = np.zeros(6000)
+        for o in range(0, 6000, 500):
+            b.render(y, o, 500)
+        outs.append(y)
+        assert b.ipar[0, K.I_REG_N] == len(region)
+    assert np.max(np.abs(outs[0] - outs[1])) < 1e-12 * np.max(np.abs(outs[0]))

@@ -50,7 +50,8 @@ from ..dsp.bank import StringBank, slot_template
 from ..kernels import strings as K
 from ..physics.dispersion import tune_stiff_loop
 from ..physics.losses import allpass_for_phase_delay, tune_loop
-from ..physics.profiles import Termination, buzz_profile, jawari, termination_from_spec
+from ..physics.profiles import (Termination, buzz_profile, jawari, termination_from_spec,
+                                trim_unreachable)
 from ..physics.string import IdealString, fretted_string, midi_key_to_hz
 from .base import BankSizes, DronePluck, TarafDesign, Voice
 from .exciters import PLUCK_MODELS
@@ -209,7 +210,7 @@ class OneStringVoice(Voice):
             # a very short (high, fretted) string keeps the region within its
             # first third, below the pluck point (3/4): the obstacle then
             # reaches as far along this string as it can
-            U = U[: max(1, min(len(U), cells // 3))]
+            U = trim_unreachable(U[: max(1, min(len(U), cells // 3))])
         k = int(round(self.excitation_position * cells))
         k = min(max(k, 1), cells - 1)
         bl = blen if (not self.study and not own and pre.play.pitch_bend_semitones > 0) else 0
@@ -317,7 +318,7 @@ class OneStringVoice(Voice):
         dx = st.c_m_per_s * dt
         U = U_of(dx)
         if U is not None:
-            U = U[: max(1, min(len(U), loop.cells // 3))]
+            U = trim_unreachable(U[: max(1, min(len(U), loop.cells // 3))])
         k = min(max(int(round(k_frac * loop.cells)), 1), loop.cells - 2)
         tpl = slot_template(cells=loop.cells, k=k, dt_s=dt, U=U, side=1, out_mode=1,
                             gain=self.preset.output.gain, tension_over_dx=T / dx,
