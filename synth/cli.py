@@ -3,8 +3,10 @@
     synth demo [-o demo.wav]
     synth presets
     synth note PRESET [--key K | --f0 HZ] [--velocity V] [--seconds S]
-               [--internal-rate HZ] [--set PATH=VALUE ...] -o OUT.wav [--probe OUT.npy]
-    synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] [--max-seconds S] -o OUT.wav
+               [--internal-rate HZ] [--quality LEVEL | --max-error CENTS,DB]
+               [--set PATH=VALUE ...] -o OUT.wav [--probe OUT.npy]
+    synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] [--max-seconds S]
+                 [--quality LEVEL | --max-error CENTS,DB] -o OUT.wav
     synth check SPEC.toml [...] [--shipped] [--junit OUT.xml]
     synth analyze AUDIO.wav|PRESET [--key K | --f0 HZ] [--velocity V] [--json] [--plot OUT.png]
     synth play --preset PRESET [--midi-port NAME] [--audio-device NAME] [--block N]
@@ -46,6 +48,41 @@ def _check_output(path: str, option: str) -> None:
     d = os.path.dirname(os.path.abspath(path))
     if not os.path.isdir(d):
         _fail(f"{option} {path}: directory {d} does not exist")
+
+
+def _add_quality(p) -> None:
+    """--quality and --max-error on a command that builds an engine."""
+    p.add_argument("--quality", choices=("draft", "standard", "reference"),
+                   help="how finely the strings are computed (default: the preset's "
+                        "play.quality, standard); docs/quality.md gives each level's error "
+                        "and cost")
+    p.add_argument("--max-error", metavar="CENTS,DB",
+                   help="the cheapest quality level whose measured error for this preset is "
+                        "within CENTS (partial frequencies) and DB (partial levels), e.g. 1,1 "
+                        "(docs/quality.md)")
+
+
+def _quality_overrides(args) -> list:
+    """The ``--set`` overrides for --quality or --max-error (none without)."""
+    q = getattr(args, "quality", None)
+    me = getattr(args, "max_error", None)
+    if q is not None and me is not None:
+        _fail("--quality and --max-error are exclusive: give one of them")
+    if me is not None:
+        from .voices.quality import cheapest_within
+
+        try:
+            c, d = (float(v) for v in me.split(","))
+        except ValueError:
+            _fail(f"--max-error = {me!r} is not CENTS,DB (two numbers, e.g. 0.5,1)")
+        name = getattr(args, "preset", None)
+        if name is not None and str(name).endswith(".toml"):
+            name = os.path.splitext(os.path.basename(str(name)))[0]
+        try:
+            q = cheapest_within(c, d, name).name
+        except ValueError as e:
+            _fail(f"--max-error: {e}")
+    return [] if q is None else [f"play.quality={q}"]
 
 
 def _engine_for(preset_name: str, overrides, internal_rate=None, probe=False, low_key=None):
@@ -104,6 +141,7 @@ def cmd_note(args) -> int:
         _check_output(args.contact_log, "--contact-log")
     if args.hammer_speed is not None and not (0.01 <= args.hammer_speed <= 20.0):
         _fail(f"--hammer-speed = {args.hammer_speed} is out of range (0.01 <= value <= 20 m/s)")
+    args.set = list(args.set) + _quality_overrides(args)
     low = args.key if args.key is not None else None
     if args.f0 is not None:
         low = int(math.floor(69 + 12 * math.log2(args.f0 / 440.0)))
@@ -129,8 +167,9 @@ def cmd_note(args) -> int:
     el = time.perf_counter() - t
     info = _write(args.output, y, eng.fs_out, args.pcm24)
     pitch = inst.pitch_hz(args.key, f0)
+    q = "" if inst.study else f" ({inst.quality.name})"
     print(f"{args.output}: {args.seconds:g} s of {args.preset} at {pitch:.2f} Hz, "
-          f"internal rate {inst.fs:.1f} Hz, {info}, rendered in {el:.2f} s")
+          f"internal rate {inst.fs:.1f} Hz{q}, {info}, rendered in {el:.2f} s")
     if args.probe:
         from .io.wav import write_npy_atomic
 
@@ -206,6 +245,7 @@ def cmd_render(args) -> int:
     from .apps.render import RenderRequest, render_midi
 
     _check_output(args.output, "-o")
+    args.set = list(args.set) + _quality_overrides(args)
     req = RenderRequest(midi_file=args.midi_file, preset=args.preset, output=args.output,
                         overrides=tuple(args.set), internal_rate=args.internal_rate,
                         pcm24=args.pcm24, max_seconds=args.max_seconds)
@@ -223,6 +263,7 @@ def cmd_play(args) -> int:
         return 0
     if args.preset is None:
         _fail("play needs --preset PRESET (see `synth presets`), or --list-ports")
+    args.set = list(args.set) + _quality_overrides(args)
     programs = live.ProgramMap.parse(args.program_map, args.preset)
     player = live.Player(args.preset, programs, block=args.block,
                          latency_s=None if args.latency_ms is None else args.latency_ms / 1e3,
@@ -426,6 +467,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "325000, or the study grid's own rate)")
     n.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
                    help="override a preset value, e.g. --set pluck.position=0.7 (repeatable)")
+    _add_quality(n)
     n.add_argument("-o", "--output", required=True, help="output WAV file (48 kHz)")
     n.add_argument("--probe", help="also save u(l, t) at the pluck point (m, internal rate, float64 .npy)")
     n.add_argument("--pcm24", action="store_true", help="write 24-bit PCM instead of 32-bit float")
@@ -449,6 +491,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--preset", required=True)
     r.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
     r.add_argument("--internal-rate", type=float)
+    _add_quality(r)
     r.add_argument("-o", "--output", required=True)
     r.add_argument("--pcm24", action="store_true")
     r.add_argument("--max-seconds", type=float, metavar="S",
@@ -497,6 +540,7 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
                     help="override a value of --preset, e.g. --set play.polyphony=32 "
                          "(repeatable)")
+    _add_quality(pl)
     pl.add_argument("--stats", action="store_true",
                     help="show block time, voices and underruns once a second, and the "
                          "latest note's contacts per string (hammer, termination)")

@@ -37,6 +37,7 @@ from typing import ClassVar, NamedTuple
 
 from ..dsp.bank import StringBank
 from ..physics.soundboard import KNOCK_DURATION_S, BodyDesign
+from .quality import quality_level
 
 
 @dataclass(frozen=True)
@@ -147,13 +148,18 @@ class Voice:
         A validated preset whose ``voice`` is one of the class's registered
         names.
     fs_internal : float or None
-        Internal rate (Hz); None: the voice's default (``DEFAULT_RATE``).
+        Internal rate (Hz); None: the voice's default (``DEFAULT_RATE``)
+        times the preset's quality level's factor (``play.quality``,
+        :mod:`synth.voices.quality`).
 
     Attributes
     ----------
     preset : Preset
     fs : float
         The internal rate the voice's strings run at (Hz).
+    quality : synth.voices.quality.QualityLevel
+        The preset's quality level (its stiffness filters' tolerance; its
+        rate unless ``fs_internal`` is given).
     study : bool
         A study preset (the thesis's experiments): the engine then keeps
         its strings until the render ends instead of freeing silent ones.
@@ -172,7 +178,9 @@ class Voice:
             raise ValueError(f"voice = {preset.voice!r} is not handled by {type(self).__name__} "
                              f"(it plays: {', '.join(self.names)})")
         self.preset = preset
-        self.fs = float(fs_internal or self.DEFAULT_RATE)
+        play = getattr(preset, "play", None)
+        self.quality = quality_level(getattr(play, "quality", None))
+        self.fs = float(fs_internal or self.DEFAULT_RATE * self.quality.rate_factor)
 
     # -- what the engine allocates ---------------------------------------------
     @property

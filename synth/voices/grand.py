@@ -91,7 +91,8 @@ _DESIGNS: dict = {}
 #: note, it only keeps the dashpot from drifting (at 5 Hz its reactance
 #: flattened A0's single string by 1.2 cents; at 1 Hz by 0.2)
 BRIDGE_RETURN_HZ = 1.0
-#: each string's partials within this of the stiff-string law (cents): 1.2
+#: each string's partials within this of the stiff-string law (cents) at the
+#: standard quality level (synth.voices.quality; reference: 0.5): 1.2
 #: leaves room for the unison's spread and the coupled strings' pull, so the
 #: note's partials stay within 2 cents (1.5 left 2.1-2.7 cents on some bass
 #: keys' partials 17-21; the design's cost: 5 % more sections than at 2)
@@ -138,7 +139,7 @@ class GrandPianoInstrument(Voice):
         # per-key designs are shared by every instrument of the same preset
         # and rate in this process (designing a key takes ~17 ms)
         self._keys: dict[int, tuple[GrandStringSetup, ...]] = _DESIGNS.setdefault(
-            (preset, self.fs), {})
+            (preset, self.fs, self.quality.dispersion_tol_cents), {})
         st = preset.strings
         self._capo = capo(st.capo_radius_m)
 
@@ -264,7 +265,7 @@ class GrandPianoInstrument(Voice):
         # 40 (or 10 kHz) within 2 cents of the stiff-string law, designed once
         # for the key and retuned for each string of its unison
         key_loop = tune_stiff_loop_sos(f1, B, fs, t_lo, f1, t_hi, max(gs.f_high_hz, 1.5 * f1),
-                                       tol_cents=DISPERSION_TOL_CENTS,
+                                       tol_cents=self.quality.dispersion_tol_cents,
                                        m_max=sp.dispersion_sections)
         for j, det in enumerate(gs.unison_detune_cents):
             fj = f1 * 2.0 ** (det * sp.detune_scale / 1200.0)

@@ -108,8 +108,7 @@ class OneStringVoice(Voice):
             self.cells = int(cells)
             self.fs = self.cells * c / sp.length_m
         else:
-            self.cells = None
-            self.fs = float(fs_internal or self.DEFAULT_RATE)
+            self.cells = None          # (self.fs: the quality level's rate, Voice.__init__)
         if not (20_000 <= self.fs <= 2_000_000):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (20000 <= value <= 2000000)")
         # the region keeps its metres at any rate: region_points counts at

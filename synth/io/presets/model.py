@@ -253,6 +253,7 @@ class PlaySpec:
     polyphony: int
     pitch_bend_semitones: float
     buzz_cc: int | None = None
+    quality: str = "standard"
 
 
 @dataclass(frozen=True)

@@ -51,6 +51,7 @@ __all__ = [
     "PLUCK_MODELS",
     "PROFILES",
     "SIGNALS",
+    "QUALITIES",
     "SCHEMA_FIELDS",
     "SECTIONS",
 ]
@@ -76,6 +77,9 @@ PROFILES = (
     "table",
 )
 SIGNALS = ("displacement", "bridge_force")
+#: quality levels, cheapest first (synth.voices.quality: each one's rate,
+#: filters and measured error)
+QUALITIES = ("draft", "standard", "reference")
 
 _PROFILE = "termination.profile"
 
@@ -326,5 +330,9 @@ SECTIONS: tuple[Section, ...] = (
         Field("buzz_cc", "int", "MIDI controller that sets termination.buzz live (1: the "
               "modulation wheel; the pedals 64, 66, 67 stay the engine's)", 1, 119,
               when=_ONE_STRING, default=1),
+        Field("quality", "str", "how finely the strings are computed: draft (half the internal "
+              "rate), standard (325 kHz), reference (twice, finer stiffness filters); "
+              "docs/quality.md gives each one's error and cost", choices=QUALITIES,
+              default="standard"),
     ), when=When("kind", ("musical",)), checks=(OrderCheck("key_low", "<=", "key_high"),)),
 )
