@@ -197,3 +197,36 @@ def test_npy_failure_leaves_previous_file(tmp_path, monkeypatch):
         write_npy_atomic(p, np.zeros(1000))
     assert np.array_equal(np.load(p), np.ones(3))
     assert os.listdir(tmp_path) == ["x.npy"]
+
+
+@pytest.mark.parametrize("subtype", ["float", "pcm24"])
+def test_a_streamed_wav_is_the_same_file(tmp_path, subtype):
+    """write_wav_stream, fed blocks, writes what write_wav writes of their
+    concatenation (samples, peak, clipped count)."""
+    from synth.io.wav import write_wav_stream
+
+    rng = np.random.default_rng(4)
+    a = rng.uniform(-1.2, 1.2, (10_001, 2))
+    r1 = write_wav(tmp_path / "a.wav", a, 48_000, subtype)
+    r2 = write_wav_stream(tmp_path / "b.wav", (a[i:i + 997] for i in range(0, len(a), 997)),
+                          48_000, 2, subtype)
+    assert r1 == r2
+    assert np.array_equal(sf.read(tmp_path / "a.wav")[0], sf.read(tmp_path / "b.wav")[0])
+
+
+def test_a_bad_block_leaves_no_streamed_file(tmp_path):
+    from synth.io.errors import SynthError
+    from synth.io.wav import write_wav_stream
+
+    out = tmp_path / "x.wav"
+    out.write_bytes(b"old")
+
+    def blocks(bad):
+        yield np.zeros(100)
+        yield bad
+
+    for bad, msg in [(np.array([0.0, np.nan]), "1 non-finite samples .* at frame 100"),
+                     (np.zeros((5, 2)), r"shape \(5, 2\)")]:
+        with pytest.raises(SynthError, match=msg):
+            write_wav_stream(out, blocks(bad), 48_000, 1)
+        assert out.read_bytes() == b"old" and len(list(tmp_path.iterdir())) == 1

@@ -268,6 +268,43 @@ class _Progress:
         self.bar.close()
 
 
+class _Cut:
+    """The render's blocks cut at ``n_max`` samples (None: not cut), the
+    last ``n_fade`` of them held back until the render ends: when it is cut
+    (``cut`` known beforehand: the file was cut at --max-seconds; or found
+    now: the release tail ran past it) they fade out (:func:`_fade_out`),
+    as they did on the whole render in memory.  After the iteration,
+    :attr:`cut` says whether it was."""
+
+    def __init__(self, blocks, n_max: int | None, n_fade: int, cut: bool) -> None:
+        self.blocks, self.n_max, self.n_fade, self.cut = blocks, n_max, int(n_fade), bool(cut)
+
+    def __iter__(self):
+        held = None
+        total = 0
+        for b in self.blocks:
+            if self.n_max is not None and total + len(b) > self.n_max:
+                b = b[: self.n_max - total]
+                self.cut = True
+            total += len(b)
+            held = b if held is None else np.concatenate([held, b])
+            if len(held) > self.n_fade:
+                yield held[: len(held) - self.n_fade]
+                held = held[len(held) - self.n_fade:]
+            if self.n_max is not None and total >= self.n_max:
+                self.cut = self.cut or self._more()
+                break
+        if held is not None and len(held):
+            if self.cut:
+                held = held.copy()
+                _fade_out(held, self.n_fade)
+            yield held
+
+    def _more(self) -> bool:
+        """Whether the render goes on past ``n_max`` (one more block)."""
+        return next(iter(self.blocks), None) is not None
+
+
 def _fade_out(y: np.ndarray, n: int) -> None:
     """A raised-cosine fade over the last `n` samples of `y` ((frames,) or (frames, channels)), in place."""
     n = min(n, len(y))
@@ -324,7 +361,7 @@ def render_midi(req: RenderRequest, *, log: Callable[[str], None] | None = None,
 def _render(req: RenderRequest, log, stream) -> RenderResult:
     from ..io.factory import build_engine
     from ..io.midi import midi_to_events, read_midi_file     # looked up now: tests patch them
-    from ..io.wav import wav_max_frames, write_wav
+    from ..io.wav import wav_max_frames, write_wav_stream
 
     shown = display_path(req.midi_file)
     events = midi_to_events(read_midi_file(req.midi_file))
@@ -350,29 +387,26 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
                          f"file holds ({format_length(limit_s)}); give --max-seconds "
                          f"(0 < value <= {math.floor(limit_s)} s)")
     bar = _Progress(plan.expected_s, fs, stream, f"rendering {shown}") if _is_terminal(stream) else None
+    if plan.duration_s is not None:
+        blocks = eng.render_blocks(plan.events, duration_s=plan.duration_s, progress=bar)
+    else:
+        blocks = eng.render_blocks(plan.events, tail_s=TAIL_S, max_tail_s=plan.max_tail_s,
+                                   progress=bar)
+    n_max = None if req.max_seconds is None else int(round(req.max_seconds * fs))
+    cut = _Cut(blocks, n_max, int(round(CUT_FADE_S * fs)), plan.cut)
     t = time.perf_counter()
     try:
-        if plan.duration_s is not None:
-            y = eng.render(plan.events, duration_s=plan.duration_s, progress=bar)
-        else:
-            y = eng.render(plan.events, tail_s=TAIL_S, max_tail_s=plan.max_tail_s, progress=bar)
+        # written as rendered: the whole render is never in memory
+        res = write_wav_stream(req.output, cut, fs, eng.channels, subtype)
     finally:
         if bar is not None:
             bar.close()
     el = time.perf_counter() - t
-    if req.max_seconds is not None:
-        n_max = int(round(req.max_seconds * fs))
-        if plan.cut or len(y) > n_max:
-            if not plan.cut:
-                log(f"note: the sound is cut at {format_length(req.max_seconds)} "
-                    f"(--max-seconds {req.max_seconds:g}), before it has died away")
-            y = y[:n_max]
-            _fade_out(y, int(round(CUT_FADE_S * fs)))
-    audio = y.astype(np.float32)
-    del y
-    res = write_wav(req.output, audio, fs, subtype)
+    if cut.cut and not plan.cut:
+        log(f"note: the sound is cut at {format_length(req.max_seconds)} "
+            f"(--max-seconds {req.max_seconds:g}), before it has died away")
     clip = f", {res.n_clipped} samples clipped" if res.n_clipped else ""
-    dur = len(audio) / fs
+    dur = res.frames / fs
     summary = (f"{req.output}: {dur:.1f} s, {len(plan.keys)} notes on {req.preset}, "
                f"peak {res.peak_dbfs:.1f} dBFS{clip}, "
                f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)")

@@ -680,29 +680,57 @@ class Engine:
         Returns float64 audio at ``fs_out``, shape (n,) (mono) or (n,
         channels), aligned so that an event at t sounds at t (the
         decimator's integer latency and the limiter's are removed).
+        (:meth:`render_blocks` gives the same samples a block at a time.)
         """
+        chunks = list(self.render_blocks(events, duration_s, tail_s, max_tail_s, block,
+                                         compensate_latency, progress))
+        if chunks:
+            return np.concatenate(chunks)
+        return np.zeros(0) if self.channels == 1 else np.zeros((0, self.channels))
+
+    def render_blocks(self, events, duration_s: float | None = None, tail_s: float = 1.0,
+                      max_tail_s: float = 30.0, block: int = 1024,
+                      compensate_latency: bool = True, progress=None):
+        """:meth:`render`'s samples as a generator of blocks (each a new
+        array, (frames,) mono or (frames, channels)), rendered as they are
+        asked for: a long render is written out without being held
+        (``synth render``, :func:`synth.io.wav.write_wav_stream`)."""
         events = list(events)
         self.schedule(events)
         lat = self.latency_samples if compensate_latency else 0
         last = max((e.time_s for e in events), default=0.0)
-        chunks = []
         n_done = 0
+        skip = lat                         # output samples still to drop (the latency)
+
+        def emit(y):
+            nonlocal skip
+            if skip >= y.shape[-1]:
+                skip -= y.shape[-1]
+                return None
+            y = y[..., skip:]
+            skip = 0
+            return y.copy() if self.channels == 1 else np.array(y.T, order="C")
+
         if duration_s is not None:
             total = int(round(duration_s * self.fs_out)) + lat
             while n_done < total:
                 n = min(block, total - n_done)
-                chunks.append(self.render_block(n).copy())
+                y = emit(self.render_block(n))
                 n_done += n
                 if progress is not None:
                     progress(n_done)
+                if y is not None:
+                    yield y
         else:
             hard = int((last + max_tail_s) * self.fs_out) + lat
             quiet_after = None
             while n_done < hard:
-                chunks.append(self.render_block(block).copy())
+                y = emit(self.render_block(block))
                 n_done += block
                 if progress is not None:
                     progress(n_done)
+                if y is not None:
+                    yield y
                 t = n_done / self.fs_out
                 if (t > last and not self._pending and not self.voices
                         and (self.taraf is None or self.taraf.n_active == 0)):
@@ -710,8 +738,3 @@ class Engine:
                         quiet_after = n_done + int(tail_s * self.fs_out) + lat
                     if n_done >= quiet_after:
                         break
-        if self.channels == 1:
-            y = np.concatenate(chunks) if chunks else np.zeros(0)
-            return y[lat:]
-        y = np.concatenate(chunks, axis=1) if chunks else np.zeros((self.channels, 0))
-        return np.ascontiguousarray(y[:, lat:].T)

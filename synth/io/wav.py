@@ -21,7 +21,7 @@ import errno
 import math
 import os
 import secrets
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import BinaryIO
 
@@ -30,7 +30,7 @@ import soundfile as sf
 
 from synth.io.errors import SynthError, display_path
 
-__all__ = ["WavWriteResult", "write_wav", "write_npy_atomic", "write_text_atomic", "write_bytes_atomic",
+__all__ = ["WavWriteResult", "write_wav", "write_wav_stream", "write_npy_atomic", "write_text_atomic", "write_bytes_atomic",
            "wav_max_frames", "FS_MIN_HZ", "FS_MAX_HZ", "SUBTYPES"]
 
 FS_MIN_HZ = 8000
@@ -216,6 +216,102 @@ def write_wav(path: str | os.PathLike[str], audio: np.ndarray, fs: int,
     _atomic_write(path, write)
     return WavWriteResult(frames=int(frames), channels=int(channels),
                           peak_dbfs=peak_dbfs, n_clipped=n_clipped)
+
+
+def write_wav_stream(path: str | os.PathLike[str], blocks: Iterable[np.ndarray], fs: int,
+                     channels: int, subtype: str = "float") -> WavWriteResult:
+    """Write audio to a WAV file atomically, block by block as ``blocks``
+    yields them: a render of hours holds one block in memory, not the
+    whole of it (at 48 kHz a 3-hour stereo render is 8.3 GB of float64).
+
+    Parameters
+    ----------
+    path : str or path-like
+        Destination file; replaced atomically if it exists, once the last
+        block is written.
+    blocks : iterable of numpy.ndarray
+        Real samples, each ``(frames,)`` (mono) or ``(frames, channels)``,
+        full scale = 1.0, finite; consumed while the file is written (an
+        exception it raises, a signal's among them, leaves no file).
+    fs : int
+        Sample rate, Hz, 8000..384000.
+    channels : int
+        Channels of every block, 1..64.
+    subtype : {"float", "pcm24"}
+        As :func:`write_wav`.
+
+    Returns
+    -------
+    WavWriteResult
+        As :func:`write_wav`, over all the blocks.
+
+    Raises
+    ------
+    SynthError
+        As :func:`write_wav`; a block with non-finite samples or of the
+        wrong shape, or more frames than a WAV file holds, stops the write
+        and leaves nothing at `path`.
+    """
+    shown = display_path(path)
+    if isinstance(fs, bool) or not isinstance(fs, (int, np.integer)) or not (
+            FS_MIN_HZ <= int(fs) <= FS_MAX_HZ):
+        raise SynthError(f"{shown}: fs = {fs!r} is out of range (an integer sample rate, "
+                         f"{FS_MIN_HZ} <= fs <= {FS_MAX_HZ} Hz)")
+    fs = int(fs)
+    if subtype not in SUBTYPES:
+        raise SynthError(f"{shown}: subtype = {subtype!r} is not allowed (choices: 'float', 'pcm24')")
+    if not (1 <= int(channels) <= MAX_CHANNELS):
+        raise SynthError(f"{shown}: channels = {channels!r} is out of range "
+                         f"(1 <= value <= {MAX_CHANNELS})")
+    channels = int(channels)
+    limit = wav_max_frames(channels, subtype)
+    sf_subtype = "FLOAT" if subtype == "float" else "PCM_24"
+    tally = {"frames": 0, "peak": 0.0, "clipped": 0}
+
+    def write(f: BinaryIO) -> None:
+        f.flush()
+        snd = sf.SoundFile(f.fileno(), mode="w", samplerate=fs, channels=channels,
+                           subtype=sf_subtype, format="WAV", closefd=False)
+        try:
+            for block in blocks:
+                a = np.asarray(block)
+                if a.ndim == 1:
+                    a = a[:, None]
+                if a.ndim != 2 or a.shape[1] != channels or a.dtype.kind != "f":
+                    raise SynthError(f"{shown}: a block has shape {np.shape(block)} and dtype "
+                                     f"{a.dtype}, expected real samples (frames, {channels})")
+                n_bad = int(a.size - np.count_nonzero(np.isfinite(a)))
+                if n_bad:
+                    raise SynthError(f"{shown}: audio has {n_bad} non-finite samples (NaN or "
+                                     f"inf) in a block at frame {tally['frames']}; nothing written")
+                tally["frames"] += a.shape[0]
+                if tally["frames"] > limit:
+                    raise SynthError(f"{shown}: more than {limit} frames x {channels} channels "
+                                     f"is too long for a WAV file (4 GiB limit); nothing written")
+                if a.size:
+                    tally["peak"] = max(tally["peak"], float(a.max()), float(-a.min()))
+                if subtype == "float":
+                    data = np.ascontiguousarray(a, dtype=np.float32)
+                else:
+                    tally["clipped"] += int(np.count_nonzero((a > _PCM24_MAX) | (a < -1.0)))
+                    q = np.clip(np.rint(a * _PCM24_SCALE), -_PCM24_SCALE, _PCM24_SCALE - 1.0)
+                    data = np.ascontiguousarray(q.astype(np.int32) << 8)
+                snd.write(data)
+            snd.close()                   # the header's sizes
+        except sf.LibsndfileError as e:
+            raise _libsndfile_failure(snd, e) from None
+        finally:
+            if not snd.closed:
+                try:
+                    snd.close()
+                except sf.SoundFileError:
+                    pass                  # the first error is the one to report
+
+    _atomic_write(path, write)
+    peak = tally["peak"]
+    return WavWriteResult(frames=tally["frames"], channels=channels,
+                          peak_dbfs=20.0 * math.log10(peak) if peak > 0 else -math.inf,
+                          n_clipped=tally["clipped"])
 
 
 def write_npy_atomic(path: str | os.PathLike[str], array: np.ndarray) -> None:
