@@ -730,3 +730,31 @@ def test_browser_answers_reach_the_server(browser, cmp2, tmp_path):
         ("srv", str(i + 1), x, "1") for i, x in enumerate(xs)]
     assert float(rows[-1]["p_value"]) == binomial_p_value(4, 4)
     _no_console_errors(browser)
+
+
+def test_a_long_midi_file_plays_its_first_minutes(tmp_path, monkeypatch):
+    """A --midi file longer than a listening page plays
+    (``MAX_MIDI_SECONDS``, 10 min) is cut there, with a note, instead of
+    rendering for as long as the file lasts (here the limit is set to 2 s)."""
+    import mido
+
+    import synth.apps.compare as C
+
+    monkeypatch.setattr(C, "MAX_MIDI_SECONDS", 2.0)
+    mid = mido.MidiFile(ticks_per_beat=480)
+    tr = mido.MidiTrack()
+    mid.tracks.append(tr)
+    tr += [mido.Message("note_on", note=60, velocity=90, time=0),
+           mido.Message("note_off", note=60, velocity=0, time=480),
+           mido.Message("note_on", note=64, velocity=90, time=480 * 20),
+           mido.Message("note_off", note=64, velocity=0, time=480)]
+    mid.save(tmp_path / "long.mid")
+    out = tmp_path / "m"
+    lines = []
+    make_comparison(CompareRequest(("biwa", "harpsichord"), str(out),
+                                   midi=str(tmp_path / "long.mid")), log=lines.append)
+    assert any("rendering its first 2.0 s" in ln and "a listening page plays at most" in ln
+               for ln in lines), lines
+    for i in "AB":
+        x, fs = sf.read(out / f"{i}.wav")
+        assert len(x) == 2 * FS

@@ -83,6 +83,10 @@ MAX_TRIALS = 1000
 TOLERANCE_LU = 0.1
 #: a stimulus must be at least one BS.1770 block long (s)
 MIN_SECONDS = 0.4
+#: the longest stimulus a page plays from a --midi file (s): a longer file's
+#: first 10 minutes (a file of hours rendered for minutes with no sign of
+#: life, issue 13)
+MAX_MIDI_SECONDS = 600.0
 #: columns of an answer row: the page's CSV and the server's answers.csv
 ANSWER_COLUMNS = ("listener", "time", "test", "trial", "a", "b", "x", "choice", "correct",
                   "score", "n", "p_value", "stimulus", "rating")
@@ -217,7 +221,7 @@ def _read_wav(stim: Stimulus) -> tuple[np.ndarray, list[str]]:
     return x, notes
 
 
-def _render_preset(stim: Stimulus, req: CompareRequest, events, keys) -> _Rendered:
+def _render_preset(stim: Stimulus, req: CompareRequest, events, keys, plan=None) -> _Rendered:
     from synth.engine.engine import Event
     from synth.io.factory import build_engine
 
@@ -246,7 +250,10 @@ def _render_preset(stim: Stimulus, req: CompareRequest, events, keys) -> _Render
             if out_of:
                 notes.append(f"{stim.text}: {out_of} of {len(keys)} notes are outside the range "
                              f"{lo}..{hi}; they are played on the string retuned or fretted to that pitch")
-        x = eng.render(events, tail_s=0.5)
+        if plan is not None and plan.cut:
+            x = eng.render(events, duration_s=plan.duration_s)
+        else:
+            x = eng.render(events, tail_s=0.5)
         f0 = None
     if np.ndim(x) == 2:
         notes.append(f"{stim.text}: stereo, compared as the mean of its channels (mono)")
@@ -534,11 +541,19 @@ def make_comparison(req: CompareRequest, log: Callable[[str], None] = print) -> 
     out = _check_out_dir(req.out_dir)
     stims = [parse_stimulus(s) for s in req.stimuli]
     events = keys = None
+    plan = None
     if req.midi is not None:
+        from synth.apps.render import format_length, plan_render
+
         events = midi_to_events(read_midi_file(req.midi))
-        keys = [int(e.key) for e in events if e.kind == "note_on" and e.value > 0]
-        if not keys:
+        if not any(e.kind == "note_on" and e.value > 0 for e in events):
             raise SynthError(f"--midi {req.midi}: the file has no notes to play")
+        plan = plan_render(events, MAX_MIDI_SECONDS, f"--midi {req.midi}")
+        for line in plan.notes:
+            log(line.replace(f"(--max-seconds {MAX_MIDI_SECONDS:g})",
+                             f"(a listening page plays at most "
+                             f"{format_length(MAX_MIDI_SECONDS)})"))
+        events, keys = plan.events, plan.keys
     for s in stims:  # every preset and override checked before the first render
         if s.kind == "preset":
             load_preset(s.source, s.overrides)
@@ -549,7 +564,7 @@ def make_comparison(req: CompareRequest, log: Callable[[str], None] = print) -> 
             hint = _et_hz(req.key) if req.key is not None and req.midi is None else None
             rendered.append(_Rendered(s, x, hint, notes))
         else:
-            rendered.append(_render_preset(s, req, events, keys))
+            rendered.append(_render_preset(s, req, events, keys, plan))
     for r in rendered:
         for note in r.notes:
             log(f"note: {note}")
