@@ -26,7 +26,11 @@ _SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF)
 _HAMMER_COLS = np.array([K.F_HQ, K.F_HP, K.F_HA, K.F_HT, K.F_HREL, K.F_HE, K.F_HK, K.F_HMC,
                          K.F_HDZ, K.F_HD, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F_HPE,
                          K.F_HP1, K.F_HP0, K.F_HFA, K.F_HFB, K.F_HFPHI, K.F_HC2, K.F_HC3]
-                        + [K.F_HB4 + j for j in range(7)], dtype=np.int64)
+                        + [K.F_HB4 + j for j in range(7)] + [K.F_HTOL, K.F_HTOLG], dtype=np.int64)
+#: the felt solver's default tolerance: a correction changing the felt's
+#: compression by less than this (relative) ends the step; Halley's
+#: iteration is cubic, so the next one would change it by ~1e-15
+SOLVER_TOL = 1e-5
 #: those proportional to the felt stiffness (scaled by the soft pedal)
 _HAMMER_Q_COLS = np.array([K.F_HQ, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F_HFA, K.F_HFB,
                            K.F_HFPHI], dtype=np.int64)
@@ -132,8 +136,15 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
 def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: float,
                     alpha_or_gamma: float, tau0_s: float, tension_n: float, c_m_per_s: float,
                     dt_s: float, max_flight_s: float = 0.05,
-                    release_s: float = 0.004) -> HammerTemplate:
-    """Validate a felt hammer once (parameters as :meth:`StringBank.start_hammer`)."""
+                    release_s: float = 0.004, solver_tol: float = SOLVER_TOL) -> HammerTemplate:
+    """Validate a felt hammer once (parameters as :meth:`StringBank.start_hammer`).
+
+    ``solver_tol`` (1e-12 .. 0.1): the felt solver stops when a correction
+    changes the compression w by at most this, relative, or g by at most
+    1e-8 of it (:data:`SOLVER_TOL`, 1e-5: to round-off; a work-precision
+    knob, docs/work-precision.md)."""
+    if not (1e-12 <= solver_tol <= 0.1):
+        raise ValueError(f"solver_tol = {solver_tol!r} is out of range (1e-12 <= value <= 0.1)")
     if law not in (K.EXC_HAMMER3, K.EXC_HAMMER4):
         raise ValueError(f"law = {law!r} is not allowed ({K.EXC_HAMMER3}: three-parameter, "
                          f"{K.EXC_HAMMER4}: four-parameter)")
@@ -170,7 +181,8 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
     v = np.array([Q, p, A, tau0, max(1.0, round(release_s / dt_s)), E, Kk, mc,
                   dz, D, Kk * ca, Kk * cby, Kk * cbp, Kk * ca * D * p, pe, p1, p0, fa, fb, fphi,
                   0.5 * p * (p - 1.0), p * (p - 1.0) * (p - 2.0) / 6.0]
-                 + [math.prod(p - i for i in range(j)) / math.factorial(j) for j in range(4, 11)])
+                 + [math.prod(p - i for i in range(j)) / math.factorial(j) for j in range(4, 11)]
+                 + [float(solver_tol), 1e-13 if solver_tol == SOLVER_TOL else 1e-8 * solver_tol])
     return HammerTemplate(int(law), v, max(1, int(round(max_flight_s / dt_s))), float(dt_s))
 
 
@@ -602,7 +614,8 @@ class StringBank:
     def start_hammer(self, s: int, *, law: int, mass_kg: float, speed_m_per_s: float,
                      stiffness: float, exponent: float, alpha_or_gamma: float,
                      tau0_s: float, tension_n: float, c_m_per_s: float,
-                     max_flight_s: float = 0.05, release_s: float = 0.004) -> None:
+                     max_flight_s: float = 0.05, release_s: float = 0.004,
+                     solver_tol: float = SOLVER_TOL) -> None:
         """Strike slot s with a felt hammer (eq. 1.4) from its next sample.
 
         law : ``K.EXC_HAMMER3``, three-parameter felt (eq. 1.5; ``stiffness``
@@ -619,7 +632,8 @@ class StringBank:
         t = hammer_template(law=law, mass_kg=mass_kg, stiffness=stiffness, exponent=exponent,
                             alpha_or_gamma=alpha_or_gamma, tau0_s=tau0_s, tension_n=tension_n,
                             c_m_per_s=c_m_per_s, dt_s=float(self.fpar[s, K.F_DT]),
-                            max_flight_s=max_flight_s, release_s=release_s)
+                            max_flight_s=max_flight_s, release_s=release_s,
+                            solver_tol=solver_tol)
         self.start_hammer_from(s, t, speed_m_per_s)
 
     def start_hammer_from(self, s: int, t: HammerTemplate, speed_m_per_s: float,

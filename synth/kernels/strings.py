@@ -206,7 +206,10 @@ F_BTDX = F_BRB + 1
 F_UBOD = F_BTDX + 1   # external bridge: the offset S_UBOFF decays by this factor per sample
 F_TOR = F_UBOD + 1    # pitch bend: the tune-out S_TO decays by this factor per sample
 F_TOG = F_TOR + 1     # and the bend line reads F_TOG S_TO samples further back
-F_NF = F_TOG + 1
+F_HTOL = F_TOG + 1    # hammer solver: stop when a correction changes w by at most this,
+                      #   relative (1e-5: the next would be ~1e-15; Halley's is cubic)
+F_HTOLG = F_HTOL + 1  # or changes g by at most this, relative (1e-13 with 1e-5)
+F_NF = F_HTOLG + 1
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -285,7 +288,8 @@ def _hammer_steady(I1, g0, fp, st):
     C(p, 10) e0^10: error < 1e-18 for |e0| < 0.05) instead of a power, and
     two Halley corrections follow, the second with w^p by a fifth-order
     Taylor step (error < 1e-16 for a first correction below 1e-3).  One
-    test at the end says whether the result is the solution to round-off;
+    test at the end says whether the result is the solution to round-off
+    (the second correction within the solver's tolerance F_HTOL);
     if not (contact starting or ending, a jump of the incoming wave),
     nothing has been written and the last return value is False: the caller
     takes the general step.  Kept small so that it inlines and the steps of
@@ -340,7 +344,8 @@ def _hammer_steady(I1, g0, fp, st):
     inv = 1.0 / (2.0 * Aw * Aw + r * kh * y)
     x2 = x1 - 2.0 * r * w * Aw * inv
     e2 = 2.0 * D * r * Aw * inv
-    if (-0.05 < e0 < 0.05 and -1e-3 < e1 < 1e-3 and -1e-5 < e2 < 1e-5
+    etol = fp[F_HTOL]
+    if (-0.05 < e0 < 0.05 and -1e-3 < e1 < 1e-3 and -etol < e2 < etol
             and imp > 0.0 and imp2 > 0.0 and w > 0.0 and x2 > 0.0):
         y1 = y * (1.0 + e2 * (p + e2 * (c2 + e2 * c3)))
         st[S_HDG3] = h2
@@ -604,8 +609,8 @@ def _hammer_general(I1, g0, fp, st):
     Newton's step, which converges from any start, monotonically from the
     left after its first step, with no bracket, where Halley's denominator
     says the iterate is far from the root.  It stops when a correction
-    changes w by less than 1e-5 relative (the next would be ~1e-15) or x by
-    less than 1e-13 of g.  One power per step, as exp(p ln w) (later
+    changes w by less than F_HTOL relative (1e-5 by default: the next would
+    be ~1e-15) or x by less than F_HTOLG of g (1e-13).  One power per step, as exp(p ln w) (later
     iterates update w^p by a Taylor step in the relative change of w,
     which the step gives with its one division).  A-stable (the stiff felt
     terms are integrated exactly), second order.  Returns (g1, F1, w1,
@@ -645,7 +650,8 @@ def _hammer_general(I1, g0, fp, st):
         x = 0.0
     y = 0.0
     e = 1.0              # relative change of w to this iterate (>= 1e-4: pow)
-    tol_g = 1e-13 * (abs(g0) + 1e-30)
+    etol = fp[F_HTOL]
+    tol_g = fp[F_HTOLG] * (abs(g0) + 1e-30)
     for it in range(60):
         w = W0 - D * x
         if w > 0.0:
@@ -690,8 +696,8 @@ def _hammer_general(I1, g0, fp, st):
             if W0 - D * x <= 0.0:
                 y = 0.0
                 break
-        elif -1e-5 <= e <= 1e-5:
-            # converged (the next step would change w by ~e^3 < 1e-15):
+        elif -etol <= e <= etol:
+            # converged (the next step would change w by ~e^3: < 1e-15 at 1e-5):
             # w^p at the final point by a third-order step
             y = y * (1.0 + e * (p + e * (c2 + e * c3)))
             break

@@ -18,10 +18,12 @@ and, the same at every level, for these reasons:
   trim_unreachable`): shortening it further changes the wave by 7e-2 to
   0.28 (docs/work-precision.md, "termination region"), lengthening it
   changes nothing;
-* the hammer's felt solver: Newton's iteration to a relative step of 1e-13
-  (round-off; it converges quadratically, so a looser tolerance would save
-  one iteration of a few in a step that is a small part of a struck
-  note's cost).
+* the hammer's felt solver: Halley's iteration until a correction changes
+  the felt's compression by less than 1e-5, relative (round-off: the next
+  would be ~1e-15).  Looser saves at most a fifth of a strike's 12 us at
+  325 kHz (1e-3: 1.2e-10 of g(t)), nothing at 1.3 MHz, and a strike is a
+  few microseconds of a note (docs/work-precision.md, "the hammer's felt
+  solver").
 
 Each level's error is measured against the same notes at 1.3 MHz with
 0.5-cent stiffness filters, the finest setting of the work-precision
