@@ -687,3 +687,26 @@ def test_cost_well_under_one_percent_of_a_core(io):
         best = min(best, (time.perf_counter() - t0) / (FS // 128 * 128))
     fraction = best * FS
     assert fraction < 0.01, f"{best * 1e9:.1f} ns per sample = {100 * fraction:.2f} % of a core"
+
+
+@pytest.mark.parametrize("inputs,outputs", [(1, 1), (2, 2), (2, 1), (1, 2)])
+def test_a_dry_body_runs_no_modes_and_gives_the_direct_part(inputs, outputs):
+    """At wet = 0 the body passes the direct part (its dry mapping) without
+    running the modes: the kernel's output at wet = 1e-300 to round-off,
+    also when writing in place; the modes then start from rest."""
+    rng = np.random.default_rng(inputs * 10 + outputs)
+    x = rng.standard_normal((inputs, 3000))
+    ys = []
+    for wet in (0.0, 1e-300):
+        b = Body(48_000, n_modes=32, seed=3, wet=wet, inputs=inputs, outputs=outputs)
+        xi = x[0] if inputs == 1 else x
+        ys.append(np.concatenate([np.atleast_2d(b.process(xi[..., i:i + 700]).copy())
+                                  for i in range(0, 3000, 700)], axis=-1))
+        if wet == 0.0:
+            assert not np.any(b._state)
+    assert np.max(np.abs(ys[0] - ys[1])) < 1e-14
+    if inputs == outputs:
+        b = Body(48_000, n_modes=32, seed=3, wet=0.0, inputs=inputs, outputs=outputs)
+        xx = (x[0] if inputs == 1 else x).copy()
+        b.process(xx, out=xx)
+        assert np.max(np.abs(np.atleast_2d(xx) - ys[1])) < 1e-14

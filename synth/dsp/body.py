@@ -307,6 +307,12 @@ class Body:
             out = output_block(out, n, "len(x)")
             if n == 0:
                 return out[:0]
+            if self._wet == 0.0:
+                # the direct part alone (dry gain 1): the modes are not run
+                # (a render with body.wet = 0 spends nothing on them; they
+                # start from rest if wet is raised later)
+                out[:n] = x
+                return out[:n]
             target = out if out.flags.c_contiguous else np.empty(n, dtype=np.float64)
             _kernel_mono(x, n, self._coefs_mono, self._state, self.dry_gain, self.wet_gain, target)
             if target is not out:
@@ -315,6 +321,19 @@ class Body:
         x2 = self._inputs(x)
         n = x2.shape[1]
         target, result = self._outputs(out, n)
+        if n and self._wet == 0.0:
+            # the direct part alone, output c = sum_b dry[c, b] x_b (as the
+            # kernel's direct path); the modes are not run
+            xb = x2[:, :n]
+            if np.shares_memory(target, xb):
+                xb = xb.copy()
+            B = self.inputs
+            for c in range(target.shape[0]):
+                row = target[c, :n]
+                np.multiply(xb[0], self._dry2[c, 0], out=row)
+                for b in range(1, B):
+                    row += self._dry2[c, b] * xb[b]
+            return result
         if n:
             _kernel_mimo(x2, n, self._drive2, self._gains2, self.coefs, self._state, self._dry2,
                          self.wet_gain, target)
