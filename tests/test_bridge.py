@@ -394,3 +394,27 @@ def test_an_open_bridge_frees_its_members_alone_and_its_leader_last():
     b.join(1, 2)
     b.configure(2, cells=defs[2]["N"], k=5, dt_s=dt, U=None, out_mode=1, lossy=True)
     assert b.group(1) == (1,) and b.ipar[2, K.I_CPL] == K.CPL_NONE
+
+
+def test_a_bridge_too_soft_for_its_strings_is_refused():
+    """The bridge's explicit step reflects a string's wave by
+    (1 - r z^-1) / (1 + r z^-1), r = dt sum(T/dx) / R, the strings' summed
+    impedance over the resistance: more than 1 above fs/4 ((1 + r) / (1 - r)
+    at Nyquist), which only the strings' own loss can absorb, and unstable
+    outright from r = 1 (tools/stress.py found the sitar's taraf blowing up
+    at 1 N s/m).  couple and join refuse r > 0.5 with one line naming the
+    value and the least resistance."""
+    rng = np.random.default_rng(5)
+    dt, defs = _group(rng, 3, False, region=False)
+    z = sum(d["tdx"] for d in defs) * dt
+    b = _bank_for(defs, dt, False, cap=4)
+    with pytest.raises(ValueError, match=r"resistance_ns_per_m = .* is out of range for the strings"
+                                         r" on this bridge \(value >= "):
+        b.couple([0, 1, 2], 1.9 * z)
+    b.couple([0, 1, 2], 2.05 * z, 0.0)
+    b2 = _bank_for(defs, dt, False, cap=4)
+    b2.open_bridge(0, 1.5 * z)
+    b2.join(0, 1)
+    with pytest.raises(ValueError, match="out of range for the strings on this bridge"):
+        b2.join(0, 2)
+    assert b2.group(0) == (0, 1)
