@@ -524,6 +524,28 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--junit", metavar="OUT.xml", help="also write the results as JUnit XML")
     c.set_defaults(func=cmd_check)
 
+    fe = sub.add_parser("felt", help="the felt wave lab: dispersion, velocities, attenuation of "
+                        "deformation waves in hammer felt (thesis chapter 2)")
+    fe.add_argument("what", choices=("dispersion", "velocities", "attenuation"),
+                    help="dispersion: omega and mu against a real wavenumber (initial value "
+                         "problem); velocities: phase and group velocity, the negative-group-"
+                         "velocity region; attenuation: a harmonic load's wave against its "
+                         "frequency (boundary value problem)")
+    fe.add_argument("--felt", choices=("thesis", "pub3"),
+                    help="the felt: the thesis's (eqs. 2.12-2.13, the default) or Publication "
+                         "III's; SI columns are added")
+    fe.add_argument("--delta", type=float, help="the dimensionless model's delta = 1 - gamma "
+                    "alone (0 < value <= 1), instead of a felt")
+    fe.add_argument("--gamma", type=float, help="hereditary amplitude of the felt (0 <= value < 1)")
+    fe.add_argument("--tau0-us", type=float, help="relaxation time of the felt, microseconds")
+    fe.add_argument("--max", type=float, default=6.0,
+                    help="largest wavenumber k (dispersion, velocities) or frequency omega "
+                         "(attenuation), in the units of eq. 2.11 (default 6)")
+    fe.add_argument("--points", type=int, default=25, help="rows (default 25)")
+    fe.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    fe.add_argument("--plot", metavar="OUT.png", help="also draw a PNG (needs the [plots] extra)")
+    fe.set_defaults(func=cmd_felt)
+
     pl = sub.add_parser("play", help="play a preset live from a MIDI keyboard (needs the [live] extra)")
     pl.add_argument("--preset", help="preset played first (program 0), see `synth presets`")
     pl.add_argument("--midi-port", metavar="NAME",
@@ -588,6 +610,27 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--port", type=int, help="port for --serve (default 8765; 0: any free port)")
     c.set_defaults(func=cmd_compare)
     return p
+
+
+def cmd_felt(args) -> int:
+    """The felt wave lab's tables (synth.apps.felt)."""
+    import json
+
+    from .apps.felt import format_table, make_request, plot_table, table
+
+    if args.plot is not None:
+        _check_output(args.plot, "--plot")
+    req = make_request(args.what, args.felt, args.delta, args.gamma,
+                       None if args.tau0_us is None else args.tau0_us * 1e-6, args.max,
+                       args.points)
+    t = table(req)
+    print(json.dumps(t, indent=1) if args.json else format_table(t))
+    if args.plot is not None:
+        from dataclasses import replace
+
+        # the curves finely, whatever the table's rows
+        plot_table(table(replace(req, points=1000)), args.plot)
+    return 0
 
 
 def main(argv=None) -> int:

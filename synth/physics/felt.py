@@ -1,0 +1,275 @@
+"""The hammer's wool felt as a medium: thesis chapter 2 (Publications III, IV).
+
+The felt's stress follows the hereditary power law (eqs. 2.1-2.3)
+
+    sigma = E_d [eps^p - R * eps^p],   R(t) = (gamma / tau0) exp(-t / tau0),
+
+with dynamic modulus E_d (fast loading, eq. 2.4) and static modulus
+E_s = E_d (1 - gamma) (slow loading, eq. 2.5); the relaxation parameter is
+delta = 1 - gamma.  With rho u_tt = sigma_x (eq. 2.6) the deformation waves
+obey eq. 2.7; in the units of eqs. 2.8-2.9 (time alpha0 = tau0 / delta,
+length l0 = c_s alpha0, velocity c_s = sqrt(E_s / rho); c_d = sqrt(E_d /
+rho) = c_s / sqrt(delta)) the strain eps = u_x obeys eq. 2.11
+
+    (eps^p)_xx - eps_tt + (eps^p)_xxt - delta eps_ttt = 0.
+
+Linear waves (p = 1), eps ~ exp(i k x - i Omega t), satisfy eq. 2.16
+
+    k^2 (1 - i Omega) = Omega^2 (1 - i delta Omega),
+
+read two ways: the initial value problem (real wavenumber k, complex
+frequency Omega = omega + i mu: :func:`dispersion`, :func:`velocities`;
+thesis section 2.2) and the boundary value problem (real frequency omega,
+complex wavenumber kappa = k + i lambda, lambda the attenuation per unit
+distance: :func:`attenuation`; Publication III eqs. 31-43, thesis
+section 2.3).
+
+Closed forms found here (not in the thesis, which gives the thresholds
+numerically; derivation in docs/felt.md): with Omega = -i s, eq. 2.16 is the
+real cubic delta s^3 - s^2 + k^2 s - k^2 = 0, whose complex pair is the
+propagating wave.  Writing C = gamma / delta, its branch is
+mu = -(C - e) / 2, omega^2 = (C - e) [(e + 1) / e - (C - e) / 4],
+k^2 = delta (C - e) (e + 1)^2 / e for e in (0, C); from it
+
+* negative group velocity exists iff 2 (C - 2)^3 > 27 C, i.e. for
+  delta < 0.1346427873 (:func:`ngv_threshold`; thesis "0.1345",
+  Publication IV "0.135");
+* normal dispersion (v_ph > v_gr) for k < k_* with
+  k_*^2 = 4 (C - 4) (C + 1)^2 / ((C - 2)^2 (C + 4)), which is sqrt 3 at
+  delta = 1/9 and 0 from delta = 1/5 on (:func:`normal_dispersion_limit`;
+  the thesis: "0 <= k_* < sqrt 3", "k_* = 0 for delta >= 0.2");
+* for delta < 1/9 a band of k has no propagating wave (the band gap of
+  Publication V): where 4 delta k^4 - (1 + 18 delta - 27 delta^2) k^2 + 4 < 0.
+
+Everything here is numpy, dimensionless unless a name carries a unit;
+:class:`Felt` converts to SI.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["Felt", "THESIS_FELT", "PUB3_FELT", "dispersion", "velocities", "attenuation",
+           "attenuation_velocities", "ngv_threshold", "has_ngv", "normal_dispersion_limit",
+           "band_gap", "relaxation_kernel"]
+
+
+def _check(name: str, value, lo: float, hi: float, lo_open: bool = False) -> float:
+    v = float(value)
+    ok = (lo < v if lo_open else lo <= v) and v <= hi and math.isfinite(v)
+    if not ok:
+        op = "<" if lo_open else "<="
+        raise ValueError(f"{name} = {value!r} is out of range ({lo:g} {op} value <= {hi:g})")
+    return v
+
+
+@dataclass(frozen=True)
+class Felt:
+    """A felt as a hereditary medium (thesis eqs. 2.1-2.5).
+
+    density_kg_per_m3 : float   rho, 10 .. 10^4
+    e_static_pa : float         static Young's modulus E_s = E_d (1 - gamma), Pa, 1e3 .. 1e10
+    gamma : float               hereditary amplitude, 0 <= gamma < 1
+    tau0_s : float              relaxation time, s, 1e-9 .. 1
+    exponent : float            nonlinearity p (eq. 2.1), 1 .. 10 (1: linear)
+    """
+
+    density_kg_per_m3: float
+    e_static_pa: float
+    gamma: float
+    tau0_s: float
+    exponent: float = 1.0
+
+    def __post_init__(self) -> None:
+        _check("density_kg_per_m3", self.density_kg_per_m3, 10.0, 1e4)
+        _check("e_static_pa", self.e_static_pa, 1e3, 1e10)
+        _check("gamma", self.gamma, 0.0, 0.999999)
+        _check("tau0_s", self.tau0_s, 1e-9, 1.0)
+        _check("exponent", self.exponent, 1.0, 10.0)
+
+    @property
+    def delta(self) -> float:
+        """Relaxation parameter delta = 1 - gamma (eq. 2.9)."""
+        return 1.0 - self.gamma
+
+    @property
+    def e_dynamic_pa(self) -> float:
+        """Dynamic modulus E_d = E_s / delta (eqs. 2.4-2.5), Pa."""
+        return self.e_static_pa / self.delta
+
+    @property
+    def c_static_m_per_s(self) -> float:
+        """c_s = sqrt(E_s / rho): long waves (m/s)."""
+        return math.sqrt(self.e_static_pa / self.density_kg_per_m3)
+
+    @property
+    def c_dynamic_m_per_s(self) -> float:
+        """c_d = sqrt(E_d / rho) = c_s / sqrt(delta): short waves (m/s)."""
+        return math.sqrt(self.e_dynamic_pa / self.density_kg_per_m3)
+
+    @property
+    def time_scale_s(self) -> float:
+        """alpha0 = tau0 / delta, the unit of time of eq. 2.11 (s)."""
+        return self.tau0_s / self.delta
+
+    @property
+    def length_scale_m(self) -> float:
+        """l0 = c_s alpha0, the unit of length of eq. 2.11 (m)."""
+        return self.c_static_m_per_s * self.time_scale_s
+
+
+#: the thesis's felt (eqs. 2.12-2.13): E_s = 0.6 MPa and rho = 10^3 kg/m^3
+#: from static tests on felt pads, gamma = 0.96, tau0 = 10 us (delta 0.04,
+#: E_d 15 MPa, c_s 24.5 m/s, c_d 122 m/s, alpha0 0.25 ms, l0 6.1 mm)
+THESIS_FELT = Felt(1000.0, 0.6e6, 0.96, 10e-6)
+#: Publication III's (eqs. 20-21): gamma = 0.99, tau0 = 20 us (delta 0.01,
+#: E_d 60 MPa, c_d 245 m/s, alpha0 2 ms, l0 49 mm)
+PUB3_FELT = Felt(1000.0, 0.6e6, 0.99, 20e-6)
+
+
+def relaxation_kernel(t_s, gamma: float, tau0_s: float) -> np.ndarray:
+    """Rabotnov's kernel R(t) = (gamma / tau0) exp(-t / tau0) (eq. 2.2), 1/s,
+    at times ``t_s`` >= 0 (s)."""
+    _check("gamma", gamma, 0.0, 0.999999)
+    _check("tau0_s", tau0_s, 1e-9, 1.0)
+    t = np.asarray(t_s, float)
+    if np.any(t < 0) or not np.all(np.isfinite(t)):
+        raise ValueError("t_s must be finite and >= 0")
+    return (gamma / tau0_s) * np.exp(-t / tau0_s)
+
+
+def _delta(delta: float) -> float:
+    return _check("delta", delta, 0.0, 1.0, lo_open=True)
+
+
+def _wavenumbers(k) -> np.ndarray:
+    k = np.atleast_1d(np.asarray(k, float))
+    if k.ndim != 1 or np.any(k < 0) or not np.all(np.isfinite(k)):
+        raise ValueError("k must be finite and >= 0 (a number or a 1-D array)")
+    return k
+
+
+def dispersion(k, delta: float) -> tuple[np.ndarray, np.ndarray]:
+    """The propagating wave of eq. 2.16 for real wavenumbers ``k`` (the
+    initial value problem, in the units of eq. 2.11): its frequency omega
+    (> 0) and its growth rate mu (<= 0: it decays as exp(mu t)).
+
+    The roots come from the real cubic delta s^3 - s^2 + k^2 s - k^2 = 0
+    (Omega = -i s) solved by numpy's eigenvalue method, which stays
+    accurate where the thesis's closed form (eqs. 2.21-2.23) meets its
+    branch points; where the cubic has no complex pair (delta < 1/9,
+    inside the band gap) omega and mu are NaN.
+
+    Returns (omega, mu), arrays shaped like ``k``.
+    """
+    d = _delta(delta)
+    k = _wavenumbers(k)
+    om = np.full(k.shape, np.nan)
+    mu = np.full(k.shape, np.nan)
+    for i, kk in enumerate(k):
+        if kk == 0.0:
+            om[i], mu[i] = 0.0, 0.0
+            continue
+        if d == 1.0:
+            om[i], mu[i] = kk, 0.0          # non-dispersive: s = 1 and s = +-i k
+            continue
+        r = np.roots([d, -1.0, kk * kk, -kk * kk])
+        pair = r[np.abs(r.imag) > 1e-12 * max(1.0, float(np.max(np.abs(r))))]
+        if len(pair) == 0:
+            continue                        # the band gap: three real (relaxing) roots
+        s = pair[np.argmax(pair.imag)]
+        om[i], mu[i] = abs(s.imag), -s.real
+    return om, mu
+
+
+def velocities(k, delta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Phase velocity omega / k and group velocity d omega / d k of the
+    propagating wave at wavenumbers ``k`` > 0 (units of c_s): the group
+    velocity from eq. 2.16 by implicit differentiation,
+    dOmega/dk = 2 k (1 - i Omega) / (2 Omega - 3 i delta Omega^2 + i k^2),
+    its real part.  Both tend to 1 (c_s) for long waves and to 1/sqrt(delta)
+    (c_d) for short ones (eq. 2.26)."""
+    k = _wavenumbers(k)
+    if np.any(k <= 0):
+        raise ValueError("k must be > 0 for the velocities")
+    om, mu = dispersion(k, delta)
+    O = om + 1j * mu
+    d = float(delta)
+    with np.errstate(invalid="ignore"):           # NaN in a band gap stays NaN
+        dO = 2.0 * k * (1.0 - 1j * O) / (2.0 * O - 3j * d * O * O + 1j * k * k)
+    return om / k, dO.real
+
+
+def ngv_threshold() -> float:
+    """The largest delta with a negative group velocity somewhere:
+    1 / (1 + C*), C* the real root of 2 (C - 2)^3 = 27 C (0.1346427873)."""
+    lo, hi = 2.0, 50.0                       # f(C) = 2 (C-2)^3 - 27 C: f(2) < 0 < f(50)
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if 2.0 * (mid - 2.0) ** 3 - 27.0 * mid > 0.0:
+            hi = mid
+        else:
+            lo = mid
+    return 1.0 / (1.0 + 0.5 * (lo + hi))
+
+
+def has_ngv(delta: float) -> bool:
+    """Whether some wavenumber travels with a negative group velocity
+    (initial value problem): 2 (C - 2)^3 > 27 C, C = (1 - delta) / delta."""
+    d = _delta(delta)
+    C = (1.0 - d) / d
+    return C > 2.0 and 2.0 * (C - 2.0) ** 3 > 27.0 * C
+
+
+def normal_dispersion_limit(delta: float) -> float:
+    """k_*: the dispersion is normal (v_ph > v_gr) for k < k_*, anomalous
+    above; 0 from delta = 1/5 on, sqrt 3 at delta = 1/9 (thesis section
+    2.2.2); defined for delta >= 1/9."""
+    d = _check("delta", delta, 1.0 / 9.0 - 1e-15, 1.0)
+    C = (1.0 - d) / d
+    if C <= 4.0:
+        return 0.0
+    return math.sqrt(4.0 * (C - 4.0) * (C + 1.0) ** 2 / ((C - 2.0) ** 2 * (C + 4.0)))
+
+
+def band_gap(delta: float) -> tuple[float, float] | None:
+    """The wavenumbers (k_lo, k_hi) with no propagating wave, for delta < 1/9
+    (where 4 delta k^4 - (1 + 18 delta - 27 delta^2) k^2 + 4 < 0), else None."""
+    d = _delta(delta)
+    P = 1.0 + 18.0 * d - 27.0 * d * d
+    disc = P * P - 64.0 * d
+    if d >= 1.0 / 9.0 or disc <= 0.0:
+        return None
+    r = math.sqrt(disc)
+    return math.sqrt((P - r) / (8.0 * d)), math.sqrt((P + r) / (8.0 * d))
+
+
+def attenuation(omega, delta: float) -> tuple[np.ndarray, np.ndarray]:
+    """The boundary value problem (Publication III eqs. 31-36): a harmonic
+    load of real frequency ``omega`` (> 0, units of 1/alpha0) on the felt's
+    surface makes the wave exp(i kappa x - i omega t) with
+    kappa = omega sqrt(1 - i delta omega) / sqrt(1 - i omega) = k + i lambda:
+    returns (k, lambda), lambda >= 0 its attenuation per unit length l0
+    (tending to (1 - delta) / (2 sqrt delta) at high frequency, eq. 38)."""
+    d = _delta(delta)
+    w = np.atleast_1d(np.asarray(omega, float))
+    if np.any(w <= 0) or not np.all(np.isfinite(w)):
+        raise ValueError("omega must be finite and > 0")
+    kap = w * np.sqrt(1.0 - 1j * d * w) / np.sqrt(1.0 - 1j * w)
+    return kap.real, kap.imag
+
+
+def attenuation_velocities(omega, delta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Phase velocity omega / k and group velocity 1 / (dk / d omega) of the
+    boundary value problem's wave (Publication III eqs. 39-43), units of
+    c_s; dk/domega from kappa by differentiation,
+    dkappa/domega = kappa [1/omega - i delta / (2 (1 - i delta omega)) + i / (2 (1 - i omega))]."""
+    d = _delta(delta)
+    w = np.atleast_1d(np.asarray(omega, float))
+    k, lam = attenuation(w, d)
+    kap = k + 1j * lam
+    dk = kap * (1.0 / w - 0.5j * d / (1.0 - 1j * d * w) + 0.5j / (1.0 - 1j * w))
+    return w / k, 1.0 / dk.real

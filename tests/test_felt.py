@@ -1,0 +1,173 @@
+"""The felt as a medium (issue 14; thesis chapter 2, Publications III and IV):
+the constants, the linear dispersion against the thesis's closed forms and
+limits, the negative-group-velocity threshold, the band gap and the
+boundary value problem's attenuation against Publication III's Table 1."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from synth.physics import felt as F
+
+
+def _thesis_closed_form(k, d):
+    """The thesis's eqs. 2.21-2.23 for omega(k) and mu(k) (1/9 < delta < 1),
+    taken literally with principal complex roots: the slow reference."""
+    k = np.asarray(k, complex)
+    Q = 4 * k ** 4 * d - k ** 2 * (1 + 18 * d - 27 * d * d) + 4
+    S = (2 - 9 * k * k * d * (1 - 3 * d) + 3 * k * d * np.sqrt(3 * Q)) ** (1 / 3)
+    a = 1 - 3 * k * k * d
+    om = math.sqrt(6) / (12 * d * S) * np.sqrt(2 ** (1 / 3) * S ** 4 - 4 * S * S * a
+                                                + 2 * 4 ** (1 / 3) * a * a)
+    mu = 1 / (12 * d * S) * (4 ** (1 / 3) * S * S - 4 * S + 2 * 2 ** (1 / 3) * a)
+    return om.real, mu.real
+
+
+def test_the_thesis_felt_constants():
+    """Eqs. 2.12-2.13 (the printed speeds are rounded: c_s = 25 m/s for
+    sqrt(0.6e6 / 1e3) = 24.49)."""
+    f = F.THESIS_FELT
+    assert f.delta == pytest.approx(0.04)
+    assert f.e_dynamic_pa == pytest.approx(15e6)
+    assert f.c_static_m_per_s == pytest.approx(25.0, rel=0.03)
+    assert f.c_dynamic_m_per_s == pytest.approx(125.0, rel=0.03)
+    assert f.c_dynamic_m_per_s == pytest.approx(f.c_static_m_per_s / math.sqrt(f.delta))
+    assert f.time_scale_s == pytest.approx(0.25e-3)
+    assert f.length_scale_m == pytest.approx(6.25e-3, rel=0.03)
+    p = F.PUB3_FELT
+    assert p.delta == pytest.approx(0.01) and p.e_dynamic_pa == pytest.approx(60e6)
+    assert p.time_scale_s == pytest.approx(2e-3) and p.length_scale_m == pytest.approx(0.05, rel=0.03)
+    # Rabotnov's kernel (eq. 2.2) integrates to gamma: E_s = E_d (1 - gamma)
+    t = np.linspace(0, 40 * f.tau0_s, 400_001)
+    R = F.relaxation_kernel(t, f.gamma, f.tau0_s)
+    assert np.trapezoid(R, t) == pytest.approx(f.gamma, rel=1e-6)
+
+
+@pytest.mark.parametrize("field,value,msg", [
+    ("gamma", 1.0, "gamma = 1.0 is out of range"),
+    ("tau0_s", 0.0, "tau0_s = 0.0 is out of range"),
+    ("exponent", 0.5, "exponent = 0.5 is out of range"),
+    ("density_kg_per_m3", -1.0, "density_kg_per_m3 = -1.0 is out of range"),
+])
+def test_felt_parameters_are_checked(field, value, msg):
+    kw = dict(density_kg_per_m3=1000.0, e_static_pa=0.6e6, gamma=0.96, tau0_s=1e-5)
+    kw[field] = value
+    with pytest.raises(ValueError, match=msg):
+        F.Felt(**kw)
+    with pytest.raises(ValueError, match="delta = 0.0 is out of range"):
+        F.dispersion([1.0], 0.0)
+
+
+@pytest.mark.parametrize("d", [0.128, 0.2, 0.5, 0.8])
+def test_the_dispersion_relation_and_the_thesis_closed_form(d):
+    """The roots satisfy eq. 2.16 to round-off, decay (mu <= 0), and equal
+    the thesis's closed form 2.21-2.23 where it holds (delta > 1/9)."""
+    k = np.linspace(0.01, 20, 400)
+    om, mu = F.dispersion(k, d)
+    O = om + 1j * mu
+    res = k * k * (1 - 1j * O) - O * O * (1 - 1j * d * O)
+    assert np.max(np.abs(res) / (k * k)) < 1e-12
+    assert np.all(mu <= 0)
+    om_c, mu_c = _thesis_closed_form(k, d)
+    assert np.max(np.abs(om - om_c)) < 1e-10 and np.max(np.abs(mu - mu_c)) < 1e-10
+
+
+@pytest.mark.parametrize("d", [0.05, 0.2, 0.5])
+def test_the_limits(d):
+    """Long waves: v_ph = v_gr -> 1 (c_s), mu -> 0; short waves: both -> 1 /
+    sqrt(delta) (c_d, eq. 2.26) and mu -> -(1 - delta) / (2 delta) (eq. 2.25);
+    delta = 1: no dispersion (omega = k, mu = 0)."""
+    vph, vgr = F.velocities([1e-4, 1e4], d)
+    assert vph[0] == pytest.approx(1.0, rel=1e-6) and vgr[0] == pytest.approx(1.0, rel=1e-6)
+    assert vph[1] == pytest.approx(1 / math.sqrt(d), rel=1e-4)
+    assert vgr[1] == pytest.approx(1 / math.sqrt(d), rel=1e-4)
+    _, mu = F.dispersion([1e-4, 1e4], d)
+    assert abs(mu[0]) < 1e-7 and mu[1] == pytest.approx(-(1 - d) / (2 * d), rel=1e-4)
+    om, mu = F.dispersion([0.3, 2.0, 17.0], 1.0)
+    assert np.allclose(om, [0.3, 2.0, 17.0]) and np.all(mu == 0)
+
+
+def test_the_negative_group_velocity_threshold():
+    """NGV for delta below 0.1346 (thesis "0.1345", Publication IV "0.135"):
+    the closed condition 2 (C - 2)^3 > 27 C, against the minimum of the
+    numerically differentiated dispersion branch on either side."""
+    dstar = F.ngv_threshold()
+    assert dstar == pytest.approx(0.1346427873, abs=1e-9)
+    assert abs(dstar - 0.1345) < 2e-4 and abs(dstar - 0.135) < 5e-4
+    k = np.linspace(1.0, 2.2, 2401)
+    for d, neg in [(0.128, True), (dstar - 1e-3, True), (dstar + 1e-3, False), (0.15, False)]:
+        om, _ = F.dispersion(k, d)
+        vgr_num = np.gradient(om, k)
+        assert (vgr_num.min() < 0) == neg == F.has_ngv(d), d
+        # and the implicit-differentiation group velocity agrees
+        assert np.max(np.abs(F.velocities(k, d)[1][5:-5] - vgr_num[5:-5])) < 3e-3
+    assert F.velocities([1.628], 0.128)[1][0] == pytest.approx(-0.884, abs=2e-3)
+
+
+def test_normal_dispersion_and_the_band_gap():
+    """k_* = sqrt 3 at delta = 1/9 and 0 from delta = 1/5 (thesis section
+    2.2.2); below it v_ph > v_gr, above it v_ph < v_gr.  For delta < 1/9 a
+    band of k has no propagating wave (delta = 0.06: 1.871 < k < 2.182)."""
+    assert F.normal_dispersion_limit(1 / 9) == pytest.approx(math.sqrt(3), abs=1e-6)
+    assert F.normal_dispersion_limit(0.2) == 0.0 and F.normal_dispersion_limit(0.5) == 0.0
+    ks = F.normal_dispersion_limit(0.19)
+    vph, vgr = F.velocities([0.9 * ks, 1.1 * ks], 0.19)
+    assert vph[0] > vgr[0] and vph[1] < vgr[1]
+    lo, hi = F.band_gap(0.06)
+    assert lo == pytest.approx(1.8710, abs=2e-4) and hi == pytest.approx(2.1820, abs=2e-4)
+    om, _ = F.dispersion([lo - 0.01, 0.5 * (lo + hi), hi + 0.01], 0.06)
+    assert np.isfinite(om[0]) and np.isnan(om[1]) and np.isfinite(om[2])
+    assert F.band_gap(0.2) is None
+
+
+def test_the_attenuation_against_publication_iii():
+    """The boundary value problem's lambda(omega) (Publication III eq. 35,
+    Table 1, printed to 1e-3), its high-frequency limit (eq. 38), and its
+    anomalous dispersion (v_gr > v_ph at every frequency: no NGV there)."""
+    table = {0.2: (0.246, 0.493, 0.632), 0.5: (0.142, 0.254, 0.300), 0.8: (0.053, 0.087, 0.099)}
+    for d, lam in table.items():
+        _, got = F.attenuation([1.0, 2.0, 3.0], d)
+        assert np.allclose(got, lam, atol=1.2e-3), (d, got)
+        _, big = F.attenuation([1e5], d)
+        assert big[0] == pytest.approx((1 - d) / (2 * math.sqrt(d)), rel=1e-3)
+        w = np.geomspace(0.01, 100, 300)
+        vph, vgr = F.attenuation_velocities(w, d)
+        assert np.all(vgr > vph) and vph[0] == pytest.approx(1.0, rel=1e-3)
+
+
+def test_the_felt_command(tmp_path, capsys):
+    """``synth felt``: the tables, --json, the SI columns of a named felt,
+    --plot, and one-line errors."""
+    import json
+
+    from synth.cli import main
+
+    assert main(["felt", "velocities", "--delta", "0.128", "--json", "--points", "5"]) == 0
+    t = json.loads(capsys.readouterr().out)
+    assert t["ngv"] and t["min_v_group"]["v"] == pytest.approx(-0.884, abs=3e-3)
+    assert t["normal_dispersion_below_k"] == pytest.approx(1.6559, abs=1e-3)
+    assert main(["felt", "dispersion", "--delta", "0.06", "--points", "6"]) == 0
+    out = capsys.readouterr().out
+    assert "band gap: no propagating wave for 1.87101 < k < 2.18197" in out and " nan " in out
+    assert main(["felt", "attenuation", "--felt", "thesis", "--json", "--max", "3",
+                 "--points", "3"]) == 0
+    t = json.loads(capsys.readouterr().out)
+    assert t["felt"]["c_dynamic_m_per_s"] == pytest.approx(122.47, abs=0.01)
+    cols = t["columns"]
+    assert cols["f_hz"][0] == pytest.approx(1.0 / (2 * math.pi * 0.25e-3), rel=1e-9)
+    assert cols["lambda"][0] == pytest.approx(F.attenuation([1.0], 0.04)[1][0])
+    assert cols["db_per_mm"][0] > 0 and cols["v_group_m_per_s"][0] > cols["v_phase_m_per_s"][0]
+    for argv, msg in [(["--delta", "2"], "--delta = 2.0 is out of range"),
+                      (["--felt", "pub3", "--delta", "0.1"], "--delta and --felt are exclusive"),
+                      (["--gamma", "1.5"], "gamma = 1.5 is out of range"),
+                      (["--points", "1"], "--points = 1 is out of range")]:
+        assert main(["felt", "velocities", *argv]) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and msg in err[0], err
+    pytest.importorskip("matplotlib", reason="--plot needs the [plots] extra")
+    png = tmp_path / "v.png"
+    assert main(["felt", "velocities", "--delta", "0.128", "--plot", str(png)]) == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
