@@ -526,11 +526,12 @@ def build_parser() -> argparse.ArgumentParser:
 
     fe = sub.add_parser("felt", help="the felt wave lab: dispersion, velocities, attenuation of "
                         "deformation waves in hammer felt (thesis chapter 2)")
-    fe.add_argument("what", choices=("dispersion", "velocities", "attenuation"),
+    fe.add_argument("what", choices=("dispersion", "velocities", "attenuation", "pulse"),
                     help="dispersion: omega and mu against a real wavenumber (initial value "
                          "problem); velocities: phase and group velocity, the negative-group-"
                          "velocity region; attenuation: a harmonic load's wave against its "
-                         "frequency (boundary value problem)")
+                         "frequency (boundary value problem); pulse: a pulse by finite "
+                         "differences, linear or nonlinear")
     fe.add_argument("--felt", choices=("thesis", "pub3"),
                     help="the felt: the thesis's (eqs. 2.12-2.13, the default) or Publication "
                          "III's; SI columns are added")
@@ -542,6 +543,18 @@ def build_parser() -> argparse.ArgumentParser:
                     help="largest wavenumber k (dispersion, velocities) or frequency omega "
                          "(attenuation), in the units of eq. 2.11 (default 6)")
     fe.add_argument("--points", type=int, default=25, help="rows (default 25)")
+    fe.add_argument("--problem", choices=("bvp", "ivp"), default="bvp",
+                    help="pulse: driven into the surface (bvp, eq. 2.28) or released from "
+                         "A sech(alpha x) (ivp, eq. 2.29)")
+    fe.add_argument("--p", type=float, default=1.0, help="pulse: the felt's exponent p (1-5)")
+    fe.add_argument("--amplitude", type=float, default=0.1, help="pulse: A, a strain (default 0.1)")
+    fe.add_argument("--times", default="2,3,4", help="pulse: snapshot times (default 2,3,4)")
+    fe.add_argument("--dx", type=float, default=0.005, help="pulse: grid step (default 0.005)")
+    fe.add_argument("--units", choices=("tau0", "alpha0"), default="tau0",
+                    help="pulse: eq. 2.27's units as printed (tau0, Publication III's numbers; "
+                         "the default) or eq. 2.11's (alpha0)")
+    fe.add_argument("--t-m", type=float, default=0.5, help="pulse bvp: the load's rise time")
+    fe.add_argument("--alpha", type=float, default=3.0, help="pulse ivp: the sech's alpha")
     fe.add_argument("--json", action="store_true", help="print JSON instead of a table")
     fe.add_argument("--plot", metavar="OUT.png", help="also draw a PNG (needs the [plots] extra)")
     fe.set_defaults(func=cmd_felt)
@@ -620,6 +633,24 @@ def cmd_felt(args) -> int:
 
     if args.plot is not None:
         _check_output(args.plot, "--plot")
+    if args.what == "pulse":
+        from .apps.felt import PulseRequest, format_pulse, plot_pulse, pulse_table
+
+        try:
+            times = tuple(float(v) for v in args.times.split(","))
+        except ValueError:
+            _fail(f"--times = {args.times!r} is not a list of numbers (e.g. 2,3,4)")
+        d = 0.5 if args.delta is None else args.delta
+        if args.felt is not None or args.gamma is not None or args.tau0_us is not None:
+            _fail("pulse takes --delta (the dimensionless model), not --felt/--gamma/--tau0-us")
+        t = pulse_table(PulseRequest(args.problem, d, args.p, args.amplitude, times, args.dx,
+                                     args.units, args.t_m, args.alpha))
+        r = t.pop("_result")
+        print(json.dumps(t, indent=1) if args.json else format_pulse(t))
+        if args.plot is not None:
+            t["_result"] = r
+            plot_pulse(t, args.plot)
+        return 0
     req = make_request(args.what, args.felt, args.delta, args.gamma,
                        None if args.tau0_us is None else args.tau0_us * 1e-6, args.max,
                        args.points)

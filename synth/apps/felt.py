@@ -9,7 +9,11 @@ Tables (and PNG plots, the ``[plots]`` extra) of the felt's linear waves
   turns negative, and the normal-dispersion limit k_*;
 * ``attenuation``: for a harmonic load of real frequency omega on the felt's
   surface (the boundary value problem), its wavenumber, attenuation per
-  unit length and velocities (Publication III eqs. 31-43).
+  unit length and velocities (Publication III eqs. 31-43);
+* ``pulse``: a pulse solved by finite differences (:func:`synth.physics.felt.
+  solve_pulse`): driven into the felt's surface (eq. 2.28) or released
+  from a sech profile (eq. 2.29), linear or nonlinear (p > 1), its leading
+  crest's position and amplitude at each snapshot and its attenuation rate.
 
 Values are in the units of eq. 2.11 (time alpha0 = tau0 / delta, length
 l0 = c_s alpha0, velocity c_s) and, for a felt given in SI (``--felt``),
@@ -207,6 +211,95 @@ def plot_table(t: dict, path: str) -> None:
         a.legend()
         a.grid(alpha=0.3)
     fig.suptitle(f"felt {t['what']}, delta = {t['delta']:.4g}")
+    fig.tight_layout()
+    from ..io.wav import write_bytes_atomic
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=80)
+    plt.close(fig)
+    write_bytes_atomic(path, buf.getvalue())
+
+
+@dataclass(frozen=True)
+class PulseRequest:
+    """``synth felt pulse``: the solver's arguments (:func:`F.solve_pulse`)."""
+
+    problem: str
+    delta: float
+    exponent: float
+    amplitude: float
+    times: tuple
+    dx: float
+    units: str
+    t_m: float
+    alpha: float
+
+
+def pulse_table(req: PulseRequest) -> dict:
+    """Solve and summarise: per snapshot the leading crest (position,
+    amplitude), the strain's least value (a steepened front's undershoot),
+    and the crest's attenuation rate over the snapshots."""
+    try:
+        r = F.solve_pulse(req.delta, problem=req.problem, amplitude=req.amplitude,
+                          exponent=req.exponent, times=req.times, dx=req.dx, units=req.units,
+                          t_m=req.t_m, alpha=req.alpha)
+    except (ValueError, FloatingPointError) as e:
+        raise SynthError(str(e)) from None
+    xs, amps = F.leading_peaks(r)
+    out = {"what": "pulse", "problem": req.problem, "delta": req.delta, "exponent": req.exponent,
+           "amplitude": req.amplitude, "units": req.units, "dx": r.dx, "dt": r.dt,
+           "snapshots": [{"t": float(t), "crest_x": float(x), "crest": float(a),
+                          "min_strain": float(np.min(s)),
+                          # a hump's total variation is twice its height (plus its
+                          # foot at the surface); a front that has steepened into a
+                          # shock rings at the grid scale and adds much more
+                          "rings": bool(np.sum(np.abs(np.diff(s))) > 2.5 * np.max(np.abs(s)))}
+                         for t, x, a, s in zip(r.times, xs, amps, r.strain)]}
+    if len(xs) >= 2:
+        out["attenuation_rate"] = F.pulse_decay(r)
+    out["_result"] = r
+    return out
+
+
+def format_pulse(t: dict) -> str:
+    lines = [f"# felt pulse ({t['problem']}), delta = {t['delta']:g}, p = {t['exponent']:g}, "
+             f"A = {t['amplitude']:g}, units {t['units']} (dx {t['dx']:g}, dt {t['dt']:.4g})"]
+    if "attenuation_rate" in t:
+        lines.append(f"# the leading crest decays as exp(-{t['attenuation_rate']:.4f} x)")
+    ring = [s["t"] for s in t["snapshots"] if s["rings"]]
+    if ring:
+        lines.append(f"# from t = {ring[0]:.4g} the front has steepened into a shock and rings "
+                     f"at the grid scale: the crest read there is the ringing's (the "
+                     f"central-difference scheme does not capture shocks)")
+    lines.append(f"{'t':>10}  {'crest x':>12}  {'crest':>12}  {'min strain':>12}  {'rings':>6}")
+    for s in t["snapshots"]:
+        lines.append(f"{s['t']:10.4g}  {s['crest_x']:12.5g}  {s['crest']:12.5g}  "
+                     f"{s['min_strain']:12.4g}  {'yes' if s['rings'] else 'no':>6}")
+    return "\n".join(lines)
+
+
+def plot_pulse(t: dict, path: str) -> None:
+    """The snapshots, each normalised to its crest (as the thesis's Figs.
+    2.7-2.8), on one axis."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise SynthError('--plot needs the [plots] extra: pip install "synth[plots]"') from None
+    r = t["_result"]
+    fig, ax = plt.subplots(1, 1, figsize=(9, 4))
+    for s, snap in zip(t["snapshots"], r.strain):
+        ax.plot(r.x, snap / max(s["crest"], 1e-300), lw=1, label=f"t = {s['t']:.3g}")
+    last = max(s["crest_x"] for s in t["snapshots"])
+    ax.set_xlim(0, 1.5 * last + 1)
+    ax.set_xlabel(f"x ({'c_d tau0' if t['units'] == 'tau0' else 'l0'})")
+    ax.set_ylabel("strain / crest")
+    ax.legend()
+    ax.grid(alpha=0.3)
+    ax.set_title(f"felt pulse ({t['problem']}), delta = {t['delta']:g}, p = {t['exponent']:g}, "
+                 f"A = {t['amplitude']:g}")
     fig.tight_layout()
     from ..io.wav import write_bytes_atomic
 

@@ -53,6 +53,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["Felt", "THESIS_FELT", "PUB3_FELT", "dispersion", "velocities", "attenuation",
+           "solve_pulse", "PulseResult", "leading_peaks", "pulse_decay", "PULSE_UNITS",
            "attenuation_velocities", "ngv_threshold", "has_ngv", "normal_dispersion_limit",
            "band_gap", "relaxation_kernel"]
 
@@ -247,18 +248,26 @@ def band_gap(delta: float) -> tuple[float, float] | None:
     return math.sqrt((P - r) / (8.0 * d)), math.sqrt((P + r) / (8.0 * d))
 
 
-def attenuation(omega, delta: float) -> tuple[np.ndarray, np.ndarray]:
+def attenuation(omega, delta: float, units: str = "alpha0") -> tuple[np.ndarray, np.ndarray]:
     """The boundary value problem (Publication III eqs. 31-36): a harmonic
     load of real frequency ``omega`` (> 0, units of 1/alpha0) on the felt's
     surface makes the wave exp(i kappa x - i omega t) with
     kappa = omega sqrt(1 - i delta omega) / sqrt(1 - i omega) = k + i lambda:
     returns (k, lambda), lambda >= 0 its attenuation per unit length l0
-    (tending to (1 - delta) / (2 sqrt delta) at high frequency, eq. 38)."""
+    (tending to (1 - delta) / (2 sqrt delta) at high frequency, eq. 38).
+    ``units="tau0"``: frequency and attenuation in the units of eq. 2.27 as
+    printed (time tau0, length c_d tau0; :data:`PULSE_UNITS`), where
+    kappa(omega) = sqrt(delta) kappa_alpha0(omega / delta)."""
     d = _delta(delta)
     w = np.atleast_1d(np.asarray(omega, float))
     if np.any(w <= 0) or not np.all(np.isfinite(w)):
         raise ValueError("omega must be finite and > 0")
-    kap = w * np.sqrt(1.0 - 1j * d * w) / np.sqrt(1.0 - 1j * w)
+    if units not in ("alpha0", "tau0"):
+        raise ValueError(f"units = {units!r} is not allowed (choose alpha0, tau0)")
+    s = 1.0
+    if units == "tau0":
+        w, s = w / d, math.sqrt(d)
+    kap = s * w * np.sqrt(1.0 - 1j * d * w) / np.sqrt(1.0 - 1j * w)
     return kap.real, kap.imag
 
 
@@ -273,3 +282,196 @@ def attenuation_velocities(omega, delta: float) -> tuple[np.ndarray, np.ndarray]
     kap = k + 1j * lam
     dk = kap * (1.0 / w - 0.5j * d / (1.0 - 1j * d * w) + 0.5j / (1.0 - 1j * w))
     return w / k, 1.0 / dk.real
+
+
+# ---- pulses: the finite-difference solver (thesis sections 2.3-2.4) ---------------
+#: the unit systems the pulse solver takes: eq. 2.11's (time alpha0 = tau0 /
+#: delta, length l0 = c_s alpha0) or those of eq. 2.27 as printed (time tau0,
+#: length c_d tau0), in which Publication III's numerical results are
+#: (docs/felt.md)
+PULSE_UNITS = ("alpha0", "tau0")
+
+
+@dataclass(frozen=True)
+class PulseResult:
+    """Strain snapshots of a pulse: ``strain[j]`` at time ``times[j]`` over
+    ``x`` (units of ``units``), on a grid of ``dx`` with time step ``dt``
+    (the first snapshot's time a whole number of steps; the others the
+    nearest step to the time asked)."""
+
+    x: np.ndarray
+    times: np.ndarray
+    strain: np.ndarray
+    dx: float
+    dt: float
+    units: str
+    delta: float
+    exponent: float
+
+
+def _medium(delta: float, units: str):
+    """(c^2, theta, the memory's weight) of eps_tt = c^2 [f - (gamma / theta)
+    int_0^t f(xi) exp((xi - t) / theta) d xi], f = (eps^p)_xx, and the
+    short-wave speed."""
+    d = _delta(delta)
+    g = 1.0 - d
+    if units == "tau0":
+        return 1.0, 1.0, g, 1.0                 # eq. 2.27 as printed
+    if units == "alpha0":
+        return 1.0 / d, d, g / d, 1.0 / math.sqrt(d)
+    raise ValueError(f"units = {units!r} is not allowed (choose {', '.join(PULSE_UNITS)})")
+
+
+def solve_pulse(delta: float, *, problem: str, amplitude: float, exponent: float = 1.0,
+                times=(1.0,), dx: float = 0.005, units: str = "tau0", t_m: float = 0.5,
+                alpha: float = 3.0, omega: float = 1.0, length: float | None = None,
+                courant: float = 0.4) -> PulseResult:
+    """A compression pulse in the felt (eq. 2.11 integrated over time, eq.
+    2.27), by finite differences: leapfrog in time, central differences in
+    x, the hereditary integral updated exactly for its exponential kernel
+    with the trapezoidal rule (I_n = q I_(n-1) + dt/2 (f_n + q f_(n-1)),
+    q = exp(-dt / theta)): second order in dx at a fixed Courant number.
+
+    problem : ``"bvp"``: the felt at rest, its surface x = 0 driven by
+        eps(0, t) = A (t / t_m)^3 exp(3 (1 - t / t_m)) (eq. 2.28; section
+        2.3); ``"harmonic"``: driven by A sin(omega t), faded in over two
+        periods (1 - exp(-(t / 2T)^2)), the boundary value problem of
+        :func:`attenuation`; ``"ivp"``: eps(x, 0) = A sech(alpha x), eps_t(x, 0) = 0,
+        symmetric about x = 0 (eqs. 2.29-2.30, read as eps_x(0, t) = 0;
+        section 2.4), computed on x >= 0.
+    amplitude : A, strain, 0 < A <= 1.
+    exponent : p (eq. 2.1), 1 .. 5; eps^p is taken as sign(eps) |eps|^p (a
+        steepening front undershoots a little).
+    times : the snapshots' times (units of ``units``), 0 < t <= 1000.
+    dx : grid step, 1e-4 .. 0.5.
+    units : ``"tau0"`` (eq. 2.27 as printed; Publication III's numbers) or
+        ``"alpha0"`` (eq. 2.11's).
+    length : the domain [0, length]; None: far enough that nothing reaches
+        its end (eps = 0 there).
+    courant : dt = courant dx / (the fastest local speed), 0 < value <= 0.9.
+    """
+    if problem not in ("bvp", "harmonic", "ivp"):
+        raise ValueError(f"problem = {problem!r} is not allowed (choose bvp, harmonic, ivp)")
+    A = _check("amplitude", amplitude, 0.0, 1.0, lo_open=True)
+    p = _check("exponent", exponent, 1.0, 5.0)
+    dx = _check("dx", dx, 1e-4, 0.5)
+    courant = _check("courant", courant, 0.0, 0.9, lo_open=True)
+    c2, theta, w, vmax = _medium(delta, units)
+    ts = np.sort(np.atleast_1d(np.asarray(times, float)))
+    if ts.size == 0 or ts[0] <= 0 or ts[-1] > 1000 or not np.all(np.isfinite(ts)):
+        raise ValueError("times must be in (0, 1000]")
+    if problem == "bvp":
+        _check("t_m", t_m, 1e-3, 100.0)
+    elif problem == "harmonic":
+        _check("omega", omega, 1e-3, 100.0)
+    else:
+        _check("alpha", alpha, 1e-3, 100.0)
+    # the fastest local speed: sqrt(p eps^(p-1)) times the short-wave speed
+    v = vmax * math.sqrt(p * A ** (p - 1.0))
+    dt = courant * dx / v
+    dt = ts[0] / math.ceil(ts[0] / dt)          # the first snapshot falls on a step
+    if length is None:
+        length = 1.3 * v * ts[-1] + (8.0 / alpha + 2.0 if problem == "ivp" else 2.0)
+    n_x = int(math.ceil(length / dx)) + 1
+    if n_x > 2_000_000:
+        raise ValueError(f"length / dx = {length / dx:.0f} grid points is out of range "
+                         f"(at most 2000000)")
+    x = np.arange(n_x) * dx
+    q = math.exp(-dt / theta)
+
+    def power(e):
+        return np.sign(e) * np.abs(e) ** p if p != 1.0 else e
+
+    def lap(e):
+        ep = power(e)
+        f = np.empty_like(e)
+        f[1:-1] = (ep[2:] - 2.0 * ep[1:-1] + ep[:-2]) / (dx * dx)
+        f[-1] = 0.0
+        # x = 0: a driven surface (bvp, its value imposed) or the symmetry
+        # plane (ivp: the ghost point mirrors the first)
+        f[0] = 2.0 * (ep[1] - ep[0]) / (dx * dx) if problem == "ivp" else 0.0
+        # (bvp, harmonic: eps(0, t) is imposed)
+        return f
+
+    T2 = 2.0 * (2.0 * math.pi / omega)
+
+    def surface(t):
+        if t <= 0:
+            return 0.0
+        if problem == "harmonic":
+            return A * math.sin(omega * t) * (1.0 - math.exp(-(t / T2) ** 2))
+        s = t / t_m
+        return A * s ** 3 * math.exp(3.0 * (1.0 - s))
+
+    if problem == "ivp":
+        e = A / np.cosh(alpha * x)
+    else:
+        e = np.zeros(n_x)
+    f = lap(e)
+    I = np.zeros(n_x)
+    # first step from rest (eps_t = 0): eps_1 = eps_0 + dt^2/2 c^2 f_0
+    e_new = e + 0.5 * dt * dt * c2 * f
+    if problem != "ivp":
+        e_new[0] = surface(dt)
+    e_new[-1] = 0.0
+    e_old, e = e, e_new
+    f_old = f
+    n = 1
+    snaps = np.empty((ts.size, n_x))
+    j = 0
+    steps = [int(round(t / dt)) for t in ts]
+    while j < ts.size and steps[j] <= 0:
+        snaps[j] = e_old
+        j += 1
+    while j < ts.size:
+        if n == steps[j]:
+            snaps[j] = e
+            j += 1
+            continue
+        f = lap(e)
+        I = q * I + 0.5 * dt * (f + q * f_old)
+        e_new = 2.0 * e - e_old + dt * dt * c2 * (f - w * I)
+        if problem != "ivp":
+            e_new[0] = surface((n + 1) * dt)
+        e_new[-1] = 0.0
+        e_old, e, f_old = e, e_new, f
+        n += 1
+        if not np.all(np.isfinite(e[:8])):
+            raise FloatingPointError(f"the pulse blew up at t = {n * dt:g} (courant = {courant})")
+    return PulseResult(x, np.array([s * dt for s in steps]), snaps, dx, dt, units,
+                       float(delta), p)
+
+
+def leading_peaks(result: PulseResult, floor: float = 0.2) -> tuple[np.ndarray, np.ndarray]:
+    """Position and amplitude of each snapshot's leading crest: the local
+    maximum furthest from the surface among those above ``floor`` of the
+    snapshot's largest (the pulse's front; a slow hump of the hereditary
+    tail can outgrow it, Publication III)."""
+    xs, amps = [], []
+    for s in result.strain:
+        top = float(np.max(s))
+        m = (s[1:-1] >= s[:-2]) & (s[1:-1] > s[2:]) & (s[1:-1] >= floor * top)
+        if not m.any():
+            # the crest on the surface (a pulse released there, or not yet in)
+            i = int(np.argmax(s))
+            xs.append(result.x[i])
+            amps.append(float(s[i]))
+            continue
+        i = int(np.flatnonzero(m)[-1]) + 1
+        # a parabola through the crest and its neighbours
+        y0, y1, y2 = s[i - 1], s[i], s[i + 1]
+        den = y0 - 2.0 * y1 + y2
+        off = 0.5 * (y0 - y2) / den if den != 0 else 0.0
+        xs.append(result.x[i] + off * result.dx)
+        amps.append(y1 - 0.25 * (y0 - y2) * off)
+    return np.array(xs), np.array(amps)
+
+
+def pulse_decay(result: PulseResult) -> float:
+    """The attenuation rate lambda of the pulse's leading crest: the fit of
+    exp(-lambda x) through its amplitudes at the snapshots (Publication III
+    section 6; units of the result's length)."""
+    x, a = leading_peaks(result)
+    if len(x) < 2:
+        raise ValueError("pulse_decay needs at least two snapshots")
+    return float(-np.polyfit(x, np.log(a), 1)[0])
