@@ -207,16 +207,20 @@ def hammer_on_ideal_string(N, k, dt, n_steps, *, law, m, V, Q, p, A, tau0, T, c)
 
 def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
     """Lossy strings (``naive_lossy_string``'s far end, bridge-force output)
-    whose ends at x = L sit on one bridge: each step every string's outgoing
-    wave y is its loop filter's output minus the bridge displacement u_b(m),
-    their forces on the bridge T/dx (2 (y - y_prev) + (u_b - u_b_prev)) (the
-    loop filter read as standing just before the end) are summed into F(m),
-    and u_b(m+1) = bra u_b(m) + brb F(m).  With
-    ``ubx`` (one value per step) the bridge is external: u_b(m) = ubx[m] and
-    F is not fed back.  A string with ``on`` = (m0, m1) hangs on the bridge
-    only at steps m0 <= m < m1 (an open bridge: it joins and leaves); off it
-    its end is still; at its first step on it, its force reads the bridge's
-    previous displacement as its own, and after it leaves its own is 0.
+    whose ends at x = L sit on one bridge.  Each step every string's loop
+    filter gives z (the wave reaching the end); their summed force with the
+    bridge held still, f = sum T/dx 2 (z - z_prev), moves the bridge in the
+    same step: u_b(m) = ((bra + r) u_b(m-1) + brb f) / (1 + r), r = brb sum
+    T/dx (from R_b du_b/dt = f - sum T/dx du_b); then each string's outgoing
+    wave is y = z - u_b(m) and its force on the bridge T/dx (2 (y - y_prev)
+    + (u_b - u_b_prev)) (the loop filter read as standing just before the
+    end) is its output.  With ``ubx`` (one value per step) the bridge is
+    external: u_b(m) = ubx[m] and nothing is fed back.  A string with
+    ``on`` = (m0, m1) hangs on the bridge only at steps m0 <= m < m1 (an
+    open bridge: it joins and leaves); off it its end is still; at its first
+    step on it, its previous z and u_b read as the bridge's previous
+    displacement more than they were (the kernel's lockstep reading), and
+    after it leaves its u_b_prev is 0.
 
     strings : list of dicts with N, k, g (outgoing wave per step, held at
         its last value), b0, a1, eta, tdx (T/dx, N/m), gain, and optional
@@ -229,16 +233,14 @@ def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
         st.append(dict(d, ur=np.zeros(N + 1), ul=np.zeros(N + 1), xd=0.0, lp=0.0, apx=0.0,
                        apy=0.0, dx1=np.zeros(d.get("n_disp", 0)), dy1=np.zeros(d.get("n_disp", 0)),
                        bq=[[0.0] * 4 for _ in d.get("sos", ())],
-                       g=np.asarray(d["g"], float)))
+                       g=np.asarray(d["g"], float), zprev=0.0))
     out = np.zeros(n_steps)
     ubs = np.zeros(n_steps)
-    ub = 0.0
     ub_last = 0.0
     for m in range(n_steps):
-        if ubx is not None:
-            ub = ubx[m]
-        ubs[m] = ub
-        F = 0.0
+        f = 0.0
+        B = 0.0
+        zs = []
         for d in st:
             ur, ul, N, k = d["ur"], d["ul"], d["N"], d["k"]
             g = d["g"]
@@ -265,20 +267,28 @@ def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
             on0, on1 = d.get("on", (0, n_steps))
             hang = on0 <= m < on1
             if m == on0 and on0 > 0:
+                d["zprev"] += ub_last
                 d["ubprev"] = ub_last
             elif m == on1:
                 d["ubprev"] = 0.0
+            if hang:
+                f += d["tdx"] * 2 * (yo - d["zprev"])
+                B += d["tdx"]
+            zs.append((yo, hang))
+        if ubx is None:
+            r = brb * B
+            ub = ((bra + r) * ub_last + brb * f) / (1 + r)
+        else:
+            ub = ubx[m]
+        ubs[m] = ub
+        for d, (z, hang) in zip(st, zs):
             ube = ub if hang else 0.0
-            yo -= ube
-            ul[N] = -yo
+            yo = z - ube
+            d["ul"][d["N"]] = -yo
             # the force on the bridge, Z (v_in - v_out) with the loop filter
             # just before the end: T/dx (2 (y - y_prev) + (u_b - u_b_prev))
-            f = d["tdx"] * (2 * (yo - d.get("yprev", 0.0)) + (ube - d.get("ubprev", 0.0)))
-            d["yprev"], d["ubprev"] = yo, ube
-            if hang:
-                F += f
-            out[m] += d["gain"] * f
+            fo = d["tdx"] * (2 * (yo - d.get("yprev", 0.0)) + (ube - d.get("ubprev", 0.0)))
+            d["yprev"], d["ubprev"], d["zprev"] = yo, ube, z
+            out[m] += d["gain"] * fo
         ub_last = ub
-        if ubx is None:
-            ub = bra * ub + brb * F
     return out, ubs

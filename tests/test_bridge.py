@@ -396,25 +396,26 @@ def test_an_open_bridge_frees_its_members_alone_and_its_leader_last():
     assert b.group(1) == (1,) and b.ipar[2, K.I_CPL] == K.CPL_NONE
 
 
-def test_a_bridge_too_soft_for_its_strings_is_refused():
-    """The bridge's explicit step reflects a string's wave by
-    (1 - r z^-1) / (1 + r z^-1), r = dt sum(T/dx) / R, the strings' summed
-    impedance over the resistance: more than 1 above fs/4 ((1 + r) / (1 - r)
-    at Nyquist), which only the strings' own loss can absorb, and unstable
-    outright from r = 1 (tools/stress.py found the sitar's taraf blowing up
-    at 1 N s/m).  couple and join refuse r > 0.5 with one line naming the
-    value and the least resistance."""
+@pytest.mark.parametrize("ratio", [0.01, 0.5, 1.0, 2.05, 10.0, 1000.0])
+def test_a_bridge_of_any_resistance_is_passive(ratio):
+    """The bridge steps in the same sample as the strings' force, so a
+    string is reflected by the dashpot's (R - Z) / (R + Z) at every
+    frequency: a plucked group on a bridge of any resistance (here 0.01 to
+    1000 times the strings' summed impedance) stays bounded and dies away
+    over 40,000 samples.  (The step one sample behind the force reflected
+    by (1 - r z^-1) / (1 + r z^-1), more than 1 above fs/4: this group grew
+    without bound at every ratio up to 10; tools/stress.py found the
+    sitar's taraf blowing up at 1 N s/m.)"""
     rng = np.random.default_rng(5)
     dt, defs = _group(rng, 3, False, region=False)
     z = sum(d["tdx"] for d in defs) * dt
     b = _bank_for(defs, dt, False, cap=4)
-    with pytest.raises(ValueError, match=r"resistance_ns_per_m = .* is out of range for the strings"
-                                         r" on this bridge \(value >= "):
-        b.couple([0, 1, 2], 1.9 * z)
-    b.couple([0, 1, 2], 2.05 * z, 0.0)
-    b2 = _bank_for(defs, dt, False, cap=4)
-    b2.open_bridge(0, 1.5 * z)
-    b2.join(0, 1)
-    with pytest.raises(ValueError, match="out of range for the strings on this bridge"):
-        b2.join(0, 2)
-    assert b2.group(0) == (0, 1)
+    b.couple([0, 1, 2], ratio * z, 0.0)
+    for s, d in enumerate(defs):
+        b.activate(s)
+        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
+    mix = np.zeros(40_000)
+    for o in range(0, 40_000, 1000):
+        b.render(mix, o, 1000)
+    assert np.all(np.isfinite(mix))
+    assert np.max(np.abs(mix[35_000:])) <= np.max(np.abs(mix[:5000]))

@@ -46,12 +46,6 @@ def test_the_sitar_carries_eleven_taraf_and_two_chikari():
     # without the tables (or with no taraf and no chikari) there is no stage
     assert engine(_bare()).taraf is None
     assert engine("sitar", ["taraf.coupling=0"]).taraf is None   # the played string alone
-    # a bridge too soft for every string that may hang on it (the bank's step
-    # would blow up: tools/stress.py found it at 1 N s/m) is refused
-    from synth.io.errors import SynthError
-
-    with pytest.raises(SynthError, match=r"taraf bridge resistance = 1 N s/m .* is out of range"):
-        engine("sitar", ["taraf.bridge_resistance_ns_per_m=1"])
 
 
 def test_the_halo_rings_at_the_taraf_pitches_after_the_note_is_damped():
@@ -210,13 +204,12 @@ def test_the_bridge_study_runs_in_its_quick_mode():
 
 
 def test_a_soft_bridge_stays_bounded_under_a_chord_and_strokes():
-    """The bridge near the least resistance the engine takes (10 N s/m
-    against its 7.0): six held notes and two strokes of the drones for 8 s
-    stay finite and die away (the bridge's step gives back a little more
-    than it takes above fs/4, which the strings' loss absorbs:
-    docs/voicing.md, "Taraf and chikari")."""
+    """At the schema's softest bridge (1 N s/m, against the strings' summed
+    impedance of up to 3.5 N s/m: the bridge step before 2026-11-25 gave
+    NaN there within 0.1 s, found by tools/stress.py), six held notes and
+    two strokes of the drones for 8 s stay finite and die away."""
     ev = [Event(0.0, "note_on", k, 0.9) for k in (48, 55, 60, 64, 67, 72)]
     ev += [Event(0.5, "note_on", 36, 1.0), Event(2.0, "note_on", 37, 1.0)]
-    y = engine("sitar", ["taraf.bridge_resistance_ns_per_m=10"]).render(ev, duration_s=8.0)
+    y = engine("sitar", ["taraf.bridge_resistance_ns_per_m=1"]).render(ev, duration_s=8.0)
     assert np.all(np.isfinite(y))
     assert np.max(np.abs(y[7 * FS:])) < 0.1 * np.max(np.abs(y[:FS]))

@@ -695,7 +695,6 @@ class StringBank:
         self._new_bridge(slots[0], resistance_ns_per_m, return_hz)
         for s in slots[1:]:
             self._check_member(s, slots[0])
-        self._check_stable(slots[0], float(np.sum(self.fpar[slots, K.F_TDX])))
         self._members[slots[0]] = slots
         self._chain(slots[0])
 
@@ -726,7 +725,6 @@ class StringBank:
             raise ValueError(f"the bridge led by slot {lead} holds {len(mem)} strings, the "
                              f"most this bank takes (max_group = {self.max_group})")
         self._check_member(s, lead)
-        self._check_stable(lead, float(np.sum(self.fpar[mem, K.F_TDX])) + self.fpar[s, K.F_TDX])
         if self._leader[s] >= 0:
             self.leave(s)
         mem.append(s)
@@ -771,29 +769,6 @@ class StringBank:
         self.fpar[lead, K.F_BRA] = math.exp(-2.0 * math.pi * return_hz * dt)
         self.fst[lead, K.S_UB0] = 0.0
         self.fst[lead, K.S_UBM] = 0.0
-
-    #: the largest dt sum(T/dx) / R a bridge takes: the explicit bridge step
-    #: u_b(i+1) = u_b(i) + (dt/R) (f(i) - sum(T/dx) (u_b(i) - u_b(i-1))) has
-    #: the roots 1 and -r of z^2 - (1 - r) z - r, r = sum of the strings'
-    #: impedances T/c over R: unstable from r = 1 (found by tools/stress.py:
-    #: the sitar's taraf at 1 N s/m); at 0.5 its parasite halves every sample
-    MAX_BRIDGE_RATIO = 0.5
-
-    @staticmethod
-    def bridge_needs_ns_per_m(impedance_sum_ns_per_m: float) -> float:
-        """The least bridge resistance (N s/m) for strings whose impedances
-        T/c add up to ``impedance_sum_ns_per_m``."""
-        return float(impedance_sum_ns_per_m) / StringBank.MAX_BRIDGE_RATIO
-
-    def _check_stable(self, lead: int, tdx_sum: float) -> None:
-        dt = float(self.fpar[lead, K.F_DT])
-        R = dt / float(self.fpar[lead, K.F_BRB])
-        z = tdx_sum * dt
-        if z / R > self.MAX_BRIDGE_RATIO:
-            raise ValueError(f"resistance_ns_per_m = {R:g} is out of range for the strings on "
-                             f"this bridge (value >= {self.bridge_needs_ns_per_m(z):g}: twice "
-                             f"their summed impedance, {z:g} N s/m; below it the bridge's step "
-                             f"is unstable)")
 
     def _check_member(self, s: int, lead: int) -> None:
         ip = self.ipar[s]

@@ -37,9 +37,6 @@ render give the same samples).
 
 from __future__ import annotations
 
-from ..kernels import strings as K
-
-
 class Taraf:
     """The taraf and chikari of one engine, in its bank.
 
@@ -68,17 +65,6 @@ class Taraf:
         self.lead = self.slots[0]
         self.R = float(design.resistance_ns_per_m)
         self.return_hz = float(design.return_hz)
-        # every string that may hang on the bridge at once: ours and a
-        # played string in every voice slot (the bank's step is stable only
-        # on a bridge resisting more than twice their summed impedance)
-        z = sum(float(t.fpar[K.F_TDX] * t.fpar[K.F_DT]) for t in self.templates)
-        z += int(first) * float(design.played_impedance_ns_per_m)
-        need = bank.bridge_needs_ns_per_m(z)
-        if self.R < need:
-            raise ValueError(f"taraf bridge resistance = {self.R:g} N s/m "
-                             f"(taraf.bridge_resistance_ns_per_m / taraf.coupling) is out of "
-                             f"range (value >= {need:g}: twice the summed impedance of its "
-                             f"{len(self.templates)} strings and {int(first)} played ones)")
         #: pending drone plucks: (internal sample, drone, amplitude m)
         self._plucks: list = []
         self.n_strums = 0

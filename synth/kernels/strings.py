@@ -242,8 +242,8 @@ S_HC_GAP = S_HC_EP + 1  # samples since the last hammer contact (-1: none yet)
 S_HF_PK = S_HC_GAP + 1  # peak hammer force (N)
 # second-order sections' states: x1, x2, y1, y2 per section (direct form I)
 S_SOS = S_HF_PK + 1
-S_UB0 = S_SOS + 4 * MAX_SOS   # coupled group (leader): bridge displacement at the next sample (m)
-S_UBM = S_UB0 + 1             # and at the sample before it
+S_UB0 = S_SOS + 4 * MAX_SOS   # coupled group (leader): (unused since the bridge's same-sample step)
+S_UBM = S_UB0 + 1             # coupled group (leader): the bridge displacement of the last sample (m)
 S_UBP = S_UBM + 1             # a string on a bridge: the bridge displacement of its last sample
 S_UBOFF = S_UBP + 1           # a string on an external bridge: the offset its end eases off
 S_TO = S_UBOFF + 1            # pitch bend: the tune-out, extra delay of the bend line (samples,
@@ -2317,25 +2317,29 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
 def _bridge(lead, G, ipar, fpar, fst, C, cw):
     """The bridge of a coupled group over a chunk: from the members'
     loop-filter outputs z (their far-end windows in ``cw``), the bridge
-    displacement u_b per sample by the recurrence
+    displacement u_b per sample, in the same sample as the strings' force:
 
-        F(i) = sum_m T_m/dx_m (2 dz_m(i) - du_b(i)),    y_m(i) = z_m(i) - u_b(i),
-        u_b(i+1) = BRA u_b(i) + BRB F(i)
+        F(i) = f(i) - B (u_b(i) - u_b(i-1)),   f(i) = sum_m T_m/dx_m 2 dz_m(i),
+        u_b(i) = a u_b(i-1) + b F(i)
+        =>  u_b(i) = ((a + r) u_b(i-1) + b f(i)) / (1 + r),   r = b B,
 
-    (the strings' summed force on the bridge at sample i, the force of
-    :func:`_far_write`; d a step's difference; the bridge answers one step
-    later: BRB = dt / R_b for a bridge of resistance R_b (N s/m), BRA =
-    exp(-2 pi f_r dt) its spring's slow return); then every member's
-    outgoing wave y = z - u_b.  F(i) = f(i) + BTDX (u_b(i-1) - u_b(i)),
-    where f, the force with the bridge held still, is summed over the
-    members first (vectorised), so the serial recurrence is on u_b alone.
-    The bridge row of ``cw`` (after the G members' windows) gets u_b of the
-    sample before the chunk and of its C samples (for the members' force
-    outputs).  The members are the chain from ``lead`` (``I_CPLNX``)."""
+    (f the strings' summed force with the bridge held still, B = BTDX the
+    members' summed T/dx, b = BRB = dt / R_b for a bridge of resistance
+    R_b, a = BRA = exp(-2 pi f_r dt) its spring's slow return; d a step's
+    difference); then every member's outgoing wave y = z - u_b.  A string
+    of impedance Z on it is reflected by (R_b - Z) / (R_b + Z) at every
+    frequency, the dashpot's own: passive for any R_b.  (The step one
+    sample behind the force, u_b(i+1) = a u_b(i) + b F(i), used until
+    2026-11-25, reflects by (1 - r z^-1) / (1 + r z^-1): more than 1 above
+    fs/4, and a sitar's taraf on a soft bridge blew up.)  The bridge row of
+    ``cw`` (after the G members' windows) gets u_b of the sample before the
+    chunk and of its C samples (for the members' force outputs).  The
+    members are the chain from ``lead`` (``I_CPLNX``)."""
     a = fpar[lead, F_BRA]
     b = fpar[lead, F_BRB]
-    tdx_all = fpar[lead, F_BTDX]
-    ub0 = fst[lead, S_UB0]
+    r = b * fpar[lead, F_BTDX]
+    ar = a + r
+    den = 1.0 / (1.0 + r)
     ubm = fst[lead, S_UBM]
     row = cw[2 * G * _CW:2 * G * _CW + C + 1]
     fo = row[1:1 + C]
@@ -2355,11 +2359,9 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
         yb[0] = y_prev
     row[0] = ubm
     for i in range(C):
-        F = fo[i] + tdx_all * (ubm - ub0)
-        ubm = ub0
-        fo[i] = ub0
-        ub0 = a * ub0 + b * F
-    fst[lead, S_UB0] = ub0
+        ubm = (ar * ubm + b * fo[i]) * den
+        fo[i] = ubm
+    fst[lead, S_UB0] = ubm
     fst[lead, S_UBM] = ubm
     s = lead
     for m in range(G):
@@ -2434,23 +2436,51 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
 def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, one, po0, psub):
     """The plain per-sample scheme for a coupled group (the reference of
     :func:`_coupled_chunk`; probes, telemetry and excitations inside the
-    region): every member steps one sample with the bridge's displacement
-    u_b(i), their forces are summed, and the bridge steps (the recurrence
-    of :func:`_bridge`).  ``one``: two scratch values."""
+    region): every member steps one sample on the bridge as it would be
+    with the strings' force held still, U0 = (a + r) u_b(i-1) / (1 + r);
+    their summed force then gives the bridge's true u_b(i) = U0 + dU
+    (:func:`_bridge`'s step), and each member's outgoing wave, its force
+    output and its bridge reading are corrected by dU (the scheme is
+    linear in u_b; the members' peaks keep the provisional output).
+    ``one``: two scratch values."""
     a = fpar[lead, F_BRA]
     b = fpar[lead, F_BRB]
+    r = b * fpar[lead, F_BTDX]
+    den = 1.0 / (1.0 + r)
+    two = mix.shape[0] > 1
     for i in range(n):
-        ub0 = fst[lead, S_UB0]
-        one[0] = ub0
+        ubm = fst[lead, S_UBM]
+        U0 = (a + r) * ubm * den
+        one[0] = U0
         one[1] = 0.0
         cf = one[1:2]
+        corr = 0.0
         s = lead
         for m in range(G):
+            corr += fpar[s, F_TDX] * (U0 - fst[s, S_UBP])
             _render_per_sample(s, ring, ipar, fpar, fst, U, 1, o0 + i, mix, probe, one, 0,
                                cf, po0 + i // psub, 1)
             s = ipar[s, I_CPLNX]
-        fst[lead, S_UBM] = ub0
-        fst[lead, S_UB0] = a * ub0 + b * one[1]
+        dU = b * (one[1] + corr) * den
+        ub = U0 + dU
+        s = lead
+        for m in range(G):
+            N = ipar[s, I_N]
+            jn = ipar[s, I_POS] - N
+            if jn < 0:
+                jn += 2 * N
+            ring[ipar[s, I_OFF] + jn] -= dU
+            fst[s, S_UBP] = ub
+            v = -fpar[s, F_GAIN] * fpar[s, F_TDX] * dU
+            if two and ipar[s, I_BUS] == 1:
+                pan = fpar[s, F_PAN]
+                mix[0, o0 + i] += v - pan * v
+                mix[1, o0 + i] += pan * v
+            else:
+                mix[0, o0 + i] += v
+            s = ipar[s, I_CPLNX]
+        fst[lead, S_UBM] = ub
+        fst[lead, S_UB0] = ub
 
 
 @njit(**JIT_OPTS)

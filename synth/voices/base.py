@@ -100,9 +100,6 @@ class TarafDesign:
                                     strings hang on: u_b = integral of F / R
                                     (N s/m)
     return_hz : float               its spring's slow return (Hz)
-    played_impedance_ns_per_m : float  the largest impedance T/c of one played
-                                    string (N s/m): the bridge must resist
-                                    more than twice all its strings'
     trigger : tuple (lo, hi) or None  MIDI keys that strum the drones
     channel : int or None           MIDI channel (0-15) whose notes strum them
     pluck : DronePluck              how the drones are plucked
@@ -116,7 +113,6 @@ class TarafDesign:
     drone_keys: tuple
     resistance_ns_per_m: float
     return_hz: float
-    played_impedance_ns_per_m: float
     trigger: tuple | None
     channel: int | None
     pluck: DronePluck

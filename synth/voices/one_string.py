@@ -396,12 +396,9 @@ class OneStringVoice(Voice):
             channel = None if c.channel == 0 else int(c.channel) - 1
             strum = float(c.strum_s)
         R = t.bridge_resistance_ns_per_m / t.coupling
-        # a played string is the open one fretted (the same tension) or
-        # retuned below it (less): at most the open string's impedance
-        z_played = self.open_string.impedance_kg_per_s
         return TarafDesign(tuple(slots), tuple(keys), tuple(drones), tuple(dkeys), R,
-                           self.BRIDGE_RETURN_HZ, z_played, trigger, channel, pluck, strum,
-                           max_cells, max_region)
+                           self.BRIDGE_RETURN_HZ, trigger, channel, pluck, strum, max_cells,
+                           max_region)
 
     # -- voice contract ------------------------------------------------------------
     def set_buzz(self, bank: StringBank, value: float, sounding=()) -> None:
