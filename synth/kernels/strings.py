@@ -198,8 +198,9 @@ F_TGAP = 45      # telemetry: contacts fewer than this many samples apart are on
 F_SOS = 46
 MAX_SOS = 12
 F_PAN = F_SOS + 2 * MAX_SOS   # share of the output on bus 1 (I_BUS = 1): (1 - pan) to bus 0
-# the bridge of a coupled group (on its leader): u_b(n+1) = BRA u_b(n) + BRB F(n), with
-# F(n) the strings' summed force on it (N); BTDX = the members' summed T / dx (N/m)
+# the bridge of a coupled group (on its leader): u_b(n) = BRA u_b(n-1) + BRB F(n), with
+# F(n) the strings' summed force on it (N), solved in the same sample (_bridge);
+# BTDX = the members' summed T / dx (N/m)
 F_BRA = F_PAN + 1
 F_BRB = F_BRA + 1
 F_BTDX = F_BRB + 1
