@@ -36,8 +36,9 @@ def _group(rng, n_str, per_sample, sos=True, region=True):
     return dt, defs
 
 
-def _bank_for(defs, dt, per_sample, cap=None, sub=1):
-    b = StringBank(cap or len(defs), max(d["N"] for d in defs) + 2, 16, 2048)
+def _bank_for(defs, dt, per_sample, cap=None, sub=1, max_group=K.MAX_CPL):
+    b = StringBank(cap or len(defs), max(d["N"] for d in defs) + 2, 16, 2048,
+                   max_group=max_group)
     for s, d in enumerate(defs):
         b.configure(s, cells=d["N"], k=d["k"], dt_s=dt, U=d["U"], side=1, out_mode=1,
                     gain=d["gain"], tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"],
@@ -302,13 +303,7 @@ def test_an_open_bridge_equals_the_naive_scheme_as_strings_join_and_leave(per_sa
     path's lockstep chunks and per sample."""
     rng = np.random.default_rng(21)
     dt, defs = _group(rng, 5, per_sample)
-    b = StringBank(6, max(d["N"] for d in defs) + 2, 16, 2048, max_group=6)
-    for s, d in enumerate(defs):
-        b.configure(s, cells=d["N"], k=d["k"], dt_s=dt, U=d["U"], side=1, out_mode=1,
-                    gain=d["gain"], tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"],
-                    eta=d["eta"], extra_delay=d["extra_delay"], lossy=True,
-                    force_per_sample=per_sample, n_disp=d["n_disp"], a_disp=d["a_disp"],
-                    sos=d["sos"])
+    b = _bank_for(defs, dt, per_sample, cap=6, max_group=6)
     R_b, f_ret = 3.0, 5.0
     n = 8 * defs[0]["N"]
     j_in, j_out = 3 * 211, 5 * 211
@@ -368,10 +363,7 @@ def test_a_string_with_a_pitch_bend_line_hangs_on_a_bridge(per_sample):
 def test_an_open_bridge_frees_its_members_alone_and_its_leader_last():
     rng = np.random.default_rng(9)
     dt, defs = _group(rng, 3, False, region=False)
-    b = StringBank(4, max(d["N"] for d in defs) + 2, 16, 2048, max_group=4)
-    for s, d in enumerate(defs):
-        b.configure(s, cells=d["N"], k=d["k"], dt_s=dt, U=None, out_mode=1, gain=d["gain"],
-                    tension_over_dx=d["tdx"], b0=d["b0"], a1=d["a1"], eta=d["eta"], lossy=True)
+    b = _bank_for(defs, dt, False, cap=4)
     b.open_bridge(0, 5.0)
     b.join(0, 1)
     b.join(0, 2)

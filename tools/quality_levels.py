@@ -31,7 +31,6 @@ Run with ``NUMBA_NUM_THREADS=1``; the machine is noisy: times are medians
 from __future__ import annotations
 
 import argparse
-import math
 import os
 import sys
 import tempfile
@@ -39,6 +38,8 @@ import time
 from pathlib import Path
 
 import numpy as np
+
+from work_precision import note_partials, partial_errors  # noqa: E402  (tools/, on sys.path)
 
 ROOT = Path(__file__).resolve().parents[1]
 MUSICAL = ("grand-piano", "harpsichord", "sitar", "hammered-sitar", "biwa")
@@ -78,7 +79,6 @@ def _render_note(name, key, overrides, fs_internal):
 
 def note_errors(name: str, keys, repeats: int) -> list[dict]:
     """Rows (preset, key, level, partials, cents, db, time_s) for ``name``."""
-    from synth.analysis.partials import track_partials
     from synth.io.presets import load_preset
 
     preset = load_preset(name)
@@ -93,18 +93,12 @@ def note_errors(name: str, keys, repeats: int) -> list[dict]:
             for _ in range(repeats if label != "converged" else 1):
                 y, fo, f1, tm = _render_note(name, key, ov, fs)
                 times.append(tm)
-            seg = y[int(0.05 * fo):]
-            n = max(1, min(16, int(10_000 / f1)))
-            f, lv, _ = track_partials(seg, fo, f1 / math.sqrt(1 + B), n, inharmonicity=B)
-            res[label] = (f, lv, float(np.median(times)))
+            res[label] = (*note_partials(y, fo, f1, B), float(np.median(times)))
         fr, lr, _ = res["converged"]
-        keep = np.isfinite(fr) & np.isfinite(lr) & (lr >= np.nanmax(lr) - 40)
         for label in LEVELS:
             f, lv, tm = res[label]
-            ok = keep & np.isfinite(f) & np.isfinite(lv)
-            cents = float(np.max(np.abs(1200 * np.log2(f[ok] / fr[ok])))) if ok.any() else math.nan
-            db = float(np.max(np.abs(lv[ok] - lr[ok]))) if ok.any() else math.nan
-            rows.append(dict(preset=name, key=key, level=label, partials=int(ok.sum()),
+            n, cents, db = partial_errors(f, lv, fr, lr)
+            rows.append(dict(preset=name, key=key, level=label, partials=n,
                              cents=cents, db=db, time_s=tm))
     return rows
 

@@ -357,13 +357,35 @@ GRAND_KEYS = (33, 60, 84)
 GRAND_RATES = (162_500, 243_750, 325_000, 650_000, 1_300_000)
 
 
+def note_partials(y, fs, f1, B):
+    """Partials 1..16 (those under 10 kHz) of a note over 0.05 s on:
+    frequencies and levels (:func:`synth.analysis.track_partials`)."""
+    from synth.analysis.partials import track_partials
+
+    seg = y[int(0.05 * fs):]
+    n = max(1, min(16, int(10_000 / f1)))
+    f, lv, _ = track_partials(seg, fs, f1 / math.sqrt(1 + B), n, inharmonicity=B)
+    return f, lv
+
+
+def partial_errors(f, lv, fr, lr):
+    """(partials compared, worst frequency error in cents, worst level
+    error in dB) of partials (f, lv) against the reference's (fr, lr), over
+    the reference's partials within 40 dB of its strongest."""
+    keep = np.isfinite(fr) & np.isfinite(lr) & (lr >= np.nanmax(lr) - 40)
+    ok = keep & np.isfinite(f) & np.isfinite(lv)
+    if not ok.any():
+        return 0, math.nan, math.nan
+    return (int(ok.sum()), float(np.max(np.abs(1200 * np.log2(f[ok] / fr[ok])))),
+            float(np.max(np.abs(lv[ok] - lr[ok]))))
+
+
 def grand_notes(keys, rates, repeats: int):
     """A grand note (velocity 80, 1.05 s, mono mean) rendered at each
     internal rate: partials 1..16 (those under 10 kHz and within 40 dB of the
     strongest) over 0.05-1.05 s (:func:`synth.analysis.track_partials`),
     their frequencies (cents) and levels (dB) against the same note at the
     highest rate, and the render's run time."""
-    from synth.analysis.partials import track_partials
     from synth.analysis.spectrum import as_mono
     from synth.engine.engine import Event
     from synth.io.factory import build_engine
@@ -381,18 +403,12 @@ def grand_notes(keys, rates, repeats: int):
                 return as_mono(y), e.fs_out, e.inst.tuning_hz(key), time.perf_counter() - t0
 
             (y, fo, f1, _), tm = timed(render, repeats)
-            seg = y[int(0.05 * fo):]
-            n = max(1, min(16, int(10_000 / f1)))
-            f, lv, _ = track_partials(seg, fo, f1 / math.sqrt(1 + B), n, inharmonicity=B)
-            res[fs] = (f, lv, tm)
+            res[fs] = (*note_partials(y, fo, f1, B), tm)
         fr, lr, _ = res[rates[-1]]
-        keep = np.isfinite(fr) & np.isfinite(lr) & (lr >= np.nanmax(lr) - 40)
         for fs in rates:
             f, lv, tm = res[fs]
-            ok = keep & np.isfinite(f) & np.isfinite(lv)
-            cents = float(np.max(np.abs(1200 * np.log2(f[ok] / fr[ok])))) if ok.any() else math.nan
-            db = float(np.max(np.abs(lv[ok] - lr[ok]))) if ok.any() else math.nan
-            rows.append(dict(key=key, fs=fs, partials=int(ok.sum()), cents=cents, db=db, time_s=tm))
+            n, cents, db = partial_errors(f, lv, fr, lr)
+            rows.append(dict(key=key, fs=fs, partials=n, cents=cents, db=db, time_s=tm))
     return rows
 
 

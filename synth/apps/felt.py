@@ -106,7 +106,7 @@ def table(req: FeltRequest) -> dict:
                        "alpha0_s": f.time_scale_s, "l0_m": f.length_scale_m}
     if req.what in ("dispersion", "velocities"):
         om, mu = F.dispersion(x, d)
-        vph, vgr = F.velocities(x, d)
+        vph, vgr = F.velocities(x, d, roots=(om, mu))
         cols = {"k": x, "omega": om, "mu": mu, "v_phase": vph, "v_group": vgr}
         out["ngv"] = F.has_ngv(d)
         out["ngv_threshold_delta"] = F.ngv_threshold()

@@ -280,10 +280,13 @@ class _Cut:
         self.blocks, self.n_max, self.n_fade, self.cut = blocks, n_max, int(n_fade), bool(cut)
 
     def __iter__(self):
+        if self.n_max is None:
+            yield from self.blocks            # nothing to cut, nothing to fade
+            return
         held = None
         total = 0
         for b in self.blocks:
-            if self.n_max is not None and total + len(b) > self.n_max:
+            if total + len(b) > self.n_max:
                 b = b[: self.n_max - total]
                 self.cut = True
             total += len(b)
@@ -291,7 +294,7 @@ class _Cut:
             if len(held) > self.n_fade:
                 yield held[: len(held) - self.n_fade]
                 held = held[len(held) - self.n_fade:]
-            if self.n_max is not None and total >= self.n_max:
+            if total >= self.n_max:
                 self.cut = self.cut or self._more()
                 break
         if held is not None and len(held):

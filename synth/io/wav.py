@@ -181,41 +181,9 @@ def write_wav(path: str | os.PathLike[str], audio: np.ndarray, fs: int,
     if frames > wav_max_frames(channels, subtype):
         raise SynthError(f"{shown}: {frames} frames x {channels} channels is too long for a WAV "
                          f"file (4 GiB limit)")
-    peak = float(max(a.max(), -a.min())) if a.size else 0.0
-    peak_dbfs = 20.0 * math.log10(peak) if peak > 0 else -math.inf
-
-    if subtype == "float":
-        data = np.ascontiguousarray(a, dtype=np.float32)
-        sf_subtype = "FLOAT"
-        n_clipped = 0
-    else:
-        over = (a > _PCM24_MAX) | (a < -1.0)
-        n_clipped = int(np.count_nonzero(over))
-        q = np.clip(np.rint(a * _PCM24_SCALE), -_PCM24_SCALE, _PCM24_SCALE - 1.0)
-        # libsndfile stores the top 24 bits of int32 data: exact, no float rescaling.
-        data = np.ascontiguousarray(q.astype(np.int32) << 8)
-        sf_subtype = "PCM_24"
-
-    def write(f: BinaryIO) -> None:
-        f.flush()
-        snd = sf.SoundFile(f.fileno(), mode="w", samplerate=fs, channels=channels,
-                           subtype=sf_subtype, format="WAV", closefd=False)
-        try:
-            for i in range(0, frames, _WRITE_FRAMES):
-                snd.write(data[i:i + _WRITE_FRAMES])
-            snd.close()                   # the header's sizes
-        except sf.LibsndfileError as e:
-            raise _libsndfile_failure(snd, e) from None
-        finally:
-            if not snd.closed:
-                try:
-                    snd.close()
-                except sf.SoundFileError:
-                    pass                  # the first error is the one to report
-
-    _atomic_write(path, write)
-    return WavWriteResult(frames=int(frames), channels=int(channels),
-                          peak_dbfs=peak_dbfs, n_clipped=n_clipped)
+    # (checked whole above: the stream writer need not look again)
+    return _write_blocks(path, (a[i:i + _WRITE_FRAMES] for i in range(0, frames, _WRITE_FRAMES)),
+                         fs, channels, subtype, checked=True)
 
 
 def write_wav_stream(path: str | os.PathLike[str], blocks: Iterable[np.ndarray], fs: int,
@@ -263,7 +231,15 @@ def write_wav_stream(path: str | os.PathLike[str], blocks: Iterable[np.ndarray],
     if not (1 <= int(channels) <= MAX_CHANNELS):
         raise SynthError(f"{shown}: channels = {channels!r} is out of range "
                          f"(1 <= value <= {MAX_CHANNELS})")
-    channels = int(channels)
+    return _write_blocks(path, blocks, fs, int(channels), subtype, checked=False)
+
+
+def _write_blocks(path, blocks, fs: int, channels: int, subtype: str,
+                  checked: bool) -> WavWriteResult:
+    """Encode and write ``blocks`` (validated fs, channels and subtype)
+    atomically; each block is checked for its shape and finite samples
+    unless the caller ``checked`` the whole of them (:func:`write_wav`)."""
+    shown = display_path(path)
     limit = wav_max_frames(channels, subtype)
     sf_subtype = "FLOAT" if subtype == "float" else "PCM_24"
     tally = {"frames": 0, "peak": 0.0, "clipped": 0}
@@ -280,7 +256,7 @@ def write_wav_stream(path: str | os.PathLike[str], blocks: Iterable[np.ndarray],
                 if a.ndim != 2 or a.shape[1] != channels or a.dtype.kind != "f":
                     raise SynthError(f"{shown}: a block has shape {np.shape(block)} and dtype "
                                      f"{a.dtype}, expected real samples (frames, {channels})")
-                n_bad = int(a.size - np.count_nonzero(np.isfinite(a)))
+                n_bad = 0 if checked else int(a.size - np.count_nonzero(np.isfinite(a)))
                 if n_bad:
                     raise SynthError(f"{shown}: audio has {n_bad} non-finite samples (NaN or "
                                      f"inf) in a block at frame {tally['frames']}; nothing written")

@@ -186,17 +186,18 @@ def dispersion(k, delta: float) -> tuple[np.ndarray, np.ndarray]:
     return om, mu
 
 
-def velocities(k, delta: float) -> tuple[np.ndarray, np.ndarray]:
+def velocities(k, delta: float, roots=None) -> tuple[np.ndarray, np.ndarray]:
     """Phase velocity omega / k and group velocity d omega / d k of the
     propagating wave at wavenumbers ``k`` > 0 (units of c_s): the group
     velocity from eq. 2.16 by implicit differentiation,
     dOmega/dk = 2 k (1 - i Omega) / (2 Omega - 3 i delta Omega^2 + i k^2),
     its real part.  Both tend to 1 (c_s) for long waves and to 1/sqrt(delta)
-    (c_d) for short ones (eq. 2.26)."""
+    (c_d) for short ones (eq. 2.26).  ``roots``: :func:`dispersion`'s
+    (omega, mu) for these k, if the caller has them (else solved here)."""
     k = _wavenumbers(k)
     if np.any(k <= 0):
         raise ValueError("k must be > 0 for the velocities")
-    om, mu = dispersion(k, delta)
+    om, mu = dispersion(k, delta) if roots is None else roots
     O = om + 1j * mu
     d = float(delta)
     with np.errstate(invalid="ignore"):           # NaN in a band gap stays NaN

@@ -82,6 +82,7 @@ from ..physics.profiles import Termination, capo
 from ..physics.soundboard import knock_impulse_ns
 from ..physics.dispersion import tune_stiff_loop
 from .base import BankSizes, SympatheticDesign, Voice
+from .quality import quality_level
 from .registry import register_voice
 
 #: per-key string designs, by (preset, internal rate)
@@ -92,11 +93,11 @@ _DESIGNS: dict = {}
 #: flattened A0's single string by 1.2 cents; at 1 Hz by 0.2)
 BRIDGE_RETURN_HZ = 1.0
 #: each string's partials within this of the stiff-string law (cents) at the
-#: standard quality level (synth.voices.quality; reference: 0.5): 1.2
-#: leaves room for the unison's spread and the coupled strings' pull, so the
-#: note's partials stay within 2 cents (1.5 left 2.1-2.7 cents on some bass
-#: keys' partials 17-21; the design's cost: 5 % more sections than at 2)
-DISPERSION_TOL_CENTS = 1.2
+#: standard quality level (set there, synth.voices.quality; reference: 0.5):
+#: 1.2 leaves room for the unison's spread and the coupled strings' pull, so
+#: the note's partials stay within 2 cents (1.5 left 2.1-2.7 cents on some
+#: bass keys' partials 17-21; the design's cost: 5 % more sections than at 2)
+DISPERSION_TOL_CENTS = quality_level("standard").dispersion_tol_cents
 
 
 @dataclass(frozen=True)

@@ -65,7 +65,7 @@ class QualityLevel:
 #: the levels, cheapest first
 LEVELS: tuple[QualityLevel, ...] = (
     QualityLevel("draft", 0.5, 1.2, cost=0.66),
-    QualityLevel("standard", 1.0, 1.2, cost=1.0),
+    QualityLevel("standard", 1.0, 1.2, cost=1.0),   # 1.2: why, synth.voices.grand
     QualityLevel("reference", 2.0, 0.5, cost=1.72),
 )
 
