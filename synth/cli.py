@@ -526,15 +526,19 @@ def build_parser() -> argparse.ArgumentParser:
 
     fe = sub.add_parser("felt", help="the felt wave lab: dispersion, velocities, attenuation of "
                         "deformation waves in hammer felt (thesis chapter 2)")
-    fe.add_argument("what", choices=("dispersion", "velocities", "attenuation", "pulse"),
+    fe.add_argument("what", choices=("dispersion", "velocities", "attenuation", "pulse",
+                                     "hammer"),
                     help="dispersion: omega and mu against a real wavenumber (initial value "
                          "problem); velocities: phase and group velocity, the negative-group-"
                          "velocity region; attenuation: a harmonic load's wave against its "
                          "frequency (boundary value problem); pulse: a pulse by finite "
-                         "differences, linear or nonlinear")
-    fe.add_argument("--felt", choices=("thesis", "pub3"),
-                    help="the felt: the thesis's (eqs. 2.12-2.13, the default) or Publication "
-                         "III's; SI columns are added")
+                         "differences, linear or nonlinear; hammer: a grand key's hammer on a "
+                         "rigid string, the lumped law against its felt solved as a layer")
+    fe.add_argument("--preset", "--felt", dest="felt", metavar="NAME|key:N",
+                    help="the felt: thesis (eqs. 2.12-2.13, the default), pub3 (Publication "
+                         "III's), or key:N, the grand's hammer on MIDI key N (21-108; "
+                         "linearised about its strain at 2 m/s for the linear tables); SI "
+                         "columns are added; --gamma/--tau0-us set values by hand")
     fe.add_argument("--delta", type=float, help="the dimensionless model's delta = 1 - gamma "
                     "alone (0 < value <= 1), instead of a felt")
     fe.add_argument("--gamma", type=float, help="hereditary amplitude of the felt (0 <= value < 1)")
@@ -546,7 +550,8 @@ def build_parser() -> argparse.ArgumentParser:
     fe.add_argument("--problem", choices=("bvp", "ivp"), default="bvp",
                     help="pulse: driven into the surface (bvp, eq. 2.28) or released from "
                          "A sech(alpha x) (ivp, eq. 2.29)")
-    fe.add_argument("--p", type=float, default=1.0, help="pulse: the felt's exponent p (1-5)")
+    fe.add_argument("--p", type=float, help="pulse: the felt's exponent p (1-5; default 1, or "
+                    "the --preset's)")
     fe.add_argument("--amplitude", type=float, default=0.1, help="pulse: A, a strain (default 0.1)")
     fe.add_argument("--times", default="2,3,4", help="pulse: snapshot times (default 2,3,4)")
     fe.add_argument("--dx", type=float, default=0.005, help="pulse: grid step (default 0.005)")
@@ -555,6 +560,13 @@ def build_parser() -> argparse.ArgumentParser:
                          "the default) or eq. 2.11's (alpha0)")
     fe.add_argument("--t-m", type=float, default=0.5, help="pulse bvp: the load's rise time")
     fe.add_argument("--alpha", type=float, default=3.0, help="pulse ivp: the sech's alpha")
+    fe.add_argument("--velocity", default="2", metavar="V[,V...]",
+                    help="hammer: the hammer's speed(s) in m/s (default 2)")
+    fe.add_argument("--thickness-mm", type=float,
+                    help="hammer: the felt layer's thickness (default: the key's, assumed)")
+    fe.add_argument("--area-mm2", type=float,
+                    help="hammer: the felt column's cross-section (default 64 mm^2, assumed)")
+    fe.add_argument("--cells", type=int, default=32, help="hammer: the layer's grid (default 32)")
     fe.add_argument("--json", action="store_true", help="print JSON instead of a table")
     fe.add_argument("--plot", metavar="OUT.png", help="also draw a PNG (needs the [plots] extra)")
     fe.set_defaults(func=cmd_felt)
@@ -633,18 +645,49 @@ def cmd_felt(args) -> int:
 
     if args.plot is not None:
         _check_output(args.plot, "--plot")
+    if args.what == "hammer":
+        from .apps.felt import HammerRequest, format_hammer, hammer_table, plot_hammer
+
+        try:
+            vs = tuple(float(v) for v in args.velocity.split(","))
+        except ValueError:
+            _fail(f"--velocity = {args.velocity!r} is not a list of numbers (e.g. 0.5,2,5)")
+        if args.delta is not None:
+            _fail("hammer takes --preset key:N, not --delta")
+        t = hammer_table(HammerRequest(args.felt or "key:60", vs, args.thickness_mm,
+                                       args.area_mm2, args.gamma,
+                                       None if args.tau0_us is None else args.tau0_us * 1e-6,
+                                       args.cells))
+        strikes = t.pop("_strikes")
+        print(json.dumps(t, indent=1) if args.json else format_hammer(t))
+        if args.plot is not None:
+            t["_strikes"] = strikes
+            plot_hammer(t, args.plot)
+        return 0
     if args.what == "pulse":
-        from .apps.felt import PulseRequest, format_pulse, plot_pulse, pulse_table
+        from .apps.felt import PulseRequest, format_pulse, plot_pulse, pulse_table, preset_felt
 
         try:
             times = tuple(float(v) for v in args.times.split(","))
         except ValueError:
             _fail(f"--times = {args.times!r} is not a list of numbers (e.g. 2,3,4)")
-        d = 0.5 if args.delta is None else args.delta
-        if args.felt is not None or args.gamma is not None or args.tau0_us is not None:
-            _fail("pulse takes --delta (the dimensionless model), not --felt/--gamma/--tau0-us")
-        t = pulse_table(PulseRequest(args.problem, d, args.p, args.amplitude, times, args.dx,
-                                     args.units, args.t_m, args.alpha))
+        if args.gamma is not None or args.tau0_us is not None:
+            _fail("pulse takes --delta (the dimensionless model) or --preset, not "
+                  "--gamma/--tau0-us")
+        if args.felt is not None and args.delta is not None:
+            _fail("pulse takes --delta or --preset, not both")
+        p = args.p
+        if args.felt is not None:
+            fp = preset_felt(args.felt)           # (a key's: its delta; its p unless --p)
+            d = fp.delta
+            if p is None and args.felt.startswith("key:"):
+                from .physics.felt import felt_for_key
+
+                p = felt_for_key(int(args.felt[4:])).felt.exponent
+        else:
+            d = 0.5 if args.delta is None else args.delta
+        t = pulse_table(PulseRequest(args.problem, d, 1.0 if p is None else p, args.amplitude,
+                                     times, args.dx, args.units, args.t_m, args.alpha))
         r = t.pop("_result")
         print(json.dumps(t, indent=1) if args.json else format_pulse(t))
         if args.plot is not None:

@@ -32,8 +32,51 @@ import numpy as np
 from ..io.errors import SynthError
 from ..physics import felt as F
 
-#: named felts of ``--felt``
+#: named felts of ``--preset`` (``--felt``)
 FELTS = {"thesis": F.THESIS_FELT, "pub3": F.PUB3_FELT}
+#: a key's felt in the linear subcommands is linearised about the strain of
+#: the lumped hammer's deepest compression at this speed (m/s, a mezzo-forte
+#: strike: Askenfelt & Jansson 1991 measure ~1 (p) to 5-7 m/s (ff))
+KEY_REFERENCE_SPEED_M_PER_S = 2.0
+KEY_LOW, KEY_HIGH = 21, 108
+
+
+def parse_preset(text: str) -> tuple[str, object]:
+    """``--preset``: a named felt (``thesis``, ``pub3``) -> ("named", Felt),
+    or a grand key ``key:N`` (MIDI 21..108) -> ("key", N)."""
+    t = str(text).strip()
+    if t in FELTS:
+        return "named", FELTS[t]
+    if t.startswith("key:"):
+        try:
+            n = int(t[4:])
+        except ValueError:
+            raise SynthError(f"--preset = {text!r} is not a key (key:N, N a MIDI key "
+                             f"{KEY_LOW}..{KEY_HIGH})") from None
+        if not (KEY_LOW <= n <= KEY_HIGH):
+            raise SynthError(f"--preset = {text!r} is out of range (key:{KEY_LOW} <= value <= "
+                             f"key:{KEY_HIGH})")
+        return "key", n
+    raise SynthError(f"--preset = {text!r} is not allowed (choose {', '.join(FELTS)}, or "
+                     f"key:N for the grand's key N = {KEY_LOW}..{KEY_HIGH})")
+
+
+def key_felt_linearized(midi: int) -> tuple[F.Felt, float]:
+    """The key's felt (:func:`synth.physics.felt.felt_for_key`) linearised
+    (p = 1, the tangent modulus) about the strain of its lumped hammer's
+    deepest compression at :data:`KEY_REFERENCE_SPEED_M_PER_S`; returns
+    (felt, that strain)."""
+    hf = F.felt_for_key(midi)
+    w = F.strike_lumped(hf, KEY_REFERENCE_SPEED_M_PER_S).peak_compression_m
+    eps = w / hf.thickness_m
+    return hf.felt.linearized(eps), eps
+
+
+def preset_felt(text: str) -> F.Felt:
+    """The felt of ``--preset`` for the linear subcommands (a key's felt
+    linearised: :func:`key_felt_linearized`)."""
+    kind, v = parse_preset(text)
+    return v if kind == "named" else key_felt_linearized(v)[0]
 
 
 @dataclass(frozen=True)
@@ -41,7 +84,9 @@ class FeltRequest:
     """What ``synth felt`` was asked.
 
     what : str                  ``dispersion``, ``velocities`` or ``attenuation``
-    felt : Felt or None         the felt (SI columns too), or None (``delta`` alone)
+    felt : Felt or None         the felt (SI columns too; p = 1: a key's is
+                                linearised, :func:`key_felt_linearized`), or None
+                                (``delta`` alone)
     delta : float               relaxation parameter 1 - gamma
     x_max : float               largest k (IVP) or omega (BVP), units of eq. 2.11
     points : int                rows
@@ -56,7 +101,8 @@ class FeltRequest:
 
 def make_request(what: str, felt: str | None, delta: float | None, gamma: float | None,
                  tau0_s: float | None, x_max: float, points: int) -> FeltRequest:
-    """Validate the command line's choices into a :class:`FeltRequest`."""
+    """Validate the command line's choices into a :class:`FeltRequest`;
+    ``felt`` is a ``--preset`` (:func:`parse_preset`)."""
     if what not in ("dispersion", "velocities", "attenuation"):
         raise SynthError(f"what = {what!r} is not allowed (choose dispersion, velocities, "
                          f"attenuation)")
@@ -66,9 +112,7 @@ def make_request(what: str, felt: str | None, delta: float | None, gamma: float 
         raise SynthError(f"--points = {points!r} is out of range (2 <= value <= 100000)")
     f = None
     if felt is not None:
-        if felt not in FELTS:
-            raise SynthError(f"--felt = {felt!r} is not allowed (choose {', '.join(FELTS)})")
-        f = FELTS[felt]
+        f = preset_felt(felt)
     if gamma is not None or tau0_s is not None:
         if delta is not None:
             raise SynthError("--delta and --gamma/--tau0 are exclusive: give one")
@@ -81,7 +125,7 @@ def make_request(what: str, felt: str | None, delta: float | None, gamma: float 
             raise SynthError(str(e)) from None
     if delta is not None:
         if f is not None:
-            raise SynthError("--delta and --felt are exclusive: a named felt has its own delta")
+            raise SynthError("--delta and --preset/--felt are exclusive: a felt has its own delta")
         if not (0.0 < delta <= 1.0):
             raise SynthError(f"--delta = {delta!r} is out of range (0 < value <= 1)")
         d = float(delta)
@@ -305,5 +349,193 @@ def plot_pulse(t: dict, path: str) -> None:
 
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=80)
+    plt.close(fig)
+    write_bytes_atomic(path, buf.getvalue())
+
+
+# ---- synth felt hammer: the felt layer against the lumped law (issue 14 sec. 6) ----
+
+@dataclass(frozen=True)
+class HammerRequest:
+    """``synth felt hammer``: a grand key's hammer struck on a rigid string
+    by the lumped law and as a felt layer.
+
+    preset : str                ``key:N`` (:func:`parse_preset`)
+    velocities : tuple          hammer speeds, m/s (0.05 .. 20)
+    thickness_mm, area_mm2 : float or None   the layer (None: the key's assumed)
+    gamma, tau0_s : float or None            the felt's memory (None: the key's;
+                                the lumped law follows, alpha = tau0 / (1 - gamma))
+    cells : int                 the layer's grid (2 .. 1024)
+    """
+
+    preset: str
+    velocities: tuple
+    thickness_mm: float | None = None
+    area_mm2: float | None = None
+    gamma: float | None = None
+    tau0_s: float | None = None
+    cells: int = 32
+
+
+def hammer_felt(req: HammerRequest) -> F.HammerFelt:
+    """The :class:`synth.physics.felt.HammerFelt` the request names."""
+    kind, v = parse_preset(req.preset)
+    if kind != "key":
+        raise SynthError(f"--preset = {req.preset!r} is not allowed for hammer (a grand key's "
+                         f"hammer: key:{KEY_LOW} .. key:{KEY_HIGH})")
+    for name, x, lo, hi in (("--thickness-mm", req.thickness_mm, 0.1, 100.0),
+                            ("--area-mm2", req.area_mm2, 0.01, 1e4)):
+        if x is not None and not (lo <= x <= hi):
+            raise SynthError(f"{name} = {x!r} is out of range ({lo:g} <= value <= {hi:g})")
+    try:
+        hf = F.felt_for_key(v, thickness_m=None if req.thickness_mm is None
+                            else req.thickness_mm * 1e-3,
+                            area_m2=F.FELT_COLUMN_AREA_M2 if req.area_mm2 is None
+                            else req.area_mm2 * 1e-6)
+        if req.gamma is not None or req.tau0_s is not None:
+            f = hf.felt
+            f = F.Felt(f.density_kg_per_m3, f.e_static_pa, f.gamma if req.gamma is None
+                       else req.gamma, f.tau0_s if req.tau0_s is None else req.tau0_s, f.exponent)
+            hf = F.HammerFelt(f, hf.thickness_m, hf.area_m2, hf.hammer_mass_kg, hf.midi)
+    except ValueError as e:
+        raise SynthError(str(e)) from None
+    return hf
+
+
+def _rel(a: float, b: float) -> float:
+    return a / b - 1.0
+
+
+def hammer_table(req: HammerRequest) -> dict:
+    """Per speed: contact time, peak force (the layer's after its first
+    touch's transient) and deepest compression of the
+    lumped law as the voice uses it (eq. 1.5, ``lumped_kv``), of its parent
+    four-parameter law (Publication III eq. 3, ``lumped_sls``: the layer's
+    exact quasi-static limit) and of the layer (``layer``), the layer's
+    relative differences to both, the flat face's first-touch force
+    (:func:`synth.physics.felt.first_touch_force_n`) and the wall time of
+    each solve (s)."""
+    import time
+
+    if not (2 <= req.cells <= 1024):
+        raise SynthError(f"--cells = {req.cells!r} is out of range (2 <= value <= 1024)")
+    if not req.velocities:
+        raise SynthError("--velocity needs at least one speed")
+    for v in req.velocities:
+        if not (0.05 <= v <= 20.0) or not math.isfinite(v):
+            raise SynthError(f"--velocity = {v!r} is out of range (0.05 <= value <= 20 m/s)")
+    hf = hammer_felt(req)
+    f = hf.felt
+    out: dict = {"what": "hammer", "key": hf.midi, "felt": {
+        "thickness_m": hf.thickness_m, "area_m2": hf.area_m2, "density_kg_per_m3":
+        f.density_kg_per_m3, "exponent": f.exponent, "gamma": f.gamma, "tau0_s": f.tau0_s,
+        "e_static_pa": f.e_static_pa, "e_dynamic_pa": f.e_dynamic_pa,
+        "q0_n_per_mm_p": hf.q0_n_per_mm_p, "alpha_s": hf.alpha_s,
+        "hammer_mass_kg": hf.hammer_mass_kg, "felt_mass_kg": hf.felt_mass_kg,
+        "core_mass_kg": hf.core_mass_kg}, "cells": req.cells, "rows": [],
+        "voice_law": req.gamma is None and req.tau0_s is None}
+    strikes = []
+    for v in req.velocities:
+        try:
+            t0 = time.perf_counter()
+            kv = F.strike_lumped(hf, v, law="kv")
+            t1 = time.perf_counter()
+            sls = F.strike_lumped(hf, v, law="sls")
+            t2 = time.perf_counter()
+            lay = F.strike_layer(hf, v, cells=req.cells)
+            t3 = time.perf_counter()
+        except (ValueError, FloatingPointError) as e:
+            raise SynthError(str(e)) from None
+        row = {"v_m_per_s": v}
+        for name, r, dt in (("lumped_kv", kv, t1 - t0), ("lumped_sls", sls, t2 - t1),
+                            ("layer", lay, t3 - t2)):
+            row[name] = {"contact_time_s": r.contact_time_s, "peak_force_n": r.peak_force_n,
+                         "peak_compression_m": r.peak_compression_m, "steps": r.steps,
+                         "wall_s": dt}
+        row["layer_vs_kv"] = {"contact_time": _rel(lay.contact_time_s, kv.contact_time_s),
+                              "peak_force": _rel(lay.peak_force_n, kv.peak_force_n)}
+        row["layer_vs_sls"] = {"contact_time": _rel(lay.contact_time_s, sls.contact_time_s),
+                               "peak_force": _rel(lay.peak_force_n, sls.peak_force_n)}
+        row["sls_vs_kv"] = {"contact_time": _rel(sls.contact_time_s, kv.contact_time_s),
+                            "peak_force": _rel(sls.peak_force_n, kv.peak_force_n)}
+        row["layer"]["touch_force_n"] = lay.touch_force_n
+        row["first_touch_force_n"] = F.first_touch_force_n(hf, v)
+        out["rows"].append(row)
+        strikes.append((v, kv, sls, lay))
+    out["_strikes"] = strikes
+    return out
+
+
+def format_hammer(t: dict) -> str:
+    """The comparison as text."""
+    f = t["felt"]
+    lines = [f"# felt hammer, key {t['key']}: felt {f['thickness_m'] * 1e3:.3g} mm x "
+             f"{f['area_m2'] * 1e6:.3g} mm^2 ({f['felt_mass_kg'] * 1e3:.3g} g) on a "
+             f"{f['core_mass_kg'] * 1e3:.3g} g core (hammer {f['hammer_mass_kg'] * 1e3:.3g} g "
+             f"per string), rigid string",
+             f"# Q0 {f['q0_n_per_mm_p']:.5g} N/mm^p, p {f['exponent']:.4g}, alpha "
+             f"{f['alpha_s'] * 1e6:.4g} us = tau0 {f['tau0_s'] * 1e6:.4g} us / delta "
+             f"{1 - f['gamma']:.4g}; E_s {f['e_static_pa']:.4g} Pa (sigma = E_s eps^p), rho "
+             f"{f['density_kg_per_m3']:g} kg/m3; layer on {t['cells']} cells",
+             "# kv: eq. 1.5 as the voice uses it; sls: Publication III eq. 3 (the layer's "
+             "quasi-static limit); layer: the felt as a medium"
+             + ("" if t.get("voice_law", True) else " (--gamma/--tau0-us set by hand: kv "
+                "has this felt's alpha, not the voice's)"),
+             f"{'v m/s':>6} {'route':>10} {'contact ms':>11} {'peak N':>9} {'w_max mm':>9} "
+             f"{'d_tc vs kv':>11} {'d_F vs kv':>10} {'wall ms':>8}"]
+    for r in t["rows"]:
+        for name in ("lumped_kv", "lumped_sls", "layer"):
+            x = r[name]
+            if name == "lumped_kv":
+                d = ("", "")
+            else:
+                d = (f"{x['contact_time_s'] / r['lumped_kv']['contact_time_s'] - 1:+.2%}",
+                     f"{x['peak_force_n'] / r['lumped_kv']['peak_force_n'] - 1:+.2%}")
+            lines.append(f"{r['v_m_per_s']:6.3g} {name.replace('lumped_', ''):>10} "
+                         f"{x['contact_time_s'] * 1e3:11.4f} {x['peak_force_n']:9.4g} "
+                         f"{x['peak_compression_m'] * 1e3:9.4f} {d[0]:>11} {d[1]:>10} "
+                         f"{x['wall_s'] * 1e3:8.1f}")
+        lines.append(f"{'':6} {'':>10} layer vs sls: contact {r['layer_vs_sls']['contact_time']:+.2%}"
+                     f", peak {r['layer_vs_sls']['peak_force']:+.2%}; first touch of the flat "
+                     f"face: {r['first_touch_force_n']:.4g} N (its shock), "
+                     f"{r['layer']['touch_force_n']:.4g} N on the grid")
+    return "\n".join(lines)
+
+
+def plot_hammer(t: dict, path: str) -> None:
+    """Force against compression (and against time) for each route and
+    speed (matplotlib, the ``[plots]`` extra)."""
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise SynthError('--plot needs the [plots] extra: pip install "synth[plots]"') from None
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    styles = {"lumped-kv": ("-", "eq. 1.5 (voice)"), "lumped-sls": (":", "Pub. III eq. 3"),
+              "layer": ("--", "felt layer")}
+    for j, (v, *rs) in enumerate(t["_strikes"]):
+        col = f"C{j % 10}"
+        for r in rs:
+            ls, lab = styles[r.route]
+            n = max(1, len(r.time_s) // 1500)            # a light PNG
+            ax[0].plot(r.compression_m[::n] * 1e3, r.force_n[::n], ls, color=col, lw=1,
+                       label=f"{v:g} m/s, {lab}")
+            ax[1].plot(r.time_s[::n] * 1e3, r.force_n[::n], ls, color=col, lw=1)
+    ax[0].set_xlabel("felt compression (mm)")
+    ax[1].set_xlabel("time (ms)")
+    for a in ax:
+        a.set_ylabel("force (N)")
+        a.grid(alpha=0.3)
+    ax[0].legend(fontsize=7)
+    f = t["felt"]
+    fig.suptitle(f"key {t['key']}: lumped law against a {f['thickness_m'] * 1e3:.3g} mm felt "
+                 f"layer, rigid string")
+    fig.tight_layout()
+    from ..io.wav import write_bytes_atomic
+
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=72)
     plt.close(fig)
     write_bytes_atomic(path, buf.getvalue())

@@ -55,7 +55,8 @@ import numpy as np
 __all__ = ["Felt", "THESIS_FELT", "PUB3_FELT", "dispersion", "velocities", "attenuation",
            "solve_pulse", "PulseResult", "leading_peaks", "pulse_decay", "PULSE_UNITS",
            "attenuation_velocities", "ngv_threshold", "has_ngv", "normal_dispersion_limit",
-           "band_gap", "relaxation_kernel"]
+           "band_gap", "relaxation_kernel", "HammerFelt", "felt_for_key", "felt_thickness_m",
+           "Strike", "strike_lumped", "strike_layer", "first_touch_force_n", "GRAND_VOICING"]
 
 
 def _check(name: str, value, lo: float, hi: float, lo_open: bool = False) -> float:
@@ -72,7 +73,9 @@ class Felt:
     """A felt as a hereditary medium (thesis eqs. 2.1-2.5).
 
     density_kg_per_m3 : float   rho, 10 .. 10^4
-    e_static_pa : float         static Young's modulus E_s = E_d (1 - gamma), Pa, 1e3 .. 1e10
+    e_static_pa : float         static Young's modulus E_s = E_d (1 - gamma), Pa, 1e3 .. 1e15
+                                (for p > 1 the coefficient of sigma = E_s eps^p: a
+                                hammer's felt, :func:`felt_for_key`, reaches 1e12)
     gamma : float               hereditary amplitude, 0 <= gamma < 1
     tau0_s : float              relaxation time, s, 1e-9 .. 1
     exponent : float            nonlinearity p (eq. 2.1), 1 .. 10 (1: linear)
@@ -86,7 +89,7 @@ class Felt:
 
     def __post_init__(self) -> None:
         _check("density_kg_per_m3", self.density_kg_per_m3, 10.0, 1e4)
-        _check("e_static_pa", self.e_static_pa, 1e3, 1e10)
+        _check("e_static_pa", self.e_static_pa, 1e3, 1e15)
         _check("gamma", self.gamma, 0.0, 0.999999)
         _check("tau0_s", self.tau0_s, 1e-9, 1.0)
         _check("exponent", self.exponent, 1.0, 10.0)
@@ -120,6 +123,15 @@ class Felt:
     def length_scale_m(self) -> float:
         """l0 = c_s alpha0, the unit of length of eq. 2.11 (m)."""
         return self.c_static_m_per_s * self.time_scale_s
+
+    def linearized(self, strain: float) -> "Felt":
+        """The linear felt (p = 1) with this felt's tangent modulus
+        p E_s eps^(p-1) at ``strain`` (0 < eps <= 1), the same gamma, tau0
+        and density: its small waves about that strain."""
+        e = _check("strain", strain, 0.0, 1.0, lo_open=True)
+        return Felt(self.density_kg_per_m3,
+                    self.exponent * self.e_static_pa * e ** (self.exponent - 1.0),
+                    self.gamma, self.tau0_s, 1.0)
 
 
 #: the thesis's felt (eqs. 2.12-2.13): E_s = 0.6 MPa and rho = 10^3 kg/m^3
@@ -476,3 +488,421 @@ def pulse_decay(result: PulseResult) -> float:
     if len(x) < 2:
         raise ValueError("pulse_decay needs at least two snapshots")
     return float(-np.polyfit(x, np.log(a), 1)[0])
+
+
+# ---- the bridge to the hammer: a felt layer struck against a rigid string ---------
+# (issue 14 section 6; docs/felt.md "The felt layer against the lumped law")
+
+#: the voicing of the shipped grand (``action.voicing`` of
+#: synth/presets/grand-piano.toml): the laws of :func:`felt_for_key` default to it
+GRAND_VOICING = "concert"
+#: the felt over the hammer's core at its crown, A0 and C8 (m), log-linear in
+#: between: ASSUMED numbers.  The sources give the shape, not the numbers:
+#: a hammer set is pressed from one felt sheet tapered from bass to treble
+#: and the heads shrink from bass to treble (piano technicians' accounts,
+#: PTG archive, pianotech 2004-07 "How much felt over the core?" and
+#: 2007-03 on underfelt; J. Lazzeroni, "Hammers of the piano", 2019); the
+#: thesis and its Publications give none.  20 mm at A0 and 8 mm at C8 are
+#: the order of a concert grand's bass and treble heads; :func:`felt_for_key`
+#: takes any other thickness.
+FELT_THICKNESS_A0_M = 0.020
+FELT_THICKNESS_C8_M = 0.008
+#: the felt column under one string (m^2): the contact patch, ASSUMED 8 mm
+#: along the string (worn hammers show string grooves 6-12 mm long) by 8 mm
+#: across it; it sets only the felt's mass rho A h against the hammer's
+#: (the quasi-static law is Q0 = E A / h^p whatever A is)
+FELT_COLUMN_AREA_M2 = 64e-6
+#: the felt's density (kg/m^3): the thesis's felt pads (eq. 2.13), assumed
+#: for the hammer's pressed felt too
+HAMMER_FELT_DENSITY_KG_PER_M3 = 1000.0
+
+
+def felt_thickness_m(midi: int) -> float:
+    """The assumed felt thickness over the core of the grand's key ``midi``
+    (21..108): log-linear from :data:`FELT_THICKNESS_A0_M` at A0 to
+    :data:`FELT_THICKNESS_C8_M` at C8 (m)."""
+    from . import piano as P
+
+    m = P._check_midi(midi)
+    s = (m - P.MIDI_LOW) / (P.MIDI_HIGH - P.MIDI_LOW)
+    return FELT_THICKNESS_A0_M * (FELT_THICKNESS_C8_M / FELT_THICKNESS_A0_M) ** s
+
+
+@dataclass(frozen=True)
+class HammerFelt:
+    """A hammer as a felt layer: a 1-D column of ``felt`` (its exponent p,
+    E_s the coefficient of sigma = E_s eps^p at slow loading, gamma, tau0,
+    density) of thickness ``thickness_m`` and cross-section ``area_m2``,
+    glued to a rigid core; ``hammer_mass_kg`` is the whole head's share per
+    string (felt included), as in the lumped law (eq. 1.9).
+
+    Its quasi-static limit (a massless, uniformly strained layer: eps = w / h)
+    is the four-parameter law (Publication III eq. 3) with
+    F0 = E_d A / h^p, and with tau0 << the contact time the three-parameter
+    law of eq. 1.5 (Publication III eqs. 14-15):
+    F = Q0 (w^p + alpha d(w^p)/dt), Q0 = E_s A / h^p, alpha = tau0 / delta.
+    """
+
+    felt: Felt
+    thickness_m: float
+    area_m2: float
+    hammer_mass_kg: float
+    midi: int | None = None
+
+    def __post_init__(self) -> None:
+        _check("thickness_m", self.thickness_m, 1e-4, 0.1)
+        _check("area_m2", self.area_m2, 1e-8, 1e-2)
+        _check("hammer_mass_kg", self.hammer_mass_kg, 1e-5, 1.0)
+        if self.felt_mass_kg >= 0.9 * self.hammer_mass_kg:
+            raise ValueError(f"felt mass = {self.felt_mass_kg:g} kg is out of range "
+                             f"(< 0.9 x hammer_mass_kg = {0.9 * self.hammer_mass_kg:g})")
+
+    @property
+    def q0_n_per_m_p(self) -> float:
+        """Static stiffness Q0 = E_s A / h^p of eq. 1.5 (N/m^p)."""
+        return self.felt.e_static_pa * self.area_m2 / self.thickness_m ** self.felt.exponent
+
+    @property
+    def q0_n_per_mm_p(self) -> float:
+        """Q0 in the thesis's N/mm^p."""
+        return self.q0_n_per_m_p * 1e-3 ** self.felt.exponent
+
+    @property
+    def alpha_s(self) -> float:
+        """The hereditary time alpha = alpha0 = tau0 / delta of eq. 1.5 (s)."""
+        return self.felt.time_scale_s
+
+    @property
+    def felt_mass_kg(self) -> float:
+        """rho A h: the felt column's mass (kg)."""
+        return self.felt.density_kg_per_m3 * self.area_m2 * self.thickness_m
+
+    @property
+    def core_mass_kg(self) -> float:
+        """The rigid core behind the layer: the head's mass less the felt's (kg)."""
+        return self.hammer_mass_kg - self.felt_mass_kg
+
+
+def felt_for_key(midi: int, voicing: str = GRAND_VOICING, *, thickness_m: float | None = None,
+                 area_m2: float = FELT_COLUMN_AREA_M2,
+                 density_kg_per_m3: float = HAMMER_FELT_DENSITY_KG_PER_M3) -> HammerFelt:
+    """The felt layer whose quasi-static limit is the grand's hammer on key
+    ``midi`` (21..108) as the voice plays it.
+
+    From the key's three-parameter law in ``voicing`` (thesis eqs. 1.6-1.8,
+    :func:`synth.physics.piano.hammer_three_param`; the shipped grand's is
+    ``"concert"``) and its mass per string (eq. 1.9): p the key's; gamma the
+    key's four-parameter law's (Publication III eq. 5: 0.9895 .. 0.9972);
+    tau0 = alpha delta so that alpha0 = tau0 / delta is the voiced alpha
+    exactly (Publication III eq. 15); E_s = Q0 h^p / A (so that
+    E_s A (w / h)^p = Q0 w^p).  The thickness h defaults to
+    :func:`felt_thickness_m`, the area and density to the module's assumed
+    values.  For p > 1, E_s is a power law's coefficient (the stress it
+    would give at eps = 1), not a modulus one could measure; the tangent
+    modulus at a strain is p E_s eps^(p-1) (:meth:`Felt.linearized`).
+    """
+    from . import piano as P
+
+    if voicing not in P.VOICINGS:
+        raise ValueError(f"voicing = {voicing!r} is not allowed (choose {', '.join(P.VOICINGS)})")
+    m = P._check_midi(midi)
+    h = felt_thickness_m(m) if thickness_m is None else _check("thickness_m", thickness_m,
+                                                                1e-4, 0.1)
+    A = _check("area_m2", area_m2, 1e-8, 1e-2)
+    q0_mm, p, alpha = P.hammer_three_param(m, P.VOICINGS[voicing])
+    tau0 = P.hammer_four_param(m).tau0_s
+    q0 = P.stiffness_per_m_p(q0_mm, p)
+    felt = Felt(density_kg_per_m3, q0 * h ** p / A, 1.0 - tau0 / alpha, tau0, p)
+    return HammerFelt(felt, h, A, P.hammer_mass_kg(m), m)
+
+
+@dataclass(frozen=True)
+class Strike:
+    """One strike of a hammer on a rigid string: the contact force
+    ``force_n`` (N) against ``time_s`` (s, from first touch) and against the
+    felt's compression ``compression_m`` (m: the core's advance less the
+    felt surface's), up to the end of contact (the force back to zero);
+    ``contact_time_s``, ``peak_force_n``, ``peak_compression_m``; the
+    route (``"lumped-kv"``: eq. 1.5; ``"lumped-sls"``: Publication III eq.
+    3; ``"layer"``: the felt as a medium), its grid (cells, 0 for lumped)
+    and time step (s), and the steps taken.  For the layer,
+    ``peak_force_n`` is the pulse's after its first touch's transient
+    (t >= min(10 tau0, contact / 5)) and ``touch_force_n`` that
+    transient's largest force (the flat face's shock, converging slowly in
+    the grid: :func:`first_touch_force_n` gives its jump)."""
+
+    route: str
+    time_s: np.ndarray
+    force_n: np.ndarray
+    compression_m: np.ndarray
+    contact_time_s: float
+    peak_force_n: float
+    peak_compression_m: float
+    cells: int
+    dt_s: float
+    steps: int
+    touch_force_n: float = 0.0
+
+
+def _end_of_contact(t, F, i):
+    """The time where F crosses zero between samples i - 1 (F > 0) and i."""
+    f0, f1 = F[i - 1], F[i]
+    return t[i - 1] + (t[i] - t[i - 1]) * f0 / (f0 - f1) if f0 != f1 else t[i]
+
+
+def _contact_estimate_s(hf: HammerFelt, v0: float) -> tuple[float, float]:
+    """(contact time, peak compression) of the elastic law F = Q0 w^p with
+    the hammer's mass at speed v0: w_max from the energy, t ~ 3.3 w_max / v0."""
+    p = hf.felt.exponent
+    w = ((p + 1.0) * hf.hammer_mass_kg * v0 * v0 / (2.0 * hf.q0_n_per_m_p)) ** (1.0 / (p + 1.0))
+    return 3.3 * w / v0, w
+
+
+def strike_lumped(hf: HammerFelt, v0_m_per_s: float, *, law: str = "kv",
+                  steps_per_contact: int = 4000) -> Strike:
+    """The lumped hammer (mass m = ``hf.hammer_mass_kg``, felt massless) at
+    speed ``v0_m_per_s`` into a rigid string, m w'' = -F, w(0) = 0,
+    w'(0) = v0, until F returns to zero.
+
+    law : ``"kv"``: eq. 1.5, F = max(0, Q0 (w^p + alpha d(w^p)/dt)) as the
+        voice uses it (physics notes sec. 4), Q0 = ``hf.q0_n_per_m_p``,
+        alpha = ``hf.alpha_s``: classical RK4; ``"sls"``: Publication III
+        eq. 3, F = F0 (w^p - (gamma / tau0) int_0^t w^p(xi) exp((xi - t) /
+        tau0) d xi), F0 = Q0 / delta, the layer's exact quasi-static limit:
+        velocity Verlet with the memory integrated exactly for w^p linear
+        over a step (stiff-safe for any dt / tau0).
+    steps_per_contact : steps per the elastic law's contact time (about);
+        the error falls as its fourth (kv) or second (sls) power.
+    """
+    v0 = _check("v0_m_per_s", v0_m_per_s, 1e-3, 50.0)
+    if law not in ("kv", "sls"):
+        raise ValueError(f"law = {law!r} is not allowed (choose kv, sls)")
+    n = int(_check("steps_per_contact", steps_per_contact, 50, 1e7))
+    t_est, _ = _contact_estimate_s(hf, v0)
+    dt = t_est / n
+    m, p, q0 = hf.hammer_mass_kg, hf.felt.exponent, hf.q0_n_per_m_p
+    n_max = 40 * n
+    ts = np.empty(n_max + 1)
+    Fs = np.empty(n_max + 1)
+    ws = np.empty(n_max + 1)
+    if law == "kv":
+        a = hf.alpha_s
+
+        def force(w, v):
+            if w <= 0.0:
+                return 0.0
+            wp1 = w ** (p - 1.0)
+            return max(0.0, q0 * (wp1 * w + a * p * wp1 * v))
+
+        w, v = 0.0, v0
+        Fs[0], ws[0], ts[0] = 0.0, 0.0, 0.0
+        k = 0
+        while k < n_max:
+            k1w, k1v = v, -force(w, v) / m
+            k2w, k2v = v + 0.5 * dt * k1v, -force(w + 0.5 * dt * k1w, v + 0.5 * dt * k1v) / m
+            k3w, k3v = v + 0.5 * dt * k2v, -force(w + 0.5 * dt * k2w, v + 0.5 * dt * k2v) / m
+            k4w, k4v = v + dt * k3v, -force(w + dt * k3w, v + dt * k3v) / m
+            w += dt / 6.0 * (k1w + 2 * k2w + 2 * k3w + k4w)
+            v += dt / 6.0 * (k1v + 2 * k2v + 2 * k3v + k4v)
+            k += 1
+            ts[k], ws[k] = k * dt, w
+            Fs[k] = force(w, v)
+            if k > 2 and Fs[k] <= 0.0 and Fs[k - 1] > 0.0:
+                break
+    else:
+        f = hf.felt
+        g, tau = f.gamma, f.tau0_s
+        F0 = q0 / f.delta
+        E = math.exp(-dt / tau)
+        r = dt / tau
+        c1 = 1.0 - (1.0 - E) / r if r > 1e-6 else 0.5 * r
+        c0 = (1.0 - E) / r - E if r > 1e-6 else 0.5 * r
+        w, v, y_old, J = 0.0, v0, 0.0, 0.0
+        Fs[0], ws[0], ts[0] = 0.0, 0.0, 0.0
+        Fn = 0.0
+        k = 0
+        while k < n_max:
+            v_half = v - 0.5 * dt * Fn / m
+            w = w + dt * v_half
+            y = max(w, 0.0) ** p
+            J = E * J + tau * (c1 * y + c0 * y_old)     # int_0^t y(xi) exp((xi - t)/tau) dxi
+            y_old = y
+            Fn = max(0.0, F0 * (y - g / tau * J))
+            v = v_half - 0.5 * dt * Fn / m
+            k += 1
+            ts[k], ws[k], Fs[k] = k * dt, w, Fn
+            if k > 2 and Fn <= 0.0 and Fs[k - 1] > 0.0:
+                break
+    if k >= n_max:
+        raise FloatingPointError(f"the contact did not end within {n_max * dt:g} s")
+    tc = _end_of_contact(ts, Fs, k)
+    i = int(np.argmax(Fs[:k + 1]))
+    return Strike(f"lumped-{law}", ts[:k + 1].copy(), Fs[:k + 1].copy(), ws[:k + 1].copy(), tc,
+                  float(Fs[i]), float(np.max(ws[:k + 1])), 0, dt, k)
+
+
+def strike_layer(hf: HammerFelt, v0_m_per_s: float, *, cells: int = 32,
+                 courant: float = 0.5, damping: float = 0.5) -> Strike:
+    """The felt layer as a medium, struck against a rigid string.
+
+    The column x in [0, h] (x = 0 the surface on the string, x = h glued to
+    the core of mass ``hf.core_mass_kg``), displacement s(x, t) towards
+    the string, compressive strain eps = s_x, moves at ``v0_m_per_s`` as a
+    whole until its surface touches the string at t = 0.  rho s_tt =
+    sigma_x (eq. 2.6) with the hereditary power law (eqs. 2.1-2.3)
+    sigma = E_d [eps^p - (gamma / tau0) int_0^t eps^p(xi) exp((xi - t) /
+    tau0) d xi] (eps^p as sign(eps) |eps|^p), E_d = E_s / delta: eq. 2.10
+    in SI.  The core: m_c Z'' = -A sigma(h).  The surface: s(0, t) <= 0
+    (the string does not give); it presses with F = A sigma(0) while in
+    contact and leaves when that force would pull.
+
+    Discretisation: ``cells`` cells of dx = h / cells, strains at the
+    cells' centres and displacements at their faces (the lumped masses
+    rho A dx, half at the surface and at the core); leapfrog (central
+    differences) in time; the memory integral updated exactly for eps^p
+    linear over a step (I_n = E I_(n-1) + tau0 (c1 f_n + c0 f_(n-1)),
+    E = exp(-dt / tau0): stiff-safe, as the voice's law 5).  dt = courant
+    dx / c, c the fastest wave, sqrt(p E_d eps^(p-1) / rho) at the largest
+    strain (estimated from the lumped law, the run restarted with twice
+    the strain bound if a strain outgrows it).
+
+    The first touch stops the surface at once and sends a compression
+    front into unstrained felt (for p > 1 a shock: the felt ahead has no
+    stiffness, :func:`first_touch_force_n`); a chain of cells carries it
+    as a train of grid-scale pulses (a granular chain's), so ``damping``
+    adds a grid-scale damper (a hyperviscosity, below) that damps them at
+    rho damping c dx eps_t and a smooth strain at O(dx^3): the contact
+    time and the peak force converge at second order (docs/felt.md);
+    damping x courant <= 0.5 for the explicit damper's stability.  The
+    contact ends when the force is back to zero with the core moving back.
+    Returns a :class:`Strike` (force and compression at every step).
+    """
+    v0 = _check("v0_m_per_s", v0_m_per_s, 1e-3, 50.0)
+    nc = int(_check("cells", cells, 1, 4096))
+    courant = _check("courant", courant, 0.0, 0.9, lo_open=True)
+    damping = _check("damping", damping, 0.0, 1.0)
+    if damping * courant > 0.5:
+        raise ValueError(f"damping x courant = {damping * courant:g} is out of range "
+                         f"(<= 0.5: the explicit damper's stability)")
+    f = hf.felt
+    p, g, tau = f.exponent, f.gamma, f.tau0_s
+    rho, A, h = f.density_kg_per_m3, hf.area_m2, hf.thickness_m
+    Ed = f.e_dynamic_pa
+    dx = h / nc
+    t_est, w_est = _contact_estimate_s(hf, v0)
+    if w_est > 0.5 * h:
+        raise ValueError(f"thickness_m = {h:g} is out of range for this strike (>= "
+                         f"{2 * w_est:.3g}: the lumped law compresses the felt by "
+                         f"{w_est * 1e3:.3g} mm at {v0:g} m/s)")
+    eps_cap = min(1.0, 2.0 * w_est / h)
+    for _attempt in range(6):
+        c = math.sqrt(max(p * Ed * eps_cap ** (p - 1.0), Ed * 1e-12) / rho)
+        dt = courant * dx / c
+        res = _layer_run(nc, dx, dt, p, Ed, g, tau, rho, A, hf.core_mass_kg, v0, t_est,
+                         eps_cap, damping)
+        if res is not None:
+            ts, Fs, ws, k = res
+            break
+        eps_cap = min(1.0, 2.0 * eps_cap)
+    else:  # pragma: no cover - the strain cap doubles to 1 within six tries
+        raise FloatingPointError("the layer's strain outgrew every time step")
+    tc = _end_of_contact(ts, Fs, k)
+    # the first touch's transient (the flat face's shock, relaxed within a
+    # few tau0) apart from the pulse the law makes
+    t_touch = min(10.0 * tau, 0.2 * tc)
+    j = int(np.searchsorted(ts[:k + 1], t_touch))
+    touch = float(np.max(Fs[:j])) if j > 0 else 0.0
+    return Strike("layer", ts[:k + 1], Fs[:k + 1], ws[:k + 1], tc, float(np.max(Fs[j:k + 1])),
+                  float(np.max(ws[:k + 1])), nc, dt, k, touch)
+
+
+def _layer_run(nc, dx, dt, p, Ed, g, tau, rho, A, m_core, v0, t_est, eps_cap, cl=0.0):
+    """One run of :func:`strike_layer` at time step ``dt``; None if a strain
+    exceeded ``eps_cap`` (the step was too long for the wave it made)."""
+    n_max = int(40 * t_est / dt) + 10
+    E = math.exp(-dt / tau)
+    r = dt / tau
+    c1 = 1.0 - (1.0 - E) / r if r > 1e-6 else 0.5 * r
+    c0 = (1.0 - E) / r - E if r > 1e-6 else 0.5 * r
+    # faces 0..nc: s at t = 0 (all zero: the surface just touches) and at
+    # t = -dt (the whole column one step back along its flight)
+    s = np.zeros(nc + 1)
+    s_old = np.full(nc + 1, -v0 * dt)
+    m_face = np.full(nc + 1, rho * A * dx)
+    m_face[0] = 0.5 * rho * A * dx
+    m_face[-1] = m_core + 0.5 * rho * A * dx
+    k_acc = dt * dt * A / m_face
+    f_old = np.zeros(nc)
+    J = np.zeros(nc)
+    pw = p != 1.0
+    ts = np.empty(n_max + 1)
+    Fs = np.empty(n_max + 1)
+    ws = np.empty(n_max + 1)
+    sig = np.zeros(nc)
+    acc = np.empty(nc + 1)
+    gt = g / tau
+    eps_prev = np.zeros(nc)
+    pEd_rho = p * Ed / rho
+    c_lin = math.sqrt(Ed / rho)
+    for k in range(1, n_max + 1):
+        eps = (s[1:] - s[:-1]) / dx
+        if pw:
+            fe = np.abs(eps) ** p
+            fe = np.copysign(fe, eps)
+        else:
+            fe = eps
+        J *= E
+        J += tau * (c1 * fe + c0 * f_old)
+        f_old = fe
+        np.multiply(fe - gt * J, Ed, out=sig)
+        if cl > 0.0:
+            # a grid-scale damper (a hyperviscosity): between neighbouring
+            # cells the flux d = rho cl c dx (eps_t,i+1 - eps_t,i), c the
+            # frozen tangent speed sqrt(p E_d eps^(p-1) / rho) of the
+            # faster cell, and q_i = -(d_(i+1/2) - d_(i-1/2)) / 4: it damps
+            # the chain's grid-scale pulses at rho cl c dx eps_t and a
+            # smooth strain at O(dx^3) (sum q eps_t >= 0: it only dissipates)
+            c_loc = np.sqrt(pEd_rho * np.abs(eps) ** (p - 1.0)) if pw else np.full(nc, c_lin)
+            cf = np.maximum(c_loc[1:], c_loc[:-1])
+            d = cf * np.diff(eps - eps_prev)
+            q = np.zeros(nc)
+            q[:-1] -= d
+            q[1:] += d
+            sig += (0.25 * rho * cl * dx / dt) * q
+        eps_prev = eps
+        # net force on each face (towards the string), per unit area
+        acc[0] = sig[0]
+        acc[1:-1] = sig[1:] - sig[:-1]
+        acc[-1] = -sig[-1]
+        s_new = 2.0 * s - s_old + k_acc * acc
+        # the surface held on the string (s(0) = 0): it presses with
+        # F = A sig_(1/2) (the half cell's momentum balance with s_tt(0) = 0)
+        s_new[0] = 0.0
+        Fc = A * sig[0]
+        ts[k - 1] = (k - 1) * dt
+        Fs[k - 1] = max(Fc, 0.0)
+        ws[k - 1] = s[-1] - s[0]
+        s_old, s = s, s_new
+        if eps.max() > eps_cap:
+            return None
+        # the end: the force back to zero with the core on its way back (a
+        # front's ringing at the grid scale can touch zero while the core
+        # still advances; the surface is held through it)
+        if k > 3 and Fc <= 0.0 and Fs[k - 2] > 0.0 and s[-1] <= s_old[-1]:
+            return ts, Fs, ws, k - 1
+    raise FloatingPointError(f"the layer's contact did not end within {n_max * dt:g} s")
+
+
+def first_touch_force_n(hf: HammerFelt, v0_m_per_s: float) -> float:
+    """The force at the first touch of a flat felt layer at speed v0 (N):
+    the surface stops at once and a shock runs into the unstrained felt at
+    its instantaneous (fast-loading, eq. 2.4) law sigma = E_d eps^p; mass
+    and momentum across it (eps = v0 / U, sigma = rho U v0) give
+    U^(p+1) = E_d v0^(p-1) / rho and F = rho A U v0.  The memory relaxes it
+    within a few tau0 (the linear front decays as exp(-gamma t / (2 tau0))),
+    to the force of the column being stopped at the relaxed law's speed."""
+    v0 = _check("v0_m_per_s", v0_m_per_s, 1e-3, 50.0)
+    f = hf.felt
+    rho, p = f.density_kg_per_m3, f.exponent
+    U = (f.e_dynamic_pa * v0 ** (p - 1.0) / rho) ** (1.0 / (p + 1.0))
+    return rho * hf.area_m2 * U * v0
