@@ -31,7 +31,7 @@ import soundfile as sf
 from synth.io.errors import SynthError, display_path
 
 __all__ = ["WavWriteResult", "write_wav", "write_wav_stream", "write_npy_atomic", "write_text_atomic", "write_bytes_atomic",
-           "wav_max_frames", "FS_MIN_HZ", "FS_MAX_HZ", "SUBTYPES"]
+           "wav_bytes", "wav_max_frames", "FS_MIN_HZ", "FS_MAX_HZ", "SUBTYPES"]
 
 FS_MIN_HZ = 8000
 FS_MAX_HZ = 384000
@@ -239,7 +239,65 @@ def _write_blocks(path, blocks, fs: int, channels: int, subtype: str,
     """Encode and write ``blocks`` (validated fs, channels and subtype)
     atomically; each block is checked for its shape and finite samples
     unless the caller ``checked`` the whole of them (:func:`write_wav`)."""
-    shown = display_path(path)
+    write, result = _encoder(display_path(path), blocks, fs, channels, subtype, checked)
+    _atomic_write(path, write)
+    return result()
+
+
+def wav_bytes(audio: np.ndarray, fs: int, subtype: str = "float") -> tuple[bytes, WavWriteResult]:
+    """The bytes of the WAV file :func:`write_wav` would write, in memory
+    (a batch worker returns them; the one process that writes files writes
+    them atomically with :func:`write_bytes_atomic`).
+
+    Parameters and errors as :func:`write_wav` (the file is named
+    ``<memory>`` in messages).
+
+    Returns
+    -------
+    data : bytes
+        The whole file, header included.
+    result : WavWriteResult
+    """
+    import tempfile
+
+    a = np.asarray(audio)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.dtype.kind != "f" or not (1 <= a.shape[1] <= MAX_CHANNELS):
+        raise SynthError(f"<memory>: audio has shape {np.shape(audio)} and dtype {a.dtype}, "
+                         f"expected real samples (frames,) or (frames, channels)")
+    if isinstance(fs, bool) or not isinstance(fs, (int, np.integer)) or not (
+            FS_MIN_HZ <= int(fs) <= FS_MAX_HZ):
+        raise SynthError(f"<memory>: fs = {fs!r} is out of range (an integer sample rate, "
+                         f"{FS_MIN_HZ} <= fs <= {FS_MAX_HZ} Hz)")
+    if subtype not in SUBTYPES:
+        raise SynthError(f"<memory>: subtype = {subtype!r} is not allowed (choices: 'float', 'pcm24')")
+    blocks = (a[i:i + _WRITE_FRAMES] for i in range(0, a.shape[0], _WRITE_FRAMES))
+    write, result = _encoder("<memory>", blocks, int(fs), a.shape[1], subtype, False)
+    with tempfile.TemporaryFile() as f:
+        write(f)
+        f.seek(0)
+        return f.read(), result()
+
+
+#: libsndfile's command that turns the PEAK chunk of a float file on or off
+_SFC_SET_ADD_PEAK_CHUNK = 0x1050
+
+
+def _no_peak_chunk(snd: sf.SoundFile) -> None:
+    """Leave out the PEAK chunk libsndfile adds to float WAV files: it holds
+    the time of writing, so the same samples gave different bytes a second
+    later (a batch run must give the same bytes for the same spec).  The
+    chunk is optional; readers take the peak from the samples."""
+    lib = getattr(sf, "_snd", None)
+    if lib is None:                     # another soundfile layout: keep the chunk
+        return
+    lib.sf_command(snd._file, _SFC_SET_ADD_PEAK_CHUNK, sf._ffi.NULL, 0)
+
+
+def _encoder(shown: str, blocks, fs: int, channels: int, subtype: str, checked: bool):
+    """``write(f)``, which encodes ``blocks`` into the open binary file
+    ``f``, and ``result()``, the :class:`WavWriteResult` once it has."""
     limit = wav_max_frames(channels, subtype)
     sf_subtype = "FLOAT" if subtype == "float" else "PCM_24"
     tally = {"frames": 0, "peak": 0.0, "clipped": 0}
@@ -248,6 +306,7 @@ def _write_blocks(path, blocks, fs: int, channels: int, subtype: str,
         f.flush()
         snd = sf.SoundFile(f.fileno(), mode="w", samplerate=fs, channels=channels,
                            subtype=sf_subtype, format="WAV", closefd=False)
+        _no_peak_chunk(snd)
         try:
             for block in blocks:
                 a = np.asarray(block)
@@ -283,11 +342,13 @@ def _write_blocks(path, blocks, fs: int, channels: int, subtype: str,
                 except sf.SoundFileError:
                     pass                  # the first error is the one to report
 
-    _atomic_write(path, write)
-    peak = tally["peak"]
-    return WavWriteResult(frames=tally["frames"], channels=channels,
-                          peak_dbfs=20.0 * math.log10(peak) if peak > 0 else -math.inf,
-                          n_clipped=tally["clipped"])
+    def result() -> WavWriteResult:
+        peak = tally["peak"]
+        return WavWriteResult(frames=tally["frames"], channels=channels,
+                              peak_dbfs=20.0 * math.log10(peak) if peak > 0 else -math.inf,
+                              n_clipped=tally["clipped"])
+
+    return write, result
 
 
 def write_npy_atomic(path: str | os.PathLike[str], array: np.ndarray) -> None:
