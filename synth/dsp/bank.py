@@ -640,11 +640,12 @@ class StringBank:
                           stiffness_factor: float = 1.0) -> None:
         """Strike slot s with the hammer ``t`` at ``speed_m_per_s`` (m/s,
         0 < value <= 20), its felt stiffness scaled by ``stiffness_factor``
-        (0 < value <= 1: the soft pedal)."""
+        (0 < value <= 4: the soft pedal's softer felt, times the voicing's
+        ``action.hardness``)."""
         if not (0.0 < speed_m_per_s <= 20.0):
             raise ValueError(f"speed_m_per_s = {speed_m_per_s!r} is out of range (0 < value <= 20)")
-        if not (0.0 < stiffness_factor <= 1.0):
-            raise ValueError(f"stiffness_factor = {stiffness_factor!r} is out of range (0 < value <= 1)")
+        if not (0.0 < stiffness_factor <= 4.0):
+            raise ValueError(f"stiffness_factor = {stiffness_factor!r} is out of range (0 < value <= 4)")
         ip, fp, st = self.ipar[s], self.fpar[s], self.fst[s]
         if fp[K.F_DT] != t.dt_s:
             raise ValueError(f"hammer template dt_s = {t.dt_s!r} does not match slot {s}'s "

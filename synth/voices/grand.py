@@ -374,7 +374,8 @@ class GrandPianoInstrument(Voice):
         struck = n - 1 if (soft >= 0.5 and n >= 2) else n
         V = self.hammer_speed(velocity) if speed_m_per_s is None else float(speed_m_per_s)
         a = self.preset.action
-        stiff = 1.0 - (1.0 - a.soft_stiffness) * min(max(soft, 0.0), 1.0)
+        # the soft pedal's softer felt, on hammers voiced `hardness` times stiffer
+        stiff = a.hardness * (1.0 - (1.0 - a.soft_stiffness) * min(max(soft, 0.0), 1.0))
         R_b = self.bridge_resistance_ns_per_m(key)
         fresh = not restrike or not all(bank.is_active(s) for s in slots[:n])
         for j, (slot, su) in enumerate(zip(slots, sus)):

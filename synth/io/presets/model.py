@@ -101,7 +101,8 @@ class TuningSpec:
 class ActionSpec:
     """Grand piano action: felt law of the per-key hammers, hammer speed at
     velocity 1 and 127 (m/s; play.velocity_exponent shapes the curve), felt
-    stiffness factor with the soft pedal fully down."""
+    stiffness factor with the soft pedal fully down, and a factor on every
+    key's felt stiffness (``hardness``: how the hammers are voiced)."""
 
     law: str
     speed_min_m_per_s: float
@@ -109,6 +110,7 @@ class ActionSpec:
     soft_stiffness: float
     voicing: str = "thesis"      # constants of the three-parameter laws (synth.physics.piano.VOICINGS)
     knock: float | None = None   # the knock's impulse re the hammer's momentum (0: none)
+    hardness: float = 1.0        # factor on every key's felt stiffness (voicing: lacquer > 1, needles < 1)
 
 
 @dataclass(frozen=True)
