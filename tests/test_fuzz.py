@@ -50,7 +50,7 @@ from synth.io.presets import Preset, load_preset
 REPO = Path(__file__).resolve().parents[1]
 PHRASES = sorted((REPO / "synth" / "presets" / "checks" / "phrases").glob("*.mid"))
 PRESETS = sorted(p for p in (REPO / "synth" / "presets").rglob("*.toml")
-                 if "checks" not in p.relative_to(REPO / "synth" / "presets").parts)
+                 if p.relative_to(REPO / "synth" / "presets").parts[0] not in ("checks", "batch"))
 
 SEED = 20_131_304                 # fixed: every run tries the same cases
 N_MIDI = 4000

@@ -827,8 +827,9 @@ _ROOT = Path(__file__).resolve().parents[1]
 _REPO_PRESETS = _ROOT / "synth" / "presets"
 #: every TOML file shipped (presets and the spectrum-test specs under checks/)
 _SHIPPED_ALL = sorted(_REPO_PRESETS.rglob("*.toml")) if _REPO_PRESETS.is_dir() else []
-#: the presets (checks/ holds specs for `synth check`, not presets)
-_SHIPPED = [p for p in _SHIPPED_ALL if p.relative_to(_REPO_PRESETS).parts[0] != "checks"]
+#: the presets (checks/ holds specs for `synth check`, batch/ for `synth batch`: not presets)
+_SHIPPED = [p for p in _SHIPPED_ALL
+            if p.relative_to(_REPO_PRESETS).parts[0] not in ("checks", "batch")]
 
 
 @pytest.mark.parametrize("path", _SHIPPED, ids=[p.relative_to(_REPO_PRESETS).as_posix()
@@ -878,7 +879,7 @@ def test_every_shipped_preset_is_found_through_importlib_resources(monkeypatch):
 
     def walk(node, prefix=""):
         for child in node.iterdir():
-            if child.is_dir() and not (prefix == "" and child.name == "checks"):
+            if child.is_dir() and not (prefix == "" and child.name in ("checks", "batch")):
                 yield from walk(child, f"{prefix}{child.name}/")
             elif child.is_file() and child.name.endswith(".toml"):
                 yield prefix + child.name[:-len(".toml")]

@@ -38,7 +38,7 @@ SECTION_NAMES = [s.name for s in SECTIONS]
 _ROOT = shipped_preset_dir()
 SHIPPED: dict[str, Path] = {
     p.relative_to(_ROOT).with_suffix("").as_posix(): p for p in sorted(_ROOT.rglob("*.toml"))
-    if p.relative_to(_ROOT).parts[0] != "checks"}          # checks/: synth check specs
+    if p.relative_to(_ROOT).parts[0] not in ("checks", "batch")}   # synth check and batch specs
 DOCS: dict[str, dict] = {n: tomllib.loads(p.read_text("utf-8")) for n, p in SHIPPED.items()}
 
 # Documents for what no shipped preset carries (validated with validate_dict).

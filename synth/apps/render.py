@@ -48,6 +48,7 @@ __all__ = [
     "RenderResult",
     "plan_render",
     "render_midi",
+    "render_midi_file",
     "format_length",
     "LONG_RENDER_S",
     "PROGRESS_DELAY_S",
@@ -361,6 +362,17 @@ def render_midi(req: RenderRequest, *, log: Callable[[str], None] | None = None,
             raise Interrupted(e.signum, f"{shown_out} {kept}") from None
 
 
+def render_midi_file(req: RenderRequest, *, log: Callable[[str], None] | None = None,
+                     stream=None) -> RenderResult:
+    """:func:`render_midi` without taking over SIGINT and SIGTERM, for code
+    that does not own the process's signals: a thread, or a batch worker
+    (:mod:`synth.apps.batch`), whose process its nanny stops.  The write is
+    atomic all the same.  ``log`` defaults to nothing; ``stream`` to none
+    (no progress bar)."""
+    _check_max_seconds(req.max_seconds)
+    return _render(req, log or (lambda line: None), stream)
+
+
 def _render(req: RenderRequest, log, stream) -> RenderResult:
     from ..io.factory import build_engine
     from ..io.midi import midi_to_events, read_midi_file     # looked up now: tests patch them
@@ -389,7 +401,8 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
                          f"{'24-bit PCM' if req.pcm24 else '32-bit float'} audio is more than a WAV "
                          f"file holds ({format_length(limit_s)}); give --max-seconds "
                          f"(0 < value <= {math.floor(limit_s)} s)")
-    bar = _Progress(plan.expected_s, fs, stream, f"rendering {shown}") if _is_terminal(stream) else None
+    bar = (_Progress(plan.expected_s, fs, stream, f"rendering {shown}")
+           if stream is not None and _is_terminal(stream) else None)
     if plan.duration_s is not None:
         blocks = eng.render_blocks(plan.events, duration_s=plan.duration_s, progress=bar)
     else:

@@ -71,6 +71,7 @@ from .loader import (
     preset_dirs,
     shipped_preset_dir,
     shipped_checks_dir,
+    shipped_batch_dir,
 )
 from .model import (
     ActionSpec,
@@ -145,6 +146,7 @@ __all__ = [
     "preset_dirs",
     "shipped_preset_dir",
     "shipped_checks_dir",
+    "shipped_batch_dir",
     "list_presets",
     "load_preset",
 ]

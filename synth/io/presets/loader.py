@@ -75,20 +75,31 @@ def preset_dirs() -> list[Path]:
 CHECKS_DIR = "checks"
 
 
+#: a folder of a preset directory that holds batch specs (``synth batch``), not presets
+BATCH_DIR = "batch"
+#: top-level folders of a preset directory whose TOML files are not presets
+NOT_PRESETS = (CHECKS_DIR, BATCH_DIR)
+
+
 def shipped_checks_dir() -> Path:
     """The shipped spectrum-test specs (``synth/presets/checks``)."""
     return shipped_preset_dir() / CHECKS_DIR
 
 
+def shipped_batch_dir() -> Path:
+    """The shipped batch specs (``synth/presets/batch``, ``synth batch``)."""
+    return shipped_preset_dir() / BATCH_DIR
+
+
 def _scan() -> dict[str, Path]:
     """Map preset name -> file; an earlier directory wins over a later one.
-    Files under a top-level ``checks/`` folder are specs, not presets."""
+    Files under a top-level ``checks/`` or ``batch/`` folder are specs, not presets."""
     found: dict[str, Path] = {}
     for d in preset_dirs():
         if not d.is_dir():
             continue
         for f in sorted(d.rglob("*.toml")):
-            if not f.is_file() or f.relative_to(d).parts[0] == CHECKS_DIR:
+            if not f.is_file() or f.relative_to(d).parts[0] in NOT_PRESETS:
                 continue
             name = f.relative_to(d).with_suffix("").as_posix()
             found.setdefault(name, f)
