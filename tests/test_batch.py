@@ -343,3 +343,14 @@ def test_the_throughput_benchmark_runs_in_its_quick_mode():
     for way in ("| one process | 1 |", "| Dask, 1 worker | 1 |", "| Dask, 2 workers | 2 |"):
         assert way in p.stdout
     assert "Dask's overhead per job" in p.stdout
+
+
+def test_the_python_api_returns_the_manifest(tmp_path, cluster):
+    import synth.batch as api
+
+    p = _spec(tmp_path, SPEC_20.replace("keys = [50, 57]", "keys = [50]").replace(
+        "steps = 5", "steps = 2"))
+    df = api.render_many(str(p), client=cluster, out_dir=tmp_path / "o", progress=False)
+    assert isinstance(df, pd.DataFrame) and len(df) == 4
+    assert df.attrs["rendered"] == 4 and df.attrs["failed"] == [] and df.attrs["skipped"] == 0
+    pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "o" / "manifest.parquet"), df)

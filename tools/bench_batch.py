@@ -49,6 +49,27 @@ def _spec(preset: str, n: int, seconds: float) -> str:
             f"keys = {keys}\nvelocities = [90]\nseconds = {seconds}\nhold_seconds = {hold}\n")
 
 
+def _busy(seconds: float, nbytes: int) -> dict:
+    """A stand-in job: busy for `seconds` (as a render is), returning a
+    WAV-sized result, for Dask's own cost per job."""
+    t = time.perf_counter()
+    while time.perf_counter() - t < seconds:
+        pass
+    return {"wav": os.urandom(nbytes), "row": {}}
+
+
+def _machinery(client, n: int, seconds: float, nbytes: int) -> float:
+    """Dask's cost per job (s): n stand-in jobs through one worker, less their work."""
+    from dask.distributed import as_completed
+
+    t = time.perf_counter()
+    futs = [client.submit(_busy, seconds, nbytes, pure=False) for _ in range(n)]
+    for f in as_completed(futs):
+        f.result()
+        f.release()
+    return (time.perf_counter() - t - n * seconds) / n
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--preset", default="grand-piano")
@@ -103,11 +124,22 @@ def main(argv=None) -> int:
             start = time.perf_counter() - t
             try:
                 ts = [dask(client) for _ in range(a.runs)]
+                if w == 1:
+                    job_s = statistics.median(t1) / n
+                    nbytes = max(f.stat().st_size for f in (work / "single").rglob("*.wav"))
+                    machinery = statistics.median(
+                        _machinery(client, n, job_s, nbytes) for _ in range(a.runs))
             finally:
                 client.close()
                 cluster.close()
             rows.append((f"Dask, {w} worker{'s' if w > 1 else ''}", w, statistics.median(ts), start))
         base = rows[0][2]
+        import dask
+
+        import cpu_target  # tools/, on sys.path when run as a script
+
+        print(cpu_target.describe())
+        print(f"# dask {dask.__version__}")
         print(f"# {n} notes of {a.seconds:g} s on {a.preset} ({audio_s:g} s of audio), "
               f"median of {a.runs} run(s), {os.cpu_count()} cores")
         print("| way | workers | wall s | audio s per wall s | per core | vs one process | cluster start s |")
@@ -120,6 +152,8 @@ def main(argv=None) -> int:
         per_job = (d1 - base) / n
         print(f"\nDask's overhead per job (1 worker against one process): {per_job * 1e3:+.0f} ms, "
               f"{100 * per_job / (base / n):+.1f} % of a job's {base / n:.2f} s")
+        print(f"Dask's own cost per job (stand-in jobs as long, returning as many bytes, on "
+              f"1 worker): {machinery * 1e3:+.1f} ms, {100 * machinery / (base / n):+.1f} %")
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return 0
