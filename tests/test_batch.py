@@ -354,3 +354,26 @@ def test_the_python_api_returns_the_manifest(tmp_path, cluster):
     assert isinstance(df, pd.DataFrame) and len(df) == 4
     assert df.attrs["rendered"] == 4 and df.attrs["failed"] == [] and df.attrs["skipped"] == 0
     pd.testing.assert_frame_equal(pd.read_parquet(tmp_path / "o" / "manifest.parquet"), df)
+
+
+def _set_trim(value):
+    if value is None:
+        os.environ.pop("MALLOC_TRIM_THRESHOLD_", None)
+    else:
+        os.environ["MALLOC_TRIM_THRESHOLD_"] = value
+
+
+def test_workers_with_dask_s_malloc_trim_get_a_note(tmp_path, cluster):
+    """The local cluster's workers run without Dask's MALLOC_TRIM_THRESHOLD_
+    (2x slower renders); on a cluster whose workers have it, a note says so."""
+    assert set(cluster.run(B._malloc_trim).values()) == {None}
+    jobs = load_spec(_spec(tmp_path, SPEC_20))[:2]
+    notes = []
+    render_many(jobs, tmp_path / "a", client=cluster, progress=False, log=notes.append)
+    assert not any("MALLOC_TRIM" in n for n in notes)
+    cluster.run(_set_trim, "65536")
+    try:
+        render_many(jobs, tmp_path / "b", client=cluster, progress=False, log=notes.append)
+    finally:
+        cluster.run(_set_trim, None)
+    assert any("2 of the cluster's 2 workers have MALLOC_TRIM_THRESHOLD_ below" in n for n in notes)

@@ -105,6 +105,9 @@ VOICE_CACHE = 4
 RETRIES = 2
 #: the glibc tuning variable Dask's nanny sets (see :func:`local_cluster`)
 MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
+#: a trim threshold this high (bytes) leaves the renders at their speed
+#: (1 GiB: a grand note in 0.53 s, as unset; 65536: 1.12 s)
+MALLOC_TRIM_OK = 1 << 30
 #: partials measured for the analysis summary (partial 1's T60 is the note's)
 ANALYSIS_PARTIALS = 4
 
@@ -1110,12 +1113,18 @@ def render_many(jobs: Sequence[Job], out_dir: str | os.PathLike, client=None, *,
             dash = _dashboard(client)
             if dash:
                 log(f"note: Dask dashboard at {dash}")
-            trimmed = [w for w, v in client.run(os.environ.get, MALLOC_TRIM).items() if v]
+            try:
+                trims = client.run(_malloc_trim)
+            except Exception as err:       # a worker with another synth, or none
+                raise BatchError(f"the cluster's workers cannot run this synth's batch jobs "
+                                 f"({_one_line(err)}); is the same synth version installed "
+                                 "on them?") from None
+            trimmed = [w for w, v in trims.items() if v is not None and v < MALLOC_TRIM_OK]
             if trimmed:
-                log(f"note: {len(trimmed)} of the cluster's workers run with {MALLOC_TRIM} set "
-                    f"(Dask's nanny default), which makes renders about 2x slower; start them "
-                    f"with DASK_DISTRIBUTED__NANNY__PRE_SPAWN_ENVIRON__{MALLOC_TRIM}=None "
-                    f"(docs/batch.md)")
+                log(f"note: {len(trimmed)} of the cluster's {len(trims)} workers have {MALLOC_TRIM} "
+                    f"below {MALLOC_TRIM_OK} (Dask's nanny sets 65536), which makes renders "
+                    f"about 2x slower; start them with {MALLOC_TRIM}={MALLOC_TRIM_OK} in "
+                    f"their environment (docs/batch.md)")
             client.run(warm_worker, _distinct_presets(todo))
             futures = {}
             for j in todo:
@@ -1157,6 +1166,17 @@ def render_many(jobs: Sequence[Job], out_dir: str | os.PathLike, client=None, *,
     _write_manifest(out, df, csv)
     return BatchResult(df, len(todo) - len(failed), skipped, failed,
                        time.perf_counter() - t_run, dash)
+
+
+def _malloc_trim() -> int | None:
+    """This worker's ``MALLOC_TRIM_THRESHOLD_`` (bytes), or None (glibc's
+    adaptive default).  A function of this module, so that it runs in the
+    worker: ``os.environ.get`` would be pickled with the client's mapping."""
+    v = os.environ.get(MALLOC_TRIM)
+    try:
+        return None if v is None else int(v)
+    except ValueError:
+        return None
 
 
 def _distinct_presets(jobs: Sequence[Job]) -> list:
