@@ -87,6 +87,10 @@ from .registry import register_voice
 
 #: per-key string designs, by (preset, internal rate)
 _DESIGNS: dict = {}
+#: sympathetic-string designs, by (preset, output rate): designing the 72
+#: strings took 0.41 s, paid by every engine built (a batch worker builds
+#: one per job; a 4-s grand note renders in 0.09 s)
+_SYMPATHETIC: dict = {}
 
 #: the return frequency of the bridge's spring (Hz): far below the lowest
 #: note, it only keeps the dashpot from drifting (at 5 Hz its reactance
@@ -192,6 +196,14 @@ class GrandPianoInstrument(Voice):
         if amount <= 0.0:
             return None
         fs = float(fs_out)
+        k = (self.preset, fs)
+        if k not in _SYMPATHETIC:
+            # (the design is data: the bank copies the templates into its slots)
+            _SYMPATHETIC[k] = self._design_sympathetic(fs, amount)
+        return _SYMPATHETIC[k]
+
+    def _design_sympathetic(self, fs: float, amount: float) -> SympatheticDesign:
+        sp = self.preset.strings
         keys, slots, dampers, has_damper = [], [], [], []
         max_cells = 8
         for key in range(self.KEY_LOW, self.KEY_HIGH + 1):

@@ -359,6 +359,13 @@ class OneStringVoice(Voice):
         ``pluck.model`` with ``chikari.amplitude_m`` at velocity 127 and
         the pluck's duration scaled by length (as a fretted main string's).
         """
+        # designed once per voice (13 strings: 0.11 s, paid by every engine
+        # built; the bank copies the templates into its slots)
+        if "_taraf_design" not in self.__dict__:
+            self._taraf_design = self._design_taraf()
+        return self._taraf_design
+
+    def _design_taraf(self) -> TarafDesign | None:
         t = self.preset.taraf
         if t is None or self.study or t.coupling <= 0.0:
             return None
