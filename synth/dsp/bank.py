@@ -36,6 +36,28 @@ _HAMMER_Q_COLS = np.array([K.F_HQ, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F
                            K.F_HFPHI], dtype=np.int64)
 
 
+def region_reach(U: np.ndarray | None, side: int) -> float:
+    """The reach bound of a termination region (the kernel's ``F_REACH``):
+    min over its points n = 1..R of side U(n) / n (m), over the points
+    that can be touched (finite U); 0 when one of them touches the string
+    at rest or beyond (side U(n) <= 0: the region always runs); inf when
+    none can be touched.
+
+    The fast path skips a chunk's region when every step of two cells on
+    the part of the ring that passes it is smaller (so every |u(n)| <
+    n B <= side U(n): :func:`synth.kernels.strings._out_of_reach`)."""
+    if U is None:
+        return 0.0
+    v = float(side) * np.asarray(U, float)
+    fin = np.isfinite(v)
+    if not fin.any():
+        return math.inf
+    if np.any(v[fin] <= 0.0):
+        return 0.0
+    n = np.arange(1, len(v) + 1, dtype=float)
+    return float(np.min(v[fin] / n[fin]))
+
+
 @dataclass(frozen=True, eq=False)
 class SlotTemplate:
     """A validated string configuration (see :meth:`StringBank.configure`),
@@ -129,6 +151,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     fp[K.F_PAN] = 0.0 if pan is None else float(pan)
     fp[K.F_BDT] = bend_delay
     fp[K.F_BDS] = 1.0 - math.exp(-dt_s / bend_glide_s)
+    fp[K.F_REACH] = region_reach(U, side)
     Uc = None if U is None else np.array(U, dtype=float)
     return SlotTemplate(ip, fp, Uc, float(bend_delay))
 
@@ -217,6 +240,11 @@ class StringBank:
     #: 3x the tone's own sharpest change, 1.7x at 4 ms, none at 5 ms)
     LOSS_GLIDE_S = 0.005
     BEND_GLIDE_S = 0.02
+    #: the fast path skips a chunk's termination region when a bound on the
+    #: string's reach says no point can touch the obstacle (the same samples;
+    #: :func:`region_reach`); False (set before configuring): it always runs
+    #: (the check of that, and the benchmark of what it saves)
+    skip_unreachable = True
 
     def __init__(self, capacity: int, max_cells: int, max_region: int = 64,
                  max_block: int = 4096, n_probes: int = 0, max_gtable: int = 0,
@@ -384,6 +412,8 @@ class StringBank:
         if ip[K.I_CHUNK_FREE] > self.max_block:
             ip[K.I_CHUNK_FREE] = self.max_block
         self.fpar[s, :] = t.fpar
+        if not self.skip_unreachable:
+            self.fpar[s, K.F_REACH] = 0.0
         if R:
             self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = t.U
         if blen:
@@ -400,6 +430,8 @@ class StringBank:
             raise ValueError(f"U has shape {U.shape}; slot {s} has a region of {R} points")
         off = int(self.ipar[s, K.I_REG_OFF])
         self.U[off: off + R] = U
+        self.fpar[s, K.F_REACH] = (region_reach(U, int(self.ipar[s, K.I_SIDE]))
+                                   if self.skip_unreachable else 0.0)
 
     def fade(self, s: int, t60_s: float, fs_hz: float) -> None:
         """Fade slot s out: its loop loses 60 dB in ``t60_s`` (s) more than

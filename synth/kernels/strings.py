@@ -44,8 +44,10 @@ hammer steps inside the chunk like a pluck: the wave arriving at k during
 the chunk was already in the ring at its start.  In the region each
 right-going characteristic (a ring slot) leaves with ``min`` (side +1;
 ``max`` for side -1) of its entry value and ``U(n) + vl(n)`` along its
-path, the left-going values being untouched in the chunk.  The per-sample
-path is the plain reference for it and handles an excitation running
+path, the left-going values being untouched in the chunk; the step is
+skipped when a bound on the values that pass the region in the chunk
+says none can reach the obstacle (:func:`_out_of_reach`: the same
+samples).  The per-sample path is the plain reference for it and handles an excitation running
 inside or next to the region and diagnostics (probe, contacts, and the
 contact telemetry of ``I_TELEM`` strings: live play's ``--stats``).
 
@@ -210,7 +212,9 @@ F_TOG = F_TOR + 1     # and the bend line reads F_TOG S_TO samples further back
 F_HTOL = F_TOG + 1    # hammer solver: stop when a correction changes w by at most this,
                       #   relative (1e-5: the next would be ~1e-15; Halley's is cubic)
 F_HTOLG = F_HTOL + 1  # or changes g by at most this, relative (1e-13 with 1e-5)
-F_NF = F_HTOLG + 1
+F_REACH = F_HTOLG + 1  # the region's reach: min over its points of side U(n) / n (m; 0: never
+#                        out of reach; inf: no point can be touched), see _out_of_reach
+F_NF = F_REACH + 1
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -2010,12 +2014,94 @@ def _work_windows(work, C, R):
 
 
 @njit(**JIT_OPTS)
-def _region_step(s, ring, ipar, U, C, w1, w2, w3):
-    """Step 3 of the fast path over a chunk (the termination region)."""
+def _pairs_below(r, n, th):
+    """Whether |r[a] - r[a + 2]| < th for a = 0 .. n - 3: blocks of 64
+    pairs, leaving at the first block with one at or over ``th`` (a NaN
+    counts as over)."""
+    a0 = 0
+    while a0 < n - 2:
+        a1 = a0 + 64
+        if a1 > n - 2:
+            a1 = n - 2
+        x = r[a0:a1]
+        y = r[a0 + 2:a1 + 2]
+        m = 0.0
+        for t in range(a1 - a0):
+            d = abs(x[t] - y[t])
+            m = m if d <= m else d
+        if not (m < th):
+            return False
+        a0 = a1
+    return True
+
+
+@njit(**JIT_OPTS)
+def _out_of_reach(ring, off, P, m0, C, R, B):
+    """Whether no point of the termination region can touch the obstacle
+    during the fast-path chunk of C samples after time m0, so that its
+    step may be skipped (it would not change a sample).
+
+    Within the chunk the values that pass the region are those now in the
+    ring's slots m0 + 1 - R .. m0 + C + R (loop positions 2N - C - R ..
+    2N + R - 1): the chunk's limits keep every other operation out of
+    them.  On that window w, u(n) at any time of the chunk is w[a] -
+    w[a + 2n] for some a, a sum of n steps w[b] - w[b + 2], so
+    |u(n)| <= n max |w[b] - w[b + 2]|; with B = min over the points of
+    side U(n) / n (``F_REACH``), max |w[b] - w[b + 2]| < B keeps every
+    point strictly off its obstacle (side (u - U) < 0), and no clamp
+    fires.  The threshold keeps 1e-12 of B and of the window's values
+    (at most |w[0]| + |w[1]| + (C + 2R) B) for the rounding of the region
+    pass's U + v.  B = 0: never skipped; B = inf (no point can be
+    touched): always."""
+    if not (B > 0.0):
+        return False
+    if B == np.inf:
+        return True
+    L = C + 2 * R
+    j = m0 + 1 - R
+    if j < 0:
+        j += P
+    j1 = j + 1
+    if j1 >= P:
+        j1 -= P
+    V = abs(ring[off + j]) + abs(ring[off + j1]) + L * B
+    th = B * (1.0 - 1e-12) - 1e-12 * V
+    if not (th > 0.0):
+        return False
+    n1 = P - j                     # window values before the ring's wrap
+    if n1 >= L:
+        return _pairs_below(ring[off + j:off + j + L], L, th)
+    if not _pairs_below(ring[off + j:off + P], n1, th):
+        return False
+    if not _pairs_below(ring[off:off + L - n1], L - n1, th):
+        return False
+    # the (at most two) pairs across the wrap
+    for a in range(n1 - 2, n1):
+        if a >= 0 and a + 2 < L:
+            b = j + a
+            if b >= P:
+                b -= P
+            c = j + a + 2
+            if c >= P:
+                c -= P
+            d = abs(ring[off + b] - ring[off + c])
+            if not (d < th):
+                return False
+    return True
+
+
+@njit(**JIT_OPTS)
+def _region_step(s, ring, ipar, fpar, U, C, w1, w2, w3):
+    """Step 3 of the fast path over a chunk (the termination region),
+    skipped when no point can reach the obstacle (:func:`_out_of_reach`)."""
     R = ipar[s, I_REG_N]
     if R > 0:
-        _region_chunk(ring, ipar[s, I_OFF], 2 * ipar[s, I_N], ipar[s, I_POS], C, U,
-                      ipar[s, I_REG_OFF], R, ipar[s, I_SIDE], w1, w2, w3)
+        off = ipar[s, I_OFF]
+        P = 2 * ipar[s, I_N]
+        m0 = ipar[s, I_POS]
+        if _out_of_reach(ring, off, P, m0, C, R, fpar[s, F_REACH]):
+            return
+        _region_chunk(ring, off, P, m0, C, U, ipar[s, I_REG_OFF], R, ipar[s, I_SIDE], w1, w2, w3)
 
 
 @njit(**JIT_OPTS)
@@ -2026,7 +2112,7 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking, u
     windows."""
     w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
     # ---- 3. termination region: min/max along right-going characteristics --
-    _region_step(s, ring, ipar, U, C, w1, w2, w3)
+    _region_step(s, ring, ipar, fpar, U, C, w1, w2, w3)
     # ---- 4. far end, and the output ----------------------------------------
     peak = fst[s, S_PEAK]
     if ipar[s, I_FILT] == 1:
@@ -2410,7 +2496,7 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
     s = lead
     for m in range(G):
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
-        _region_step(s, ring, ipar, U, C, w1, w2, w3)
+        _region_step(s, ring, ipar, fpar, U, C, w1, w2, w3)
         _far_filter(s, ring, ipar, fpar, fst, U, C, cw[2 * m * _CW:2 * m * _CW + C + 2],
                     cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1], hb)
         s = ipar[s, I_CPLNX]
