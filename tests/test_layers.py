@@ -37,6 +37,8 @@ ALLOWED: dict[str, set[str]] = {
     "cli": {"cli", "apps", "testing", "io", "engine", "analysis"} | _LOW,
     # synth.testing: the checks of synth check (apps) for pytest, beside apps
     "testing": {"testing", "apps", "io", "engine", "analysis"} | _LOW,
+    # synth.batch: the Python API of synth batch (apps), beside apps, as testing is
+    "batch": {"batch", "apps", "io", "engine", "analysis"} | _LOW,
     "apps": {"apps", "io", "engine", "analysis"} | _LOW,
     "io": {"io", "engine", "analysis"} | _LOW,
     "engine": {"engine"} | _LOW,
