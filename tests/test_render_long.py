@@ -438,6 +438,73 @@ def test_interruptible_ignores_a_second_signal_and_restores():
     assert cleaned == [True]
 
 
+def _signal_in_a_ctypes_callback(signum):
+    """Send ``signum`` to this process while C code is calling back into
+    Python (libc's qsort with a Python comparison, as llvmlite calls back
+    while numba compiles): the handler's exception is printed and lost."""
+    import ctypes
+
+    libc = ctypes.CDLL(None)
+    CMP = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.POINTER(ctypes.c_int), ctypes.POINTER(ctypes.c_int))
+
+    def cmp(a, b):
+        os.kill(os.getpid(), signum)
+        time.sleep(0.2)                  # the handler runs here, inside the callback
+        return a[0] - b[0]
+
+    arr = (ctypes.c_int * 2)(2, 1)
+    libc.qsort(arr, 2, ctypes.sizeof(ctypes.c_int), CMP(cmp))
+
+
+def _record_lost(monkeypatch):
+    """Exceptions lost in callbacks (``sys.unraisablehook``), recorded."""
+    lost = []
+    monkeypatch.setattr(sys, "unraisablehook", lambda u: lost.append(u.exc_value))
+    return lost
+
+
+def test_a_signal_lost_in_a_ctypes_callback_still_interrupts(monkeypatch):
+    """Found in CI: SIGTERM while numba compiled a kernel was swallowed by
+    ctypes and the render went on to write its file with status 0."""
+    from synth.io.interrupt import raise_if_interrupted
+
+    lost = _record_lost(monkeypatch)
+    with pytest.raises(Interrupted) as ei:
+        with interruptible():
+            _signal_in_a_ctypes_callback(signal.SIGTERM)
+            assert [type(e) for e in lost] == [Interrupted]     # lost on the way ...
+            raise_if_interrupted()                              # ... and raised here
+    assert ei.value.signum == signal.SIGTERM
+    raise_if_interrupted()                    # outside the block: nothing pending
+
+
+@pytest.mark.parametrize("existing", [False, True], ids=["new", "existing"])
+def test_render_stops_on_a_signal_lost_in_a_callback(capsys, monkeypatch, tmp_path, existing):
+    write_midi(tmp_path / "a.mid", [(0.0, 57, 0.3)])
+    if existing:
+        Path("out.wav").write_bytes(b"RIFF old file")
+    from synth.engine.engine import Engine
+
+    orig = Engine.render_blocks
+
+    def blocks(self, *a, **kw):
+        for i, b in enumerate(orig(self, *a, **kw)):
+            if i == 2:
+                _signal_in_a_ctypes_callback(signal.SIGTERM)
+            yield b
+
+    monkeypatch.setattr(Engine, "render_blocks", blocks)
+    lost = _record_lost(monkeypatch)
+    rc, out, err = run(capsys, "render", "a.mid", "--preset", "sitar", "-o", "out.wav")
+    assert [type(e) for e in lost] == [Interrupted]
+    assert rc == 143
+    kept = "was left as it was" if existing else "was not written"
+    assert err.endswith(f"synth: interrupted by SIGTERM: out.wav {kept}\n")
+    if existing:
+        assert Path("out.wav").read_bytes() == b"RIFF old file"
+    assert sorted(os.listdir(".")) == (["a.mid", "out.wav"] if existing else ["a.mid"])
+
+
 # --------------------------------------------------------------------------
 # A full disk
 # --------------------------------------------------------------------------

@@ -39,7 +39,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..io.errors import SynthError, display_path
-from ..io.interrupt import Interrupted, interruptible
+from ..io.interrupt import Interrupted, interruptible, raise_if_interrupted
 from ..io.midi import MAX_DURATION_S
 
 __all__ = [
@@ -269,6 +269,17 @@ class _Progress:
         self.bar.close()
 
 
+def _checked(blocks):
+    """The blocks, stopping with :class:`Interrupted` once a signal has
+    arrived whose exception was lost (:func:`synth.io.interrupt.
+    raise_if_interrupted`): checked before each block and after the last,
+    so before the output file is put in place."""
+    for b in blocks:
+        raise_if_interrupted()
+        yield b
+    raise_if_interrupted()
+
+
 class _Cut:
     """The render's blocks cut at ``n_max`` samples (None: not cut), the
     last ``n_fade`` of them held back until the render ends: when it is cut
@@ -409,7 +420,7 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
         blocks = eng.render_blocks(plan.events, tail_s=TAIL_S, max_tail_s=plan.max_tail_s,
                                    progress=bar)
     n_max = None if req.max_seconds is None else int(round(req.max_seconds * fs))
-    cut = _Cut(blocks, n_max, int(round(CUT_FADE_S * fs)), plan.cut)
+    cut = _Cut(_checked(blocks), n_max, int(round(CUT_FADE_S * fs)), plan.cut)
     t = time.perf_counter()
     try:
         # written as rendered: the whole render is never in memory

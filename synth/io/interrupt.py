@@ -10,6 +10,15 @@ an existing file is never touched). The first signal also ignores further
 ones until the block is left, so a second Ctrl-C cannot interrupt that
 clean-up. The CLI exits with status 128 + the signal's number (130 for
 SIGINT, 143 for SIGTERM), as a shell reports a process killed by it.
+
+Python runs a signal handler in the main thread between two bytecodes,
+wherever that is: when it is inside a function that C code called back
+(numba compiling a kernel runs llvmlite's object-cache callback through
+ctypes), the exception the handler raises is printed ("Exception ignored on
+calling ctypes callback function") and lost, and the work would go on to
+the end.  So the handler also records the signal, and long loops call
+:func:`raise_if_interrupted` between their steps (``synth render`` after
+every block): a signal whose exception was lost stops the work there.
 """
 
 from __future__ import annotations
@@ -19,7 +28,7 @@ import threading
 from collections.abc import Iterator
 from contextlib import contextmanager
 
-__all__ = ["Interrupted", "interruptible", "HANDLED_SIGNALS"]
+__all__ = ["Interrupted", "interruptible", "raise_if_interrupted", "HANDLED_SIGNALS"]
 
 #: the signals :func:`interruptible` turns into :class:`Interrupted`
 HANDLED_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -59,6 +68,20 @@ class Interrupted(KeyboardInterrupt):
         return f"interrupted by {self.signal_name}" + (f": {self.detail}" if self.detail else "")
 
 
+#: signals that arrived inside :func:`interruptible` (its handler appends;
+#: entering and leaving the block clears it)
+_pending: list[int] = []
+
+
+def raise_if_interrupted() -> None:
+    """Raise :class:`Interrupted` if SIGINT or SIGTERM arrived inside
+    :func:`interruptible` and its exception was lost on the way (raised
+    inside a ctypes callback); do nothing otherwise.  Cheap: call it once
+    per step of a long loop."""
+    if _pending:
+        raise Interrupted(_pending[0])
+
+
 @contextmanager
 def interruptible(signals=HANDLED_SIGNALS) -> Iterator[None]:
     """Raise :class:`Interrupted` in the main thread on SIGINT or SIGTERM.
@@ -83,12 +106,15 @@ def interruptible(signals=HANDLED_SIGNALS) -> Iterator[None]:
     def handler(signum, frame):
         for s in mine:
             signal.signal(s, signal.SIG_IGN)   # no second interruption of the clean-up
+        _pending.append(signum)                # in case the exception below is lost
         raise Interrupted(signum)
 
+    _pending.clear()
     for s in mine:
         signal.signal(s, handler)
     try:
         yield
     finally:
+        _pending.clear()
         for s in mine:
             signal.signal(s, old[s] if old[s] is not None else signal.SIG_DFL)
