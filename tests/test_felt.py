@@ -425,3 +425,121 @@ def test_the_key_preset_and_the_hammer_command(capsys, tmp_path):
     png = tmp_path / "h.png"
     assert main(["felt", "hammer", "--preset", "key:60", "--cells", "4", "--plot", str(png)]) == 0
     assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+# ---- the reproduction of chapter 2 (docs/reproduction.md): shocks, lists, the script ----
+
+def test_the_finite_volumes_capture_the_shock():
+    """scheme="fv": before the front breaks it is the finite differences'
+    solution (a sech pulse, p = 1.5, t = 2: within 1e-4 = 0.1 % of A;
+    measured 3.3e-5); after it (p = 2, t = 10, Fig. 2.7's last snapshot)
+    the finite differences ring and the finite volumes do not, and the
+    shock's position and the peak converge in dx (measured: the front moves
+    by 4.1e-4 and 2.3e-4, the peak by 0.01 % and 0.05 %, from dx = 0.02 to
+    0.01 to 0.005).  A linear pulse decays at the finite differences' rate."""
+    from synth.apps.felt import _front
+
+    fd = F.solve_pulse(0.5, problem="ivp", amplitude=0.1, exponent=1.5, times=(2.0,))
+    fv = F.solve_pulse(0.5, problem="ivp", amplitude=0.1, exponent=1.5, times=(2.0,),
+                       scheme="fv")
+    assert np.allclose(fv.x[:3], [0.0025, 0.0075, 0.0125])
+    assert np.max(np.abs(np.interp(fv.x, fd.x, fd.strain[0]) - fv.strain[0])) < 1e-4
+
+    def tv(s):
+        return np.sum(np.abs(np.diff(s))) / np.max(np.abs(s))
+
+    ring = F.solve_pulse(0.5, problem="ivp", amplitude=0.1, exponent=2.0, times=(10.0,))
+    assert tv(ring.strain[0]) > 5
+    front, peak = [], []
+    for dx in (0.02, 0.01, 0.005):
+        r = F.solve_pulse(0.5, problem="ivp", amplitude=0.1, exponent=2.0, times=(10.0,),
+                          dx=dx, scheme="fv")
+        assert tv(r.strain[0]) < 2.5
+        front.append(_front(r.x, r.strain[0]))
+        peak.append(np.max(r.strain[0]))
+    assert abs(front[2] - front[1]) < 1e-3 and abs(front[1] - front[0]) < 2e-3
+    assert peak[2] == pytest.approx(peak[1], rel=2e-3) == pytest.approx(0.0321, rel=0.01)
+    # a linear pulse (eq. 2.28, delta 0.5): the rate of Fig. 2.6
+    lam = F.pulse_decay(F.solve_pulse(0.5, problem="bvp", amplitude=1.0, times=(4.5, 6.75, 9.0),
+                                      dx=0.01, scheme="fv"))
+    assert lam == pytest.approx(0.2056, abs=5e-4)
+    with pytest.raises(ValueError, match="scheme = 'weno' is not allowed"):
+        F.solve_pulse(0.5, problem="ivp", amplitude=0.1, scheme="weno")
+    with pytest.raises(ValueError, match="courant = 0.8 is out of range"):
+        F.solve_pulse(0.5, problem="ivp", amplitude=0.1, scheme="fv", courant=0.8)
+
+
+def test_the_dispersion_is_vectorised_and_keeps_its_roots():
+    """All wavenumbers' cubics are solved at once (the companion matrices
+    numpy.roots builds): the same roots as one np.roots per k, to the bit,
+    with k = 0 and the band gap's NaN."""
+    k = np.concatenate([[0.0], np.linspace(1e-3, 8, 300)])
+    for d in (0.06, 0.128, 0.5):
+        om, mu = F.dispersion(k, d)
+        ref_om, ref_mu = np.full(k.shape, np.nan), np.full(k.shape, np.nan)
+        ref_om[0] = ref_mu[0] = 0.0
+        for i, kk in enumerate(k[1:], 1):
+            r = np.roots([d, -1.0, kk * kk, -kk * kk])
+            pair = r[np.abs(r.imag) > 1e-12 * max(1.0, float(np.max(np.abs(r))))]
+            if len(pair):
+                s = pair[np.argmax(pair.imag)]
+                ref_om[i], ref_mu[i] = abs(s.imag), -s.real
+        assert np.array_equal(om, ref_om, equal_nan=True)
+        assert np.array_equal(mu, ref_mu, equal_nan=True)
+    assert np.isnan(F.dispersion([2.0], 0.06)[0][0])
+
+
+@pytest.mark.slow  # ~7 s: eight pulses and six plots
+def test_the_felt_command_takes_lists(tmp_path, capsys):
+    """--delta D1,D2 (one table and curve each: Figs. 2.1-2.2), a pulse list
+    varying one parameter (Figs. 2.6-2.8), t = 0 in --times, --absolute,
+    --scheme fv, and one-line errors."""
+    import json
+
+    from synth.cli import main
+
+    assert main(["felt", "dispersion", "--delta", "0.2,0.5", "--points", "3", "--json"]) == 0
+    t = json.loads(capsys.readouterr().out)
+    assert [x["delta"] for x in t] == [0.2, 0.5]
+    assert t[1]["columns"]["mu"][-1] == pytest.approx(F.dispersion([6.0], 0.5)[1][0])
+    assert main(["felt", "velocities", "--delta", "0.5,0.15", "--points", "2"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("# felt velocities") == 2
+    assert "normal dispersion: none (k_* = 0" in out and "for k < 1.50992" in out
+    assert main(["felt", "pulse", "--delta", "0.8,0.5", "--amplitude", "1", "--times",
+                 "0,4.5,6.75,9", "--json"]) == 0
+    t = json.loads(capsys.readouterr().out)
+    assert [x["delta"] for x in t] == [0.8, 0.5]
+    assert t[1]["snapshots"][0]["t"] == 0 and t[1]["snapshots"][0]["peak"] == 0
+    assert t[1]["attenuation_rate"] == pytest.approx(0.2056, abs=1e-3)
+    assert main(["felt", "pulse", "--problem", "ivp", "--p", "1.45", "--amplitude", "0.2,0.02",
+                 "--times", "0,1", "--scheme", "fv", "--json"]) == 0
+    t = json.loads(capsys.readouterr().out)
+    assert [x["amplitude"] for x in t] == [0.2, 0.02] and t[0]["scheme"] == "fv"
+    s0, s1 = t[0]["snapshots"]
+    assert s0["peak"] == pytest.approx(0.2, rel=1e-4) and s1["front_x"] > s1["peak_x"] > 0
+    for argv, msg in [(["--p", "1.3,2", "--amplitude", "0.2,0.1"],
+                       "--p and --amplitude are lists: vary one parameter at a time"),
+                      (["--delta", ",".join(["0.5"] * 13)], "--delta has 13 values, out of range"),
+                      (["--times=-1,2"], "times must be in [0, 1000]"),
+                      (["--amplitude", "big"], "--amplitude = 'big' is not a list"),
+                      (["--scheme", "fv", "--times", "1"], None)]:
+        rc = main(["felt", "pulse", *argv])
+        err = capsys.readouterr().err.strip().splitlines()
+        if msg is None:
+            assert rc == 0
+            continue
+        assert rc == 2 and len(err) == 1 and msg in err[0], err
+    assert main(["felt", "velocities", "--delta", ",".join(["0.5"] * 13)]) == 2
+    assert "--delta has 13 values" in capsys.readouterr().err
+    pytest.importorskip("matplotlib", reason="--plot needs the [plots] extra")
+    for argv in (["dispersion", "--delta", "0.15,0.2,0.5,0.8"],
+                 ["attenuation", "--delta", "0.2,1"],
+                 ["pulse", "--delta", "0.8,0.5", "--amplitude", "1", "--times", "1,2",
+                  "--absolute"],
+                 ["pulse", "--problem", "ivp", "--p", "1.3,2", "--times", "0,1", "--scheme",
+                  "fv"]):
+        png = tmp_path / "f.png"
+        assert main(["felt", *argv, "--plot", str(png)]) == 0
+        assert png.read_bytes()[:4] == b"\x89PNG"
+        capsys.readouterr()

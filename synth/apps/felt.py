@@ -10,10 +10,16 @@ Tables (and PNG plots, the ``[plots]`` extra) of the felt's linear waves
 * ``attenuation``: for a harmonic load of real frequency omega on the felt's
   surface (the boundary value problem), its wavenumber, attenuation per
   unit length and velocities (Publication III eqs. 31-43);
-* ``pulse``: a pulse solved by finite differences (:func:`synth.physics.felt.
-  solve_pulse`): driven into the felt's surface (eq. 2.28) or released
-  from a sech profile (eq. 2.29), linear or nonlinear (p > 1), its leading
-  crest's position and amplitude at each snapshot and its attenuation rate.
+* ``pulse``: a pulse solved by finite differences or by shock-capturing
+  finite volumes (:func:`synth.physics.felt.solve_pulse`): driven into the
+  felt's surface (eq. 2.28) or released from a sech profile (eq. 2.29),
+  linear or nonlinear (p > 1), its leading crest's position and amplitude
+  at each snapshot and its attenuation rate; one of delta, p, A, t_m may
+  be a list (one pulse per value, drawn together: the thesis's Figs.
+  2.6-2.8).
+
+``dispersion``, ``velocities`` and ``attenuation`` take a list of deltas
+too (one table and curve per value: Figs. 2.1-2.2).
 
 Values are in the units of eq. 2.11 (time alpha0 = tau0 / delta, length
 l0 = c_s alpha0, velocity c_s) and, for a felt given in SI (``--felt``),
@@ -39,6 +45,8 @@ FELTS = {"thesis": F.THESIS_FELT, "pub3": F.PUB3_FELT}
 #: strike: Askenfelt & Jansson 1991 measure ~1 (p) to 5-7 m/s (ff))
 KEY_REFERENCE_SPEED_M_PER_S = 2.0
 KEY_LOW, KEY_HIGH = 21, 108
+#: at most this many curves (values of --delta, or pulses) on one plot
+MAX_CURVES = 12
 
 
 def parse_preset(text: str) -> tuple[str, object]:
@@ -135,6 +143,18 @@ def make_request(what: str, felt: str | None, delta: float | None, gamma: float 
     return FeltRequest(what, f, d, float(x_max), int(points))
 
 
+def make_requests(what: str, felt: str | None, deltas: tuple | None, gamma: float | None,
+                  tau0_s: float | None, x_max: float, points: int) -> list[FeltRequest]:
+    """:func:`make_request` for each of ``deltas`` (``--delta D1,D2,...``: the
+    thesis's Figs. 2.1-2.2 and Publication III's Figs. 2-4 draw several on
+    one plot), or once for a felt (``deltas`` None)."""
+    if deltas is not None and not (1 <= len(deltas) <= MAX_CURVES):
+        raise SynthError(f"--delta has {len(deltas)} values, out of range (1 <= count <= "
+                         f"{MAX_CURVES})")
+    return [make_request(what, felt, d, gamma, tau0_s, x_max, points)
+            for d in (deltas if deltas is not None else (None,))]
+
+
 def table(req: FeltRequest) -> dict:
     """The rows and the summary of ``req`` as plain data (``--json``)."""
     d = req.delta
@@ -203,9 +223,11 @@ def format_table(t: dict) -> str:
         if "min_v_group" in t:
             m = t["min_v_group"]
             lines.append(f"# slowest group velocity: {m['v']:+.4f} at k = {m['k']:.4g}")
-        if t.get("normal_dispersion_below_k") is not None:
+        if t.get("normal_dispersion_below_k"):
             lines.append(f"# normal dispersion (v_phase > v_group) for k < "
                          f"{t['normal_dispersion_below_k']:.6g}")
+        elif t.get("normal_dispersion_below_k") == 0.0:
+            lines.append("# normal dispersion: none (k_* = 0, v_phase < v_group at every k)")
         if t.get("band_gap_k"):
             lo, hi = t["band_gap_k"]
             lines.append(f"# band gap: no propagating wave for {lo:.6g} < k < {hi:.6g}")
@@ -221,8 +243,7 @@ def format_table(t: dict) -> str:
     return "\n".join(lines)
 
 
-def plot_table(t: dict, path: str) -> None:
-    """A PNG of the table's curves (matplotlib, the ``[plots]`` extra)."""
+def _pyplot():
     try:
         import matplotlib
 
@@ -230,38 +251,115 @@ def plot_table(t: dict, path: str) -> None:
         import matplotlib.pyplot as plt
     except ImportError:
         raise SynthError('--plot needs the [plots] extra: pip install "synth[plots]"') from None
-    cols = {k: np.array([np.nan if v is None else v for v in c], float)
-            for k, c in t["columns"].items()}
-    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
-    if t["what"] in ("dispersion", "velocities"):
-        x, xl = cols["k"], "wavenumber k (1/l0)"
-        ax[0].plot(x, cols["omega"], label="omega")
-        ax[0].plot(x, cols["mu"], label="mu")
-        ax[0].set_ylabel("1/alpha0")
-    else:
-        x, xl = cols["omega"], "frequency omega (1/alpha0)"
-        ax[0].plot(x, cols["k"], label="k")
-        ax[0].plot(x, cols["lambda"], label="lambda (attenuation)")
-        ax[0].set_ylabel("1/l0")
-    ax[1].plot(x, cols["v_phase"], label="phase")
-    ax[1].plot(x, cols["v_group"], label="group")
-    ax[1].axhline(0.0, color="k", lw=0.5)
-    ax[1].set_ylabel("velocity (c_s)")
-    # (the group velocity runs off to infinity at a band gap's edges)
-    ax[1].set_ylim(min(-1.0, float(np.nanmin(cols["v_group"])) - 0.2),
-                   2.0 / math.sqrt(t["delta"]) + 0.5)
-    for a in ax:
-        a.set_xlabel(xl)
-        a.legend()
-        a.grid(alpha=0.3)
-    fig.suptitle(f"felt {t['what']}, delta = {t['delta']:.4g}")
-    fig.tight_layout()
+    return plt
+
+
+def _save(fig, path: str, dpi: int = 80) -> None:
+    """Write the figure as a PNG of at most 32 colours (line plots: a third
+    of the bytes of a full-colour one)."""
+    import matplotlib.pyplot as plt
+
     from ..io.wav import write_bytes_atomic
 
     buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80)
+    fig.savefig(buf, format="png", dpi=dpi)
     plt.close(fig)
+    try:
+        from PIL import Image                  # (matplotlib depends on Pillow)
+
+        im = Image.open(io.BytesIO(buf.getvalue())).convert("RGB")
+        small = io.BytesIO()
+        im.quantize(colors=32).save(small, format="png", optimize=True)
+        buf = small
+    except ImportError:                        # pragma: no cover
+        pass
     write_bytes_atomic(path, buf.getvalue())
+
+
+def _columns(t: dict) -> dict:
+    return {k: np.array([np.nan if v is None else v for v in c], float)
+            for k, c in t["columns"].items()}
+
+
+def plot_table(t, path: str) -> None:
+    """A PNG of the table's curves (matplotlib, the ``[plots]`` extra).
+
+    One table: omega and mu (or k and lambda) against k (or omega), and
+    the phase and group velocities, with the short-wave limit 1 / sqrt(delta)
+    (c_d, dashed: eq. 2.26) and, for the initial value problem, k_* (dotted:
+    normal dispersion to its left, thesis Figs. 2.3 and 2.5) and a band gap
+    (shaded).  A list of tables (several deltas): one curve per delta,
+    omega(k) and mu(k) (thesis Figs. 2.1-2.2), v_ph and v_gr, or k(omega)
+    and lambda(omega) (Publication III Fig. 2)."""
+    ts = t if isinstance(t, list) else [t]
+    plt = _pyplot()
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    ivp = ts[0]["what"] in ("dispersion", "velocities")
+    xl = "wavenumber k (1/l0)" if ivp else "frequency omega (1/alpha0)"
+    if len(ts) == 1:
+        cols = _columns(ts[0])
+        d = ts[0]["delta"]
+        if ivp:
+            x = cols["k"]
+            ax[0].plot(x, cols["omega"], label="omega")
+            ax[0].plot(x, cols["mu"], label="mu")
+            ax[0].set_ylabel("1/alpha0")
+        else:
+            x = cols["omega"]
+            ax[0].plot(x, cols["k"], label="k")
+            ax[0].plot(x, cols["lambda"], label="lambda (attenuation)")
+            ax[0].set_ylabel("1/l0")
+        ax[1].plot(x, cols["v_phase"], label="phase")
+        ax[1].plot(x, cols["v_group"], label="group")
+        ax[1].axhline(1.0 / math.sqrt(d), color="k", ls="--", lw=0.8,
+                      label="1/sqrt(delta) (c_d)")
+        ks = ts[0].get("normal_dispersion_below_k")
+        if ks:
+            for a in ax:
+                a.axvline(ks, color="k", ls=":", lw=0.8)
+            ax[1].plot([], [], "k:", lw=0.8, label=f"k_* = {ks:.4g}")
+        if ts[0].get("band_gap_k"):
+            for a in ax:
+                a.axvspan(*ts[0]["band_gap_k"], color="0.85")
+        # (the group velocity runs off to infinity at a band gap's edges)
+        ax[1].set_ylim(min(-1.0, float(np.nanmin(cols["v_group"])) - 0.2),
+                       2.0 / math.sqrt(d) + 0.5)
+        ax[1].axhline(0.0, color="k", lw=0.5)
+        ax[1].set_ylabel("velocity (c_s)")
+        title = f"felt {ts[0]['what']}, delta = {d:.4g}"
+    else:
+        if ts[0]["what"] == "dispersion":
+            names, labels = ("omega", "mu"), ("frequency omega (1/alpha0)",
+                                              "decay rate mu (1/alpha0)")
+        elif ts[0]["what"] == "velocities":
+            names, labels = ("v_phase", "v_group"), ("phase velocity (c_s)",
+                                                     "group velocity (c_s)")
+        else:
+            names, labels = ("k", "lambda"), ("wavenumber k (1/l0)", "attenuation lambda (1/l0)")
+        top = 0.0
+        for j, tj in enumerate(ts):
+            cols = _columns(tj)
+            x = cols["k"] if ivp else cols["omega"]
+            col = plt.cm.viridis(0.9 * j / (len(ts) - 1))       # dark: small delta
+            for a, n in zip(ax, names):
+                a.plot(x, cols[n], color=col, lw=1.2, label=f"delta = {tj['delta']:.4g}")
+            top = max(top, 1.0 / math.sqrt(tj["delta"]))
+        if ts[0]["what"] == "dispersion":
+            ax[0].plot(x, x, color="k", ls=":", lw=0.8, label="omega = k (delta = 1)")
+        if ts[0]["what"] == "velocities":
+            vmin = min(float(np.nanmin(_columns(tj)["v_group"])) for tj in ts)
+            ax[1].set_ylim(min(-1.0, vmin - 0.2), 2.0 * top + 0.5)
+            ax[0].set_ylim(0.0, 1.1 * top)
+        for a, lab in zip(ax, labels):
+            a.set_ylabel(lab)
+        title = f"felt {ts[0]['what']}, {len(ts)} values of delta"
+    for a in ax:
+        a.set_xlabel(xl)
+        a.legend(fontsize=7)
+        a.grid(alpha=0.3)
+    fig.suptitle(title)
+    fig.tight_layout()
+    _save(fig, path)
 
 
 @dataclass(frozen=True)
@@ -277,29 +375,80 @@ class PulseRequest:
     units: str
     t_m: float
     alpha: float
+    scheme: str = "fd"
+
+
+#: the pulse parameters a list may vary (``--delta 0.8,0.5,0.2``), one at a time
+PULSE_VARIED = {"delta": "--delta", "exponent": "--p", "amplitude": "--amplitude",
+                "t_m": "--t-m"}
+
+
+def make_pulse_requests(problem: str, deltas: tuple, exponents: tuple, amplitudes: tuple,
+                        times: tuple, dx: float, units: str, t_ms: tuple,
+                        alpha: float, scheme: str = "fd") -> list[PulseRequest]:
+    """The pulses ``synth felt pulse`` was asked for: one, or one per value
+    of the single parameter given as a list (``--delta``, ``--p``,
+    ``--amplitude`` or ``--t-m``; the thesis's Figs. 2.6-2.8 and Publication
+    III's Figs. 6-8 each vary one)."""
+    lists = {"delta": tuple(deltas), "exponent": tuple(exponents),
+             "amplitude": tuple(amplitudes), "t_m": tuple(t_ms)}
+    for k, v in lists.items():
+        if not v:
+            raise SynthError(f"{PULSE_VARIED[k]} needs a value")
+    varied = [k for k, v in lists.items() if len(v) > 1]
+    if len(varied) > 1:
+        raise SynthError(f"{' and '.join(PULSE_VARIED[k] for k in varied)} are lists: vary "
+                         f"one parameter at a time")
+    if varied and len(lists[varied[0]]) > MAX_CURVES:
+        raise SynthError(f"{PULSE_VARIED[varied[0]]} has {len(lists[varied[0]])} values, out "
+                         f"of range (1 <= count <= {MAX_CURVES})")
+    n = len(lists[varied[0]]) if varied else 1
+    pick = {k: (v * n if len(v) == 1 else v) for k, v in lists.items()}
+    return [PulseRequest(problem, float(pick["delta"][i]), float(pick["exponent"][i]),
+                         float(pick["amplitude"][i]), tuple(times), dx, units,
+                         float(pick["t_m"][i]), alpha, scheme) for i in range(n)]
+
+
+def _front(x: np.ndarray, s: np.ndarray) -> float:
+    """The pulse's front: the foremost point where the strain is half its
+    peak (interpolated linearly)."""
+    m = float(np.max(s))
+    if m <= 0.0:
+        return 0.0
+    i = int(np.flatnonzero(s >= 0.5 * m)[-1])
+    if i + 1 >= s.size:
+        return float(x[i])
+    return float(x[i] + (s[i] - 0.5 * m) / (s[i] - s[i + 1]) * (x[i + 1] - x[i]))
 
 
 def pulse_table(req: PulseRequest) -> dict:
     """Solve and summarise: per snapshot the leading crest (position,
     amplitude), the strain's least value (a steepened front's undershoot),
-    and the crest's attenuation rate over the snapshots."""
+    and the crest's attenuation rate over the snapshots after t = 0."""
     try:
         r = F.solve_pulse(req.delta, problem=req.problem, amplitude=req.amplitude,
                           exponent=req.exponent, times=req.times, dx=req.dx, units=req.units,
-                          t_m=req.t_m, alpha=req.alpha)
+                          t_m=req.t_m, alpha=req.alpha, scheme=req.scheme)
     except (ValueError, FloatingPointError) as e:
         raise SynthError(str(e)) from None
     xs, amps = F.leading_peaks(r)
     out = {"what": "pulse", "problem": req.problem, "delta": req.delta, "exponent": req.exponent,
-           "amplitude": req.amplitude, "units": req.units, "dx": r.dx, "dt": r.dt,
+           "amplitude": req.amplitude, "units": req.units, "scheme": req.scheme, "dx": r.dx,
+           "dt": r.dt,
            "snapshots": [{"t": float(t), "crest_x": float(x), "crest": float(a),
+                          "peak_x": float(r.x[int(np.argmax(s))]), "peak": float(np.max(s)),
+                          "front_x": _front(r.x, s),
                           "min_strain": float(np.min(s)),
                           # a hump's total variation is twice its height (plus its
                           # foot at the surface); a front that has steepened into a
                           # shock rings at the grid scale and adds much more
                           "rings": bool(np.sum(np.abs(np.diff(s))) > 2.5 * np.max(np.abs(s)))}
                          for t, x, a, s in zip(r.times, xs, amps, r.strain)]}
-    if len(xs) >= 2:
+    if req.problem == "bvp":
+        out["t_m"] = req.t_m
+    else:
+        out["alpha"] = req.alpha
+    if int(np.sum((r.times > 0) & (amps > 0))) >= 2:
         out["attenuation_rate"] = F.pulse_decay(r)
     out["_result"] = r
     return out
@@ -307,50 +456,98 @@ def pulse_table(req: PulseRequest) -> dict:
 
 def format_pulse(t: dict) -> str:
     lines = [f"# felt pulse ({t['problem']}), delta = {t['delta']:g}, p = {t['exponent']:g}, "
-             f"A = {t['amplitude']:g}, units {t['units']} (dx {t['dx']:g}, dt {t['dt']:.4g})"]
+             f"A = {t['amplitude']:g}, "
+             + (f"t_m = {t['t_m']:g}, " if "t_m" in t else f"alpha = {t['alpha']:g}, ")
+             + f"units {t['units']}, scheme {t.get('scheme', 'fd')} (dx {t['dx']:g}, dt "
+             f"{t['dt']:.4g})"]
     if "attenuation_rate" in t:
         lines.append(f"# the leading crest decays as exp(-{t['attenuation_rate']:.4f} x)")
     ring = [s["t"] for s in t["snapshots"] if s["rings"]]
     if ring:
         lines.append(f"# from t = {ring[0]:.4g} the front has steepened into a shock and rings "
-                     f"at the grid scale: the crest read there is the ringing's (the "
-                     f"central-difference scheme does not capture shocks)")
-    lines.append(f"{'t':>10}  {'crest x':>12}  {'crest':>12}  {'min strain':>12}  {'rings':>6}")
+                     f"at the grid scale: the crest read there is the ringing's ("
+                     + ("the central-difference scheme does not capture shocks: --scheme fv "
+                        "does" if t.get("scheme", "fd") == "fd" else "the finite volumes "
+                        "should not ring: refine --dx") + ")")
+    lines.append("# crest: the leading local maximum; peak: the largest strain; front: the "
+                 "foremost point at half the peak")
+    lines.append(f"{'t':>8}  {'crest x':>10}  {'crest':>10}  {'peak x':>10}  {'peak':>10}  "
+                 f"{'front x':>10}  {'min strain':>10}  {'rings':>5}")
     for s in t["snapshots"]:
-        lines.append(f"{s['t']:10.4g}  {s['crest_x']:12.5g}  {s['crest']:12.5g}  "
-                     f"{s['min_strain']:12.4g}  {'yes' if s['rings'] else 'no':>6}")
+        lines.append(f"{s['t']:8.4g}  {s['crest_x']:10.5g}  {s['crest']:10.5g}  "
+                     f"{s['peak_x']:10.5g}  {s['peak']:10.5g}  {s['front_x']:10.5g}  "
+                     f"{s['min_strain']:10.3g}  {'yes' if s['rings'] else 'no':>5}")
     return "\n".join(lines)
 
 
-def plot_pulse(t: dict, path: str) -> None:
-    """The snapshots, each normalised to its crest (as the thesis's Figs.
-    2.7-2.8), on one axis."""
-    try:
-        import matplotlib
+def _pulse_label(ts: list, t: dict) -> str:
+    """What tells the pulse ``t`` from the others of ``ts`` (the varied
+    parameter), or its parameters."""
+    for key, name in (("delta", "delta"), ("exponent", "p"), ("amplitude", "A"),
+                      ("t_m", "t_m")):
+        if len({u.get(key) for u in ts}) > 1:
+            return f"{name} = {t[key]:g}"
+    return f"delta = {t['delta']:g}, p = {t['exponent']:g}, A = {t['amplitude']:g}"
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise SynthError('--plot needs the [plots] extra: pip install "synth[plots]"') from None
-    r = t["_result"]
-    fig, ax = plt.subplots(1, 1, figsize=(9, 4))
-    for s, snap in zip(t["snapshots"], r.strain):
-        ax.plot(r.x, snap / max(s["crest"], 1e-300), lw=1, label=f"t = {s['t']:.3g}")
-    last = max(s["crest_x"] for s in t["snapshots"])
-    ax.set_xlim(0, 1.5 * last + 1)
-    ax.set_xlabel(f"x ({'c_d tau0' if t['units'] == 'tau0' else 'l0'})")
-    ax.set_ylabel("strain / crest")
-    ax.legend()
+
+def plot_pulse(t, path: str, absolute: bool = False) -> None:
+    """The snapshots (colour: the time; line style: the pulse when a list
+    of pulses varies one parameter), each over its peak (as the thesis's
+    Figs. 2.7-2.8 and Publication III's Figs. 7-8), the leading crests
+    marked; ``absolute``: the strain itself with the crests' fitted
+    exp(-lambda x) dashed (thesis Fig. 2.6).  Two pulses released from a
+    sech (ivp) with two values of p are drawn as the thesis's Fig. 2.7: the
+    first mirrored to x < 0."""
+    ts = t if isinstance(t, list) else [t]
+    plt = _pyplot()
+    fig, ax = plt.subplots(1, 1, figsize=(10, 4.5))
+    styles = ("-", "--", ":", "-.")
+    mirror = (len(ts) == 2 and ts[0]["problem"] == "ivp"
+              and ts[0]["exponent"] != ts[1]["exponent"])
+    # (the runs' time steps differ: colour by the snapshot asked for, not its step's time)
+    times = [s["t"] for s in ts[0]["snapshots"]]
+    last = 0.0
+    for j, u in enumerate(ts):
+        r = u["_result"]
+        sign = -1.0 if (mirror and j == 0) else 1.0
+        ls = styles[j % len(styles)]
+        lab = _pulse_label(ts, u)
+        for i, (s, snap) in enumerate(zip(u["snapshots"], r.strain)):
+            c = f"C{i % 10}"
+            scale = 1.0 if absolute else 1.0 / max(s["peak"], 1e-300)
+            ax.plot(sign * r.x, snap * scale, ls, color=c, lw=1)
+            ax.plot([sign * s["crest_x"]], [s["crest"] * scale], "o", color=c, ms=3)
+            last = max(last, s["crest_x"])
+        ax.plot([], [], ls, color="k", lw=1, label=lab)
+        if absolute and "attenuation_rate" in u:
+            pos = [s for s in u["snapshots"] if s["t"] > 0 and s["crest"] > 0]
+            b = np.polyfit([s["crest_x"] for s in pos], np.log([s["crest"] for s in pos]), 1)
+            xx = np.linspace(0.0, 1.3 * last + 1.0, 200)
+            ax.plot(sign * xx, np.exp(np.polyval(b, xx)), "--", color="0.4", lw=0.8)
+            xt = 0.97 * xx[-1]
+            ax.text(sign * xt, float(np.exp(np.polyval(b, xt))),
+                    f"exp(-{u['attenuation_rate']:.3f} x)", fontsize=7, color="0.3",
+                    ha="left" if sign < 0 else "right", va="bottom")
+    for k, tt in enumerate(times):
+        ax.plot([], [], color=f"C{k % 10}", lw=3, label=f"t = {tt:.3g}")
+    hi = 1.3 * last + 1.0
+    ax.set_xlim(-hi if mirror else 0.0, hi)
+    if mirror:
+        ax.axvline(0.0, color="k", ls="-.", lw=0.8)
+    u0 = ts[0]
+    ax.set_xlabel(f"x ({'c_d tau0' if u0['units'] == 'tau0' else 'l0'})"
+                  + ("; left: " + _pulse_label(ts, ts[0]) + ", right: " + _pulse_label(ts, ts[1])
+                     if mirror else ""))
+    ax.set_ylabel("strain" if absolute else "strain / its peak")
+    ax.legend(fontsize=7, ncol=2)
     ax.grid(alpha=0.3)
-    ax.set_title(f"felt pulse ({t['problem']}), delta = {t['delta']:g}, p = {t['exponent']:g}, "
-                 f"A = {t['amplitude']:g}")
+    fixed = [f"{n} = {u0[k]:g}" for k, n in (("delta", "delta"), ("exponent", "p"),
+                                              ("amplitude", "A"), ("t_m", "t_m"),
+                                              ("alpha", "alpha"))
+             if k in u0 and len({u.get(k) for u in ts}) == 1]
+    ax.set_title(f"felt pulse ({u0['problem']}), " + ", ".join(fixed))
     fig.tight_layout()
-    from ..io.wav import write_bytes_atomic
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=80)
-    plt.close(fig)
-    write_bytes_atomic(path, buf.getvalue())
+    _save(fig, path)
 
 
 # ---- synth felt hammer: the felt layer against the lumped law (issue 14 sec. 6) ----
@@ -505,13 +702,7 @@ def format_hammer(t: dict) -> str:
 def plot_hammer(t: dict, path: str) -> None:
     """Force against compression (and against time) for each route and
     speed (matplotlib, the ``[plots]`` extra)."""
-    try:
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        raise SynthError('--plot needs the [plots] extra: pip install "synth[plots]"') from None
+    plt = _pyplot()
     fig, ax = plt.subplots(1, 2, figsize=(10, 4))
     styles = {"lumped-kv": ("-", "eq. 1.5 (voice)"), "lumped-sls": (":", "Pub. III eq. 3"),
               "layer": ("--", "felt layer")}
@@ -533,9 +724,4 @@ def plot_hammer(t: dict, path: str) -> None:
     fig.suptitle(f"key {t['key']}: lumped law against a {f['thickness_m'] * 1e3:.3g} mm felt "
                  f"layer, rigid string")
     fig.tight_layout()
-    from ..io.wav import write_bytes_atomic
-
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=72)
-    plt.close(fig)
-    write_bytes_atomic(path, buf.getvalue())
+    _save(fig, path, dpi=72)

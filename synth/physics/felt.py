@@ -54,6 +54,7 @@ import numpy as np
 
 __all__ = ["Felt", "THESIS_FELT", "PUB3_FELT", "dispersion", "velocities", "attenuation",
            "solve_pulse", "PulseResult", "leading_peaks", "pulse_decay", "PULSE_UNITS",
+           "PULSE_SCHEMES",
            "attenuation_velocities", "ngv_threshold", "has_ngv", "normal_dispersion_limit",
            "band_gap", "relaxation_kernel", "HammerFelt", "felt_for_key", "felt_thickness_m",
            "Strike", "strike_lumped", "strike_layer", "first_touch_force_n", "GRAND_VOICING"]
@@ -182,19 +183,25 @@ def dispersion(k, delta: float) -> tuple[np.ndarray, np.ndarray]:
     k = _wavenumbers(k)
     om = np.full(k.shape, np.nan)
     mu = np.full(k.shape, np.nan)
-    for i, kk in enumerate(k):
-        if kk == 0.0:
-            om[i], mu[i] = 0.0, 0.0
-            continue
-        if d == 1.0:
-            om[i], mu[i] = kk, 0.0          # non-dispersive: s = 1 and s = +-i k
-            continue
-        r = np.roots([d, -1.0, kk * kk, -kk * kk])
-        pair = r[np.abs(r.imag) > 1e-12 * max(1.0, float(np.max(np.abs(r))))]
-        if len(pair) == 0:
-            continue                        # the band gap: three real (relaxing) roots
-        s = pair[np.argmax(pair.imag)]
-        om[i], mu[i] = abs(s.imag), -s.real
+    om[k == 0.0], mu[k == 0.0] = 0.0, 0.0
+    if d == 1.0:
+        return k.copy(), np.zeros(k.shape)  # non-dispersive: s = 1 and s = +-i k
+    i = np.flatnonzero(k > 0.0)
+    if i.size == 0:
+        return om, mu
+    # the cubic's companion matrices (as numpy.roots builds them), all at once
+    k2 = k[i] * k[i]
+    C = np.zeros((i.size, 3, 3))
+    C[:, 0, 0] = 1.0 / d
+    C[:, 0, 1] = -k2 / d
+    C[:, 0, 2] = k2 / d
+    C[:, 1, 0] = C[:, 2, 1] = 1.0
+    r = np.linalg.eigvals(C)
+    thr = 1e-12 * np.maximum(1.0, np.max(np.abs(r), axis=1))
+    j = np.argmax(r.imag, axis=1)
+    s = r[np.arange(i.size), j]
+    ok = s.imag > thr                       # else the band gap: three real (relaxing) roots
+    om[i[ok]], mu[i[ok]] = np.abs(s.imag[ok]), -s.real[ok]
     return om, mu
 
 
@@ -303,13 +310,16 @@ def attenuation_velocities(omega, delta: float) -> tuple[np.ndarray, np.ndarray]
 #: length c_d tau0), in which Publication III's numerical results are
 #: (docs/felt.md)
 PULSE_UNITS = ("alpha0", "tau0")
+#: :func:`solve_pulse`'s schemes: finite differences (Publication III's) or
+#: shock-capturing finite volumes
+PULSE_SCHEMES = ("fd", "fv")
 
 
 @dataclass(frozen=True)
 class PulseResult:
     """Strain snapshots of a pulse: ``strain[j]`` at time ``times[j]`` over
     ``x`` (units of ``units``), on a grid of ``dx`` with time step ``dt``
-    (the first snapshot's time a whole number of steps; the others the
+    (the first snapshot after t = 0 a whole number of steps; the others the
     nearest step to the time asked)."""
 
     x: np.ndarray
@@ -338,12 +348,22 @@ def _medium(delta: float, units: str):
 def solve_pulse(delta: float, *, problem: str, amplitude: float, exponent: float = 1.0,
                 times=(1.0,), dx: float = 0.005, units: str = "tau0", t_m: float = 0.5,
                 alpha: float = 3.0, omega: float = 1.0, length: float | None = None,
-                courant: float = 0.4) -> PulseResult:
+                courant: float = 0.4, scheme: str = "fd") -> PulseResult:
     """A compression pulse in the felt (eq. 2.11 integrated over time, eq.
-    2.27), by finite differences: leapfrog in time, central differences in
-    x, the hereditary integral updated exactly for its exponential kernel
-    with the trapezoidal rule (I_n = q I_(n-1) + dt/2 (f_n + q f_(n-1)),
-    q = exp(-dt / theta)): second order in dx at a fixed Courant number.
+    2.27).
+
+    ``scheme="fd"``: finite differences, as Publication III: leapfrog in
+    time, central differences in x, the hereditary integral updated exactly
+    for its exponential kernel with the trapezoidal rule (I_n = q I_(n-1) +
+    dt/2 (f_n + q f_(n-1)), q = exp(-dt / theta)): second order in dx at a
+    fixed Courant number, but a front that has steepened into a shock
+    (p > 1) rings at the grid scale.  ``scheme="fv"``: finite volumes that
+    capture the shock (:func:`_pulse_fv`): eq. 2.27 as the first-order
+    system eps_t = v_x, v_t = sigma_x, sigma = c^2 [eps^p - (gamma /
+    theta) H], H = int_0^t eps^p(xi) exp((xi - t) / theta) d xi, with
+    limited (MC) linear reconstruction, the local Lax-Friedrichs flux and
+    Heun's method (second order where the strain is smooth; a shock spread
+    over a few cells, without ringing).
 
     problem : ``"bvp"``: the felt at rest, its surface x = 0 driven by
         eps(0, t) = A (t / t_m)^3 exp(3 (1 - t / t_m)) (eq. 2.28; section
@@ -355,24 +375,31 @@ def solve_pulse(delta: float, *, problem: str, amplitude: float, exponent: float
     amplitude : A, strain, 0 < A <= 1.
     exponent : p (eq. 2.1), 1 .. 5; eps^p is taken as sign(eps) |eps|^p (a
         steepening front undershoots a little).
-    times : the snapshots' times (units of ``units``), 0 < t <= 1000.
+    times : the snapshots' times (units of ``units``), 0 <= t <= 1000 (t = 0:
+        the initial state, as the thesis's Figs. 2.7-2.8 show it).
     dx : grid step, 1e-4 .. 0.5.
     units : ``"tau0"`` (eq. 2.27 as printed; Publication III's numbers) or
         ``"alpha0"`` (eq. 2.11's).
     length : the domain [0, length]; None: far enough that nothing reaches
         its end (eps = 0 there).
-    courant : dt = courant dx / (the fastest local speed), 0 < value <= 0.9.
+    courant : dt = courant dx / (the fastest local speed), 0 < value <= 0.9
+        (``"fv"``: <= 0.5).
+    scheme : ``"fd"`` or ``"fv"`` (above); ``"fv"`` returns the strain's
+        cell averages at the cells' centres (x = (i + 1/2) dx).
     """
     if problem not in ("bvp", "harmonic", "ivp"):
         raise ValueError(f"problem = {problem!r} is not allowed (choose bvp, harmonic, ivp)")
+    if scheme not in PULSE_SCHEMES:
+        raise ValueError(f"scheme = {scheme!r} is not allowed (choose {', '.join(PULSE_SCHEMES)})")
     A = _check("amplitude", amplitude, 0.0, 1.0, lo_open=True)
     p = _check("exponent", exponent, 1.0, 5.0)
     dx = _check("dx", dx, 1e-4, 0.5)
-    courant = _check("courant", courant, 0.0, 0.9, lo_open=True)
+    courant = _check("courant", courant, 0.0, 0.9 if scheme == "fd" else 0.5, lo_open=True)
     c2, theta, w, vmax = _medium(delta, units)
     ts = np.sort(np.atleast_1d(np.asarray(times, float)))
-    if ts.size == 0 or ts[0] <= 0 or ts[-1] > 1000 or not np.all(np.isfinite(ts)):
-        raise ValueError("times must be in (0, 1000]")
+    if (ts.size == 0 or ts[0] < 0 or ts[-1] <= 0 or ts[-1] > 1000
+            or not np.all(np.isfinite(ts))):
+        raise ValueError("times must be in [0, 1000], one of them > 0")
     if problem == "bvp":
         _check("t_m", t_m, 1e-3, 100.0)
     elif problem == "harmonic":
@@ -382,7 +409,8 @@ def solve_pulse(delta: float, *, problem: str, amplitude: float, exponent: float
     # the fastest local speed: sqrt(p eps^(p-1)) times the short-wave speed
     v = vmax * math.sqrt(p * A ** (p - 1.0))
     dt = courant * dx / v
-    dt = ts[0] / math.ceil(ts[0] / dt)          # the first snapshot falls on a step
+    t1 = float(ts[ts > 0][0])
+    dt = t1 / math.ceil(t1 / dt)                # the first snapshot after 0 falls on a step
     if length is None:
         length = 1.3 * v * ts[-1] + (8.0 / alpha + 2.0 if problem == "ivp" else 2.0)
     n_x = int(math.ceil(length / dx)) + 1
@@ -391,6 +419,7 @@ def solve_pulse(delta: float, *, problem: str, amplitude: float, exponent: float
                          f"(at most 2000000)")
     x = np.arange(n_x) * dx
     q = math.exp(-dt / theta)
+    steps = [int(round(t / dt)) for t in ts]
 
     def power(e):
         return np.sign(e) * np.abs(e) ** p if p != 1.0 else e
@@ -416,6 +445,12 @@ def solve_pulse(delta: float, *, problem: str, amplitude: float, exponent: float
         s = t / t_m
         return A * s ** 3 * math.exp(3.0 * (1.0 - s))
 
+    if scheme == "fv":
+        xc = (np.arange(n_x) + 0.5) * dx
+        snaps = _pulse_fv(problem, A / np.cosh(alpha * xc) if problem == "ivp" else
+                          np.zeros(n_x), surface, p, c2, theta, w, dx, dt, steps)
+        return PulseResult(xc, np.array([s * dt for s in steps]), snaps, dx, dt, units,
+                           float(delta), p)
     if problem == "ivp":
         e = A / np.cosh(alpha * x)
     else:
@@ -432,7 +467,6 @@ def solve_pulse(delta: float, *, problem: str, amplitude: float, exponent: float
     n = 1
     snaps = np.empty((ts.size, n_x))
     j = 0
-    steps = [int(round(t / dt)) for t in ts]
     while j < ts.size and steps[j] <= 0:
         snaps[j] = e_old
         j += 1
@@ -453,6 +487,90 @@ def solve_pulse(delta: float, *, problem: str, amplitude: float, exponent: float
             raise FloatingPointError(f"the pulse blew up at t = {n * dt:g} (courant = {courant})")
     return PulseResult(x, np.array([s * dt for s in steps]), snaps, dx, dt, units,
                        float(delta), p)
+
+
+def _pulse_fv(problem, e0, surface, p, c2, theta, w, dx, dt, steps) -> np.ndarray:
+    """:func:`solve_pulse`'s finite volumes: the strain's snapshots at the
+    time steps ``steps`` (sorted), from the cell averages ``e0`` at rest.
+
+    Unknowns per cell: the strain eps, the velocity v (eps_t = v_x,
+    v_t = sigma_x) and the memory H (H_t = eps^p - H / theta, updated
+    exactly for its kernel with the trapezoidal rule, as the finite
+    differences' I); sigma = c^2 [eps^p - w H].  Each stage reconstructs
+    eps, v and H linearly in each cell with the monotonised-central
+    limiter, and takes the local Lax-Friedrichs (Rusanov) flux with the
+    frozen speed c sqrt(p eps^(p-1)) of the stiffer side; Heun's method
+    (SSP RK2) in time.  Two ghost cells at x = 0: the symmetry plane
+    (ivp: eps and H even, v odd) or the driven surface (eps mirrored about
+    its imposed value, v and H copied); at the far end copies (outflow)."""
+    n = e0.size
+    c = math.sqrt(c2)
+    q = math.exp(-dt / theta)
+    ivp = problem == "ivp"
+    E = np.zeros(n + 4)
+    V = np.zeros(n + 4)
+    Hg = np.zeros(n + 4)
+
+    def power(a):
+        return a if p == 1.0 else np.sign(a) * np.abs(a) ** p
+
+    def fill(G, a, odd=False, surf=None):
+        G[2:-2] = a
+        if surf is not None:
+            G[1], G[0] = 2.0 * surf - a[0], 2.0 * surf - a[1]
+        elif odd:
+            G[1], G[0] = -a[0], -a[1]
+        elif ivp:
+            G[1], G[0] = a[0], a[1]
+        else:
+            G[1] = G[0] = a[0]
+        G[-2] = G[-1] = a[-1]
+        return G
+
+    def faces(G):
+        d = np.diff(G)
+        dl, dr = d[:-1], d[1:]
+        slope = 0.5 * (np.sign(dl) + np.sign(dr)) * np.minimum(
+            np.minimum(2.0 * np.abs(dl), 2.0 * np.abs(dr)), 0.5 * np.abs(dl + dr))
+        return G[1:-2] + 0.5 * slope[:-1], G[2:-1] - 0.5 * slope[1:]
+
+    def rhs(e, v, H, t):
+        eL, eR = faces(fill(E, e, surf=None if ivp else surface(t)))
+        vL, vR = faces(fill(V, v, odd=ivp))
+        HL, HR = faces(fill(Hg, H))
+        sL = c2 * (power(eL) - w * HL)
+        sR = c2 * (power(eR) - w * HR)
+        if p == 1.0:
+            a = c
+        else:
+            a = c * np.sqrt(p * np.maximum(np.abs(eL), np.abs(eR)) ** (p - 1.0))
+        fe = -0.5 * (vL + vR) - 0.5 * a * (eR - eL)       # the flux of eps_t - v_x = 0
+        fv = -0.5 * (sL + sR) - 0.5 * a * (vR - vL)       # and of v_t - sigma_x = 0
+        return (fe[:-1] - fe[1:]) / dx, (fv[:-1] - fv[1:]) / dx
+
+    e, v, H = e0.astype(float), np.zeros(n), np.zeros(n)
+    f = power(e)
+    snaps = np.empty((len(steps), n))
+    j = k = 0
+    while True:
+        while j < len(steps) and steps[j] == k:
+            snaps[j] = e
+            j += 1
+        if j == len(steps):
+            return snaps
+        t = k * dt
+        de, dv = rhs(e, v, H, t)
+        e1, v1 = e + dt * de, v + dt * dv
+        f1 = power(e1)
+        H1 = q * H + 0.5 * dt * (q * f + f1)
+        de, dv = rhs(e1, v1, H1, t + dt)
+        e, v = 0.5 * (e + e1 + dt * de), 0.5 * (v + v1 + dt * dv)
+        f_new = power(e)
+        H = q * H + 0.5 * dt * (q * f + f_new)
+        f = f_new
+        k += 1
+        if not np.all(np.isfinite(e[:8])):
+            raise FloatingPointError(f"the pulse blew up at t = {k * dt:g}")
 
 
 def leading_peaks(result: PulseResult, floor: float = 0.2) -> tuple[np.ndarray, np.ndarray]:
@@ -482,11 +600,13 @@ def leading_peaks(result: PulseResult, floor: float = 0.2) -> tuple[np.ndarray, 
 
 def pulse_decay(result: PulseResult) -> float:
     """The attenuation rate lambda of the pulse's leading crest: the fit of
-    exp(-lambda x) through its amplitudes at the snapshots (Publication III
-    section 6; units of the result's length)."""
+    exp(-lambda x) through its amplitudes at the snapshots after t = 0
+    (Publication III section 6; units of the result's length)."""
     x, a = leading_peaks(result)
+    keep = (result.times > 0) & (a > 0)
+    x, a = x[keep], a[keep]
     if len(x) < 2:
-        raise ValueError("pulse_decay needs at least two snapshots")
+        raise ValueError("pulse_decay needs at least two snapshots after t = 0")
     return float(-np.polyfit(x, np.log(a), 1)[0])
 
 
