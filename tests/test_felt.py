@@ -543,3 +543,26 @@ def test_the_felt_command_takes_lists(tmp_path, capsys):
         assert main(["felt", *argv, "--plot", str(png)]) == 0
         assert png.read_bytes()[:4] == b"\x89PNG"
         capsys.readouterr()
+
+
+@pytest.mark.slow  # ~13 s on a quiet 2-core machine: some 40 pulses, half of them finite volumes
+def test_the_chapter_2_reproduction_script(capsys):
+    """tools/reproduce_felt.py (docs/reproduction.md, chapter 2) on a grid
+    twice as coarse: every row's check against the thesis holds (its exit
+    code), and the table names each figure of sections 2.2-2.4."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    import reproduce_felt
+
+    assert reproduce_felt.main(["--quick"]) == 0
+    out = capsys.readouterr().out
+    for item in ("eqs. 2.12-2.13", "Fig. 2.1,", "Fig. 2.2,", "Fig. 2.3", "Fig. 2.4",
+                 "Fig. 2.5", "0.1346427873", "Table 1, lambda(omega)", "Fig. 2.6",
+                 "Table 1, lambda_num", "Fig. 2.7", "Fig. 2.8", "Publication III Fig. 7"):
+        assert item in out, item
+    import re
+
+    n, m = map(int, re.search(r"(\d+) of the (\d+) checks against the thesis hold", out).groups())
+    assert n == m >= 15
