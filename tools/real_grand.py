@@ -41,7 +41,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from voicing_report import FS, attack_centroid_hz, decay, max_momentary  # noqa: E402
 
-from synth.analysis import track_partials  # noqa: E402
+from synth.analysis import estimate_f0, track_partials  # noqa: E402
 from synth.physics.piano import grand_string  # noqa: E402
 
 _NOTE = re.compile(r"^([A-G]#?)(\d)v(\d+)\.(ogg|wav|flac)$")
@@ -80,19 +80,20 @@ def measure(folder: Path) -> dict:
     for p in files:
         key, layer = midi_of(p.name)
         y = load(p)
-        f1 = grand_string(key).f0_hz if 21 <= key <= 108 else None
+        # the recording's own partial 1, near this model's partial 1 of the key
+        g = grand_string(key)
+        f1 = estimate_f0(y[int(0.05 * FS):int(1.05 * FS)], FS, g.partial_hz(1), search_cents=60.0)
         d = decay(y, f1)
         notes[(key, layer)] = {
             "key": key, "layer": layer, "seconds": len(y) / FS,
             "loudness_lufs": max_momentary(y), "centroid_100ms_hz": attack_centroid_hz(y),
-            "t60_early_s": d["t60_early_s"], "t60_late_s": d["t60_late_s"], "ratio": d["ratio"],
+            "t60_p1_s": d["t60_s"], "t60_early_s": d["t60_early_s"], "t60_late_s": d["t60_late_s"], "ratio": d["ratio"],
             "knee_drop_db": d["knee_drop_db"], "late_span_db": d["late_span_db"],
             "visible": bool(d["visible"])}
         if key == 60:
-            g = grand_string(60)
             seg = y[int(0.05 * FS):int(1.05 * FS)]
-            # the recording's own partial 1, found near the equal-tempered f1
-            _, lv, _ = track_partials(seg, FS, g.f0_hz, 16, inharmonicity=g.inharmonicity_b)
+            B = g.inharmonicity_b
+            _, lv, _ = track_partials(seg, FS, f1 / math.sqrt(1.0 + B), 16, inharmonicity=B)
             notes[(key, layer)]["c4_partials_db"] = (lv - np.nanmax(lv)).tolist()
     return notes
 
@@ -104,14 +105,14 @@ def _f(v, fmt):
 def report(notes: dict) -> str:
     layers = sorted({lay for _, lay in notes})
     keys = sorted({k for k, _ in notes})
-    out = ["key  layer  LUFS   centroid Hz  early s  late s  late/early  knee dB  after dB  visible"]
+    out = ["key  layer  LUFS   centroid Hz  T60 p1 s  early s  late s  late/early  knee dB  after dB  visible"]
     for k in keys:
         for lay in layers:
             n = notes.get((k, lay))
             if n is None:
                 continue
             out.append(f"{k:3d}  v{lay:<4d} {n['loudness_lufs']:6.1f}  {n['centroid_100ms_hz']:9.0f}  "
-                       f"{_f(n['t60_early_s'], '7.2f')}  {_f(n['t60_late_s'], '7.2f')}  "
+                       f"{_f(n['t60_p1_s'], '8.2f')}  {_f(n['t60_early_s'], '7.2f')}  {_f(n['t60_late_s'], '7.2f')}  "
                        f"{_f(n['ratio'], '9.2f')}  {_f(n['knee_drop_db'], '7.1f')}  "
                        f"{_f(n['late_span_db'], '7.1f')}  {'yes' if n['visible'] else 'no'}")
     for lay in layers:
