@@ -12,10 +12,70 @@ from __future__ import annotations
 import numpy as np
 
 
-def _step(ur, ul, k, gm, U, side, R):
+def _q2(r):
+    """q(r)^2, q = 1 - sqrt(1 - r) (the first cell's tangent point over
+    dx), 0 below r = 0 and 1 above r = 1."""
+    r = min(max(r, 0.0), 1.0)
+    return (1.0 - np.sqrt(1.0 - r)) ** 2
+
+
+_GL40 = np.polynomial.legendre.leggauss(40)
+
+
+def _phi(r):
+    """The integral of q^2 from 0 to r, by Gauss-Legendre quadrature (40
+    points on 0..min(r, 1), where q^2 is smooth but for the square root at
+    1; exact beyond 1: 40 points are exact for its polynomial in
+    t = sqrt(1 - r))."""
+    if r <= 0.0:
+        return 0.0
+    hi = min(r, 1.0)
+    xg, wg = _GL40
+    # substitute r = hi (1 - s^2) ... : integrate over s in the variable
+    # t = sqrt(1 - r) where the integrand (1 - t)^2 2t is a polynomial
+    t_lo, t_hi = np.sqrt(1.0 - hi), 1.0
+    t = 0.5 * (t_hi - t_lo) * xg + 0.5 * (t_hi + t_lo)
+    I = 0.5 * (t_hi - t_lo) * np.sum(wg * (1.0 - t) ** 2 * 2.0 * t)
+    return float(I + max(r - 1.0, 0.0))
+
+
+def subcell_delta(ut, up, U1, G):
+    """The first cell's sub-cell contact, written out (side-scaled, U1 > 0,
+    0 < G <= U1): the delta that solves delta (ut + delta - up) =
+    -G^2 (phi(r(ut + delta)) - phi(r(up))), r(u) = (u - U1 + G) / G, by
+    bisection on [-G, 0] (the kernel: closed forms and Newton's steps)."""
+    base = U1 - G
+
+    def res(d):
+        a = (ut + d - base) / G
+        b = (up - base) / G
+        if abs(a - b) < 1e-7:
+            S = _q2(0.5 * (a + b))          # the secant's limit
+        else:
+            S = (_phi(a) - _phi(b)) / (a - b)
+        return d + G * S
+
+    if (ut - base) <= 0.0 and (up - base) <= 0.0:
+        return 0.0
+    lo, hi = -G, 0.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if res(mid) > 0.0:
+            hi = mid
+        else:
+            lo = mid
+        if hi - lo <= 1e-17 * G:
+            break
+    return 0.5 * (lo + hi)
+
+
+def _step(ur, ul, k, gm, U, side, R, curv=0.0, u1p=None):
     """One step of the naive scheme except the far end x = L: shift both
     rails, reflect at x = 0, inject gm at k on both outgoing rails, clamp
-    the region points 1..R (the far end's u_l[N] is set by the caller)."""
+    the region points 1..R (the far end's u_l[N] is set by the caller);
+    with ``curv`` > 0 (the kernel's ``F_CURV``) the wave leaving x = 0
+    then takes the first cell's sub-cell contact (:func:`subcell_delta`;
+    ``u1p``, a one-element list, holds u(1) at the last step)."""
     ur[1:] = ur[:-1].copy()
     ul[:-1] = ul[1:].copy()
     ur[0] = -ul[0]
@@ -25,13 +85,22 @@ def _step(ur, ul, k, gm, U, side, R):
         u = ur[n] + ul[n] - (gm if n == k else 0.0)
         if side * (u - U[n - 1]) > 0:
             ur[n] += U[n - 1] - u
+    if curv > 0.0 and R > 0:
+        u1 = ur[1] + ul[1]                    # (k >= 3)
+        U1 = side * U[0]
+        if 0.0 < U1 < np.inf:
+            # u(1) at the next step without delta: ur[0] and ul[2] move there
+            ut = ur[0] + ul[2]
+            ur[0] += side * subcell_delta(side * ut, side * u1p[0], U1, curv * U1)
+        u1p[0] = u1
 
 
-def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=()):
+def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=(), curv=0.0):
     """Run the ideal string for ``n_steps`` with outgoing wave samples ``g``
     (g[m] used at step m = 1..n_steps; g beyond its length stays at g[-1]).
 
     U : array of U at points 1..R (inf = no contact) or None.
+    curv : the first cell's sub-cell contact (``_step``), 0: off.
     Returns (u_k per step, dict step -> (u, v) shapes) where shapes are
     the displacement along x = 0..N and u_r, u_l.
     """
@@ -42,9 +111,10 @@ def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=()):
     out = np.zeros(n_steps)
     shapes = {}
     R = 0 if U is None else len(U)
+    u1p = [0.0]
     for m in range(n_steps):
         gm = g[m] if m < len(g) else g[-1]
-        _step(ur, ul, k, gm, U, side, R)
+        _step(ur, ul, k, gm, U, side, R, curv, u1p)
         ul[N] = -ur[N]
         out[m] = ur[k] + ul[k] - gm
         if m in record_shape_at:
@@ -55,7 +125,7 @@ def naive_string(N, k, g, U=None, side=1, n_steps=None, record_shape_at=()):
 
 
 def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
-                       extra_delay=0, n_disp=0, a_disp=0.0, sos=(), bend=None):
+                       extra_delay=0, n_disp=0, a_disp=0.0, sos=(), bend=None, curv=0.0):
     """``naive_string`` with the musical far end: the wave arriving at x = L
     goes through [unit delay], the one-pole loss y = b0 x - a1 y1, ``n_disp``
     first-order allpasses (a + z^-1)/(1 + a z^-1) and the tuning allpass
@@ -72,6 +142,7 @@ def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
     ul = np.zeros(N + 1)
     out = np.zeros(n_steps)
     R = 0 if U is None else len(U)
+    u1p = [0.0]
     xd = lp = apx = apy = 0.0
     dx1 = np.zeros(n_disp)
     dy1 = np.zeros(n_disp)
@@ -79,7 +150,7 @@ def naive_lossy_string(N, k, g, U=None, side=1, n_steps=None, *, b0, a1, eta,
     hist = np.zeros(n_steps + 8)                  # the bend line's input, hist[m + 4] at step m
     for m in range(n_steps):
         gm = g[m] if m < len(g) else g[-1]
-        _step(ur, ul, k, gm, U, side, R)
+        _step(ur, ul, k, gm, U, side, R, curv, u1p)
         x = ur[N]
         if extra_delay:
             x, xd = xd, x

@@ -85,21 +85,27 @@ def test_excitation_inside_region_matches_naive():
        block=st.integers(1, 700), model=st.sampled_from([1, 2]),
        out_mode=st.sampled_from([0, 1]), lossy=st.booleans(),
        n_disp=st.sampled_from([0, 0, 1, 2, 3, 4, 5, 7, 8, 9, 16]),
-       bend=st.booleans())
+       bend=st.booleans(), subcell=st.sampled_from([0.0, 0.0, 1.0, 0.3]))
 def test_fast_path_equals_per_sample_path(seed, side, N, R, frac, block, model, out_mode, lossy,
-                                          n_disp, bend):
+                                          n_disp, bend, subcell):
     """Fast (min along characteristics, chunked) == per-sample, to round-off,
     on random profiles, pluck points, block sizes, outputs and far ends
-    (loss, dispersion sections, a pitch-bend line at rest)."""
+    (loss, dispersion sections, a pitch-bend line at rest), with and
+    without the first cell's sub-cell contact."""
     rng = np.random.default_rng(seed)
     k = int(round(frac * N))
     if k <= R + 1 or k >= N - 2 or R >= N - 2:
         return
     dx, dt = 1e-3, 1e-5
     U = _random_profile(rng, R, side, dx) if R else None
+    if subcell and R:
+        U[0] = side * rng.uniform(2e-7, 2e-5)     # off the string at rest: the contact applies
+        kw0 = dict(subcell=subcell)
+    else:
+        kw0 = {}
     A = side * rng.uniform(0.002, 0.02)
     n = 4 * N + 300
-    kw = dict(out_mode=out_mode, tension_over_dx=40.0 / dx)
+    kw = dict(out_mode=out_mode, tension_over_dx=40.0 / dx, **kw0)
     if lossy:
         kw.update(b0=0.97, a1=-0.02, eta=0.1, extra_delay=int(seed % 2))
     if n_disp:
@@ -173,14 +179,15 @@ def test_tune_out_gain_change_is_continuous():
         b.set_tune_out_gain(0, -1.0)
 
 
-def _energy_series(U, side, model, A, t0, alpha, N=812, k=609, every=50, n_total=60000):
+def _energy_series(U, side, model, A, t0, alpha, N=812, k=609, every=50, n_total=60000,
+                   subcell=0.0):
     """String energy (J) every ``every`` samples after the pluck."""
     L, T, mu = 0.8, 38.4, 0.000375
     c = np.sqrt(T / mu)
     dx = L / N
     dt = dx / c
     b = StringBank(1, N + 2, max(1, 0 if U is None else len(U)), 2048)
-    b.configure(0, cells=N, k=k, dt_s=dt, U=U, side=side)
+    b.configure(0, cells=N, k=k, dt_s=dt, U=U, side=side, subcell=subcell)
     b.activate(0)
     b.start_pluck(0, model, A, t0, alpha)
     mix = np.zeros(4096)
@@ -404,3 +411,65 @@ def test_render_refuses_to_write_past_the_mix():
         b.render(np.zeros(300, dtype=np.float32), 0, 10)
     b.render(mix, 100, 200)          # exactly to the end: fine
     assert np.any(mix[100:300]) and not np.any(mix[:100])
+
+
+# ---- the first cell's sub-cell contact (F_CURV; the jawari, docs/voicing.md) ----
+
+def _curved_profile(side, R, dx, theta=0.0, pts=20):
+    x = dx * np.arange(1, pts + 1)
+    return side * (theta * x + x * x / (2 * R))
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+@pytest.mark.parametrize("side,theta,curv_only", [(1, 0.0, False), (-1, 0.0, False),
+                                                  (1, 0.002, False), (1, 0.0, True)])
+def test_subcell_contact_matches_the_naive_scheme(per_sample, side, theta, curv_only):
+    """The kernel's sub-cell contact (fast path, block after block, and
+    per sample) is the naive scheme's written out (tests/reference.py:
+    the discrete gradient solved by bisection) on a lossless string
+    against a curved profile: an open jawari on either side, one closed
+    by a thread (theta > 0), and the first cell's contact alone (the
+    points past 1 out of reach: the grid's clamp never fires there)."""
+    N, k, dx, dt = 160, 120, 1e-3, 1e-5
+    R = 0.05
+    U = _curved_profile(side, R, dx, theta)
+    if curv_only:
+        U[1:] = side * np.inf
+    curv = 1.0 - theta * dx / abs(U[0])
+    A = side * 0.003
+    n = 3000
+    y, b = run_bank(N, k, 1, A, 0.002, 0.0, dt, n, U=U, side=side, per_sample=per_sample,
+                    block=97, subcell=curv)
+    ref, _ = naive_string(N, k, pluck_g(1, n, dt, A, 0.002, 0.0), U, side, curv=curv)
+    assert np.max(np.abs(y - ref)) < 1e-12 * abs(A)
+    # and it acts: without it the string is another
+    y0, _ = run_bank(N, k, 1, A, 0.002, 0.0, dt, n, U=U, side=side, per_sample=per_sample,
+                     block=97)
+    assert np.max(np.abs(y - y0)) > 1e-4 * abs(A)
+
+
+def test_subcell_contact_is_refused_where_it_cannot_act():
+    b = StringBank(1, 102, 4, 256)
+    with pytest.raises(ValueError, match=r"subcell = 1.5 is out of range \(0 <= value <= 1\)"):
+        b.configure(0, cells=100, k=50, dt_s=1e-5, U=np.array([1e-6, 4e-6]), subcell=1.5)
+    with pytest.raises(ValueError, match=r"side U\(1\) > 0"):
+        b.configure(0, cells=100, k=50, dt_s=1e-5, U=np.array([-1e-6, 4e-6]), subcell=1.0)
+    with pytest.raises(ValueError, match=r"k = 2 is out of range with subcell > 0 \(value >= 3"):
+        b.configure(0, cells=100, k=2, dt_s=1e-5, U=np.array([1e-6, 4e-6]), subcell=1.0)
+
+
+@pytest.mark.parametrize("A", [3e-4, 5e-4, 1e-3, 3e-3])
+def test_subcell_contact_makes_no_energy(A):
+    """On the lossless thesis string (812 cells) against the sitar's open
+    jawari (R = 0.5 m, the preset's), the string's energy never rises above
+    its value after the pluck by more than the contact's own potential
+    (a few 1e-6 of it here) over 0.6 s.  The explicit rule delta = f(u(1))
+    gained 27 % in 0.7 s at a 0.5 mm pluck; the clamp at grid points alone
+    only ever removes energy (test_energy_never_increases_after_pluck)."""
+    from synth.physics import profiles as P
+    dx = 0.8 / 812
+    term = P.Termination(P.jawari(0.5, 0.02, 0.0004), 1, 25, contact_subcell=True)
+    U = term.sample(dx)
+    assert term.subcell(dx) == 1.0
+    E = _energy_series(U, 1, 1, A, 0.004, 0.0, every=250, n_total=200000, subcell=1.0)
+    assert E.max() <= E[0] * (1 + 1e-5), f"energy rose by {E.max() / E[0] - 1:.3g} of E0"

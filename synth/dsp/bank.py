@@ -36,7 +36,7 @@ _HAMMER_Q_COLS = np.array([K.F_HQ, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F
                            K.F_HFPHI], dtype=np.int64)
 
 
-def region_reach(U: np.ndarray | None, side: int) -> float:
+def region_reach(U: np.ndarray | None, side: int, subcell: float = 0.0) -> float:
     """The reach bound of a termination region (the kernel's ``F_REACH``):
     min over its points n = 1..R of side U(n) / n (m), over the points
     that can be touched (finite U); 0 when one of them touches the string
@@ -45,16 +45,22 @@ def region_reach(U: np.ndarray | None, side: int) -> float:
 
     The fast path skips a chunk's region when every step of two cells on
     the part of the ring that passes it is smaller (so every |u(n)| <
-    n B <= side U(n): :func:`synth.kernels.strings._out_of_reach`)."""
+    n B <= side U(n): :func:`synth.kernels.strings._out_of_reach`).
+    With the sub-cell contact (``subcell`` > 0, the kernel's ``F_CURV``)
+    the bound is over points 2..R: the kernel steps point 1 and the first
+    cell in any case (``strings._subcell_ring``), and they only move the
+    string away from the obstacle."""
     if U is None:
         return 0.0
     v = float(side) * np.asarray(U, float)
+    n = np.arange(1, len(v) + 1, dtype=float)
+    if subcell > 0.0:
+        v, n = v[1:], n[1:]
     fin = np.isfinite(v)
     if not fin.any():
         return math.inf
     if np.any(v[fin] <= 0.0):
         return 0.0
-    n = np.arange(1, len(v) + 1, dtype=float)
     return float(np.min(v[fin] / n[fin]))
 
 
@@ -89,7 +95,8 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
                   n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
                   bend_delay: float = 0.0, glide_s: float = 0.002,
                   bend_glide_s: float = 0.02, sos=None,
-                  pan: float | None = None, sub: int = 1) -> SlotTemplate:
+                  pan: float | None = None, sub: int = 1,
+                  subcell: float = 0.0) -> SlotTemplate:
     """Validate a string configuration once (parameters as
     :meth:`StringBank.configure`); the bank's own limits (cells, region and
     bend-line sizes) are checked when it is written into a slot."""
@@ -118,6 +125,15 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
         raise ValueError(f"pan = {pan!r} is out of range (0 <= value <= 1)")
     if not (1 <= int(sub) <= K.MAX_SUB) or int(sub) != sub:
         raise ValueError(f"sub = {sub!r} is out of range (integer, 1 <= value <= {K.MAX_SUB})")
+    subcell = float(subcell)
+    if not (0.0 <= subcell <= 1.0):
+        raise ValueError(f"subcell = {subcell!r} is out of range (0 <= value <= 1)")
+    if subcell > 0.0 and not (U is not None and len(U) and side * float(U[0]) > 0.0):
+        raise ValueError("subcell > 0 needs a region whose first point is off the string at "
+                         "rest (side U(1) > 0)")
+    if subcell > 0.0 and k < 3:
+        raise ValueError(f"k = {k!r} is out of range with subcell > 0 (value >= 3: the sub-cell "
+                         f"contact reads points 1 and 2)")
     ip = np.zeros(K.I_NI, dtype=np.int64)
     ip[K.I_N] = cells
     ip[K.I_K] = k
@@ -151,7 +167,8 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     fp[K.F_PAN] = 0.0 if pan is None else float(pan)
     fp[K.F_BDT] = bend_delay
     fp[K.F_BDS] = 1.0 - math.exp(-dt_s / bend_glide_s)
-    fp[K.F_REACH] = region_reach(U, side)
+    fp[K.F_REACH] = region_reach(U, side, subcell)
+    fp[K.F_CURV] = subcell
     Uc = None if U is None else np.array(U, dtype=float)
     return SlotTemplate(ip, fp, Uc, float(bend_delay))
 
@@ -360,7 +377,7 @@ class StringBank:
                   probe_row: int = -1, force_per_sample: bool = False,
                   n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
                   bend_delay: float = 0.0, sos=None, pan: float | None = None,
-                  sub: int = 1) -> None:
+                  sub: int = 1, subcell: float = 0.0) -> None:
         """Set up slot s as an idle string (zero state, no excitation).
 
         cells : N, 8 .. max_cells.  k : excitation/pickup point, 1 .. N-1.
@@ -375,6 +392,11 @@ class StringBank:
         finer grid runs at ``sub`` times the engine's internal rate (its
         ``dt_s`` is the engine's over ``sub``) and its output is the mean
         of each engine sample's steps.
+        subcell : the first cell's sub-cell contact (the kernel's
+        ``F_CURV``; 0: off, the clamp at grid points alone): the share of
+        U(1) that is the profile's curvature, 1 - theta dx / U(1) with
+        theta its slope at x = 0 (1 for the open jawari;
+        :meth:`synth.physics.profiles.Termination.subcell`).
         (Voices that configure at note-on build a :func:`slot_template`
         once and call :meth:`configure_from`.)
         """
@@ -384,7 +406,7 @@ class StringBank:
                           force_per_sample=force_per_sample, n_disp=n_disp, a_disp=a_disp,
                           bend_len=bend_len, bend_delay=bend_delay,
                           glide_s=self.LOSS_GLIDE_S, bend_glide_s=self.BEND_GLIDE_S, sos=sos,
-                          pan=pan, sub=sub)
+                          pan=pan, sub=sub, subcell=subcell)
         self.configure_from(s, t, probe_row)
 
     def configure_from(self, s: int, t: SlotTemplate, probe_row: int = -1) -> None:
@@ -430,7 +452,8 @@ class StringBank:
             raise ValueError(f"U has shape {U.shape}; slot {s} has a region of {R} points")
         off = int(self.ipar[s, K.I_REG_OFF])
         self.U[off: off + R] = U
-        self.fpar[s, K.F_REACH] = (region_reach(U, int(self.ipar[s, K.I_SIDE]))
+        self.fpar[s, K.F_REACH] = (region_reach(U, int(self.ipar[s, K.I_SIDE]),
+                                                self.fpar[s, K.F_CURV])
                                    if self.skip_unreachable else 0.0)
 
     def fade(self, s: int, t60_s: float, fs_hz: float) -> None:

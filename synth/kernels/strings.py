@@ -16,7 +16,10 @@ Per time step, in the order of physics notes sections 1-3:
   2. excitation at point k: outgoing = incoming + g(t) on both rails, so
      ``u_r(k) += g`` and ``vl(k) -= g``; then ``u(k) = u_r + u_l - g``;
   3. termination region, points n = 1..R: where ``side (u - U) > 0`` set
-     ``u_r(n) = U(n) + vl(n)`` (= ``u_r += U - u``);
+     ``u_r(n) = U(n) + vl(n)`` (= ``u_r += U - u``); then, on a string
+     whose profile is curved from x = 0 (``F_CURV`` > 0, the jawari), the
+     sub-cell contact of the first cell: ``u_r(0) = -u_l(0) + delta``
+     (:func:`_subcell_delta`);
   4. far end x = L: identity (ideal) or the loss/tuning filter of a musical
      string, applied in place to the sample turning round at q = N.
 
@@ -214,7 +217,9 @@ F_HTOL = F_TOG + 1    # hammer solver: stop when a correction changes w by at mo
 F_HTOLG = F_HTOL + 1  # or changes g by at most this, relative (1e-13 with 1e-5)
 F_REACH = F_HTOLG + 1  # the region's reach: min over its points of side U(n) / n (m; 0: never
 #                        out of reach; inf: no point can be touched), see _out_of_reach
-F_NF = F_REACH + 1
+F_CURV = F_REACH + 1   # sub-cell contact in the first cell (0: off; see _subcell_delta): the share
+#                        of U(1) that is the profile's curvature, 1 - theta dx / U(1) (0 < value <= 1)
+F_NF = F_CURV + 1
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -254,7 +259,9 @@ S_UBOFF = S_UBP + 1           # a string on an external bridge: the offset its e
 S_TO = S_UBOFF + 1            # pitch bend: the tune-out, extra delay of the bend line (samples,
                               #   times F_TOG), decaying by F_TOR per sample (the contact's pitch
                               #   rise, undone)
-S_NS = S_TO + 1
+S_U1P = S_TO + 1              # sub-cell contact (F_CURV > 0): u(1) at the last sample (m), after
+                              #   point 1's clamp
+S_NS = S_U1P + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)
@@ -848,6 +855,141 @@ def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, nb, fsos):
 
 
 @njit(**JIT_OPTS)
+def _subcell_q(r):
+    """q(r) = 1 - sqrt(1 - r) = r / (1 + sqrt(1 - r)) for 0 <= r <= 1 (the
+    first cell's tangent point over dx, :func:`_subcell_delta`); 0 below,
+    1 above."""
+    if not (r > 0.0):
+        return 0.0
+    if r >= 1.0:
+        return 1.0
+    return r / (1.0 + np.sqrt(1.0 - r))
+
+
+@njit(**JIT_OPTS)
+def _subcell_delta(ut, up, U1, G):
+    """The first cell's sub-cell contact: delta (m), the string's virtual
+    displacement at x = 0 at this sample, added to the wave leaving x = 0.
+    Side-scaled: the obstacle above, ``U1`` = side U(1) > 0 (m), ``G`` =
+    F_CURV U1 (m, 0 < G <= U1) the part of it due to the profile's
+    curvature; ``ut`` = u(1) at the next sample as it would be without
+    delta, ``up`` = u(1) at the last sample (m, side-scaled).  Returns
+    delta <= 0 (side-scaled).
+
+    Between x = 0 and the first grid point x = dx the profile is taken as
+    U(x) = theta x + G (x / dx)^2 (theta dx = U1 - G; the jawari's
+    theta x + x^2 / (2R), thesis eq. 1.15's ramp and parabola, exactly).
+    A string whose slope at x = 0 exceeds theta towards the obstacle lies
+    on it from x = 0 to the point x_c where it leaves it tangentially (a
+    string under tension wraps a smooth obstacle), and its straight part,
+    extended back to x = 0, is there at f = -G q^2, where q = x_c / dx =
+    1 - sqrt(1 - r) and r = (u(1) - theta dx) / G is the share of point
+    1's gap the string has crossed (f = 0 for r <= 0, -G for r >= 1, where
+    point 1 touches and the grid's clamp takes over).  For small r, f =
+    -(R / 2) a^2 with a = u(1) / dx the string's slope (theta = 0): the
+    contact shrinks with the amplitude instead of ending when the string
+    no longer reaches point 1's gap U(1) = dx^2 / (2R).
+
+    Quasi-static in the cell (x_c < dx, a sixteenth of a wavelength at
+    20 kHz on the 325 kHz grid), f is a nonlinear spring at the end: the
+    work the string does on it is a potential, T / dx Phi, Phi = G^2
+    Qi(r), Qi(r) = q^3 (2/3 - q/2) the integral of q^2 (r - 5/6 beyond
+    1).  Taken explicitly, delta = f(u(1)) pumped energy into a lossless
+    string (27 % in 0.7 s at a 0.5 mm pluck).  The kernel takes the
+    discrete gradient instead: delta solves
+
+        delta = -(Phi(ut + delta) - Phi(up)) / (ut + delta - up),
+
+    so that the energy it gives the string at this sample, T/(2 dx)
+    delta (u1(next) - u1(last)) (the CFL-1 scheme's energy, physics notes
+    section 2, with u(1) changed by delta), is -T/(2 dx) (Phi(next) -
+    Phi(last)): over a note it telescopes, the string's energy plus Phi
+    at two samples never grows, and a clamp at point 1 in between only
+    lowers it.  It equals f(u(1)) to first order.  In y = r(ut + delta)
+    the right side, minus the secant slope of the convex Phi, makes
+    delta + that slope increasing in y: one root, y <= r(ut).  Where it
+    lies is read from the sign at y = 0 and y = 1; below 0 and beyond 1
+    the equation is a quadratic (Qi is 0, or linear); between, with y =
+    2a - a^2, a polynomial in a = q(y) without square roots: Newton's
+    steps from a = q(r(ut)) (delta = 0), kept in their bracket, until one
+    moves a by less than 1e-7 of it."""
+    base = U1 - G
+    rt = (ut - base) / G
+    rp = (up - base) / G
+    if rp > 1.0:
+        rp = 1.0                 # u(1) after its clamp: at most U(1) but for rounding
+    if not (rt > 0.0) and not (rp > 0.0):
+        return 0.0
+    b = 0.0
+    Qp = 0.0
+    if rp > 0.0:
+        b = _subcell_q(rp)
+        Qp = b * b * b * (2.0 / 3.0 - 0.5 * b)
+        # the root at or below 0 (the string leaves the cell): there Qi = 0
+        # and (y - rt)(rp - y) + Qp = 0; r(0) rp = Qp - rt rp >= 0
+        if Qp - rt * rp >= 0.0:
+            h = rt - rp
+            y = 0.5 * ((rt + rp) - np.sqrt(h * h + 4.0 * Qp))
+            return G * (y - rt)
+    if rt > 1.0:
+        # the root at or beyond 1 (point 1 touches): there Qi = y - 5/6 and
+        # (y - rt)(y - rp) + y - 5/6 - Qp = 0, the larger root; r(1) <= 0
+        if rp >= 1.0:
+            beyond = rt >= 2.0
+        else:
+            beyond = (1.0 - rt) * (1.0 - rp) + (1.0 / 6.0 - Qp) <= 0.0
+        if beyond:
+            c1 = rt + rp - 1.0
+            c0 = rt * rp - 5.0 / 6.0 - Qp
+            y = 0.5 * (c1 + np.sqrt(c1 * c1 - 4.0 * c0))
+            return G * (y - rt)
+    # the root in 0 < y < 1, in a: P(a) has the sign of the equation's
+    # residual (times (2 - a - b) or (y - rp), both > 0 there)
+    lo = 0.0
+    hi = _subcell_q(rt)
+    a = hi
+    for it in range(64):
+        y = a * (2.0 - a)
+        e = y - rt
+        if rp >= 1.0:
+            P = e + a * (0.5 * a + 1.0 / 3.0) + 1.0 / 6.0
+            dP = 2.0 - a + 1.0 / 3.0
+        elif rp > 0.0:
+            sb = 2.0 - a - b
+            a2 = a * a
+            b2 = b * b
+            P = e * sb + (2.0 / 3.0) * (a2 + a * b + b2) - 0.5 * (a + b) * (a2 + b2)
+            dP = ((2.0 - 2.0 * a) * sb - e + (4.0 * a + 2.0 * b) / 3.0
+                  - 0.5 * (3.0 * a2 + 2.0 * a * b + b2))
+        else:
+            f = y - rp
+            P = e * f + a * a * a * (2.0 / 3.0 - 0.5 * a)
+            dP = (2.0 - 2.0 * a) * (e + f) + 2.0 * a * a * (1.0 - a)
+        if P > 0.0:
+            hi = a
+        elif P < 0.0:
+            lo = a
+        else:
+            break
+        if hi - lo <= 1e-15 * hi:
+            break               # (delta = 0 within rounding: P(q(rt)) < 0 by an ulp)
+        if dP > 0.0:
+            an = a - P / dP
+            # (a step onto an end of the bracket is allowed: the root may
+            # lie within rounding of a point already evaluated)
+            if an >= lo and an <= hi:
+                if abs(an - a) <= 1e-7 * a:
+                    # Newton's steps square their error: the next would
+                    # be below 1e-13 of a
+                    a = an
+                    break
+                a = an
+                continue
+        a = 0.5 * (lo + hi)
+    return G * (a * (2.0 - a) - rt)
+
+
+@njit(**JIT_OPTS)
 def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, cf, po0, psub):
     """Plain per-sample scheme for string s over n samples, mixing into
     mix[:, o0:o0+n].  Reference for the fast path; also used when the
@@ -867,6 +1009,8 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
     R = ipar[s, I_REG_N]
     roff = ipar[s, I_REG_OFF]
     side = ipar[s, I_SIDE]
+    curv = fpar[s, F_CURV] if R > 0 else 0.0
+    u1p = fst[s, S_U1P]
     filt = ipar[s, I_FILT]
     xdel = ipar[s, I_XDELAY]
     outm = ipar[s, I_OUT]
@@ -975,6 +1119,28 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
             if side * (u - Ur) > 0.0:
                 ring[off + ju] += Ur - u
                 ncont += 1
+        if curv > 0.0:
+            # the first cell's sub-cell contact (k >= 3): u_r(0) += delta,
+            # from u(1) now (after its clamp), at the last sample, and at
+            # the next without delta (slot pm there, against vl(2) now)
+            jm = pm - 1
+            if jm < 0:
+                jm += P
+            jp = pm + 1
+            if jp >= P:
+                jp -= P
+            jq = pm + 2
+            if jq >= P:
+                jq -= P
+            u = ring[off + jm] - ring[off + jp]
+            U1 = side * U[roff]
+            if U1 > 0.0 and U1 < np.inf:
+                dl = _subcell_delta(side * (ring[off + pm] - ring[off + jq]), side * u1p, U1,
+                                    curv * U1)
+                if dl != 0.0:
+                    ring[off + pm] += side * dl
+                    ncont += 1
+            u1p = u
         # 4. far end
         if filt == 1:
             b0 = gk * b0 + gc             # the loss glide toward b0t
@@ -1066,6 +1232,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
     fp[F_B0] = b0
     st[S_G] = g
     st[S_PEAK] = peak
+    st[S_U1P] = u1p
     if telem == 1:
         st[S_TC_N] = tcn
         st[S_TC_EP] = tep
@@ -1333,14 +1500,20 @@ def _region_edge(src, dst, vw, C, ia, ib, lo0, lo1, lo2, lo3, d0, d1, d2, d3, U0
 
 
 @njit(**JIT_OPTS)
-def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw):
+def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw, curv, st):
     """Step 3 of the fast path: each right-going characteristic leaves the
     region with the min (side +1; max for side -1) of its entry value and
     U(n) + vl(n) along its path.  The values are multiplied by ``side`` on
     the way in and out, so one min serves both sides (max(a, b) =
     -min(-a, -b), exact); points where the profile is side * inf (no
     contact) are skipped; the points are taken four at a time
-    (:func:`_region_pass`), ping-ponging between ``acc`` and ``tmp``."""
+    (:func:`_region_pass`), ping-ponging between ``acc`` and ``tmp``.
+
+    With ``curv`` > 0 (``F_CURV``) the first cell's sub-cell contact runs
+    first, sample by sample (:func:`_subcell_chunk`): it adds to each
+    characteristic's entry value its delta, which depends on the one
+    before it through point 1; ``st`` is the string's state row
+    (``S_U1P``)."""
     W = C + R - 1
     sc = float(side)
     b = m0 + 1 - R                 # first characteristic slot (unwrapped)
@@ -1351,6 +1524,9 @@ def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw):
     if jv >= P:
         jv -= P
     _ring_get(ring, off, P, jv, vw[0:W], sc)
+    last = 0.0
+    if curv > 0.0:
+        last = _subcell_chunk(ring, off, P, m0, acc, vw, C, R, sc, sc * U[roff], curv, st)
     src = acc
     dst = tmp
     q = 0
@@ -1390,6 +1566,99 @@ def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw):
         _region_pass(src, dst, vw, W, C, R, n0, n1, n2, n3, U0, U1, U2, U3)
         src = dst
     _ring_put(ring, off, P, b, src[0:W], sc)
+    if last != 0.0:
+        # the delta of the chunk's last sample, on slot m0 + C: it enters
+        # the region in the next chunk
+        j = m0 + C
+        if j >= P:
+            j -= P
+        ring[off + j] += sc * last
+
+
+@njit(**JIT_OPTS)
+def _subcell_chunk(ring, off, P, m0, acc, vw, C, R, sc, U1, curv, st):
+    """The first cell's sub-cell contact over a fast-path chunk, on the
+    region's windows (side-scaled by ``sc``: ``U1`` = side U(1)).  At the
+    chunk's sample t (time m = m0 + 1 + t) point 1 holds characteristic
+    ``acc[R - 1 + t]`` against ``vw[t]``; its clamp (the region pass's
+    min, which then repeats it exactly) gives u(1) now; u(1) at the next
+    sample without delta is the characteristic leaving x = 0 now (slot m,
+    ``acc[R + t]``) against ``vw[t + 1]``; u(1) at the last sample is the
+    previous t's (``st[S_U1P]`` at t = 0).  :func:`_subcell_delta` gives
+    the delta added to slot m, which passes point 1 at the next sample: a
+    recursion, hence sample by sample.  Returns the last sample's delta
+    (its slot m0 + C lies past the window; the caller adds it) and
+    updates ``st[S_U1P]``."""
+    W = C + R - 1
+    last = 0.0
+    i0 = R - 1
+    if not (U1 > 0.0 and U1 < np.inf):
+        # out of reach (a buzz of 0): no contact, u(1) kept for the state
+        st[S_U1P] = sc * (acc[i0 + C - 1] - vw[C - 1])
+        return 0.0
+    G = curv * U1
+    up = sc * st[S_U1P]
+    for t in range(C):
+        v = vw[t]
+        a = acc[i0 + t]
+        x = U1 + v
+        if x < a:
+            a = x
+            acc[i0 + t] = a
+        if t < C - 1:
+            sm = acc[i0 + t + 1]
+        else:
+            j = m0 + C
+            if j >= P:
+                j -= P
+            sm = sc * ring[off + j]
+        if t + 1 < W:
+            vn = vw[t + 1]
+        else:
+            j = m0 + 3 + t
+            if j >= P:
+                j -= P
+            vn = sc * ring[off + j]
+        dl = _subcell_delta(sm - vn, up, U1, G)
+        if dl != 0.0:
+            if t < C - 1:
+                acc[i0 + t + 1] += dl
+            else:
+                last = dl
+        up = a - v
+    st[S_U1P] = sc * up
+    return last
+
+
+@njit(**JIT_OPTS)
+def _subcell_ring(ring, off, P, m0, C, sc, U1, curv, st, X):
+    """The first cell's sub-cell contact over a fast-path chunk whose
+    points 2..R are out of reach (their passes skipped): the same steps as
+    :func:`_subcell_chunk` (point 1's clamp, delta, ``st[S_U1P]``) on the
+    ring's slots m0 .. m0 + C + 2 alone, copied to ``X`` (C + 3 values,
+    side-scaled by ``sc``; ``U1`` = side U(1)): at sample t point 1 holds
+    ``X[t]`` against ``X[t + 2]``, and u(1) at the next sample without
+    delta is ``X[t + 1] - X[t + 3]``, which no earlier step has changed."""
+    j = m0
+    _ring_get(ring, off, P, j, X, sc)
+    if not (U1 > 0.0 and U1 < np.inf):
+        st[S_U1P] = sc * (X[C - 1] - X[C + 1])
+        return
+    G = curv * U1
+    up = sc * st[S_U1P]
+    for t in range(C):
+        v = X[t + 2]
+        a = X[t]
+        x = U1 + v
+        if x < a:
+            a = x
+            X[t] = a
+        dl = _subcell_delta(X[t + 1] - X[t + 3], up, U1, G)
+        if dl != 0.0:
+            X[t + 1] += dl
+        up = a - v
+    st[S_U1P] = sc * up
+    _ring_put(ring, off, P, j, X[0:C + 1], sc)
 
 
 @njit(**SERIAL_OPTS)
@@ -2091,7 +2360,7 @@ def _out_of_reach(ring, off, P, m0, C, R, B):
 
 
 @njit(**JIT_OPTS)
-def _region_step(s, ring, ipar, fpar, U, C, w1, w2, w3):
+def _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3):
     """Step 3 of the fast path over a chunk (the termination region),
     skipped when no point can reach the obstacle (:func:`_out_of_reach`)."""
     R = ipar[s, I_REG_N]
@@ -2099,9 +2368,18 @@ def _region_step(s, ring, ipar, fpar, U, C, w1, w2, w3):
         off = ipar[s, I_OFF]
         P = 2 * ipar[s, I_N]
         m0 = ipar[s, I_POS]
+        curv = fpar[s, F_CURV]
         if _out_of_reach(ring, off, P, m0, C, R, fpar[s, F_REACH]):
+            # (with the sub-cell contact the reach is that of points 2..R:
+            # point 1 and the first cell are stepped here; delta and point
+            # 1's clamp only move the string away from the obstacle)
+            if curv > 0.0:
+                sc = float(ipar[s, I_SIDE])
+                _subcell_ring(ring, off, P, m0, C, sc, sc * U[ipar[s, I_REG_OFF]], curv, fst[s],
+                              w1[0:C + 3])
             return
-        _region_chunk(ring, off, P, m0, C, U, ipar[s, I_REG_OFF], R, ipar[s, I_SIDE], w1, w2, w3)
+        _region_chunk(ring, off, P, m0, C, U, ipar[s, I_REG_OFF], R, ipar[s, I_SIDE], w1, w2, w3,
+                      curv, fst[s])
 
 
 @njit(**JIT_OPTS)
@@ -2112,7 +2390,7 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking, u
     windows."""
     w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
     # ---- 3. termination region: min/max along right-going characteristics --
-    _region_step(s, ring, ipar, fpar, U, C, w1, w2, w3)
+    _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3)
     # ---- 4. far end, and the output ----------------------------------------
     peak = fst[s, S_PEAK]
     if ipar[s, I_FILT] == 1:
@@ -2496,7 +2774,7 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
     s = lead
     for m in range(G):
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
-        _region_step(s, ring, ipar, fpar, U, C, w1, w2, w3)
+        _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3)
         _far_filter(s, ring, ipar, fpar, fst, U, C, cw[2 * m * _CW:2 * m * _CW + C + 2],
                     cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1], hb)
         s = ipar[s, I_CPLNX]

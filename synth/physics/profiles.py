@@ -157,6 +157,10 @@ def jawari(radius_m: float, extent_m: float, thread_m: float) -> Profile:
     The thread itself is cotton, soft next to the bridge; it is not an
     obstacle here.
 
+    The profile carries ``end_slope`` = theta (rad): it is curved from
+    x = 0 on, so that a string of any amplitude leaning towards it touches
+    it within the first grid cell (:meth:`Termination.subcell`).
+
     Raises ValueError when the thread is thinner than the drop (the
     string would lie on the surface: theta < 0).
     """
@@ -171,6 +175,9 @@ def jawari(radius_m: float, extent_m: float, thread_m: float) -> Profile:
         x = np.asarray(x, float)
         return np.where(_upto(x, s), theta * x + x * x / (2.0 * R), np.inf)
 
+    # curved from x = 0 with this slope there: the sub-cell contact applies
+    # (Termination.subcell)
+    U.end_slope = theta
     return U
 
 
@@ -217,6 +224,10 @@ class Termination:
     side: int
     region_points: int
     rate_scale: float = 1.0
+    #: the first cell's sub-cell contact (``termination.contact =
+    #: "subcell"``), for a profile that declares its slope at x = 0
+    #: (``end_slope``: the jawari's); see :meth:`subcell`
+    contact_subcell: bool = False
 
     def __post_init__(self) -> None:
         if self.side not in (-1, 1):
@@ -245,6 +256,44 @@ class Termination:
         # an obstacle on the wrong side of infinity never touches either
         U[np.isinf(U)] = none
         return U
+
+    def subcell(self, dx_m: float) -> float:
+        """The first cell's sub-cell contact on a grid of spacing ``dx_m``
+        (m): the kernel's ``F_CURV`` (:func:`subcell_share`; 0: off).
+
+        The clamp at grid points sees the obstacle only where points lie:
+        on the open jawari the first one's gap U(1) = dx^2 / (2R) (1 um at
+        dx = 1 mm, R = 0.5 m) is a threshold, and a string whose swing there
+        decays below it leaves the bridge in one step, its buzz with it
+        (docs/voicing.md, "The buzz decays with the note").  A string
+        under tension on the curved surface wraps it from x = 0 to where
+        its tangent leaves it, however small its slope, so the kernel
+        solves that contact within the first cell
+        (:func:`synth.kernels.strings._subcell_delta`).  On for
+        ``contact_subcell`` and a profile with ``end_slope`` (the
+        ``jawari``); the thesis's profiles keep the clamp alone."""
+        slope = getattr(self.profile, "end_slope", None)
+        if not self.contact_subcell or slope is None:
+            return 0.0
+        U1 = self.sample(dx_m)[0]
+        return subcell_share(U1, slope, dx_m, self.side)
+
+
+def subcell_share(U1: float, end_slope: float, dx_m: float, side: int) -> float:
+    """The kernel's ``F_CURV`` for a profile of slope ``end_slope`` (rad)
+    at x = 0 and value ``U1`` (m) at the first grid point x = dx: the share
+    of U1 due to the profile's curvature, 1 - theta dx / U1 (1 for the
+    open jawari, theta = 0), or 0 (no sub-cell contact) when U1 is not
+    finite or the profile is not curved towards the string there (side
+    (U1 - theta dx) <= 0: a ramp, thesis Cases 1-3, which the clamp at
+    point 1 already meets exactly)."""
+    U1 = float(U1)
+    if not np.isfinite(U1) or side * U1 <= 0.0:
+        return 0.0
+    G = U1 - float(end_slope) * float(dx_m)
+    if side * G <= 0.0:
+        return 0.0
+    return min(1.0, G / U1)
 
 
 def trim_unreachable(U: np.ndarray | None) -> np.ndarray | None:
@@ -299,4 +348,6 @@ def termination_from_spec(spec, rate_scale: float = 1.0) -> Termination | None:
         raise ValueError(f"termination.profile = {name!r} is not a registered profile "
                          f"(registered: {', '.join(PROFILES)})")
     prof = kind.build(**{p: getattr(spec, p) for p in kind.params})
-    return Termination(prof, int(spec.side), int(spec.region_points), float(rate_scale))
+    contact = getattr(spec, "contact", None) or "subcell"
+    return Termination(prof, int(spec.side), int(spec.region_points), float(rate_scale),
+                       contact == "subcell")

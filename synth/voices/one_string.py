@@ -42,7 +42,7 @@ The playable 88-key piano is :mod:`synth.voices.grand`.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -78,6 +78,7 @@ class StringSetup:
     bend_delay: float = 0.0    # its rest delay (samples)
     n_disp: int = 0            # stiffness: first-order dispersion allpasses ...
     a_disp: float = 0.0        # ... and their coefficient
+    subcell: float = 0.0       # the first cell's sub-cell contact (Termination.subcell), 0: off
 
 
 @register_voice("plucked", "piano")
@@ -203,6 +204,7 @@ class OneStringVoice(Voice):
         dx = st.c_m_per_s * dt
         U = None
         side = 1
+        subcell = 0.0
         if self.termination is not None:
             U = self.termination.sample(dx)
             side = self.termination.side
@@ -210,11 +212,13 @@ class OneStringVoice(Voice):
             # first third, below the pluck point (3/4): the obstacle then
             # reaches as far along this string as it can
             U = trim_unreachable(U[: max(1, min(len(U), cells // 3))])
+            if U is not None:
+                subcell = self.termination.subcell(dx)
         k = int(round(self.excitation_position * cells))
         k = min(max(k, 1), cells - 1)
         bl = blen if (not self.study and not own and pre.play.pitch_bend_semitones > 0) else 0
         s = StringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0,
-                        bl, D0 if bl else 0.0, n_disp, a_disp)
+                        bl, D0 if bl else 0.0, n_disp, a_disp, subcell)
         self._setups[ck] = s
         return s
 
@@ -266,7 +270,8 @@ class OneStringVoice(Voice):
                        tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
                        b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
                        lossy=su.lossy, probe_row=probe_row, bend_len=su.bend_len,
-                       bend_delay=su.bend_delay, n_disp=su.n_disp, a_disp=su.a_disp)
+                       bend_delay=su.bend_delay, n_disp=su.n_disp, a_disp=su.a_disp,
+                       subcell=su.subcell)
         # the thesis's strings are lossless and never damped
         t_damped = math.inf if self.study else self.preset.loss.release_t60_s
         bank.set_damper(slot, (su.b0, su.f0_hz, t_damped, math.inf))
@@ -291,11 +296,12 @@ class OneStringVoice(Voice):
     #: the bridge's slow spring under the taraf (Hz): keeps u_b from drifting
     BRIDGE_RETURN_HZ = 5.0
 
-    def _bridge_string(self, key: int, length_m: float, U_of, fs: float, k_frac: float):
+    def _bridge_string(self, key: int, length_m: float, term, fs: float, k_frac: float):
         """One string on the bridge, tuned to ``key`` at rate ``fs`` (Hz):
         the ``[taraf]`` material (T = mu (2 L f0)^2, B from the first taraf
-        key's as 1/T), its decay, and the profile ``U_of(dx)``.  Returns
-        (SlotTemplate, cells, region points)."""
+        key's as 1/T), its decay, and the termination ``term`` (a
+        :class:`Termination` or None).  Returns (SlotTemplate, cells,
+        region points)."""
         t = self.preset.taraf
         f0 = midi_key_to_hz(key)
         mu = t.linear_density_kg_per_m
@@ -315,15 +321,18 @@ class OneStringVoice(Voice):
             n_disp, a_disp = 0, 0.0
         dt = 1.0 / fs
         dx = st.c_m_per_s * dt
-        U = U_of(dx)
+        U = None if term is None else term.sample(dx)
+        subcell = 0.0
         if U is not None:
             U = trim_unreachable(U[: max(1, min(len(U), loop.cells // 3))])
+            if U is not None:
+                subcell = term.subcell(dx)
         k = min(max(int(round(k_frac * loop.cells)), 1), loop.cells - 2)
         tpl = slot_template(cells=loop.cells, k=k, dt_s=dt, U=U, side=1, out_mode=1,
                             gain=self.preset.output.gain, tension_over_dx=T / dx,
                             b0=loop.b0, a1=loop.a1, eta=loop.eta,
                             extra_delay=loop.extra_delay, lossy=True, n_disp=n_disp,
-                            a_disp=a_disp, glide_s=StringBank.LOSS_GLIDE_S)
+                            a_disp=a_disp, glide_s=StringBank.LOSS_GLIDE_S, subcell=subcell)
         return tpl, loop.cells, 0 if U is None else len(U)
 
     def knock_impulse_ns(self, key, velocity: float, speed_m_per_s: float | None = None) -> float:
@@ -370,11 +379,16 @@ class OneStringVoice(Voice):
         if t is None or self.study or t.coupling <= 0.0:
             return None
         fs = float(self.fs)
+        # the taraf's own jawari: the clamp at grid points alone.  Their
+        # swing stays far below the first point's gap (the shipped taraf
+        # never touch it, docs/voicing.md "Taraf"), where the sub-cell
+        # contact's delta, of the order of its square, is nothing to hear,
+        # and it would have cost every taraf string a solve per sample
         own = Termination(jawari(t.radius_m, t.extent_m, t.thread_m), 1, int(t.region_points))
         slots, keys, drones, dkeys = [], [], [], []
         max_cells, max_region = 8, 1
         for key in t.keys:
-            tpl, cells, R = self._bridge_string(key, t.length_m, own.sample, fs, 0.5)
+            tpl, cells, R = self._bridge_string(key, t.length_m, own, fs, 0.5)
             slots.append(tpl)
             keys.append(int(key))
             max_cells, max_region = max(max_cells, cells), max(max_region, R)
@@ -383,13 +397,20 @@ class OneStringVoice(Voice):
         pluck = DronePluck(K.EXC_NONE, (), (), 0.0, 1.0)
         strum = 0.0
         if c is not None:
+            # the main jawari with the clamp at grid points alone, as the
+            # taraf's: ringing along, the drones never reach its first
+            # point (a strummed drone's buzz still ends in one step, as the
+            # played string's did before the sub-cell contact), and their
+            # region takes no buzz control (buzz 0 keeps the rigid end's
+            # samples)
             term = self.termination
-            U_of = (lambda dx: None) if term is None else term.sample
+            if term is not None:
+                term = replace(term, contact_subcell=False)
             pos = self.exciter.position
             amps, durs = [], []
             ls = c.length_m / self.open_string.length_m
             for key in c.keys:
-                tpl, cells, R = self._bridge_string(key, c.length_m, U_of, fs, pos)
+                tpl, cells, R = self._bridge_string(key, c.length_m, term, fs, pos)
                 drones.append(tpl)
                 dkeys.append(int(key))
                 max_cells, max_region = max(max_cells, cells), max(max_region, R)

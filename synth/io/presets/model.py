@@ -173,6 +173,7 @@ class TerminationSpec:
     x_a_m: float | None = None
     x_b_m: float | None = None
     thread_m: float | None = None
+    contact: str | None = None
     step_m: float | None = None
     points: tuple[tuple[float, float], ...] | None = None
     buzz: float | None = None
