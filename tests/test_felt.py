@@ -735,3 +735,63 @@ def test_the_felt_layer_start_is_checked():
     with pytest.raises(ValueError, match=r"cells = 32 needs a g table of 220 values; the bank "
                                          r"holds 100"):
         small.start_felt_layer(0, **_layer_kw(hf, 5.0, 32))
+
+
+def test_the_felt_layer_preset_values():
+    """``[hammer] model`` (study presets only, default "lumped") and the
+    layer's keys, each with its range; cross-key limits name the keys."""
+    from synth.io.errors import PresetError
+    from synth.io.presets.loader import load_preset
+    from synth.voices.registry import voice_for
+
+    p = load_preset("paper/piano-a7-ideal")
+    assert p.hammer.model == "lumped" and p.hammer.felt_cells is None
+    assert voice_for(p).exciter.layer is None
+    p = load_preset("paper/piano-a7-capo", ["hammer.model=felt-layer"])
+    h = p.hammer
+    assert (h.felt_thickness_m, h.felt_area_m2, h.felt_density_kg_per_m3, h.felt_cells,
+            h.felt_tau0_s) == (0.0102, 64e-6, 1000.0, 32, 1.8e-6)
+    hf = voice_for(p).exciter.layer
+    assert hf.q0_n_per_mm_p == pytest.approx(8387.4, rel=1e-12)
+    assert hf.alpha_s == pytest.approx(0.5312e-3, rel=1e-12)
+    with pytest.raises(PresetError, match=r"hammer.felt_cells = 2 \(from --set\) is out of range "
+                                          r"\(4 <= value <= 256\)"):
+        load_preset("paper/piano-a7-ideal", ["hammer.model=felt-layer", "hammer.felt_cells=2"])
+    with pytest.raises(PresetError, match="'hammer.felt_cells' .* is not allowed when "
+                                          "hammer.model = \"lumped\""):
+        load_preset("paper/piano-a7-ideal", ["hammer.felt_cells=16"])
+    with pytest.raises(PresetError, match="'hammer.model' .* is not allowed when kind = "
+                                          "\"musical\""):
+        load_preset("hammered-sitar", ["hammer.model=felt-layer"])
+    sets = ["hammer.model=felt-layer"]
+    with pytest.raises(ValueError, match=r"hammer.felt_tau0_s = 0.001 is out of range \(< "
+                                         r"hammer.alpha_s = 0.0005312"):
+        voice_for(load_preset("paper/piano-a7-ideal", sets + ["hammer.felt_tau0_s=0.001"]))
+    with pytest.raises(ValueError, match=r"hammer.felt_thickness_m = 0.04 is out of range "
+                                         r"\(the felt's mass"):
+        voice_for(load_preset("paper/piano-a7-ideal", sets + ["hammer.felt_thickness_m=0.04"]))
+    with pytest.raises(ValueError, match=r"hammer.felt_thickness_m = 0.0008 is out of range for "
+                                         r"a strike at 5 m/s"):
+        voice_for(load_preset("paper/piano-a7-ideal", sets + ["hammer.felt_thickness_m=0.0008"]))
+
+
+def test_the_felt_layer_through_synth_note(tmp_path, capsys):
+    """`synth note paper/piano-a7-ideal --set hammer.model=felt-layer
+    --hammer-log`: the layer's strike is logged (force, compression, g, the
+    core's position) and is shorter than the lumped law's (0.292 against
+    0.300 ms; docs/felt.md)."""
+    from synth.cli import main
+
+    logs = {}
+    for model in ("lumped", "felt-layer"):
+        log = tmp_path / f"{model}.csv"
+        assert main(["note", "paper/piano-a7-ideal", "--seconds", "0.002", "--set",
+                     f"hammer.model={model}", "--hammer-log", str(log), "-o",
+                     str(tmp_path / "a.wav")]) == 0
+        logs[model] = np.loadtxt(log, delimiter=",", skiprows=1)
+        assert "contact" in capsys.readouterr().out
+    lum, lay = logs["lumped"], logs["felt-layer"]
+    t = lambda a: a[np.flatnonzero(a[:, 1] > 0)[-1], 0]
+    assert t(lay) < 0.99 * t(lum)
+    assert lay[:, 2].max() > 0 and abs(lay[-1, 3] / lum[-1, 3] - 1) < 0.01
+    assert np.all(np.diff(lay[:60, 4]) > 0)            # the core advances at first
