@@ -795,3 +795,19 @@ def test_the_felt_layer_through_synth_note(tmp_path, capsys):
     assert t(lay) < 0.99 * t(lum)
     assert lay[:, 2].max() > 0 and abs(lay[-1, 3] / lum[-1, 3] - 1) < 0.01
     assert np.all(np.diff(lay[:60, 4]) > 0)            # the core advances at first
+
+
+def test_the_felt_study_quick_mode(capsys):
+    """tools/felt_study.py --quick (docs/felt.md's A7 tables on coarse
+    settings): the layer's strike is shorter than the lumped law's, gives
+    the string the same momentum within 1 %, and its g(t) converges with
+    the felt's grid (its exit code)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    import felt_study
+
+    assert felt_study.main(["--quick"]) == 0
+    out = capsys.readouterr().out
+    assert "layer - lumped" in out and "quick checks: passed" in out
