@@ -276,6 +276,90 @@ def hammer_on_ideal_string(N, k, dt, n_steps, *, law, m, V, Q, p, A, tau0, T, c)
     return g
 
 
+def felt_layer_on_ideal_string(N, k, dt, n_steps, *, m, V, h, A, rho, Ed, p, gamma, tau0,
+                               T, c, cells, substeps, damping=0.5):
+    """Slow numpy reference of the felt-layer hammer (synth.kernels.felt_layer)
+    on the ideally supported string, with a fixed number of sub-steps.
+
+    The incoming displacement at the strike point from Publication I eq. (4)
+    (every earlier g, reflected), linear in each string step; the felt as
+    the column of synth.physics.felt.strike_layer (faces s_0..s_nc,
+    leapfrog; stress E_d [eps^p - gamma/tau0 J], J the memory integral
+    updated exactly for eps^p linear in a sub-step; the grid-scale damper),
+    its surface put on the string by the force F = (s0* - u*) / (dt^2/m0 +
+    K dt) when it would pass it (K = c/2T, g += K dt F).  Step mm holds
+    t = mm dt; at step 0 the felt arrives (every face on the string, moving
+    at V).  Returns (g, the mean force over each step) per step.
+    """
+    K = c / (2 * T)
+    dx = h / cells
+    d = dt / substeps
+    m0 = 0.5 * rho * A * dx
+    mface = np.full(cells + 1, rho * A * dx)
+    mface[0] = m0
+    mface[-1] = m - rho * A * h + 0.5 * rho * A * dx
+    s = np.zeros(cells + 1)
+    so = s - V * d
+    J = np.zeros(cells)
+    fo = np.zeros(cells)
+    ep = np.zeros(cells)
+    E = np.exp(-d / tau0)
+    r = d / tau0
+    c1, c0 = 1 - (1 - E) / r, (1 - E) / r - E
+    g = np.zeros(n_steps)
+    Fm = np.zeros(n_steps)
+
+    def incoming(mm):
+        acc = 0.0
+        i = 1
+        while mm - 2 * i * N >= 0:
+            acc += 2 * g[mm - 2 * i * N]
+            i += 1
+        i = 0
+        while mm - 2 * (i * N + k) >= 0 or mm - 2 * (i * N + N - k) >= 0:
+            for dd in (2 * (i * N + k), 2 * (i * N + N - k)):
+                if mm - dd >= 0:
+                    acc -= g[mm - dd]
+            i += 1
+        return acc
+
+    I0 = 0.0
+    gc = 0.0
+    for mm in range(1, n_steps):
+        I1 = incoming(mm)
+        imp = 0.0
+        for j in range(substeps):
+            eps = np.diff(s) / dx
+            y = np.abs(eps) ** (p - 1)
+            fe = y * eps
+            J = E * J + tau0 * (c1 * fe + c0 * fo)
+            fo = fe
+            sig = Ed * (fe - gamma / tau0 * J)
+            cl = np.sqrt(p * Ed * y / rho)
+            dd = np.maximum(cl[1:], cl[:-1]) * np.diff(eps - ep)
+            q = np.zeros(cells)
+            q[:-1] -= dd
+            q[1:] += dd
+            sig = sig + 0.25 * rho * damping * dx / d * q
+            ep = eps
+            acc = np.empty(cells + 1)
+            acc[0] = sig[0]
+            acc[1:-1] = sig[1:] - sig[:-1]
+            acc[-1] = -sig[-1]
+            sn = 2 * s - so + d * d * A * acc / mface
+            uf = I0 + (I1 - I0) * (j + 1) / substeps + gc
+            if sn[0] > uf:
+                F = (sn[0] - uf) / (d * d / m0 + K * d)
+                sn[0] -= d * d * F / m0
+                gc += K * d * F
+                imp += F * d
+            so, s = s, sn
+        I0 = I1
+        g[mm] = gc
+        Fm[mm] = imp / dt
+    return g, Fm
+
+
 def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
     """Lossy strings (``naive_lossy_string``'s far end, bridge-force output)
     whose ends at x = L sit on one bridge.  Each step every string's loop

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..kernels import felt_layer as FL
 from ..kernels import strings as K
 
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
@@ -731,6 +732,107 @@ class StringBank:
         ip[K.I_EXC_M] = 0
         ip[K.I_EXC_END] = t.e_end
         ip[K.I_HLAST] = -1
+
+    def start_felt_layer(self, s: int, *, mass_kg: float, speed_m_per_s: float,
+                         thickness_m: float, area_m2: float, density_kg_per_m3: float,
+                         e_dynamic_pa: float, exponent: float, gamma: float, tau0_s: float,
+                         cells: int, tension_n: float, c_m_per_s: float,
+                         max_flight_s: float = 0.05, release_s: float = 0.004,
+                         courant: float = 0.5, damping: float = 0.5,
+                         substeps: int = 0) -> None:
+        """Strike slot s with a hammer whose felt is a medium (the felt-layer
+        model, :mod:`synth.kernels.felt_layer`) from its next sample.
+
+        The head (``mass_kg`` on this string, felt included) carries a felt
+        column of ``thickness_m`` (m), cross-section ``area_m2`` (m^2) and
+        density ``density_kg_per_m3``, with the hereditary power law of
+        thesis eqs. 2.1-2.3: ``e_dynamic_pa`` E_d (Pa, the coefficient of
+        eps^p), ``exponent`` p, ``gamma``, ``tau0_s`` (s); solved on
+        ``cells`` cells (2 .. 1024), sub-stepped inside each string step
+        (``courant``: target Courant number, 0 < value <= 0.5; ``damping``:
+        the grid-scale damper, 0 <= value <= 0.55; ``substeps``: 0 adapts
+        the sub-step to the strain, N > 0 holds N per string step).  The
+        string side: ``tension_n`` T and ``c_m_per_s`` c (eq. 1.4).  It
+        arrives on the string at sample 0 at ``speed_m_per_s`` and flies
+        until out of contact for ``release_s`` or ``max_flight_s`` has
+        passed, as :meth:`start_hammer`.  Its state lives in the slot's g
+        table (``max_gtable`` >= :func:`synth.kernels.felt_layer.block_length`);
+        the string runs on the per-sample path while it does.
+        """
+        def chk(name, v, lo, hi, lo_open=False):
+            v = float(v)
+            if not (math.isfinite(v) and (lo < v if lo_open else lo <= v) and v <= hi):
+                op = "<" if lo_open else "<="
+                raise ValueError(f"{name} = {v!r} is out of range ({lo:g} {op} value <= {hi:g})")
+            return v
+
+        if not (isinstance(cells, (int, np.integer)) and 2 <= cells <= 1024):
+            raise ValueError(f"cells = {cells!r} is out of range (integer, 2 <= value <= 1024)")
+        nc = int(cells)
+        need = FL.block_length(nc)
+        if need > self.max_gtable:
+            raise ValueError(f"cells = {nc} needs a g table of {need} values; the bank holds "
+                             f"{self.max_gtable} (max_gtable)")
+        m = chk("mass_kg", mass_kg, 0.0, 1.0, True)
+        v0 = chk("speed_m_per_s", speed_m_per_s, 0.0, 20.0, True)
+        h = chk("thickness_m", thickness_m, 1e-4, 0.1)
+        A = chk("area_m2", area_m2, 1e-8, 1e-2)
+        rho = chk("density_kg_per_m3", density_kg_per_m3, 10.0, 1e4)
+        Ed = chk("e_dynamic_pa", e_dynamic_pa, 0.0, 1e18, True)
+        p = chk("exponent", exponent, 1.0, 10.0)
+        gm = chk("gamma", gamma, 0.0, 0.999999)
+        tau = chk("tau0_s", tau0_s, 1e-9, 1.0)
+        T = chk("tension_n", tension_n, 0.0, 1e15, True)
+        c = chk("c_m_per_s", c_m_per_s, 0.0, 1e6, True)
+        cour = chk("courant", courant, 0.0, 0.5, True)
+        damp = chk("damping", damping, 0.0, 0.5 / FL.COURANT_HARD)
+        if not (isinstance(substeps, (int, np.integer)) and 0 <= substeps <= FL.MAX_NSUB):
+            raise ValueError(f"substeps = {substeps!r} is out of range "
+                             f"(integer, 0 <= value <= {FL.MAX_NSUB})")
+        m_felt = rho * A * h
+        if not m_felt < 0.9 * m:
+            raise ValueError(f"felt mass = {m_felt:g} kg is out of range (< 0.9 x mass_kg = "
+                             f"{0.9 * m:g}: rho A h of the column against the head)")
+        ip, fp, st = self.ipar[s], self.fpar[s], self.fst[s]
+        if ip[K.I_EXC] != K.EXC_NONE:
+            self._end_excitation(s)
+        dt = float(fp[K.F_DT])
+        dx = h / nc
+        o = int(ip[K.I_GT_OFF])
+        b = self.U[o:o + need]
+        b[:] = 0.0
+        b[FL.L_NC] = nc
+        b[FL.L_DX] = dx
+        b[FL.L_P] = p
+        b[FL.L_ED] = Ed
+        b[FL.L_GT] = gm / tau
+        b[FL.L_TAU] = tau
+        b[FL.L_RHO] = rho
+        b[FL.L_AREA] = A
+        b[FL.L_M0] = 0.5 * rho * A * dx
+        b[FL.L_MC] = m - m_felt + 0.5 * rho * A * dx
+        b[FL.L_K] = c / (2.0 * T)
+        b[FL.L_DTS] = dt
+        b[FL.L_COUR] = cour
+        b[FL.L_DAMP] = damp
+        b[FL.L_V0] = v0
+        # the first touch's shock strain v0 / U, U^(p+1) = E_d v0^(p-1) / rho
+        # (synth.physics.felt.first_touch_force_n): the sub-step's floor
+        b[FL.L_ETOUCH] = v0 / (Ed * v0 ** (p - 1.0) / rho) ** (1.0 / (p + 1.0))
+        b[FL.L_FIXED] = int(substeps)
+        b[FL.L_NSUB] = 1.0
+        fp[K.F_HV] = v0
+        fp[K.F_HREL] = max(1.0, round(release_s / dt))
+        ip[K.I_EXC] = K.EXC_FELT
+        ip[K.I_EXC_M] = 0
+        ip[K.I_EXC_END] = max(1, int(round(max_flight_s / dt)))
+        ip[K.I_HLAST] = -1
+        st[K.S_HY] = 0.0
+        st[K.S_HPHI] = 0.0
+
+    def felt_layer_substeps(self, s: int) -> int:
+        """Sub-steps the felt layer of slot s has taken since its strike."""
+        return int(self.U[int(self.ipar[s, K.I_GT_OFF]) + FL.L_STEPS])
 
     # -- bridges ----------------------------------------------------------------
     def couple(self, slots, resistance_ns_per_m: float, return_hz: float = 5.0) -> None:

@@ -98,6 +98,7 @@ import numpy as np
 from numba import njit
 
 from .config import JIT_OPTS, SERIAL_OPTS
+from .felt_layer import felt_layer_start, felt_layer_step
 
 # ---- integer parameter columns (ipar[s, :]) ---------------------------------
 I_OFF = 0        # ring offset in the flat ring array
@@ -105,7 +106,7 @@ I_N = 1          # cells N (ring length 2N)
 I_POS = 2        # state: (time index of the last processed sample) mod 2N
 I_K = 3          # excitation / pickup grid point k (1 .. N-1)
 I_EXC = 4        # state: excitation kind, EXC_* below (0 none/ended, -1 ended with its
-                 #   offset still to fold, 1-2 plucks, 3 g table, 4-5 felt hammers)
+                 #   offset still to fold, 1-2 plucks, 3 g table, 4-6 felt hammers)
 I_EXC_M = 5      # state: samples since excitation start (t = I_EXC_M * dt)
 I_REG_OFF = 6    # offset of U(1..R) in the flat profile array
 I_REG_N = 7      # R, points in the termination region (0: ideal rigid end)
@@ -152,6 +153,8 @@ EXC_BIWA = 2     # force pluck g(t) (eq. 1.11); kinds <= EXC_BIWA have a closed-
 EXC_GTABLE = 3   # g(t) from a table (the injected strike of Publication I)
 EXC_HAMMER3 = 4  # felt hammer, three-parameter law (eq. 1.5); kinds >= EXC_HAMMER3 are hammers
 EXC_HAMMER4 = 5  # felt hammer, four-parameter law (Pub. III eq. 3)
+EXC_FELT = 6     # felt hammer, the felt as a medium (synth.kernels.felt_layer): its state in
+                 #   the g table's place (I_GT_OFF); per-sample path only
 
 # ---- float parameter columns (fpar[s, :]) -----------------------------------
 F_DT = 0         # time step dt (s)
@@ -1088,6 +1091,25 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
                 g = U[goff + e]
                 if e >= e_end - 1:
                     exc = EXC_ENDED
+            elif exc == EXC_FELT:
+                # the felt layer, sub-stepped inside this step; at sample 0
+                # it arrives on the string (as the lumped hammer does)
+                I1 = ring[off + j1] - ring[off + j2]
+                if e == 0:
+                    felt_layer_start(U, goff, I1 + g)
+                    w = 0.0
+                    contact = False
+                    st[S_HW] = 0.0
+                    st[S_HZ] = I1 + g
+                else:
+                    g, F, w, comp, core = felt_layer_step(I1, g, U, goff)
+                    contact = F > 0.0
+                    st[S_HW] = comp
+                    st[S_HZ] = core
+                if contact:
+                    hlast = e
+                if e >= e_end or (hlast >= 0 and e - hlast > hrel and w < 0.0):
+                    exc = EXC_ENDED          # the hammer is gone
             else:
                 I1 = ring[off + j1] - ring[off + j2]
                 # the general step only: the reference does not take the
@@ -2619,7 +2641,7 @@ def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx,
     :func:`_render_per_sample`)."""
     exc = ipar[s, I_EXC]
     cmax = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
-    if ipar[s, I_PROBE] >= 0 or ipar[s, I_TELEM] != 0 or cmax <= 0:
+    if ipar[s, I_PROBE] >= 0 or ipar[s, I_TELEM] != 0 or cmax <= 0 or exc == EXC_FELT:
         _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, o0, scratch,
                            po0, psub)
         return
@@ -2879,7 +2901,7 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
                 left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
                 if left < c:
                     c = left
-            if c <= 0:
+            if c <= 0 or exc == EXC_FELT:
                 slow = True
             elif c < C:
                 C = c
@@ -2975,7 +2997,8 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
         elif cpl >= 0:
             _render_coupled(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
                             o0, 1)
-        elif (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
+        elif (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_EXC] != EXC_FELT
+                and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
                 and ipar[s, I_CHUNK] > 0 and cpl == CPL_NONE):
             iwork[nh] = s
             nh += 1

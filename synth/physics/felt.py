@@ -57,7 +57,8 @@ __all__ = ["Felt", "THESIS_FELT", "PUB3_FELT", "dispersion", "velocities", "atte
            "PULSE_SCHEMES",
            "attenuation_velocities", "ngv_threshold", "has_ngv", "normal_dispersion_limit",
            "band_gap", "relaxation_kernel", "HammerFelt", "felt_for_key", "felt_thickness_m",
-           "Strike", "strike_lumped", "strike_layer", "first_touch_force_n", "GRAND_VOICING"]
+           "Strike", "strike_lumped", "strike_layer", "first_touch_force_n", "GRAND_VOICING",
+           "felt_from_law", "STUDY_FELT_TAU0_S", "STUDY_FELT_THICKNESS_M"]
 
 
 def _check(name: str, value, lo: float, hi: float, lo_open: bool = False) -> float:
@@ -734,6 +735,58 @@ def felt_for_key(midi: int, voicing: str = GRAND_VOICING, *, thickness_m: float 
     q0 = P.stiffness_per_m_p(q0_mm, p)
     felt = Felt(density_kg_per_m3, q0 * h ** p / A, 1.0 - tau0 / alpha, tau0, p)
     return HammerFelt(felt, h, A, P.hammer_mass_kg(m), m)
+
+
+#: the felt-layer hammer model's relaxation time tau0 for a three-parameter
+#: study hammer (s): Publication III eq. 6 at A7 (key 85), the key of the
+#: thesis's hammer study (1.80 us); the layer's gamma is 1 - tau0 / alpha
+STUDY_FELT_TAU0_S = 1.8e-6
+#: the felt-layer hammer model's default thickness for the study (m): the
+#: felt lab's assumed thickness at A7 (:func:`felt_thickness_m` of key 85,
+#: 10.19 mm)
+STUDY_FELT_THICKNESS_M = 0.0102
+
+
+def felt_from_law(*, law: str, stiffness_n_per_mm_p: float, exponent: float,
+                  hammer_mass_kg: float, thickness_m: float, alpha_s: float | None = None,
+                  gamma: float | None = None, tau0_s: float | None = None,
+                  area_m2: float = FELT_COLUMN_AREA_M2,
+                  density_kg_per_m3: float = HAMMER_FELT_DENSITY_KG_PER_M3) -> HammerFelt:
+    """The felt layer whose quasi-static limit is a given lumped hammer (a
+    study preset's ``[hammer]``), as :func:`felt_for_key` does for a key.
+
+    law : ``"three-parameter"`` (eq. 1.5: ``stiffness_n_per_mm_p`` = Q0,
+        ``alpha_s``; the layer's relaxation time ``tau0_s`` and
+        gamma = 1 - tau0 / alpha, so that alpha0 = tau0 / delta is alpha
+        exactly; E_s = Q0 h^p / A) or ``"four-parameter"`` (Publication
+        III eq. 3: ``stiffness_n_per_mm_p`` = F0, ``gamma``, ``tau0_s``;
+        E_d = F0 h^p / A, its exact quasi-static limit).
+    exponent : p.  hammer_mass_kg : the head's mass on this string, felt
+    included (kg).  thickness_m, area_m2, density_kg_per_m3 : the column.
+    Errors name the parameter, its value and the range.
+    """
+    if law not in ("three-parameter", "four-parameter"):
+        raise ValueError(f"law = {law!r} is not allowed (choose three-parameter, four-parameter)")
+    p = _check("exponent", exponent, 1.0, 10.0)
+    h = _check("thickness_m", thickness_m, 1e-4, 0.1)
+    A = _check("area_m2", area_m2, 1e-8, 1e-2)
+    q = _check("stiffness_n_per_mm_p", stiffness_n_per_mm_p, 0.0, 1e12, lo_open=True)
+    q_si = q * 1000.0 ** p
+    for name, v in (("tau0_s", tau0_s), ("alpha_s" if law == "three-parameter" else "gamma",
+                                          alpha_s if law == "three-parameter" else gamma)):
+        if v is None:
+            raise ValueError(f"{name} = None is not allowed (the {law} law needs it)")
+    tau0 = _check("tau0_s", tau0_s, 1e-9, 1.0)
+    if law == "three-parameter":
+        a = _check("alpha_s", alpha_s, 0.0, 1.0, lo_open=True)
+        if not tau0 < a:
+            raise ValueError(f"tau0_s = {tau0!r} is out of range (< alpha_s = {a!r}: "
+                             f"gamma = 1 - tau0 / alpha > 0)")
+        felt = Felt(density_kg_per_m3, q_si * h ** p / A, 1.0 - tau0 / a, tau0, p)
+    else:
+        gm = _check("gamma", gamma, 0.0, 0.999999)
+        felt = Felt(density_kg_per_m3, q_si * h ** p / A * (1.0 - gm), gm, tau0, p)
+    return HammerFelt(felt, h, A, _check("hammer_mass_kg", hammer_mass_kg, 1e-5, 1.0), None)
 
 
 @dataclass(frozen=True)

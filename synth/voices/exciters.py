@@ -22,7 +22,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..dsp.bank import StringBank
+from ..kernels import felt_layer as FL
 from ..kernels import strings as K
+from ..physics import felt as felt_medium
 from .registry import register_exciter
 
 #: the preset's ``hammer.law`` names -> the kernel's hammer kinds
@@ -134,6 +136,19 @@ class FeltHammer(Exciter):
     physically complete "direct" strike on the terminated string, or
     Publication I's two-stage method, "injected": g(t) is computed on the
     ideally supported string and injected into the string with the bar.
+
+    ``hammer.model = "felt-layer"`` (study presets) replaces the massless
+    felt by the felt as a medium: a column of ``felt_thickness_m`` x
+    ``felt_area_m2`` of hereditary felt (thesis eqs. 2.1-2.6) on the core,
+    whose quasi-static limit is the preset's law
+    (:func:`synth.physics.felt.felt_from_law`), pressing the moving string
+    (:mod:`synth.kernels.felt_layer`).  It is a kind of the string kernel's
+    excitation (``EXC_FELT``), not a study-only path: the string, its
+    termination, both capo couplings, the probes (``--hammer-log``) and
+    the engine are the lumped hammer's, and any string the kernel runs can
+    take it; what keeps it to the study presets is its cost (the felt's
+    stable step is 2-200 ns against the string's 0.77 us: docs/felt.md),
+    which the kernel pays on its per-sample path while the hammer flies.
     """
 
     #: longest injected g(t) table (s)
@@ -143,9 +158,70 @@ class FeltHammer(Exciter):
         super().__init__(spec, preset, fs)
         #: probe channels of the last first-stage (ideal support) strike, if any
         self.strike_log = None
+        #: the felt layer (:class:`synth.physics.felt.HammerFelt`) of the
+        #: felt-layer model, else None
+        self.layer = self._layer() if getattr(spec, "model", None) == "felt-layer" else None
+
+    def _layer(self):
+        """The preset's felt layer, its cross-key ranges checked (one-line
+        errors naming the preset keys)."""
+        h = self.spec
+        if h.law == "three-parameter" and not h.felt_tau0_s < h.alpha_s:
+            raise ValueError(f"hammer.felt_tau0_s = {h.felt_tau0_s!r} is out of range (< "
+                             f"hammer.alpha_s = {h.alpha_s!r}: the felt's gamma = 1 - tau0 / "
+                             f"alpha must be > 0)")
+        m_felt = h.felt_density_kg_per_m3 * h.felt_area_m2 * h.felt_thickness_m
+        if not m_felt < 0.9 * h.mass_kg:
+            raise ValueError(f"hammer.felt_thickness_m = {h.felt_thickness_m!r} is out of range "
+                             f"(the felt's mass rho A h = {m_felt:.3g} kg must be < 0.9 x "
+                             f"hammer.mass_kg = {0.9 * h.mass_kg:.3g} kg: thinner, or a smaller "
+                             f"hammer.felt_area_m2 or hammer.felt_density_kg_per_m3)")
+        try:
+            hf = felt_medium.felt_from_law(
+                law=h.law, stiffness_n_per_mm_p=h.stiffness_n_per_mm_p, exponent=h.exponent,
+                hammer_mass_kg=h.mass_kg, thickness_m=h.felt_thickness_m,
+                alpha_s=h.alpha_s, gamma=h.gamma,
+                tau0_s=h.felt_tau0_s if h.law == "three-parameter" else h.tau0_s,
+                area_m2=h.felt_area_m2, density_kg_per_m3=h.felt_density_kg_per_m3)
+        except ValueError as e:
+            raise ValueError(f"hammer.model = \"felt-layer\": the felt of this law and column "
+                             f"is out of range: {e}") from None
+        self._check_compression(hf, h.speed_m_per_s)
+        return hf
+
+    def _check_compression(self, hf, speed: float) -> None:
+        """The felt must be at least twice as thick as the lumped law's
+        deepest compression on a rigid string at ``speed`` (as
+        :func:`synth.physics.felt.strike_layer` asks)."""
+        _, w = felt_medium._contact_estimate_s(hf, float(speed))
+        if w > 0.5 * hf.thickness_m:
+            raise ValueError(f"hammer.felt_thickness_m = {hf.thickness_m!r} is out of range for "
+                             f"a strike at {speed:g} m/s (>= {2 * w:.3g}: the law compresses the "
+                             f"felt by up to {w * 1e3:.3g} mm)")
 
     def max_gtable(self) -> int:
-        return int(self.MAX_FLIGHT_S * self.fs) + 2
+        n = int(self.MAX_FLIGHT_S * self.fs) + 2
+        if self.layer is not None:
+            n = max(n, FL.block_length(self.spec.felt_cells))
+        return n
+
+    def layer_kwargs(self, su, speed: float) -> dict:
+        """:meth:`StringBank.start_felt_layer` arguments for the note ``su``."""
+        hf, h = self.layer, self.spec
+        f = hf.felt
+        return dict(mass_kg=h.mass_kg, speed_m_per_s=speed, thickness_m=hf.thickness_m,
+                    area_m2=hf.area_m2, density_kg_per_m3=f.density_kg_per_m3,
+                    e_dynamic_pa=f.e_dynamic_pa, exponent=f.exponent, gamma=f.gamma,
+                    tau0_s=f.tau0_s, cells=int(h.felt_cells), tension_n=su.string.tension_n,
+                    c_m_per_s=su.string.c_m_per_s, max_flight_s=self.MAX_FLIGHT_S)
+
+    def _strike(self, bank, slot, su, speed: float) -> None:
+        """Start this hammer (lumped or felt layer) on ``slot``."""
+        if self.layer is not None:
+            self._check_compression(self.layer, speed)
+            bank.start_felt_layer(slot, **self.layer_kwargs(su, speed))
+        else:
+            bank.start_hammer(slot, **self.hammer_kwargs(su, speed))
 
     def speed(self, velocity: float, speed_m_per_s: float | None = None) -> float:
         """Hammer speed V (m/s): explicit, else the preset's (study), else the
@@ -171,10 +247,11 @@ class FeltHammer(Exciter):
     def ideal_support_g(self, su, speed: float) -> np.ndarray:
         """g(t) (m, per internal sample) of this hammer on the same string with
         ideal supports, up to its final value (Publication I, first stage)."""
-        b = StringBank(1, su.cells + 2, 1, 4096, n_probes=1)
+        b = StringBank(1, su.cells + 2, 1, 4096, n_probes=1,
+                       max_gtable=self.max_gtable() if self.layer is not None else 0)
         b.configure(0, cells=su.cells, k=su.k, dt_s=su.dt_s, U=None, probe_row=0)
         b.activate(0)
-        b.start_hammer(0, **self.hammer_kwargs(su, speed))
+        self._strike(b, 0, su, speed)
         n = self.max_gtable() - 1
         mix = np.zeros(n)
         b.render(mix, 0, n)
@@ -191,4 +268,4 @@ class FeltHammer(Exciter):
         if su.U is not None and self.spec.capo_coupling == "injected":
             bank.start_gtable(slot, self.ideal_support_g(su, V))
         else:
-            bank.start_hammer(slot, **self.hammer_kwargs(su, V))
+            self._strike(bank, slot, su, V)

@@ -93,6 +93,7 @@ from .schema import Field, OrderCheck, Section, When
 from .sections import (
     CAPO_COUPLINGS,
     HAMMER_LAWS,
+    HAMMER_MODELS,
     KINDS,
     PLUCK_MODELS,
     QUALITIES,
@@ -131,6 +132,7 @@ __all__ = [
     "KINDS",
     "VOICES",
     "HAMMER_LAWS",
+    "HAMMER_MODELS",
     "CAPO_COUPLINGS",
     "PLUCK_MODELS",
     "QUALITIES",

@@ -85,6 +85,12 @@ class HammerSpec:
     alpha_s: float | None = None
     gamma: float | None = None
     tau0_s: float | None = None
+    model: str | None = None                     # study: "lumped" or "felt-layer"
+    felt_thickness_m: float | None = None        # felt-layer: the column (SI)
+    felt_area_m2: float | None = None
+    felt_density_kg_per_m3: float | None = None
+    felt_cells: int | None = None
+    felt_tau0_s: float | None = None             # felt-layer, three-parameter law
 
 
 @dataclass(frozen=True)

@@ -47,6 +47,7 @@ __all__ = [
     "KINDS",
     "VOICES",
     "HAMMER_LAWS",
+    "HAMMER_MODELS",
     "CAPO_COUPLINGS",
     "PLUCK_MODELS",
     "PROFILES",
@@ -64,6 +65,9 @@ _KEYBOARD = When("voice", ("grand", "harpsichord"))     # per-key piano strings
 _ONE_STRING = When("voice", ("plucked", "piano"))
 _PLUCKED_MUSICAL = When("kind", ("musical",), also=When("voice", ("plucked",)))
 HAMMER_LAWS = ("three-parameter", "four-parameter")
+#: the study hammer's models: the felt law as a massless spring (the voices'
+#: hammer) or the felt solved as a medium on the moving string (docs/felt.md)
+HAMMER_MODELS = ("lumped", "felt-layer")
 CAPO_COUPLINGS = ("direct", "injected")
 #: termination.contact of the jawari (synth.physics.profiles.Termination.subcell)
 JAWARI_CONTACTS = ("subcell", "grid")
@@ -147,6 +151,29 @@ SECTIONS: tuple[Section, ...] = (
               when=When("hammer.law", ("four-parameter",))),
         Field("tau0_s", "float", "relaxation time tau0, s", 1e-9, 1e-2,
               when=When("hammer.law", ("four-parameter",))),
+        Field("model", "str", "lumped: the felt law as a massless spring (the voices' hammer); "
+              "felt-layer: the felt solved as a medium (a column of felt on the core, thesis "
+              "eqs. 2.1-2.6, the law above its quasi-static limit) pressing the moving string, "
+              "offline (docs/felt.md)", choices=HAMMER_MODELS, when=When("kind", ("study",)),
+              default="lumped"),
+        Field("felt_thickness_m", "float", "felt-layer: the felt's thickness over the core, m "
+              "(default 10.2 mm: the felt lab's assumed felt at A7)", 5e-4, 0.05,
+              when=When("hammer.model", ("felt-layer",)), default=0.0102),
+        Field("felt_area_m2", "float", "felt-layer: the felt column's cross-section under the "
+              "string, m^2 (default 64 mm^2, assumed: a contact 8 mm along the string by 8 mm)",
+              1e-6, 1e-3, when=When("hammer.model", ("felt-layer",)), default=64e-6),
+        Field("felt_density_kg_per_m3", "float", "felt-layer: the felt's density, kg/m^3 "
+              "(default 1000: the thesis's felt pads, eq. 2.13)", 100.0, 3000.0,
+              when=When("hammer.model", ("felt-layer",)), default=1000.0),
+        Field("felt_cells", "int", "felt-layer: cells across the felt (run time grows as "
+              "cells^2: the sub-step with the cell; 32: g(t) within 1.4e-4 of converged, "
+              "docs/felt.md)", 4, 256,
+              when=When("hammer.model", ("felt-layer",)), default=32),
+        Field("felt_tau0_s", "float", "felt-layer with the three-parameter law: the felt's "
+              "relaxation time tau0, s (gamma = 1 - tau0 / alpha_s; default 1.8 us: Publication "
+              "III eq. 6 at A7)", 1e-8, 1e-3,
+              when=When("hammer.model", ("felt-layer",),
+                        also=When("hammer.law", ("three-parameter",))), default=1.8e-6),
     ), when=When("voice", ("piano",))),
     Section("termination", "nonlinear contact termination", TerminationSpec, (
         Field("profile", "str", "obstacle profile at the termination", choices=PROFILES),
