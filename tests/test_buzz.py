@@ -83,18 +83,75 @@ def _high_band_db(y, fs, t0=0.05, t1=0.5, f_cut=1000.0):
 @pytest.mark.parametrize("key", [46, 62, 74])
 def test_the_high_band_grows_with_the_buzz(key):
     """The energy above 1 kHz (50-500 ms, velocity 80) rises with the buzz
-    until it saturates: no step down by more than 1 dB (measured: key 46
-    rises at every step, key 62 levels off from 0.75; key 74 reaches its
-    level at 0.25 and loses
-    0.7 dB from 0.5 to 1, where the deeper contact takes more energy than
-    it spreads upwards)."""
-    levels = []
+    until it saturates, no step down by more than 1 dB, and its share of
+    the note's energy rises at every step (docs/voicing.md, "Key 74").
+
+    Key 46 rises at every step, key 62 levels off from 0.75.  Key 74
+    reaches its level at 0.25 and then loses 0.6 dB from 0.5 to 1: there
+    nearly all of D5's energy is above 1 kHz already (its partial 2 is at
+    1.17 kHz; share -1.2 dB at 0.5, -0.7 dB at 1), so the buzz has little
+    left to move up, while the deeper contact, which removes energy at
+    every grid point the string meets (physics notes section 2), shortens
+    the note (total 50-500 ms 1.1 dB lower; from 50-150 ms to 400-500 ms
+    it loses 7.2 dB against 6.0 at 0.5): the band follows the total
+    (``python tools/buzz_depth.py`` with these overrides)."""
+    levels, shares = [], []
     for b in (0.0, 0.25, 0.5, 0.75, 1.0):
         e = engine("sitar", OPEN + [f"termination.buzz={b}"])
-        levels.append(_high_band_db(e.render(note(key, 0.0, 80 / 127), duration_s=0.6), e.fs_out))
+        y = e.render(note(key, 0.0, 80 / 127), duration_s=0.6)
+        hi = _high_band_db(y, e.fs_out)
+        levels.append(hi)
+        shares.append(hi - _high_band_db(y, e.fs_out, f_cut=0.0))
     assert levels[1] - levels[0] >= 3.0, levels
     assert all(np.diff(levels) > -1.0), levels
     assert levels[-1] - levels[0] >= 6.0, levels
+    assert all(np.diff(shares) > 0.0), shares
+
+
+#: the largest fall (dB) of the buzz band's 300 ms running mean from one
+#: 100 ms window to the next while the note is within 40 dB of its start
+#: (docs/voicing.md, "The buzz decays with the note").  A buzz that follows
+#: the note: in the grazing (sub-cell) contact the string's virtual end
+#: moves as the square of its slope at the bridge, so the band's energy goes
+#: as the slope's squared, falling twice as fast in dB; the slope's own
+#: energy falls at most at the loop's rate at 6 kHz (T60 1.2 s: 5 dB per
+#: 100 ms), hence 10 dB.  A contact that ends leaves the band to its free
+#: decay, its upper half gone within a window: 15.8-27.8 dB on keys 55-74
+#: before the sub-cell contact.
+FADE_MAX_DB = 10.0
+
+
+def _buzz_fade(key, vel, extra=()):
+    from synth.analysis.buzz import band_decay
+
+    e = engine("sitar", list(extra), extra_low_key=key)
+    y = np.asarray(e.render(note(key, 0.0, vel / 127), duration_s=5.0))
+    d = band_decay(y, e.fs_out, 6000.0, 20000.0)
+    assert d.note_db[-1] < d.note_db[0] - 40.0      # the windows span the note's first 40 dB
+    return d.largest_drop(40.0, smooth=3)
+
+
+@pytest.mark.parametrize("key", [43, 55, 64, 73])
+def test_the_buzz_fades_with_the_note(key):
+    """Issue 12: the buzz decays with the note, not in one step.  The band
+    6-20 kHz of the shipped sitar (taraf and body on) in 100 ms windows:
+    its 300 ms running mean never falls by more than FADE_MAX_DB from one
+    window to the next while the note is within 40 dB of its start, at
+    velocities 40 and 127 (measured at most 8.7 dB over keys 43-74,
+    ``python tools/buzz_decay.py``; the raw windows dip by up to 13 dB where
+    two of the buzz's components beat, and come back in the next)."""
+    for vel in (40, 127):
+        drop, at = _buzz_fade(key, vel)
+        assert drop <= FADE_MAX_DB, f"key {key}, velocity {vel}: {drop:.1f} dB at {at:.1f} s"
+
+
+def test_the_clamp_at_grid_points_alone_stops_the_buzz_in_one_step():
+    """The measure sees the step it is there for: with the contact at grid
+    points alone (termination.contact = "grid", the thesis's scheme) key 64
+    loses its buzz in one window when its swing no longer reaches the first
+    point's gap (measured 20.5 dB at velocity 127)."""
+    drop, at = _buzz_fade(64, 127, ["termination.contact=grid"])
+    assert drop > 1.5 * FADE_MAX_DB, f"{drop:.1f} dB at {at:.1f} s"
 
 
 def _contacts(e, t0, t1):

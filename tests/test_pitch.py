@@ -9,7 +9,7 @@ from synth.io.presets import load_preset
 from synth.physics.string import midi_key_to_hz
 
 
-@pytest.mark.parametrize("name", ["sitar", "biwa"])
+@pytest.mark.parametrize("name", ["sitar", "biwa", "hammered-sitar"])
 def test_every_key_within_one_cent(name):
     play = load_preset(name).play
     worst = 0.0
