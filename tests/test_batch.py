@@ -377,3 +377,56 @@ def test_workers_with_dask_s_malloc_trim_get_a_note(tmp_path, cluster):
     finally:
         cluster.run(_set_trim, None)
     assert any("2 of the cluster's 2 workers have MALLOC_TRIM_THRESHOLD_ below" in n for n in notes)
+
+
+def _set_dask(key, value):
+    import dask
+
+    dask.config.set({key: value})
+
+
+def test_the_local_cluster_quiets_dask_s_own_threads_and_other_clusters_get_a_note(tmp_path,
+                                                                                     cluster):
+    """The local cluster's workers run without Dask's profiler and with slow
+    monitors (B.QUIET_DASK: 6 % of a core to 0.4 %); a worker that runs
+    them at Dask's defaults gets a note naming the settings."""
+    assert set(map(tuple, cluster.run(B._noisy_dask).values())) == {()}
+    jobs = load_spec(_spec(tmp_path, SPEC_20))[:2]
+    notes = []
+    render_many(jobs, tmp_path / "a", client=cluster, progress=False, log=notes.append)
+    assert not any("Dask's own threads" in n for n in notes)
+    cluster.run(_set_dask, "distributed.worker.profile.enabled", True)
+    cluster.run(_set_dask, "distributed.admin.tick.interval", "20ms")
+    try:
+        render_many(jobs, tmp_path / "b", client=cluster, progress=False, log=notes.append)
+    finally:
+        for k, v in B.QUIET_DASK.items():
+            cluster.run(_set_dask, k, v)
+    note = [n for n in notes if "Dask's own threads" in n]
+    assert len(note) == 1
+    assert note[0].startswith("note: 2 of the cluster's 2 workers")
+    assert "distributed.admin.tick.interval, distributed.worker.profile.enabled" in note[0]
+    assert "memory.monitor-interval" not in note[0]
+
+
+def _set_env(key, value):
+    if value is None:
+        os.environ.pop(key, None)
+    else:
+        os.environ[key] = value
+
+
+def test_the_local_cluster_s_workers_have_one_malloc_arena_others_get_a_note(tmp_path, cluster):
+    """MALLOC_ARENA_MAX=1 is in the workers' environment from their start (the
+    task thread's own arena made A0 23 % slower); a worker without it gets a
+    note."""
+    assert set(cluster.run(B._malloc_arenas).values()) == {"1"}
+    jobs = load_spec(_spec(tmp_path, SPEC_20))[:2]
+    notes = []
+    cluster.run(_set_env, "MALLOC_ARENA_MAX", None)
+    try:
+        render_many(jobs, tmp_path / "b", client=cluster, progress=False, log=notes.append)
+    finally:
+        cluster.run(_set_env, "MALLOC_ARENA_MAX", "1")
+    assert any(n.startswith("note: 2 of the cluster's 2 workers run without MALLOC_ARENA_MAX=1")
+               for n in notes)

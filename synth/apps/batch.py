@@ -108,6 +108,25 @@ MALLOC_TRIM = "MALLOC_TRIM_THRESHOLD_"
 #: a trim threshold this high (bytes) leaves the renders at their speed
 #: (1 GiB: a grand note in 0.53 s, as unset; 65536: 1.12 s)
 MALLOC_TRIM_OK = 1 << 30
+#: glibc's number of malloc arenas in a worker: 1, the main thread's.  Dask
+#: runs a task in a thread of its own, which by default gets an arena of its
+#: own, whose heaps glibc unmaps whenever they empty: a 4-s grand note on A0
+#: took 23 % more CPU in a thread than in the main thread, with 1.6x the page
+#: faults (``tools/bench_batch.py --where``); in a worker with one arena, the same.
+MALLOC_ARENAS = "MALLOC_ARENA_MAX"
+#: Dask settings for the workers (and the local cluster's scheduler and
+#: nannies).  With Dask's defaults (the statistical profiler every 10 ms, the
+#: event loop's health tick every 20 ms, the memory monitor every 100 ms, the
+#: system monitor every 0.5 s) an idle worker took 33-40 ms of CPU a second and
+#: its nanny 20 more, about 6 % of the core it shares with the renders; with
+#: these, 3-4 ms.  What is given up: the dashboard's profile page, and memory
+#: limits checked once a second (a render holds far less than a worker's limit).
+QUIET_DASK = {
+    "distributed.worker.profile.enabled": False,
+    "distributed.admin.tick.interval": "1s",
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.system-monitor.interval": "5s",
+}
 #: partials measured for the analysis summary (partial 1's T60 is the note's)
 ANALYSIS_PARTIALS = 4
 
@@ -1009,8 +1028,11 @@ def _write_manifest(out: Path, df, csv: bool) -> None:
 
 def local_cluster(n_workers: int | None = None, *, dashboard: bool = True):
     """A ``LocalCluster`` of single-threaded worker processes, one per core
-    by default, each with ``NUMBA_NUM_THREADS=1`` and this process's numba
-    cache (``NUMBA_CACHE_DIR``, if set)."""
+    by default, each with ``NUMBA_NUM_THREADS=1``, ``MALLOC_ARENA_MAX=1``
+    and this process's numba cache (``NUMBA_CACHE_DIR``, if set), and
+    Dask's own threads slowed down (:data:`QUIET_DASK`).  Dask's nanny puts
+    ``MALLOC_ARENA_MAX=1`` in this process's ``os.environ`` to spawn the
+    workers with it (as it does with its own ``OMP_NUM_THREADS``)."""
     try:
         from dask.distributed import LocalCluster
     except ImportError:
@@ -1027,8 +1049,14 @@ def local_cluster(n_workers: int | None = None, *, dashboard: bool = True):
     # threshold, and the engine's per-block arrays fault their pages in
     # again and again.  A grand note rendered 2.3x slower (0.48 s -> 1.12 s
     # for 4 s, the same with the variable set in one process).  None leaves
-    # glibc's own adaptive thresholds.
-    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{MALLOC_TRIM}": None}):
+    # glibc's own adaptive thresholds.  MALLOC_ARENA_MAX=1 (MALLOC_ARENAS):
+    # the task thread allocates from the main arena; glibc reads it when the
+    # process starts, so it is set before the spawn, not in `env`.
+    # QUIET_DASK: Dask's own threads take 0.4 % of a core instead of 6 % (the
+    # nannies pass this configuration on to their workers).
+    with dask.config.set({f"distributed.nanny.pre-spawn-environ.{MALLOC_TRIM}": None,
+                          f"distributed.nanny.pre-spawn-environ.{MALLOC_ARENAS}": "1",
+                          **QUIET_DASK}):
         return LocalCluster(n_workers=n, threads_per_worker=1, processes=True, env=env,
                             dashboard_address=":8787" if dashboard else None, silence_logs=40)
 
@@ -1125,6 +1153,19 @@ def render_many(jobs: Sequence[Job], out_dir: str | os.PathLike, client=None, *,
                     f"below {MALLOC_TRIM_OK} (Dask's nanny sets 65536), which makes renders "
                     f"about 2x slower; start them with {MALLOC_TRIM}={MALLOC_TRIM_OK} in "
                     f"their environment (docs/batch.md)")
+            arenas = [w for w, v in client.run(_malloc_arenas).items() if v != "1"]
+            if arenas:
+                log(f"note: {len(arenas)} of the cluster's {len(trims)} workers run without "
+                    f"{MALLOC_ARENAS}=1, which makes low notes up to 23 % slower; "
+                    f"start them with it in their environment (docs/batch.md)")
+            loud = client.run(_noisy_dask)
+            noisy = {k for v in loud.values() for k in v}
+            n_noisy = sum(bool(v) for v in loud.values())
+            if noisy:
+                log(f"note: {n_noisy} of the cluster's {len(trims)} workers run Dask's own "
+                    f"threads more often than synth batch's local cluster does "
+                    f"({', '.join(sorted(noisy))}), which takes up to 6 % of each worker's "
+                    f"core; docs/batch.md gives the settings")
             client.run(warm_worker, _distinct_presets(todo))
             futures = {}
             for j in todo:
@@ -1177,6 +1218,28 @@ def _malloc_trim() -> int | None:
         return None if v is None else int(v)
     except ValueError:
         return None
+
+
+def _malloc_arenas() -> str | None:
+    """This worker's ``MALLOC_ARENA_MAX`` (as :func:`_malloc_trim`, run in the worker)."""
+    return os.environ.get(MALLOC_ARENAS)
+
+
+def _noisy_dask() -> list[str]:
+    """The settings of :data:`QUIET_DASK` that this worker runs more often
+    than they say (or, for the profiler, at all)."""
+    import dask
+    from dask.utils import parse_timedelta
+
+    out = []
+    for k, v in QUIET_DASK.items():
+        cur = dask.config.get(k, None)
+        if isinstance(v, bool):
+            if bool(cur) != v:
+                out.append(k)
+        elif cur is not None and parse_timedelta(cur) < parse_timedelta(v):
+            out.append(k)
+    return out
 
 
 def _distinct_presets(jobs: Sequence[Job]) -> list:
