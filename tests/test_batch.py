@@ -343,6 +343,9 @@ def test_the_throughput_benchmark_runs_in_its_quick_mode():
     for way in ("| one process | 1 |", "| Dask, 1 worker | 1 |", "| Dask, 2 workers | 2 |"):
         assert way in p.stdout
     assert "Dask's overhead per job" in p.stdout
+    assert "| biwa | 4 |" in p.stdout                    # the table per preset
+    assert "Projection: 2000 jobs with the mix of biwa" in p.stdout
+    assert "the manifest of 2000 rows" in p.stdout
 
 
 def test_the_python_api_returns_the_manifest(tmp_path, cluster):
