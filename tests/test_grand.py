@@ -107,6 +107,50 @@ def test_capo_bar_strengthens_the_high_partials_of_a7():
     assert np.mean(gain[5:]) > np.mean(gain[:5]) + 3.0, gain
 
 
+def _capo_change_db(key, sets=()):
+    """Partial levels of a treble note's free vibration (0.05-0.55 s at 48
+    kHz, velocity 80: the hammer has left) with the capo bar minus with an
+    ideal support (``strings.capo_region_m = 0``), in dB, for the partials
+    below 20 kHz (at most 12)."""
+    B = P.grand_string(key).inharmonicity_b
+    lv = []
+    for extra in ([], ["strings.capo_region_m=0"]):
+        y, e = render(key, 80 / 127, 0.6, list(sets) + extra)
+        f1 = e.inst.tuning_hz(key)
+        n = int(min(12, 20000.0 // (f1 * np.sqrt(1 + B * 144))))
+        _, l = partial_peaks(y[int(0.05 * FS):int(0.55 * FS)], FS, f1 / np.sqrt(1 + B), n,
+                             search_cents=40, inharmonicity=B)
+        lv.append(np.asarray(l))
+    return lv[0] - lv[1]
+
+
+#: the thesis's 1.3 MHz at the bar for every treble key (the preset's
+#: comment: about twice the cost of the default's, docs/benchmarks.md)
+THESIS_CAPO = ("strings.capo_grid=4", "strings.capo_grid_from_key=73")
+
+
+@pytest.mark.parametrize("key", [78, 84, 90, 96])
+def test_the_capo_bar_colours_the_free_vibration_of_treble_notes(key):
+    """Issue 11: on the thesis's grid the treble strings reach the bar after
+    the hammer has left (72-91 contacts in 0.5 s, `synth note --contact-log`),
+    so its colour is in the music, as Publication I finds it on A7 (thesis
+    section 1.3.2: the low modes fall, mode 4 by about 6 dB, the high ones
+    rise by up to 15 dB): the partials move by 2.5 dB RMS or more, and
+    either the upper half of them rises by 2 dB on average or partials 2-4
+    fall by 2 dB.  At the engine's 325 kHz alone a grid cell of 1-1.3 mm is
+    wider than the part of the string that lifts onto the bar, so the bar
+    acts only while the hammer presses: key 78 does not change at all and
+    keys 84-96 by 1.2-4 dB RMS, mostly on one partial (the default's
+    ``capo_grid = 2`` from key 103 keeps the cost; the assertion is checked
+    on the thesis's grid)."""
+    g = _capo_change_db(key, THESIS_CAPO)
+    rms = float(np.sqrt(np.mean(g ** 2)))
+    upper, low = float(np.mean(g[len(g) // 2:])), float(np.mean(g[1:4]))
+    assert rms >= 2.5 and (upper >= 2.0 or low <= -2.0), (rms, upper, low, g)
+    if key == 78:
+        assert np.all(np.abs(_capo_change_db(key)) < 0.05)   # the default: untouched
+
+
 def _level_db(y, t0, t1):
     seg = y[int(t0 * FS):int(t1 * FS)]
     return 10 * np.log10(np.mean(seg ** 2) + 1e-30)
