@@ -25,7 +25,13 @@ Scenes (each rendered as ``synth render`` / ``synth note`` render them):
   ButchersMarchiiThe.mid on ``sitar`` at ``termination.buzz`` = 0.2 and as
   shipped (1: the played strings graze their jawari and reach it; what is
   skipped there is the taraf's and the chikari's);
-* ``biwa``: the same tune on ``biwa`` (the sawari).
+* ``sitar-alone``: the same without taraf and chikari
+  (``taraf.coupling = 0``): the played strings alone;
+* ``biwa``: the same tune on ``biwa`` (the sawari);
+* ``case1``: the thesis's jawari Case 1 string (``paper/sitar-case1``,
+  lossless, 812 cells) for ``--seconds`` / 10: the bound lets almost none
+  of its chunks off (``--onset`` counts them), so the test's cost is all
+  there is to see.
 
 Timing: each run renders a scene with the skip, then without it, in one
 process, timed by the process's CPU time (``time.process_time``: on a
@@ -59,7 +65,7 @@ import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
 
 ROOT = Path(__file__).resolve().parents[1]
 TREBLE_KEYS = (73, 79, 85, 91, 97, 103, 108)
-SCENES = ("treble", "chopin", "sitar-buzz-0.2", "sitar", "biwa")
+SCENES = ("treble", "chopin", "sitar-buzz-0.2", "sitar", "sitar-alone", "biwa", "case1")
 
 
 def shared_midi() -> Path:
@@ -69,12 +75,25 @@ def shared_midi() -> Path:
     raise SystemExit("../shared/midi: not found (the workplace's MIDI files)")
 
 
+def audio_s(scene: str, seconds: float) -> float:
+    """The audio (s) a scene renders for ``--seconds``."""
+    return seconds / 10 if scene == "case1" else seconds
+
+
 def render_scene(scene: str, seconds: float, skip: bool):
     """(output samples, render time in s) of ``scene`` with or without the skip."""
     from synth.dsp.bank import StringBank
 
     StringBank.skip_unreachable = skip
     try:
+        if scene == "case1":
+            from synth.engine.engine import Event
+            from synth.io.factory import build_engine
+
+            e = build_engine("paper/sitar-case1")
+            t0 = time.process_time()
+            y = e.render([Event(0.0, "note_on", -1, 1.0)], duration_s=seconds / 10)
+            return np.ravel(y), time.process_time() - t0
         if scene == "treble":
             from synth.engine.engine import Event
             from synth.io.factory import build_engine
@@ -94,6 +113,8 @@ def render_scene(scene: str, seconds: float, skip: bool):
                            "sitar-buzz-0.2": ("ButchersMarchiiThe.mid", "sitar",
                                               ("termination.buzz=0.2",)),
                            "sitar": ("ButchersMarchiiThe.mid", "sitar", ()),
+                           "sitar-alone": ("ButchersMarchiiThe.mid", "sitar",
+                                           ("taraf.coupling=0",)),
                            "biwa": ("ButchersMarchiiThe.mid", "biwa", ())}[scene]
         with tempfile.TemporaryDirectory() as tmp:
             out = os.path.join(tmp, "x.wav")
@@ -123,7 +144,7 @@ def timing(scenes, seconds: float, runs: int) -> bool:
             tb.append(b)
             same &= bool(np.array_equal(ya, yb))
         r = np.array(ta) / np.array(tb)
-        print(f"| {sc} | {seconds:g} | {statistics.median(ta):.3f} | {statistics.median(tb):.3f} "
+        print(f"| {sc} | {audio_s(sc, seconds):g} | {statistics.median(ta):.3f} | {statistics.median(tb):.3f} "
               f"| {np.median(r):.3f} ({r.min():.3f}-{r.max():.3f}) | {'yes' if same else 'NO'} |",
               flush=True)
         ok &= same
@@ -191,7 +212,7 @@ def callgrind(scenes, seconds: float) -> bool:
             b, db = _callgrind_render(sc, seconds, False, env, Path(tmp) / f"{sc}-run.out")
             same = da == db
             ok &= same
-            print(f"| {sc} | {seconds:g} | {a / 1e9:.3f} G | {b / 1e9:.3f} G | {a / b:.4f} "
+            print(f"| {sc} | {audio_s(sc, seconds):g} | {a / 1e9:.3f} G | {b / 1e9:.3f} G | {a / b:.4f} "
                   f"| {100 * (1 - a / b):.2f} % | {'yes' if same else 'NO'} |", flush=True)
     return ok
 
@@ -277,6 +298,33 @@ def onset(keys, velocities, seconds: float = 2.0, step_s: float = 0.005) -> None
                   f"| {100 * n_e / max(n_t, 1):.0f} % |", flush=True)
 
 
+def _skips(b, s, K) -> bool:
+    """Whether slot s's next free chunk would skip its region (False: no region)."""
+    R = int(b.ipar[s, K.I_REG_N])
+    C = int(b.ipar[s, K.I_CHUNK_FREE])
+    return R > 0 and C > 0 and K._out_of_reach(b.ring, int(b.ipar[s, K.I_OFF]),
+                                               2 * int(b.ipar[s, K.I_N]), int(b.ipar[s, K.I_POS]),
+                                               C, R, float(b.fpar[s, K.F_REACH]))
+
+
+def case1_share(seconds: float = 3.0, step_s: float = 0.025) -> None:
+    """The ``case1`` scene's string tested every ``step_s`` over ``seconds``."""
+    from synth.engine.engine import Event
+    from synth.io.factory import build_engine
+    from synth.kernels import strings as K
+
+    e = build_engine("paper/sitar-case1")
+    e.schedule([Event(0.0, "note_on", -1, 1.0)])
+    v, t = [], 0.0
+    while t < seconds:
+        n = max(1, int(round(step_s * e.fs_out)))
+        e.render_block(n)
+        t += n / e.fs_out
+        v += [_skips(e.bank, int(s), K) for s in e.bank.active[: e.bank.n_active]]
+    print(f"The jawari Case 1 string (scene case1), tested every {step_s * 1e3:g} ms over "
+          f"{seconds:g} s: {sum(v)} of {len(v)} tests skipped.")
+
+
 def sitar_share(seconds: float = 1.0, step_s: float = 0.025) -> None:
     """The sitar (two notes, keys 62 and 67 at 0 and 0.5 s) at buzz 1 and
     0.2: every ``step_s`` each string with a region is tested as in
@@ -338,6 +386,8 @@ def main(argv=None) -> int:
         onset(TREBLE_KEYS, (20, 80, 127))
         print()
         sitar_share()
+        print()
+        case1_share()
         return 0
     ok = callgrind(scenes, a.seconds) if a.callgrind else timing(scenes, a.seconds, a.runs)
     if not ok:
