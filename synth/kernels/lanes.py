@@ -30,6 +30,7 @@ import operator
 
 from llvmlite import ir
 from numba import types
+from numba.core import cgutils
 from numba.extending import intrinsic, models, overload, register_model
 
 from .config import FASTMATH_SERIAL
@@ -95,6 +96,11 @@ def lane(typingctx, v, k):
     return sig, codegen
 
 
+def _contiguous(arr):
+    return (isinstance(arr, types.Array) and arr.ndim == 1 and arr.layout == "C"
+            and arr.dtype == types.float64)
+
+
 def _array_ptr(context, builder, aty, arr, idx):
     a = context.make_array(aty)(context, builder, arr)
     p = builder.gep(a.data, [idx])
@@ -103,7 +109,10 @@ def _array_ptr(context, builder, aty, arr, idx):
 
 @intrinsic
 def load4(typingctx, arr, i):
-    """arr[i:i+4] as four lanes (no bounds check: the caller's)."""
+    """arr[i:i+4] as four lanes (arr: a contiguous 1-D float64 array; no
+    bounds check: the caller's)."""
+    if not _contiguous(arr):
+        return None
     sig = f64x4(arr, types.intp)
 
     def codegen(context, builder, signature, args):
@@ -117,7 +126,9 @@ def load4(typingctx, arr, i):
 
 @intrinsic
 def store4(typingctx, arr, i, v):
-    """arr[i:i+4] = the lanes of v (no bounds check: the caller's)."""
+    """arr[i:i+4] = the lanes of v (arr as :func:`load4`)."""
+    if not _contiguous(arr):
+        return None
     sig = types.void(arr, types.intp, f64x4)
 
     def codegen(context, builder, signature, args):
@@ -125,6 +136,33 @@ def store4(typingctx, arr, i, v):
         st = builder.store(args[2], p)
         st.align = 8
         return context.get_dummy_value()
+
+    return sig, codegen
+
+
+@intrinsic
+def abs4(typingctx, v):
+    """|v| lane by lane."""
+    sig = f64x4(f64x4)
+
+    def codegen(context, builder, signature, args):
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_VT, [_VT]),
+                                            "llvm.fabs.v4f64")
+        return builder.call(fn, [args[0]])
+
+    return sig, codegen
+
+
+@intrinsic
+def max4(typingctx, p, a):
+    """Lane by lane ``a if a > p else p``: the scalar kernels' running
+    maximum (a NaN in ``a`` never wins), so four running maxima over the
+    lanes, combined by :func:`hmax4`, give the scalar loop's value."""
+    sig = f64x4(f64x4, f64x4)
+
+    def codegen(context, builder, signature, args):
+        gt = builder.fcmp_ordered(">", args[1], args[0])
+        return builder.select(gt, args[1], args[0])
 
     return sig, codegen
 
@@ -160,4 +198,4 @@ _overload(operator.add, _add)
 _overload(operator.sub, _sub)
 _overload(operator.mul, _mul)
 
-__all__ = ["F64x4", "f64x4", "v4", "splat4", "lane", "load4", "store4"]
+__all__ = ["F64x4", "f64x4", "v4", "splat4", "lane", "load4", "store4", "abs4", "max4"]

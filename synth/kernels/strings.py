@@ -95,7 +95,7 @@ import numpy as np
 from numba import njit
 
 from .config import JIT_OPTS, SERIAL_OPTS
-from .lanes import lane, load4, splat4, store4, v4
+from .lanes import abs4, lane, load4, max4, splat4, store4, v4
 
 # ---- integer parameter columns (ipar[s, :]) ---------------------------------
 I_OFF = 0        # ring offset in the flat ring array
@@ -1849,6 +1849,64 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
                     fp[F_TOG], hb)
 
 
+@njit(**SERIAL_OPTS)
+def _hmax4(v, peak):
+    """The running maximum ``a if a > peak else peak`` over the lanes of v."""
+    for k in range(4):
+        a = lane(v, k)
+        peak = a if a > peak else peak
+    return peak
+
+
+@njit(**SERIAL_OPTS)
+def _force_out(yo, yp, un, up, has_ub, m0, m1, two, g0, g1, C):
+    """The bridge force of a chunk, v = 2 (yo - yp) (+ (un - up) if
+    ``has_ub``), added to the buses (g0 v to m0 and, if ``two``, g1 v to
+    m1); returns max |v| (from 0).  Four samples to a vector (the running
+    maximum is a reduction LLVM does not vectorise without no-NaN
+    fast-math; :func:`synth.kernels.lanes.max4` keeps its NaN rule), the
+    same operations per sample as the scalar loop."""
+    two4 = splat4(2.0)
+    g04 = splat4(g0)
+    g14 = splat4(g1)
+    p4 = splat4(0.0)
+    n4 = C - C % 4
+    if has_ub and two:
+        for i in range(0, n4, 4):
+            v = two4 * (load4(yo, i) - load4(yp, i)) + (load4(un, i) - load4(up, i))
+            store4(m0, i, load4(m0, i) + g04 * v)
+            store4(m1, i, load4(m1, i) + g14 * v)
+            p4 = max4(p4, abs4(v))
+    elif has_ub:
+        for i in range(0, n4, 4):
+            v = two4 * (load4(yo, i) - load4(yp, i)) + (load4(un, i) - load4(up, i))
+            store4(m0, i, load4(m0, i) + g04 * v)
+            p4 = max4(p4, abs4(v))
+    elif two:
+        for i in range(0, n4, 4):
+            v = two4 * (load4(yo, i) - load4(yp, i))
+            store4(m0, i, load4(m0, i) + g04 * v)
+            store4(m1, i, load4(m1, i) + g14 * v)
+            p4 = max4(p4, abs4(v))
+    else:
+        for i in range(0, n4, 4):
+            v = two4 * (load4(yo, i) - load4(yp, i))
+            store4(m0, i, load4(m0, i) + g04 * v)
+            p4 = max4(p4, abs4(v))
+    peak = _hmax4(p4, 0.0)
+    for i in range(n4, C):
+        if has_ub:
+            v = 2.0 * (yo[i] - yp[i]) + (un[i] - up[i])
+        else:
+            v = 2.0 * (yo[i] - yp[i])
+        m0[i] += g0 * v
+        if two:
+            m1[i] += g1 * v
+        a = abs(v)
+        peak = a if a > peak else peak
+    return peak
+
+
 @njit(**JIT_OPTS)
 def _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, has_ub):
     """Step 4, second half: write the far end's outputs yb[1:C+1] back into
@@ -1881,42 +1939,11 @@ def _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, has_ub):
         two = ipar[s, I_BUS] == 1 and mix.shape[0] > 1
         pan = fpar[s, F_PAN]
         g0 = sc * (1.0 - pan) if two else sc
-        yp = yb[0:C]
-        yo = yb[1:1 + C]
+        g1 = sc * pan
         m0 = mix[0, o0:o0 + C]
-        if has_ub:
-            up = ubw[0:C]
-            un = ubw[1:1 + C]
-            if two:
-                g1 = sc * pan
-                m1 = mix[1, o0:o0 + C]
-                for i in range(C):
-                    v = 2.0 * (yo[i] - yp[i]) + (un[i] - up[i])
-                    m0[i] += g0 * v
-                    m1[i] += g1 * v
-                    a = abs(v)
-                    peak = a if a > peak else peak
-            else:
-                for i in range(C):
-                    v = 2.0 * (yo[i] - yp[i]) + (un[i] - up[i])
-                    m0[i] += g0 * v
-                    a = abs(v)
-                    peak = a if a > peak else peak
-        elif two:
-            g1 = sc * pan
-            m1 = mix[1, o0:o0 + C]
-            for i in range(C):
-                v = 2.0 * (yo[i] - yp[i])
-                m0[i] += g0 * v
-                m1[i] += g1 * v
-                a = abs(v)
-                peak = a if a > peak else peak
-        else:
-            for i in range(C):
-                v = 2.0 * (yo[i] - yp[i])
-                m0[i] += g0 * v
-                a = abs(v)
-                peak = a if a > peak else peak
+        m1 = mix[1 if two else 0, o0:o0 + C]
+        peak = _force_out(yb[1:1 + C], yb[0:C], ubw[1:1 + C], ubw[0:C], has_ub, m0, m1, two,
+                          g0, g1, C)
         peak *= abs(sc)
     return peak
 
