@@ -135,7 +135,8 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     ip[K.I_OUT] = int(out_mode)
     ip[K.I_PROBE] = -1
     ip[K.I_CHUNK] = 0 if force_per_sample else K.max_fast_chunk(cells, k, R, out_mode)
-    ip[K.I_CHUNK_FREE] = 0 if force_per_sample else K.max_free_chunk(cells, k, R, out_mode)
+    ip[K.I_CHUNK_FREE] = 0 if force_per_sample else K.max_free_chunk(cells, k, R, out_mode,
+                                                                      bool(ip[K.I_FILT]))
     ip[K.I_HLAST] = -1
     fp = np.zeros(K.F_NF)
     fp[K.F_DT] = dt_s

@@ -3242,14 +3242,23 @@ def max_fast_chunk(N: int, k: int, R: int, out_mode: int) -> int:
     return max(c, 0)
 
 
-def max_free_chunk(N: int, k: int, R: int, out_mode: int) -> int:
+def max_free_chunk(N: int, k: int, R: int, out_mode: int, filt: bool = False) -> int:
     """Longest exact chunk with no excitation running: the excitation point
     is then no operation point, except as the pickup of ``out_mode`` 0 (u
-    at k is read after the chunk's region and far-end steps)."""
+    at k is read after the chunk's region and far-end steps).
+
+    With the bridge-force output of a far-end filter (``filt``: the force
+    comes from the filter's output, not from the ring) and no region, the
+    far end is the only operation point: a sample it writes comes back to
+    it after the loop's 2N steps, so a chunk may take 2N - 2 (its C + 1
+    arriving samples and the previous output are C + 2 distinct slots),
+    where the region's distance bounds it at N - R - 2."""
     if out_mode == 0:
         if R > 0 and k <= R + 1:
             return 0
         c = min(k - R, N - k, N - R) - 1
+    elif filt and R == 0:
+        c = 2 * N - 2
     else:
         c = N - R - 2
     return max(c, 0)
