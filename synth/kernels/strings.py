@@ -2069,8 +2069,21 @@ def _pairs_below(r, n, th):
             a1 = n - 2
         x = r[a0:a1]
         y = r[a0 + 2:a1 + 2]
-        m = 0.0
-        for t in range(a1 - a0):
+        # four running maxima of |x - y| in the lanes of a vector, and their
+        # sum, which carries a NaN to the end (a NaN counts as over)
+        k = a1 - a0
+        k4 = k - k % 4
+        m4 = splat4(0.0)
+        z4 = splat4(0.0)
+        for t in range(0, k4, 4):
+            d = abs4(load4(x, t) - load4(y, t))
+            m4 = max4(m4, d)
+            z4 = z4 + d
+        m = _hmax4(m4, 0.0)
+        z = lane(z4, 0) + lane(z4, 1) + lane(z4, 2) + lane(z4, 3)
+        if z != z:
+            return False
+        for t in range(k4, k):
             d = abs(x[t] - y[t])
             m = m if d <= m else d
         if not (m < th):
@@ -3130,11 +3143,19 @@ def _fold_sub(mix, o0, n, sub, M, rows):
     for r in range(rows):
         mo = mix[r, o0:o0 + n]
         sb = sub[r]
-        for i in range(n):
-            acc = 0.0
-            for j in range(M):
-                acc += sb[i * M + j]
-            mo[i] += w * acc
+        if M == 2:
+            # (the grand's top keys; the same sums: 0 + a + b)
+            for i in range(n):
+                acc = 0.0
+                acc += sb[2 * i]
+                acc += sb[2 * i + 1]
+                mo[i] += w * acc
+        else:
+            for i in range(n):
+                acc = 0.0
+                for j in range(M):
+                    acc += sb[i * M + j]
+                mo[i] += w * acc
 
 
 @njit(**JIT_OPTS)
