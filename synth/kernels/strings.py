@@ -68,6 +68,14 @@ How the fast path is written, so that it is fast on every x86-64 target
   (:func:`_far_chunk`): one multiply-add per recurrence and sample, where
   state read from and written to the state table every sample put a
   store-to-load round trip on each recurrence;
+* the members of a coupled group (a piano key's unison) with the same
+  loop-filter sections run their loss, allpasses and biquads as the lanes
+  of one four-double vector (:func:`_far_lanes`, ``synth.kernels.lanes``:
+  numba has no vector type and runs no SLP vectoriser), each lane the
+  scalar code's operations in the same order; the running maxima (peaks,
+  the region's reach test) also take four samples to a vector
+  (:func:`_force_out`, :func:`_pairs_below`), which LLVM does not do for
+  a maximum without no-NaN fast-math;
 * strings whose hammer is running are rendered four at a time in lockstep
   chunks, their hammer steps interleaved (:func:`_render_group`,
   :func:`_excite_group`; in steady contact the step is short and
