@@ -17,19 +17,22 @@ def _profile(rng, R, dx):
     return 0.3e-3 + (np.arange(1, R + 1) * dx) ** 2 / 0.02 + rng.uniform(0, 1e-5, R)
 
 
-def _group(rng, n_str, per_sample, sos=True, region=True):
+def _group(rng, n_str, per_sample, sos=True, region=True, n_disp=None, n_sos=2):
     """Strings of slightly different length on one bridge, plucked at
-    different amplitudes (kernel and naive definitions)."""
+    different amplitudes (kernel and naive definitions); ``n_disp``: every
+    string's first-order sections (default 1 + its index), ``n_sos`` its
+    biquads (if ``sos``)."""
     dt, dx = 1e-5, 1e-3
     defs = []
     for j in range(n_str):
         N = 240 + 3 * j
         k = 180 - j
         U = _profile(rng, 10, dx) if region else None
-        th = rng.uniform(0.1, 2.0, 2)
-        rad = rng.uniform(0.5, 0.9, 2)
+        th = rng.uniform(0.1, 2.0, n_sos)
+        rad = rng.uniform(0.5, 0.9, n_sos)
         d = dict(N=N, k=k, b0=0.995 - 0.002 * j, a1=-0.01, eta=0.1 + 0.05 * j, extra_delay=j % 2,
-                 n_disp=1 + j, a_disp=-0.2, tdx=500.0 + 40 * j, gain=1e-3, U=U, side=1,
+                 n_disp=1 + j if n_disp is None else n_disp, a_disp=-0.2,
+                 tdx=500.0 + 40 * j, gain=1e-3, U=U, side=1,
                  sos=np.column_stack([-2 * rad * np.cos(th), rad * rad]) if sos else np.zeros((0, 2)),
                  A=0.002 * (1 + 0.3 * j), t0=0.0006 + 0.0001 * j)
         defs.append(d)
@@ -75,6 +78,39 @@ def test_coupled_strings_equal_the_naive_bridge(per_sample, n_str):
     ref, ub = naive_bridge_strings([dict(d, g=_g(d, n, dt)) for d in defs], n, bra=bra, brb=brb)
     assert np.max(np.abs(ub)) > 1e-4 * max(d["A"] for d in defs)      # the bridge moves
     assert np.max(np.abs(mix - ref)) < 1e-10 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("n_str,n_disp,n_sos", [(1, 1, 2), (2, 0, 0), (2, 1, 3), (3, 0, 4),
+                                                 (3, 1, 5), (4, 1, 8), (5, 0, 1), (6, 1, 7)])
+def test_coupled_strings_in_lockstep_equal_the_naive_bridge(n_str, n_disp, n_sos):
+    """Strings with the same loop-filter sections on one bridge (as a piano
+    key's: at most one first-order dispersion section, 0-8 biquads), whose
+    filters the fast path runs in lockstep, four strings to a vector
+    (:func:`synth.kernels.strings._far_lanes`; groups of 5 and 6 in two
+    passes), equal the naive scheme's to round-off, and each string's own
+    filter's (the per-sample path) to round-off."""
+    rng = np.random.default_rng(11 + n_str + 3 * n_sos)
+    dt, defs = _group(rng, n_str, False, n_disp=n_disp, n_sos=n_sos)
+    R_b, f_ret = 3.0, 5.0
+    outs = []
+    for per_sample in (False, True):
+        b = _bank_for(defs, dt, per_sample, max_group=max(n_str, K.MAX_CPL))
+        b.couple(range(n_str), R_b, f_ret)
+        if not per_sample:
+            assert K._lanes_ok(0, n_str, b.ipar)
+        for s, d in enumerate(defs):
+            b.activate(s)
+            b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
+        n = 9 * defs[0]["N"]
+        mix = np.zeros(n)
+        for o in range(0, n, 211):
+            b.render(mix, o, min(211, n - o))
+        outs.append(mix)
+    bra, brb = math.exp(-2 * math.pi * f_ret * dt), dt / R_b
+    ref, ub = naive_bridge_strings([dict(d, g=_g(d, n, dt)) for d in defs], n, bra=bra, brb=brb)
+    assert np.max(np.abs(ub)) > 1e-4 * max(d["A"] for d in defs)      # the bridge moves
+    assert np.max(np.abs(outs[0] - ref)) < 1e-10 * np.max(np.abs(ref))
+    assert np.max(np.abs(outs[0] - outs[1])) < 1e-12 * np.max(np.abs(ref))
 
 
 def test_the_bridge_changes_the_sound_and_a_still_bridge_does_not():

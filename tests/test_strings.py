@@ -473,3 +473,31 @@ def test_subcell_contact_makes_no_energy(A):
     assert term.subcell(dx) == 1.0
     E = _energy_series(U, 1, 1, A, 0.004, 0.0, every=250, n_total=200000, subcell=1.0)
     assert E.max() <= E[0] * (1 + 1e-5), f"energy rose by {E.max() / E[0] - 1:.3g} of E0"
+
+
+@pytest.mark.parametrize("has_ub", [False, True])
+@pytest.mark.parametrize("two", [False, True])
+def test_bridge_force_output_four_samples_to_a_vector(has_ub, two):
+    """The far end's force output (:func:`synth.kernels.strings._force_out`,
+    four samples to a vector with a scalar tail) adds v = 2 (yo - yp)
+    (+ (un - up) on a moving bridge) times each bus's gain to the buses and
+    returns max |v| as the scalar running maximum does: a NaN never wins."""
+    rng = np.random.default_rng(5)
+    for C in (1, 3, 4, 5, 8, 13, 64, 131):
+        yo, yp, un, up = (rng.standard_normal(C) for _ in range(4))
+        if C > 4:
+            yo[C // 2] = np.nan
+        m = rng.standard_normal((2, C))
+        got = m.copy()
+        g0, g1 = 0.7, -0.3
+        peak = K._force_out(yo, yp, un, up, has_ub, got[0], got[1] if two else got[0], two,
+                            g0, g1, C)
+        v = 2.0 * (yo - yp) + ((un - up) if has_ub else 0.0)
+        want = m.copy()
+        want[0] += g0 * v
+        if two:
+            want[1] += g1 * v
+        ok = np.isfinite(v)
+        assert np.allclose(got[:, ok], want[:, ok], rtol=0, atol=1e-14)
+        assert np.all(np.isnan(got[0, ~ok]))
+        assert peak == pytest.approx(np.max(np.abs(v[ok])), rel=1e-15)

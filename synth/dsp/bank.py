@@ -152,7 +152,8 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     ip[K.I_OUT] = int(out_mode)
     ip[K.I_PROBE] = -1
     ip[K.I_CHUNK] = 0 if force_per_sample else K.max_fast_chunk(cells, k, R, out_mode)
-    ip[K.I_CHUNK_FREE] = 0 if force_per_sample else K.max_free_chunk(cells, k, R, out_mode)
+    ip[K.I_CHUNK_FREE] = 0 if force_per_sample else K.max_free_chunk(cells, k, R, out_mode,
+                                                                      bool(ip[K.I_FILT]))
     ip[K.I_HLAST] = -1
     fp = np.zeros(K.F_NF)
     fp[K.F_DT] = dt_s
@@ -1059,6 +1060,14 @@ class StringBank:
                              f"{(o0 + n) * M}")
         if self.n_probes:
             self.ensure_probe_length(o0 + n)
+        self.render_unchecked(mix, o0, n, ubx)
+
+    def render_unchecked(self, mix: np.ndarray, o0: int, n: int, ubx: np.ndarray) -> None:
+        """:meth:`render` without its argument checks, for a caller whose
+        arrays meet them by construction (the sympathetic strings' stage,
+        once per block): ``mix`` 2-D, C-contiguous float64 with 1 or 2 rows
+        and at least o0 + n columns, ``ubx`` at least (o0 + n) M samples,
+        no probes.  (The kernel does not check bounds.)"""
         done = 0
         while done < n:
             c = min(n - done, self.max_block)

@@ -39,6 +39,10 @@ from ..dsp.bank import StringBank
 from ..kernels.bridge import bridge_follow
 
 
+#: a stop that never comes
+_NEVER = np.iinfo(np.int64).max
+
+
 class Sympathetic:
     """The sympathetic strings of one engine.
 
@@ -85,7 +89,12 @@ class Sympathetic:
         self.muted = np.zeros(self.n, dtype=bool)
         self.t = 0                                  # output samples processed
         # the output sample at which a muted string stops rendering
-        self._stop_at = np.full(self.n, np.iinfo(np.int64).max, dtype=np.int64)
+        self._stop_at = np.full(self.n, _NEVER, dtype=np.int64)
+        # no muted string stops before this output sample (a lower bound: the
+        # block's scan for strings to stop runs only when it is reached)
+        self._next_stop = _NEVER
+        if self.bank.n_probes or self.mix.shape[1] < max_block or self.ub.shape[0] < max_block:
+            raise ValueError("the sympathetic bank's arrays do not fit its blocks")
         self._idx = np.arange(self.n, dtype=np.int64)
 
     # -- state from the engine -------------------------------------------------
@@ -108,6 +117,7 @@ class Sympathetic:
         changed = (~muted) & ((lift != self.lift) | back)
         self.muted = muted.copy()
         self.lift = lift
+        self._update_next_stop()
         idx = np.flatnonzero(changed)
         if idx.size:
             self.bank.apply_dampers(idx, lift[idx])
@@ -116,6 +126,10 @@ class Sympathetic:
                 # it joins the bridge where the bridge is now, and eases on
                 self.bank.join_bridge(int(i), float(self.state[0]))
                 self.bank.activate(int(i))
+
+    def _update_next_stop(self) -> None:
+        st = self._stop_at[self.muted]
+        self._next_stop = int(st.min()) if st.size else _NEVER
 
     def _configure(self, i: int) -> None:
         self.bank.configure_from(i, self.design.slots[i])
@@ -131,7 +145,10 @@ class Sympathetic:
         if self.n == 0 or n <= 0:
             return
         f = self.force[:n]
-        np.sum(dry[:, o0:o0 + n], axis=0, out=f)
+        if dry.shape[0] == 2:
+            np.add(dry[0, o0:o0 + n], dry[1, o0:o0 + n], out=f)   # (= their sum over axis 0)
+        else:
+            np.sum(dry[:, o0:o0 + n], axis=0, out=f)
         f *= self.force_per_unit
         bridge_follow(f, n, self.a, self.b, self.state, self.ub)
         t0 = self.t
@@ -143,23 +160,28 @@ class Sympathetic:
         # a muted string stops at its own output sample (whatever the
         # blocks: a live stream and an offline render agree)
         pos = 0
-        while True:
+        while t0 + n > self._next_stop:
             act = self.bank._is_active[:self.n]
             due = np.flatnonzero(self.muted & act & (self._stop_at < t0 + n))
             if due.size == 0:
+                # (muted strings that no longer render have nothing to stop)
+                self._stop_at[self.muted & ~act] = _NEVER
+                self._update_next_stop()
                 break
             ts = int(self._stop_at[due].min())
             k = max(ts - t0, pos)
             if k > pos:
-                self.bank.render(self.mix, pos, k - pos, ubx=self.ub)
+                self.bank.render_unchecked(self.mix, pos, k - pos, self.ub)
             pos = k
             for i in due[self._stop_at[due] == ts]:
                 self.bank.deactivate(int(i))
                 self._configure(int(i))
+                self._stop_at[i] = _NEVER
+            self._update_next_stop()
             if self.bank.n_active == 0:
                 break
         if pos < n and self.bank.n_active:
-            self.bank.render(self.mix, pos, n - pos, ubx=self.ub)
+            self.bank.render_unchecked(self.mix, pos, n - pos, self.ub)
         if dry.shape[0] == m.shape[0]:
             dry[:, o0:o0 + n] += m
         else:

@@ -71,6 +71,14 @@ How the fast path is written, so that it is fast on every x86-64 target
   (:func:`_far_chunk`): one multiply-add per recurrence and sample, where
   state read from and written to the state table every sample put a
   store-to-load round trip on each recurrence;
+* the members of a coupled group (a piano key's unison) with the same
+  loop-filter sections run their loss, allpasses and biquads as the lanes
+  of one four-double vector (:func:`_far_lanes`, ``synth.kernels.lanes``:
+  numba has no vector type and runs no SLP vectoriser), each lane the
+  scalar code's operations in the same order; the running maxima (peaks,
+  the region's reach test) also take four samples to a vector
+  (:func:`_force_out`, :func:`_pairs_below`), which LLVM does not do for
+  a maximum without no-NaN fast-math;
 * strings whose hammer is running are rendered four at a time in lockstep
   chunks, their hammer steps interleaved (:func:`_render_group`,
   :func:`_excite_group`; in steady contact the step is short and
@@ -99,6 +107,7 @@ from numba import njit
 
 from .config import JIT_OPTS, SERIAL_OPTS
 from .felt_layer import felt_layer_start, felt_layer_step
+from .lanes import abs4, lane, load4, max4, splat4, store4, v4
 
 # ---- integer parameter columns (ipar[s, :]) ---------------------------------
 I_OFF = 0        # ring offset in the flat ring array
@@ -2038,18 +2047,22 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
 
 
 @njit(**JIT_OPTS)
-def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
-    """Step 4 of the fast path over a chunk, first half: the far-end filter
-    on the C samples turning round at x = L (contiguous ring slots j0 ..
-    j0+C-1), its state in registers, into yb[1:C+1] (not yet written back);
-    xb[1:C+2] gets the arriving samples x_0 .. x_C and yb[0] the previous
-    output.  :func:`_far_write` finishes the step."""
+def _io(ipar, s):
+    """Where a string's filter input starts in its far-end window: 0 with
+    the extra unit delay (the register S_XD first), else 1."""
+    return 0 if ipar[s, I_XDELAY] == 1 else 1
+
+
+@njit(**JIT_OPTS)
+def _far_prep(s, ring, ipar, fst, C, xb, yb):
+    """The far end's windows of a chunk: xb[1:C+2] gets the samples arriving
+    at x = L (contiguous ring slots j0 .. j0+C), xb[0] the extra-delay
+    register, yb[0] the previous chunk's last output.  Returns where the
+    filter's input starts in xb (:func:`_io`)."""
     off = ipar[s, I_OFF]
     N = ipar[s, I_N]
     P = 2 * N
     m0 = ipar[s, I_POS]
-    st = fst[s]
-    fp = fpar[s]
     j0 = m0 + 1 - N
     if j0 < 0:
         j0 += P
@@ -2057,13 +2070,25 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
     # for i = 0..C (x_C: its right neighbour at the last sample, u_r(N-1));
     # xb[0] = the extra-delay register, so the filter's input is
     # xb[i] (with the unit delay) or xb[1 + i] (without)
-    xb[0] = st[S_XD]
+    xb[0] = fst[s, S_XD]
     _ring_get(ring, off, P, j0, xb[1:C + 2], 1.0)
-    io = 0 if ipar[s, I_XDELAY] == 1 else 1
     jp = j0 - 1
     if jp < 0:
         jp += P
     yb[0] = ring[off + jp]          # the previous chunk's last output, vl(N-1)
+    return _io(ipar, s)
+
+
+@njit(**JIT_OPTS)
+def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
+    """Step 4 of the fast path over a chunk, first half: the far-end filter
+    on the C samples turning round at x = L (contiguous ring slots j0 ..
+    j0+C-1), its state in registers, into yb[1:C+1] (not yet written back);
+    xb[1:C+2] gets the arriving samples x_0 .. x_C and yb[0] the previous
+    output.  :func:`_far_write` finishes the step."""
+    st = fst[s]
+    fp = fpar[s]
+    io = _far_prep(s, ring, ipar, fst, C, xb, yb)
     xin = xb[io:io + C]             # the filter's input
     yo = yb[1:1 + C]                # its output
     # the allpass sections (dispersion, then tuning): the first four run in
@@ -2123,6 +2148,64 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
                     fp[F_TOG], hb)
 
 
+@njit(**SERIAL_OPTS)
+def _hmax4(v, peak):
+    """The running maximum ``a if a > peak else peak`` over the lanes of v."""
+    for k in range(4):
+        a = lane(v, k)
+        peak = a if a > peak else peak
+    return peak
+
+
+@njit(**SERIAL_OPTS)
+def _force_out(yo, yp, un, up, has_ub, m0, m1, two, g0, g1, C):
+    """The bridge force of a chunk, v = 2 (yo - yp) (+ (un - up) if
+    ``has_ub``), added to the buses (g0 v to m0 and, if ``two``, g1 v to
+    m1); returns max |v| (from 0).  Four samples to a vector (the running
+    maximum is a reduction LLVM does not vectorise without no-NaN
+    fast-math; :func:`synth.kernels.lanes.max4` keeps its NaN rule), the
+    same operations per sample as the scalar loop."""
+    two4 = splat4(2.0)
+    g04 = splat4(g0)
+    g14 = splat4(g1)
+    p4 = splat4(0.0)
+    n4 = C - C % 4
+    if has_ub and two:
+        for i in range(0, n4, 4):
+            v = two4 * (load4(yo, i) - load4(yp, i)) + (load4(un, i) - load4(up, i))
+            store4(m0, i, load4(m0, i) + g04 * v)
+            store4(m1, i, load4(m1, i) + g14 * v)
+            p4 = max4(p4, abs4(v))
+    elif has_ub:
+        for i in range(0, n4, 4):
+            v = two4 * (load4(yo, i) - load4(yp, i)) + (load4(un, i) - load4(up, i))
+            store4(m0, i, load4(m0, i) + g04 * v)
+            p4 = max4(p4, abs4(v))
+    elif two:
+        for i in range(0, n4, 4):
+            v = two4 * (load4(yo, i) - load4(yp, i))
+            store4(m0, i, load4(m0, i) + g04 * v)
+            store4(m1, i, load4(m1, i) + g14 * v)
+            p4 = max4(p4, abs4(v))
+    else:
+        for i in range(0, n4, 4):
+            v = two4 * (load4(yo, i) - load4(yp, i))
+            store4(m0, i, load4(m0, i) + g04 * v)
+            p4 = max4(p4, abs4(v))
+    peak = _hmax4(p4, 0.0)
+    for i in range(n4, C):
+        if has_ub:
+            v = 2.0 * (yo[i] - yp[i]) + (un[i] - up[i])
+        else:
+            v = 2.0 * (yo[i] - yp[i])
+        m0[i] += g0 * v
+        if two:
+            m1[i] += g1 * v
+        a = abs(v)
+        peak = a if a > peak else peak
+    return peak
+
+
 @njit(**JIT_OPTS)
 def _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, has_ub):
     """Step 4, second half: write the far end's outputs yb[1:C+1] back into
@@ -2155,42 +2238,11 @@ def _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, has_ub):
         two = ipar[s, I_BUS] == 1 and mix.shape[0] > 1
         pan = fpar[s, F_PAN]
         g0 = sc * (1.0 - pan) if two else sc
-        yp = yb[0:C]
-        yo = yb[1:1 + C]
+        g1 = sc * pan
         m0 = mix[0, o0:o0 + C]
-        if has_ub:
-            up = ubw[0:C]
-            un = ubw[1:1 + C]
-            if two:
-                g1 = sc * pan
-                m1 = mix[1, o0:o0 + C]
-                for i in range(C):
-                    v = 2.0 * (yo[i] - yp[i]) + (un[i] - up[i])
-                    m0[i] += g0 * v
-                    m1[i] += g1 * v
-                    a = abs(v)
-                    peak = a if a > peak else peak
-            else:
-                for i in range(C):
-                    v = 2.0 * (yo[i] - yp[i]) + (un[i] - up[i])
-                    m0[i] += g0 * v
-                    a = abs(v)
-                    peak = a if a > peak else peak
-        elif two:
-            g1 = sc * pan
-            m1 = mix[1, o0:o0 + C]
-            for i in range(C):
-                v = 2.0 * (yo[i] - yp[i])
-                m0[i] += g0 * v
-                m1[i] += g1 * v
-                a = abs(v)
-                peak = a if a > peak else peak
-        else:
-            for i in range(C):
-                v = 2.0 * (yo[i] - yp[i])
-                m0[i] += g0 * v
-                a = abs(v)
-                peak = a if a > peak else peak
+        m1 = mix[1 if two else 0, o0:o0 + C]
+        peak = _force_out(yb[1:1 + C], yb[0:C], ubw[1:1 + C], ubw[0:C], has_ub, m0, m1, two,
+                          g0, g1, C)
         peak *= abs(sc)
     return peak
 
@@ -2316,8 +2368,21 @@ def _pairs_below(r, n, th):
             a1 = n - 2
         x = r[a0:a1]
         y = r[a0 + 2:a1 + 2]
-        m = 0.0
-        for t in range(a1 - a0):
+        # four running maxima of |x - y| in the lanes of a vector, and their
+        # sum, which carries a NaN to the end (a NaN counts as over)
+        k = a1 - a0
+        k4 = k - k % 4
+        m4 = splat4(0.0)
+        z4 = splat4(0.0)
+        for t in range(0, k4, 4):
+            d = abs4(load4(x, t) - load4(y, t))
+            m4 = max4(m4, d)
+            z4 = z4 + d
+        m = _hmax4(m4, 0.0)
+        z = lane(z4, 0) + lane(z4, 1) + lane(z4, 2) + lane(z4, 3)
+        if z != z:
+            return False
+        for t in range(k4, k):
             d = abs(x[t] - y[t])
             m = m if d <= m else d
         if not (m < th):
@@ -2759,6 +2824,457 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
         s = ipar[s, I_CPLNX]
 
 
+# ---- the loop filters of a coupled group in lockstep (four lanes) ------------
+# The members of a coupled group run their far ends over the same chunk.
+# When they have the same filter structure (the strings of a piano key do),
+# their recurrences run as the four lanes of one vector (synth.kernels.lanes):
+# every lane computes what :func:`_head_sos` / :func:`_head` and
+# :func:`_biquads` compute for its string, the same operations in the same
+# order (the same samples).  Lanes past the group's last member repeat
+# member 0 and are not written back.
+
+
+@njit(**SERIAL_OPTS)
+def _lanes_ok(lead, G, ipar):
+    """True if the G members of the chain from ``lead`` can be filtered in
+    lockstep: each has the loss filter, no bend line, at most one
+    dispersion first-order section (then the tuning allpass), and they
+    have the same sections."""
+    nd = ipar[lead, I_NDISP]
+    nb = ipar[lead, I_NSOS]
+    if nd > 1:
+        return False
+    s = lead
+    for m in range(G):
+        if (ipar[s, I_FILT] != 1 or ipar[s, I_BLEN] != 0 or ipar[s, I_NDISP] != nd
+                or ipar[s, I_NSOS] != nb):
+            return False
+        s = ipar[s, I_CPLNX]
+    return True
+
+
+@njit(**SERIAL_OPTS)
+def _col4(a, r0, r1, r2, r3, c):
+    return v4(a[r0, c], a[r1, c], a[r2, c], a[r3, c])
+
+
+@njit(**SERIAL_OPTS)
+def _put4(a, r0, r1, r2, r3, G, c, v):
+    a[r0, c] = lane(v, 0)
+    if G > 1:
+        a[r1, c] = lane(v, 1)
+    if G > 2:
+        a[r2, c] = lane(v, 2)
+    if G > 3:
+        a[r3, c] = lane(v, 3)
+
+
+@njit(**SERIAL_OPTS)
+def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
+    """The first pass of four strings' far ends (lanes): the loss glide and
+    one-pole loss, ``ns`` (1 or 2) first-order sections (the dispersion
+    section at S_D0 if ns is 2, then the tuning allpass at S_APX) and the
+    first ``cnt`` (0..4) biquads, from X0..X3[0:n] into buf[0:4n]
+    (interleaved: sample i of lane m at 4 i + m), as :func:`_head_sos`
+    (:func:`_head` for cnt 0) computes each string's."""
+    b0 = _col4(fpar, r0, r1, r2, r3, F_B0)
+    gk = splat4(1.0) - _col4(fpar, r0, r1, r2, r3, F_B0S)
+    gc = _col4(fpar, r0, r1, r2, r3, F_B0S) * _col4(fpar, r0, r1, r2, r3, F_B0T)
+    a1 = _col4(fpar, r0, r1, r2, r3, F_A1)
+    lp = _col4(fst, r0, r1, r2, r3, S_LP)
+    s0 = S_D0 if ns == 2 else S_APX
+    c0 = _col4(fpar, r0, r1, r2, r3, F_ADISP if ns == 2 else F_ETA)
+    x0 = _col4(fst, r0, r1, r2, r3, s0)
+    y0 = _col4(fst, r0, r1, r2, r3, s0 + 1)
+    c1 = _col4(fpar, r0, r1, r2, r3, F_ETA)
+    x1 = _col4(fst, r0, r1, r2, r3, S_APX)
+    y1 = _col4(fst, r0, r1, r2, r3, S_APX + 1)
+    q0 = S_SOS
+    x10 = _col4(fst, r0, r1, r2, r3, q0)
+    x20 = _col4(fst, r0, r1, r2, r3, q0 + 1)
+    z = splat4(0.0)
+    ca0 = _col4(fpar, r0, r1, r2, r3, F_SOS + 0) if cnt > 0 else z
+    cb0 = _col4(fpar, r0, r1, r2, r3, F_SOS + 1) if cnt > 0 else z
+    y10 = _col4(fst, r0, r1, r2, r3, q0 + 2) if cnt > 0 else z
+    y20 = _col4(fst, r0, r1, r2, r3, q0 + 3) if cnt > 0 else z
+    ca1 = _col4(fpar, r0, r1, r2, r3, F_SOS + 2) if cnt > 1 else z
+    cb1 = _col4(fpar, r0, r1, r2, r3, F_SOS + 3) if cnt > 1 else z
+    y11 = _col4(fst, r0, r1, r2, r3, q0 + 6) if cnt > 1 else z
+    y21 = _col4(fst, r0, r1, r2, r3, q0 + 7) if cnt > 1 else z
+    ca2 = _col4(fpar, r0, r1, r2, r3, F_SOS + 4) if cnt > 2 else z
+    cb2 = _col4(fpar, r0, r1, r2, r3, F_SOS + 5) if cnt > 2 else z
+    y12 = _col4(fst, r0, r1, r2, r3, q0 + 10) if cnt > 2 else z
+    y22 = _col4(fst, r0, r1, r2, r3, q0 + 11) if cnt > 2 else z
+    ca3 = _col4(fpar, r0, r1, r2, r3, F_SOS + 6) if cnt > 3 else z
+    cb3 = _col4(fpar, r0, r1, r2, r3, F_SOS + 7) if cnt > 3 else z
+    y13 = _col4(fst, r0, r1, r2, r3, q0 + 14) if cnt > 3 else z
+    y23 = _col4(fst, r0, r1, r2, r3, q0 + 15) if cnt > 3 else z
+    if ns == 1 and cnt == 0:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            store4(buf, 4 * i, y0)
+    elif ns == 2 and cnt == 0:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            store4(buf, 4 * i, y1)
+    elif ns == 1 and cnt == 1:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            h = y0
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            y20 = y10
+            y10 = o0
+            store4(buf, 4 * i, o0)
+    elif ns == 2 and cnt == 1:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            h = y1
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            y20 = y10
+            y10 = o0
+            store4(buf, 4 * i, o0)
+    elif ns == 1 and cnt == 2:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            h = y0
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            y21 = y11
+            y11 = o1
+            store4(buf, 4 * i, o1)
+    elif ns == 2 and cnt == 2:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            h = y1
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            y21 = y11
+            y11 = o1
+            store4(buf, 4 * i, o1)
+    elif ns == 1 and cnt == 3:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            h = y0
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            y22 = y12
+            y12 = o2
+            store4(buf, 4 * i, o2)
+    elif ns == 2 and cnt == 3:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            h = y1
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            y22 = y12
+            y12 = o2
+            store4(buf, 4 * i, o2)
+    elif ns == 1:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            h = y0
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            o3 = (cb3 * (o2 - y23) + y22 + ca3 * y12) - ca3 * y13
+            y22 = y12
+            y12 = o2
+            y23 = y13
+            y13 = o3
+            store4(buf, 4 * i, o3)
+    else:
+        for i in range(n):
+            b0 = gk * b0 + gc
+            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            y0 = c0 * lp + x0 - c0 * y0
+            x0 = lp
+            y1 = c1 * y0 + x1 - c1 * y1
+            x1 = y0
+            h = y1
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            o3 = (cb3 * (o2 - y23) + y22 + ca3 * y12) - ca3 * y13
+            y22 = y12
+            y12 = o2
+            y23 = y13
+            y13 = o3
+            store4(buf, 4 * i, o3)
+    _put4(fpar, r0, r1, r2, r3, G, F_B0, b0)
+    _put4(fst, r0, r1, r2, r3, G, S_LP, lp)
+    _put4(fst, r0, r1, r2, r3, G, s0, x0)
+    _put4(fst, r0, r1, r2, r3, G, s0 + 1, y0)
+    if ns == 2:
+        _put4(fst, r0, r1, r2, r3, G, S_APX, x1)
+        _put4(fst, r0, r1, r2, r3, G, S_APX + 1, y1)
+    if cnt > 0:
+        _put4(fst, r0, r1, r2, r3, G, q0, x10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 1, x20)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 2, y10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 3, y20)
+    if cnt > 1:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 4, y10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 5, y20)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 6, y11)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 7, y21)
+    if cnt > 2:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 8, y11)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 9, y21)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 10, y12)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 11, y22)
+    if cnt > 3:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 12, y12)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 13, y22)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 14, y13)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 15, y23)
+
+
+@njit(**SERIAL_OPTS)
+def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt):
+    """Biquads j0 .. j0+cnt-1 (cnt 1..4) of four strings (lanes) over the
+    interleaved buf[0:4n] in place, as :func:`_biquads` computes each
+    string's."""
+    q0 = S_SOS + 4 * j0
+    f0 = F_SOS + 2 * j0
+    z = splat4(0.0)
+    ca0 = _col4(fpar, r0, r1, r2, r3, f0)
+    cb0 = _col4(fpar, r0, r1, r2, r3, f0 + 1)
+    x10 = _col4(fst, r0, r1, r2, r3, q0)
+    x20 = _col4(fst, r0, r1, r2, r3, q0 + 1)
+    y10 = _col4(fst, r0, r1, r2, r3, q0 + 2)
+    y20 = _col4(fst, r0, r1, r2, r3, q0 + 3)
+    ca1 = _col4(fpar, r0, r1, r2, r3, f0 + 2) if cnt > 1 else z
+    cb1 = _col4(fpar, r0, r1, r2, r3, f0 + 3) if cnt > 1 else z
+    y11 = _col4(fst, r0, r1, r2, r3, q0 + 6) if cnt > 1 else z
+    y21 = _col4(fst, r0, r1, r2, r3, q0 + 7) if cnt > 1 else z
+    ca2 = _col4(fpar, r0, r1, r2, r3, f0 + 4) if cnt > 2 else z
+    cb2 = _col4(fpar, r0, r1, r2, r3, f0 + 5) if cnt > 2 else z
+    y12 = _col4(fst, r0, r1, r2, r3, q0 + 10) if cnt > 2 else z
+    y22 = _col4(fst, r0, r1, r2, r3, q0 + 11) if cnt > 2 else z
+    ca3 = _col4(fpar, r0, r1, r2, r3, f0 + 6) if cnt > 3 else z
+    cb3 = _col4(fpar, r0, r1, r2, r3, f0 + 7) if cnt > 3 else z
+    y13 = _col4(fst, r0, r1, r2, r3, q0 + 14) if cnt > 3 else z
+    y23 = _col4(fst, r0, r1, r2, r3, q0 + 15) if cnt > 3 else z
+    if cnt == 1:
+        for i in range(n):
+            h = load4(buf, 4 * i)
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            y20 = y10
+            y10 = o0
+            store4(buf, 4 * i, o0)
+    elif cnt == 2:
+        for i in range(n):
+            h = load4(buf, 4 * i)
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            y21 = y11
+            y11 = o1
+            store4(buf, 4 * i, o1)
+    elif cnt == 3:
+        for i in range(n):
+            h = load4(buf, 4 * i)
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            y22 = y12
+            y12 = o2
+            store4(buf, 4 * i, o2)
+    else:
+        for i in range(n):
+            h = load4(buf, 4 * i)
+            o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
+            x20 = x10
+            x10 = h
+            o1 = (cb1 * (o0 - y21) + y20 + ca1 * y10) - ca1 * y11
+            y20 = y10
+            y10 = o0
+            o2 = (cb2 * (o1 - y22) + y21 + ca2 * y11) - ca2 * y12
+            y21 = y11
+            y11 = o1
+            o3 = (cb3 * (o2 - y23) + y22 + ca3 * y12) - ca3 * y13
+            y22 = y12
+            y12 = o2
+            y23 = y13
+            y13 = o3
+            store4(buf, 4 * i, o3)
+    _put4(fst, r0, r1, r2, r3, G, q0, x10)
+    _put4(fst, r0, r1, r2, r3, G, q0 + 1, x20)
+    _put4(fst, r0, r1, r2, r3, G, q0 + 2, y10)
+    _put4(fst, r0, r1, r2, r3, G, q0 + 3, y20)
+    if cnt > 1:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 4, y10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 5, y20)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 6, y11)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 7, y21)
+    if cnt > 2:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 8, y11)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 9, y21)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 10, y12)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 11, y22)
+    if cnt > 3:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 12, y12)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 13, y22)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 14, y13)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 15, y23)
+
+
+@njit(**SERIAL_OPTS)
+def _lanes_out(buf, n, Y0, Y1, Y2, Y3):
+    """The lanes of buf[0:4n] into Y0..Y3[0:n]."""
+    for i in range(n):
+        v = load4(buf, 4 * i)
+        Y0[i] = lane(v, 0)
+        Y1[i] = lane(v, 1)
+        Y2[i] = lane(v, 2)
+        Y3[i] = lane(v, 3)
+
+
+@njit(**JIT_OPTS)
+def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
+    """The loop filters of the G members of a coupled group (the chain from
+    ``lead``) over a chunk, four at a time in lockstep (:func:`_lanes_ok`
+    holds), from their far-end windows in ``cw`` (set up by
+    :func:`_far_prep`) into them, as :func:`_far_filter` computes each
+    string's; ``buf``: 4 C samples of scratch."""
+    ns = ipar[lead, I_NDISP] + 1
+    nb = ipar[lead, I_NSOS]
+    cnt = nb if nb < 4 else 4
+    dummy = cw[2 * G * _CW + 1:2 * G * _CW + 1 + C]    # the bridge row: written after this
+    s = lead
+    m = 0
+    while m < G:
+        g = G - m if G - m < 4 else 4
+        r0 = s
+        x0 = cw[2 * m * _CW + _io(ipar, r0):][:C]
+        y0 = cw[(2 * m + 1) * _CW + 1:(2 * m + 1) * _CW + 1 + C]
+        r1 = r0
+        x1 = x0
+        y1 = dummy
+        r2 = r0
+        x2 = x0
+        y2 = dummy
+        r3 = r0
+        x3 = x0
+        y3 = dummy
+        s = ipar[s, I_CPLNX]
+        if g > 1:
+            r1 = s
+            x1 = cw[2 * (m + 1) * _CW + _io(ipar, r1):][:C]
+            y1 = cw[(2 * m + 3) * _CW + 1:(2 * m + 3) * _CW + 1 + C]
+            s = ipar[s, I_CPLNX]
+        if g > 2:
+            r2 = s
+            x2 = cw[2 * (m + 2) * _CW + _io(ipar, r2):][:C]
+            y2 = cw[(2 * m + 5) * _CW + 1:(2 * m + 5) * _CW + 1 + C]
+            s = ipar[s, I_CPLNX]
+        if g > 3:
+            r3 = s
+            x3 = cw[2 * (m + 3) * _CW + _io(ipar, r3):][:C]
+            y3 = cw[(2 * m + 7) * _CW + 1:(2 * m + 7) * _CW + 1 + C]
+            s = ipar[s, I_CPLNX]
+        _lanes_head(x0, x1, x2, x3, buf, C, fpar, fst, r0, r1, r2, r3, g, ns, cnt)
+        j = cnt
+        while j < nb:
+            c = nb - j
+            if c > 4:
+                c = 4
+            _lanes_biquads(buf, C, fpar, fst, r0, r1, r2, r3, g, j, c)
+            j += c
+        _lanes_out(buf, C, y0, y1, y2, y3)
+        m += g
+    # the extra-delay registers: the last arriving sample
+    s = lead
+    for m in range(G):
+        if ipar[s, I_XDELAY] == 1:
+            fst[s, S_XD] = cw[2 * m * _CW + C]
+        s = ipar[s, I_CPLNX]
+
+
 @njit(**JIT_OPTS)
 def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist):
     """C samples of a coupled group (the G strings of the chain from
@@ -2793,13 +3309,21 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
     # ---- 3. regions, and 4. the loop filters into the coupled area
     work = scratch[_SCRATCH_GROUP:]
     cw = scratch[scratch.shape[0] - (2 * G + 1) * _CW:]
+    lock = _lanes_ok(lead, G, ipar)
     s = lead
     for m in range(G):
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3)
-        _far_filter(s, ring, ipar, fpar, fst, U, C, cw[2 * m * _CW:2 * m * _CW + C + 2],
-                    cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1], hb)
+        xw = cw[2 * m * _CW:2 * m * _CW + C + 2]
+        yw = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
+        if lock:
+            _far_prep(s, ring, ipar, fst, C, xw, yw)
+        else:
+            _far_filter(s, ring, ipar, fpar, fst, U, C, xw, yw, hb)
         s = ipar[s, I_CPLNX]
+    if lock:
+        # the members' loop filters in lockstep (the work windows are free)
+        _far_lanes(lead, G, ipar, fpar, fst, C, cw, work[0:4 * C])
     _bridge(lead, G, ipar, fpar, fst, C, cw)
     s = lead
     for m in range(G):
@@ -2927,11 +3451,19 @@ def _fold_sub(mix, o0, n, sub, M, rows):
     for r in range(rows):
         mo = mix[r, o0:o0 + n]
         sb = sub[r]
-        for i in range(n):
-            acc = 0.0
-            for j in range(M):
-                acc += sb[i * M + j]
-            mo[i] += w * acc
+        if M == 2:
+            # (the grand's top keys; the same sums: 0 + a + b)
+            for i in range(n):
+                acc = 0.0
+                acc += sb[2 * i]
+                acc += sb[2 * i + 1]
+                mo[i] += w * acc
+        else:
+            for i in range(n):
+                acc = 0.0
+                for j in range(M):
+                    acc += sb[i * M + j]
+                mo[i] += w * acc
 
 
 @njit(**JIT_OPTS)
@@ -3040,14 +3572,23 @@ def max_fast_chunk(N: int, k: int, R: int, out_mode: int) -> int:
     return max(c, 0)
 
 
-def max_free_chunk(N: int, k: int, R: int, out_mode: int) -> int:
+def max_free_chunk(N: int, k: int, R: int, out_mode: int, filt: bool = False) -> int:
     """Longest exact chunk with no excitation running: the excitation point
     is then no operation point, except as the pickup of ``out_mode`` 0 (u
-    at k is read after the chunk's region and far-end steps)."""
+    at k is read after the chunk's region and far-end steps).
+
+    With the bridge-force output of a far-end filter (``filt``: the force
+    comes from the filter's output, not from the ring) and no region, the
+    far end is the only operation point: a sample it writes comes back to
+    it after the loop's 2N steps, so a chunk may take 2N - 2 (its C + 1
+    arriving samples and the previous output are C + 2 distinct slots),
+    where the region's distance bounds it at N - R - 2."""
     if out_mode == 0:
         if R > 0 and k <= R + 1:
             return 0
         c = min(k - R, N - k, N - R) - 1
+    elif filt and R == 0:
+        c = 2 * N - 2
     else:
         c = N - R - 2
     return max(c, 0)
