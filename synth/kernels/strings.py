@@ -1607,6 +1607,32 @@ def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw, curv, st)
 
 
 @njit(**JIT_OPTS)
+def _subcell_needed(sm, vn, ut, up, base, lim):
+    """Whether a fast-path chunk must solve the first cell's sub-cell
+    contact at this sample (:func:`_subcell_chunk`, :func:`_subcell_ring`;
+    side-scaled: ``sm`` the wave leaving x = 0 now, ``vn`` = vl(2), ``ut`` =
+    sm - vn = u(1) at the next sample without delta, ``up`` u(1) at the last
+    sample, ``base`` = U1 - G, ``lim`` = U1 + G).  Not when the delta can
+    change no sample:
+
+    * u(1) at neither sample past ``base`` (r <= 0 at both): the delta is 0
+      (the first return of :func:`_subcell_delta`, the same test without
+      its divisions);
+    * ``ut`` past U1 + G by more than 1e-9 of the values: the delta lies in
+      [-G, 0] (minus the secant slope of the potential, whose derivative
+      G q^2 lies in [0, G]), so sm + delta stays past U1 + vn and point 1's
+      clamp at the next sample replaces it by U1 + vn, whatever delta was
+      (the fast path's clamp is ``min(sm + delta, U1 + vn)``: its result
+      does not depend on the value it discards).  With the sitar played
+      loud this is half the samples with a delta; the solve is the sub-cell
+      contact's whole cost (docs/benchmarks.md, "The sitar's sub-cell
+      contact")."""
+    if not (ut > base or up > base):
+        return False
+    return not (ut - lim > 1e-9 * (abs(sm) + abs(vn) + lim))
+
+
+@njit(**JIT_OPTS)
 def _subcell_chunk(ring, off, P, m0, acc, vw, C, R, sc, U1, curv, st):
     """The first cell's sub-cell contact over a fast-path chunk, on the
     region's windows (side-scaled by ``sc``: ``U1`` = side U(1)).  At the
@@ -1628,6 +1654,8 @@ def _subcell_chunk(ring, off, P, m0, acc, vw, C, R, sc, U1, curv, st):
         st[S_U1P] = sc * (acc[i0 + C - 1] - vw[C - 1])
         return 0.0
     G = curv * U1
+    base = U1 - G
+    lim = U1 + G
     up = sc * st[S_U1P]
     for t in range(C):
         v = vw[t]
@@ -1650,12 +1678,14 @@ def _subcell_chunk(ring, off, P, m0, acc, vw, C, R, sc, U1, curv, st):
             if j >= P:
                 j -= P
             vn = sc * ring[off + j]
-        dl = _subcell_delta(sm - vn, up, U1, G)
-        if dl != 0.0:
-            if t < C - 1:
-                acc[i0 + t + 1] += dl
-            else:
-                last = dl
+        ut = sm - vn
+        if _subcell_needed(sm, vn, ut, up, base, lim):
+            dl = _subcell_delta(ut, up, U1, G)
+            if dl != 0.0:
+                if t < C - 1:
+                    acc[i0 + t + 1] += dl
+                else:
+                    last = dl
         up = a - v
     st[S_U1P] = sc * up
     return last
@@ -1676,6 +1706,8 @@ def _subcell_ring(ring, off, P, m0, C, sc, U1, curv, st, X):
         st[S_U1P] = sc * (X[C - 1] - X[C + 1])
         return
     G = curv * U1
+    base = U1 - G
+    lim = U1 + G
     up = sc * st[S_U1P]
     for t in range(C):
         v = X[t + 2]
@@ -1684,9 +1716,13 @@ def _subcell_ring(ring, off, P, m0, C, sc, U1, curv, st, X):
         if x < a:
             a = x
             X[t] = a
-        dl = _subcell_delta(X[t + 1] - X[t + 3], up, U1, G)
-        if dl != 0.0:
-            X[t + 1] += dl
+        sm = X[t + 1]
+        vn = X[t + 3]
+        ut = sm - vn
+        if _subcell_needed(sm, vn, ut, up, base, lim):
+            dl = _subcell_delta(ut, up, U1, G)
+            if dl != 0.0:
+                X[t + 1] += dl
         up = a - v
     st[S_U1P] = sc * up
     _ring_put(ring, off, P, j, X[0:C + 1], sc)
