@@ -496,6 +496,24 @@ def test_subcell_solve_is_left_out_only_where_it_changes_nothing(U1, curv, over,
         assert min(sm + d, U1 + vn) == U1 + vn
 
 
+@settings(max_examples=400, deadline=None)
+@given(rt=st.floats(-1.0, 3.0), rp=st.floats(-1.0, 1.0), U1=st.floats(1e-7, 1e-4),
+       curv=st.sampled_from([1.0, 0.6, 0.1]))
+def test_subcell_delta_matches_the_bisection(rt, rp, U1, curv):
+    """The kernel's sub-cell delta (closed forms, Halley's steps in the
+    cell) is the discrete gradient's root that the reference finds by
+    bisection (tests/reference.py), to 1e-11 of G, on both sides of the
+    cell and across it (r = (u(1) - U1 + G) / G at the two samples; at
+    the last one at most 1: u(1) after its clamp)."""
+    from reference import subcell_delta
+    G = curv * U1
+    base = U1 - G
+    ut, up = base + rt * G, base + rp * G
+    got = K._subcell_delta(ut, up, U1, G)
+    want = subcell_delta(ut, up, U1, G)
+    assert abs(got - want) <= 1e-11 * G, (got / G, want / G)
+
+
 def test_subcell_solve_is_needed_near_and_inside_the_cell():
     """... and it is not left out where the delta matters: u(1) in the
     cell at either sample, or past U1 + G by less than the margin."""

@@ -922,9 +922,11 @@ def _subcell_delta(ut, up, U1, G):
     delta + that slope increasing in y: one root, y <= r(ut).  Where it
     lies is read from the sign at y = 0 and y = 1; below 0 and beyond 1
     the equation is a quadratic (Qi is 0, or linear); between, with y =
-    2a - a^2, a polynomial in a = q(y) without square roots: Newton's
-    steps from a = q(r(ut)) (delta = 0), kept in their bracket, until one
-    moves a by less than 1e-7 of it."""
+    2a - a^2, a polynomial in a = q(y) without square roots: Halley's
+    steps (Newton's where P P'' > P'^2) from a = q(r(ut)) (delta = 0), kept
+    in their bracket, until one moves a by less than 1e-5 of it (Newton's
+    to 1e-7 took 5 steps on average on the sitar, Halley's 3.5: the
+    solve is the sub-cell contact's cost, docs/benchmarks.md)."""
     base = U1 - G
     rt = (ut - base) / G
     rp = (up - base) / G
@@ -966,6 +968,7 @@ def _subcell_delta(ut, up, U1, G):
         if rp >= 1.0:
             P = e + a * (0.5 * a + 1.0 / 3.0) + 1.0 / 6.0
             dP = 2.0 - a + 1.0 / 3.0
+            d2 = -1.0
         elif rp > 0.0:
             sb = 2.0 - a - b
             a2 = a * a
@@ -973,10 +976,13 @@ def _subcell_delta(ut, up, U1, G):
             P = e * sb + (2.0 / 3.0) * (a2 + a * b + b2) - 0.5 * (a + b) * (a2 + b2)
             dP = ((2.0 - 2.0 * a) * sb - e + (4.0 * a + 2.0 * b) / 3.0
                   - 0.5 * (3.0 * a2 + 2.0 * a * b + b2))
+            d2 = 3.0 * a + b - 20.0 / 3.0
         else:
             f = y - rp
             P = e * f + a * a * a * (2.0 / 3.0 - 0.5 * a)
             dP = (2.0 - 2.0 * a) * (e + f) + 2.0 * a * a * (1.0 - a)
+            ea = 2.0 - 2.0 * a
+            d2 = -2.0 * (e + f) + 2.0 * ea * ea + 4.0 * a - 6.0 * a * a
         if P > 0.0:
             hi = a
         elif P < 0.0:
@@ -986,13 +992,18 @@ def _subcell_delta(ut, up, U1, G):
         if hi - lo <= 1e-15 * hi:
             break               # (delta = 0 within rounding: P(q(rt)) < 0 by an ulp)
         if dP > 0.0:
-            an = a - P / dP
+            # Halley's step (P'' = d2), Newton's where P P'' is large
+            Pd = P * d2
+            if abs(Pd) <= dP * dP:
+                an = a - 2.0 * P * dP / (2.0 * dP * dP - Pd)
+            else:
+                an = a - P / dP
             # (a step onto an end of the bracket is allowed: the root may
             # lie within rounding of a point already evaluated)
             if an >= lo and an <= hi:
-                if abs(an - a) <= 1e-7 * a:
-                    # Newton's steps square their error: the next would
-                    # be below 1e-13 of a
+                if abs(an - a) <= 1e-5 * a:
+                    # Halley's steps cube their error: the next would be
+                    # below 1e-14 of a
                     a = an
                     break
                 a = an
