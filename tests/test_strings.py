@@ -421,22 +421,28 @@ def _curved_profile(side, R, dx, theta=0.0, pts=20):
 
 
 @pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
-@pytest.mark.parametrize("side,theta,curv_only", [(1, 0.0, False), (-1, 0.0, False),
-                                                  (1, 0.002, False), (1, 0.0, True)])
-def test_subcell_contact_matches_the_naive_scheme(per_sample, side, theta, curv_only):
+@pytest.mark.parametrize("side,theta,curv_only,amp", [(1, 0.0, False, 0.003), (-1, 0.0, False, 0.003),
+                                                      (1, 0.002, False, 0.003),
+                                                      (1, 0.0, True, 0.003),
+                                                      (1, 0.0, False, 0.012),
+                                                      (-1, 0.002, False, 0.012)])
+def test_subcell_contact_matches_the_naive_scheme(per_sample, side, theta, curv_only, amp):
     """The kernel's sub-cell contact (fast path, block after block, and
     per sample) is the naive scheme's written out (tests/reference.py:
     the discrete gradient solved by bisection) on a lossless string
     against a curved profile: an open jawari on either side, one closed
     by a thread (theta > 0), and the first cell's contact alone (the
-    points past 1 out of reach: the grid's clamp never fires there)."""
+    points past 1 out of reach: the grid's clamp never fires there).
+    At 12 mm, u(1) goes up to 10 times U(1) + G: the fast path's chunks
+    leave out the solve where point 1's clamp takes over
+    (``strings._subcell_needed``)."""
     N, k, dx, dt = 160, 120, 1e-3, 1e-5
     R = 0.05
     U = _curved_profile(side, R, dx, theta)
     if curv_only:
         U[1:] = side * np.inf
     curv = 1.0 - theta * dx / abs(U[0])
-    A = side * 0.003
+    A = side * amp
     n = 3000
     y, b = run_bank(N, k, 1, A, 0.002, 0.0, dt, n, U=U, side=side, per_sample=per_sample,
                     block=97, subcell=curv)
@@ -456,6 +462,70 @@ def test_subcell_contact_is_refused_where_it_cannot_act():
         b.configure(0, cells=100, k=50, dt_s=1e-5, U=np.array([-1e-6, 4e-6]), subcell=1.0)
     with pytest.raises(ValueError, match=r"k = 2 is out of range with subcell > 0 \(value >= 3"):
         b.configure(0, cells=100, k=2, dt_s=1e-5, U=np.array([1e-6, 4e-6]), subcell=1.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(U1=st.floats(1e-8, 1e-4), curv=st.floats(0.05, 1.0), over=st.floats(-3.0, 60.0),
+       rp=st.floats(-5.0, 5.0), vn=st.floats(-0.02, 0.02))
+def test_subcell_solve_is_left_out_only_where_it_changes_nothing(U1, curv, over, rp, vn):
+    """The fast path leaves out the sub-cell solve (``_subcell_needed``
+    False) only where it changes no sample: u(1) at neither sample past
+    U1 - G, where the delta is 0; or u(1) at the next sample past U1 + G
+    by more than 1e-9 of the values, where the delta (the kernel's and the
+    reference's bisection, tests/reference.py) lies in [-G, 0] and keeps
+    sm + delta past U1 + vn, so that point 1's clamp at the next sample
+    gives U1 + vn whatever delta was."""
+    from reference import subcell_delta
+    G = curv * U1
+    base, lim = U1 - G, U1 + G
+    ut0 = base + over * G            # u(1) at the next sample without delta, in units of G
+    up = base + rp * G
+    sm = vn + ut0
+    ut = sm - vn
+    need = K._subcell_needed(sm, vn, ut, up, base, lim)
+    dl = K._subcell_delta(ut, up, U1, G)
+    if not (ut > base or up > base):
+        assert not need and dl == 0.0
+        return
+    if need:
+        return
+    ref = subcell_delta(ut, up, U1, G)
+    for d in (dl, ref):
+        assert -G * (1 + 1e-9) <= d <= 0.0
+        assert sm + d > U1 + vn              # the clamp fires: min() discards sm + d
+        assert min(sm + d, U1 + vn) == U1 + vn
+
+
+@settings(max_examples=400, deadline=None)
+@given(rt=st.floats(-1.0, 3.0), rp=st.floats(-1.0, 1.0), U1=st.floats(1e-7, 1e-4),
+       curv=st.sampled_from([1.0, 0.6, 0.1]))
+def test_subcell_delta_matches_the_bisection(rt, rp, U1, curv):
+    """The kernel's sub-cell delta (closed forms, Halley's steps in the
+    cell) is the discrete gradient's root that the reference finds by
+    bisection (tests/reference.py), to 1e-11 of G, on both sides of the
+    cell and across it (r = (u(1) - U1 + G) / G at the two samples; at
+    the last one at most 1: u(1) after its clamp)."""
+    from reference import subcell_delta
+    G = curv * U1
+    base = U1 - G
+    ut, up = base + rt * G, base + rp * G
+    got = K._subcell_delta(ut, up, U1, G)
+    want = subcell_delta(ut, up, U1, G)
+    assert abs(got - want) <= 1e-11 * G, (got / G, want / G)
+
+
+def test_subcell_solve_is_needed_near_and_inside_the_cell():
+    """... and it is not left out where the delta matters: u(1) in the
+    cell at either sample, or past U1 + G by less than the margin."""
+    U1, G = 1e-6, 1e-6
+    base, lim = U1 - G, U1 + G
+    vn = 3e-3
+    for ut, up in ((0.5e-6, -1e-6), (-1e-6, 0.5e-6), (1.9e-6, 1e-6), (2e-6, 3e-6),
+                   (2e-6 + 1e-15, 1e-6)):
+        sm = vn + ut
+        assert K._subcell_needed(sm, vn, sm - vn, up, base, lim), (ut, up)
+    assert not K._subcell_needed(vn + 2.1e-6, vn, 2.1e-6, 1e-6, base, lim)
+    assert not K._subcell_needed(vn - 1e-6, vn, -1e-6, -2e-6, base, lim)
 
 
 @pytest.mark.parametrize("A", [3e-4, 5e-4, 1e-3, 3e-3])

@@ -922,9 +922,11 @@ def _subcell_delta(ut, up, U1, G):
     delta + that slope increasing in y: one root, y <= r(ut).  Where it
     lies is read from the sign at y = 0 and y = 1; below 0 and beyond 1
     the equation is a quadratic (Qi is 0, or linear); between, with y =
-    2a - a^2, a polynomial in a = q(y) without square roots: Newton's
-    steps from a = q(r(ut)) (delta = 0), kept in their bracket, until one
-    moves a by less than 1e-7 of it."""
+    2a - a^2, a polynomial in a = q(y) without square roots: Halley's
+    steps (Newton's where P P'' > P'^2) from a = q(r(ut)) (delta = 0), kept
+    in their bracket, until one moves a by less than 1e-5 of it (Newton's
+    to 1e-7 took 5 steps on average on the sitar, Halley's 3.5: the
+    solve is the sub-cell contact's cost, docs/benchmarks.md)."""
     base = U1 - G
     rt = (ut - base) / G
     rp = (up - base) / G
@@ -966,6 +968,7 @@ def _subcell_delta(ut, up, U1, G):
         if rp >= 1.0:
             P = e + a * (0.5 * a + 1.0 / 3.0) + 1.0 / 6.0
             dP = 2.0 - a + 1.0 / 3.0
+            d2 = -1.0
         elif rp > 0.0:
             sb = 2.0 - a - b
             a2 = a * a
@@ -973,10 +976,13 @@ def _subcell_delta(ut, up, U1, G):
             P = e * sb + (2.0 / 3.0) * (a2 + a * b + b2) - 0.5 * (a + b) * (a2 + b2)
             dP = ((2.0 - 2.0 * a) * sb - e + (4.0 * a + 2.0 * b) / 3.0
                   - 0.5 * (3.0 * a2 + 2.0 * a * b + b2))
+            d2 = 3.0 * a + b - 20.0 / 3.0
         else:
             f = y - rp
             P = e * f + a * a * a * (2.0 / 3.0 - 0.5 * a)
             dP = (2.0 - 2.0 * a) * (e + f) + 2.0 * a * a * (1.0 - a)
+            ea = 2.0 - 2.0 * a
+            d2 = -2.0 * (e + f) + 2.0 * ea * ea + 4.0 * a - 6.0 * a * a
         if P > 0.0:
             hi = a
         elif P < 0.0:
@@ -986,13 +992,18 @@ def _subcell_delta(ut, up, U1, G):
         if hi - lo <= 1e-15 * hi:
             break               # (delta = 0 within rounding: P(q(rt)) < 0 by an ulp)
         if dP > 0.0:
-            an = a - P / dP
+            # Halley's step (P'' = d2), Newton's where P P'' is large
+            Pd = P * d2
+            if abs(Pd) <= dP * dP:
+                an = a - 2.0 * P * dP / (2.0 * dP * dP - Pd)
+            else:
+                an = a - P / dP
             # (a step onto an end of the bracket is allowed: the root may
             # lie within rounding of a point already evaluated)
             if an >= lo and an <= hi:
-                if abs(an - a) <= 1e-7 * a:
-                    # Newton's steps square their error: the next would
-                    # be below 1e-13 of a
+                if abs(an - a) <= 1e-5 * a:
+                    # Halley's steps cube their error: the next would be
+                    # below 1e-14 of a
                     a = an
                     break
                 a = an
@@ -1607,6 +1618,32 @@ def _region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw, curv, st)
 
 
 @njit(**JIT_OPTS)
+def _subcell_needed(sm, vn, ut, up, base, lim):
+    """Whether a fast-path chunk must solve the first cell's sub-cell
+    contact at this sample (:func:`_subcell_chunk`, :func:`_subcell_ring`;
+    side-scaled: ``sm`` the wave leaving x = 0 now, ``vn`` = vl(2), ``ut`` =
+    sm - vn = u(1) at the next sample without delta, ``up`` u(1) at the last
+    sample, ``base`` = U1 - G, ``lim`` = U1 + G).  Not when the delta can
+    change no sample:
+
+    * u(1) at neither sample past ``base`` (r <= 0 at both): the delta is 0
+      (the first return of :func:`_subcell_delta`, the same test without
+      its divisions);
+    * ``ut`` past U1 + G by more than 1e-9 of the values: the delta lies in
+      [-G, 0] (minus the secant slope of the potential, whose derivative
+      G q^2 lies in [0, G]), so sm + delta stays past U1 + vn and point 1's
+      clamp at the next sample replaces it by U1 + vn, whatever delta was
+      (the fast path's clamp is ``min(sm + delta, U1 + vn)``: its result
+      does not depend on the value it discards).  With the sitar played
+      loud this is half the samples with a delta; the solve is the sub-cell
+      contact's whole cost (docs/benchmarks.md, "The sitar's sub-cell
+      contact")."""
+    if not (ut > base or up > base):
+        return False
+    return not (ut - lim > 1e-9 * (abs(sm) + abs(vn) + lim))
+
+
+@njit(**JIT_OPTS)
 def _subcell_chunk(ring, off, P, m0, acc, vw, C, R, sc, U1, curv, st):
     """The first cell's sub-cell contact over a fast-path chunk, on the
     region's windows (side-scaled by ``sc``: ``U1`` = side U(1)).  At the
@@ -1628,6 +1665,8 @@ def _subcell_chunk(ring, off, P, m0, acc, vw, C, R, sc, U1, curv, st):
         st[S_U1P] = sc * (acc[i0 + C - 1] - vw[C - 1])
         return 0.0
     G = curv * U1
+    base = U1 - G
+    lim = U1 + G
     up = sc * st[S_U1P]
     for t in range(C):
         v = vw[t]
@@ -1650,12 +1689,14 @@ def _subcell_chunk(ring, off, P, m0, acc, vw, C, R, sc, U1, curv, st):
             if j >= P:
                 j -= P
             vn = sc * ring[off + j]
-        dl = _subcell_delta(sm - vn, up, U1, G)
-        if dl != 0.0:
-            if t < C - 1:
-                acc[i0 + t + 1] += dl
-            else:
-                last = dl
+        ut = sm - vn
+        if _subcell_needed(sm, vn, ut, up, base, lim):
+            dl = _subcell_delta(ut, up, U1, G)
+            if dl != 0.0:
+                if t < C - 1:
+                    acc[i0 + t + 1] += dl
+                else:
+                    last = dl
         up = a - v
     st[S_U1P] = sc * up
     return last
@@ -1676,6 +1717,8 @@ def _subcell_ring(ring, off, P, m0, C, sc, U1, curv, st, X):
         st[S_U1P] = sc * (X[C - 1] - X[C + 1])
         return
     G = curv * U1
+    base = U1 - G
+    lim = U1 + G
     up = sc * st[S_U1P]
     for t in range(C):
         v = X[t + 2]
@@ -1684,9 +1727,13 @@ def _subcell_ring(ring, off, P, m0, C, sc, U1, curv, st, X):
         if x < a:
             a = x
             X[t] = a
-        dl = _subcell_delta(X[t + 1] - X[t + 3], up, U1, G)
-        if dl != 0.0:
-            X[t + 1] += dl
+        sm = X[t + 1]
+        vn = X[t + 3]
+        ut = sm - vn
+        if _subcell_needed(sm, vn, ut, up, base, lim):
+            dl = _subcell_delta(ut, up, U1, G)
+            if dl != 0.0:
+                X[t + 1] += dl
         up = a - v
     st[S_U1P] = sc * up
     _ring_put(ring, off, P, j, X[0:C + 1], sc)
