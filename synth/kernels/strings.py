@@ -105,7 +105,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .config import JIT_OPTS, SERIAL_OPTS
+from .config import JIT_OPTS, SERIAL_OPTS, VECTOR_REGS
 from .felt_layer import felt_layer_start, felt_layer_step
 from .lanes import abs4, lane, load4, max4, splat4, store4, v4
 
@@ -2079,6 +2079,23 @@ def _far_prep(s, ring, ipar, fst, C, xb, yb):
     return _io(ipar, s)
 
 
+#: biquads the scalar head loop (:func:`_head_sos`) takes when a string has
+#: four or more (up to three it takes them all): one where the vector
+#: registers are 16, two where they are 32 (microbenchmark of the head and
+#: passes: docs/benchmarks.md, "Issue 11's cost, third pass")
+_HEAD_SOS = 2 if VECTOR_REGS >= 32 else 1
+
+#: biquads the lockstep head loop (:func:`_lanes_head`) takes with the loss
+#: and first-order sections when they are all of a string's: its states
+#: and coefficients (16 + 13 vectors with four biquads) fit in the 32
+#: vector registers of an AVX-512 build, not in the 16 of an AVX2 or SSE2
+#: one, where the head of four biquads kept seven states on the stack and
+#: cost 1.4-1.6 x the head of one and passes of the rest (microbenchmark
+#: and the grand's notes: docs/benchmarks.md, "Issue 11's cost, third
+#: pass").  Any split computes the same operations in the same order.
+_LANES_HEAD_SOS = 3 if VECTOR_REGS >= 32 else 2
+
+
 @njit(**JIT_OPTS)
 def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
     """Step 4 of the fast path over a chunk, first half: the far-end filter
@@ -2111,8 +2128,10 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
     nb = ipar[s, I_NSOS]
     j = 0
     if nb > 0 and ns <= 2:
-        # loss, first-order sections and the first biquads in one loop
-        j = nb if nb < 4 else 4
+        # loss, first-order sections and the first biquads in one loop: all
+        # of them up to three, else _HEAD_SOS (a loop of four biquads kept
+        # its states on the stack in the 16 registers of an AVX2 build)
+        j = nb if nb <= 3 else _HEAD_SOS
         _head_sos(xin, yo, C, st, fp, ns, s0, s1, c0, c1, j)
         cnt = ns
     else:
@@ -2135,9 +2154,11 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
         j += cnt
     j = jb
     while j < nb:
-        cnt = nb - j
-        if cnt > 4:
-            cnt = 4
+        # the rest in passes as even as passes of at most four allow (a
+        # pass of one biquad waits on its own recurrence)
+        left = nb - j
+        passes = (left + 3) // 4
+        cnt = (left + passes - 1) // passes
         _biquads(yo, C, st, fp, j, cnt)
         j += cnt
     if io == 0:
@@ -3223,7 +3244,11 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
     string's; ``buf``: 4 C samples of scratch."""
     ns = ipar[lead, I_NDISP] + 1
     nb = ipar[lead, I_NSOS]
-    cnt = nb if nb < 4 else 4
+    # the head loop takes all the biquads while its states fit in the
+    # vector registers (_LANES_HEAD_SOS), else one: the head of four
+    # biquads spilled seven states on an AVX2 build; the rest run in
+    # passes of two to four (a pass of one waits on its own recurrence)
+    cnt = nb if nb <= _LANES_HEAD_SOS else 1
     dummy = cw[2 * G * _CW + 1:2 * G * _CW + 1 + C]    # the bridge row: written after this
     s = lead
     m = 0
@@ -3260,9 +3285,11 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
         _lanes_head(x0, x1, x2, x3, buf, C, fpar, fst, r0, r1, r2, r3, g, ns, cnt)
         j = cnt
         while j < nb:
-            c = nb - j
-            if c > 4:
-                c = 4
+            # the biquads left in passes as even as passes of at most four
+            # allow (5 -> 3 + 2, 7 -> 4 + 3)
+            left = nb - j
+            passes = (left + 3) // 4
+            c = (left + passes - 1) // passes
             _lanes_biquads(buf, C, fpar, fst, r0, r1, r2, r3, g, j, c)
             j += c
         _lanes_out(buf, C, y0, y1, y2, y3)
