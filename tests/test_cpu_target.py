@@ -152,4 +152,4 @@ def test_vector_registers_of_target(tmp_path, target):
     regs, head, lanes = (int(x) for x in r.stdout.split())
     host512 = cpu_target.host_features().get("avx512f", False)
     assert regs == (32 if target == "host" and host512 else 16)
-    assert (head, lanes) == ((2, 3) if regs == 32 else (1, 2))
+    assert (head, lanes) == ((4, 4) if regs == 32 else (3, 2))

@@ -2079,21 +2079,24 @@ def _far_prep(s, ring, ipar, fst, C, xb, yb):
     return _io(ipar, s)
 
 
-#: biquads the scalar head loop (:func:`_head_sos`) takes when a string has
-#: four or more (up to three it takes them all): one where the vector
-#: registers are 16, two where they are 32 (microbenchmark of the head and
-#: passes: docs/benchmarks.md, "Issue 11's cost, third pass")
-_HEAD_SOS = 2 if VECTOR_REGS >= 32 else 1
+#: biquads the scalar head loop (:func:`_head_sos`) takes all of, with the
+#: loss and first-order sections: four where the vector registers are 32
+#: (AVX-512), three where they are 16 (AVX2, SSE2: a head of four kept its
+#: states on the stack).  With more, the head takes one (16 registers) or
+#: what passes of four leave (32), the rest run in passes (microbenchmark:
+#: ``tools/bench_heads.py``; docs/benchmarks.md, "Issue 11's cost, third
+#: pass")
+_HEAD_SOS = 4 if VECTOR_REGS >= 32 else 3
 
-#: biquads the lockstep head loop (:func:`_lanes_head`) takes with the loss
-#: and first-order sections when they are all of a string's: its states
-#: and coefficients (16 + 13 vectors with four biquads) fit in the 32
-#: vector registers of an AVX-512 build, not in the 16 of an AVX2 or SSE2
-#: one, where the head of four biquads kept seven states on the stack and
-#: cost 1.4-1.6 x the head of one and passes of the rest (microbenchmark
-#: and the grand's notes: docs/benchmarks.md, "Issue 11's cost, third
-#: pass").  Any split computes the same operations in the same order.
-_LANES_HEAD_SOS = 3 if VECTOR_REGS >= 32 else 2
+#: biquads the lockstep head loop (:func:`_lanes_head`) takes all of, with
+#: the loss and first-order sections: its states and coefficients (16 + 13
+#: vectors with four biquads) fit in the 32 vector registers of an AVX-512
+#: build, not in the 16 of an AVX2 or SSE2 one, where the head of four
+#: biquads kept seven states on the stack (23 of 59 instructions a sample)
+#: and cost 1.2-1.6 x the head of one and passes of the rest.  With more,
+#: as :data:`_HEAD_SOS`.  Any split computes the same operations in the
+#: same order.
+_LANES_HEAD_SOS = 4 if VECTOR_REGS >= 32 else 2
 
 
 @njit(**JIT_OPTS)
@@ -2129,9 +2132,14 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
     j = 0
     if nb > 0 and ns <= 2:
         # loss, first-order sections and the first biquads in one loop: all
-        # of them up to three, else _HEAD_SOS (a loop of four biquads kept
-        # its states on the stack in the 16 registers of an AVX2 build)
-        j = nb if nb <= 3 else _HEAD_SOS
+        # of them up to _HEAD_SOS, else one (16 vector registers) or what
+        # passes of four leave (32)
+        if nb <= _HEAD_SOS:
+            j = nb
+        elif VECTOR_REGS >= 32:
+            j = (nb - 1) % 4 + 1
+        else:
+            j = 1
         _head_sos(xin, yo, C, st, fp, ns, s0, s1, c0, c1, j)
         cnt = ns
     else:
@@ -3245,10 +3253,15 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
     ns = ipar[lead, I_NDISP] + 1
     nb = ipar[lead, I_NSOS]
     # the head loop takes all the biquads while its states fit in the
-    # vector registers (_LANES_HEAD_SOS), else one: the head of four
-    # biquads spilled seven states on an AVX2 build; the rest run in
-    # passes of two to four (a pass of one waits on its own recurrence)
-    cnt = nb if nb <= _LANES_HEAD_SOS else 1
+    # vector registers (_LANES_HEAD_SOS), else one (16 registers) or what
+    # passes of four leave (32); the rest run in passes of two to four (a
+    # pass of one waits on its own recurrence)
+    if nb <= _LANES_HEAD_SOS:
+        cnt = nb
+    elif VECTOR_REGS >= 32:
+        cnt = (nb - 1) % 4 + 1
+    else:
+        cnt = 1
     dummy = cw[2 * G * _CW + 1:2 * G * _CW + 1 + C]    # the bridge row: written after this
     s = lead
     m = 0
