@@ -81,7 +81,8 @@ def test_coupled_strings_equal_the_naive_bridge(per_sample, n_str):
 
 
 @pytest.mark.parametrize("n_str,n_disp,n_sos", [(1, 1, 2), (2, 0, 0), (2, 1, 3), (3, 0, 4),
-                                                 (3, 1, 5), (4, 1, 8), (5, 0, 1), (6, 1, 7)])
+                                                 (3, 1, 5), (3, 0, 6), (4, 1, 8), (5, 0, 1),
+                                                 (6, 1, 7), (2, 1, 12)])
 def test_coupled_strings_in_lockstep_equal_the_naive_bridge(n_str, n_disp, n_sos):
     """Strings with the same loop-filter sections on one bridge (as a piano
     key's: at most one first-order dispersion section, 0-8 biquads), whose

@@ -129,3 +129,27 @@ def test_compiled_code_of_target(tmp_path, target):
     else:
         assert not ymm
         assert "code needs x86-64-v1" in "\n".join(head)
+
+
+REGS_CHECK = textwrap.dedent("""
+    from synth.kernels import config, strings
+    print(config.VECTOR_REGS, strings._HEAD_SOS, strings._LANES_HEAD_SOS)
+""")
+
+
+@pytest.mark.parametrize("target", ["host", "haswell", "generic"])
+def test_vector_registers_of_target(tmp_path, target):
+    """The kernels' register count follows numba's code target: 16 for the
+    AVX2 and SSE2 builds (the head loops then take fewer biquads), 32 only
+    where the target has AVX-512."""
+    if target == "haswell" and not host_is_x86_64_v3():
+        pytest.skip("this CPU cannot run AVX2 code")
+    env = cpu_target.environ_for(target, tmp_path)
+    env["PYTHONPATH"] = str(TOOLS.parent)
+    r = subprocess.run([sys.executable, "-c", REGS_CHECK], env=env, capture_output=True,
+                       text=True, timeout=120, cwd=str(TOOLS.parent))
+    assert r.returncode == 0, r.stderr
+    regs, head, lanes = (int(x) for x in r.stdout.split())
+    host512 = cpu_target.host_features().get("avx512f", False)
+    assert regs == (32 if target == "host" and host512 else 16)
+    assert (head, lanes) == ((4, 4) if regs == 32 else (3, 2))

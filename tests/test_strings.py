@@ -307,12 +307,12 @@ def test_ended_pluck_on_a_lossy_string_equals_injecting_it_forever(per_sample, s
 
 
 @pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
-@pytest.mark.parametrize("n_sos", [1, 2, 3, 4, 5, 9])
+@pytest.mark.parametrize("n_sos", [1, 2, 3, 4, 5, 6, 9, 12])
 @pytest.mark.parametrize("n_disp", [0, 1, 2])
 def test_second_order_dispersion_sections_equal_the_naive_loop(per_sample, n_sos, n_disp):
-    """The far end's second-order allpass cascade (any count: passes of 1-4
-    sections in the fast path; with 0 or 1 first-order sections the first
-    four run in the loss's loop, ``_head_sos``) equals the naive scheme's
+    """The far end's second-order allpass cascade (any count: passes of 2-4
+    sections in the fast path; with 0 or 1 first-order sections up to three,
+    else one or two, run in the loss's loop, ``_head_sos``) equals the naive scheme's
     section-by-section filters, with a termination region, first-order
     sections and blocks that split chunks."""
     rng = np.random.default_rng(11 + n_sos + 100 * n_disp)

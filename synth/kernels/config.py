@@ -39,3 +39,26 @@ FASTMATH_SERIAL = {"contract", "nsz", "arcp"}
 JIT_OPTS = dict(nogil=True, cache=True, fastmath=FASTMATH, _nrt=False, error_model="numpy")
 SERIAL_OPTS = dict(nogil=True, cache=True, fastmath=FASTMATH_SERIAL, _nrt=False,
                    error_model="numpy")
+
+
+def _vector_registers() -> int:
+    """Vector registers of numba's code target: 32 with AVX-512 (zmm0-31,
+    and ymm/xmm16-31 usable by AVX-512VL code), else 16.  Read as numba
+    reads its target (``NUMBA_CPU_FEATURES`` if set, else the host's
+    features; an empty feature string, as ``NUMBA_CPU_NAME=generic`` gives,
+    counts 16).  The kernels that differ by it compute the same operations
+    in the same order either way; only how they split a loop differs."""
+    try:
+        from numba.core import config as nbconfig
+        from numba.core.codegen import get_host_cpu_features
+
+        feats = nbconfig.CPU_FEATURES
+        if feats is None:
+            feats = get_host_cpu_features()
+    except Exception:  # pragma: no cover - numba without these names
+        return 16
+    return 32 if "+avx512f" in str(feats).split(",") else 16
+
+
+#: vector registers of the code target (see :func:`_vector_registers`)
+VECTOR_REGS = _vector_registers()

@@ -105,7 +105,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .config import JIT_OPTS, SERIAL_OPTS
+from .config import JIT_OPTS, SERIAL_OPTS, VECTOR_REGS
 from .felt_layer import felt_layer_start, felt_layer_step
 from .lanes import abs4, lane, load4, max4, splat4, store4, v4
 
@@ -2126,6 +2126,26 @@ def _far_prep(s, ring, ipar, fst, C, xb, yb):
     return _io(ipar, s)
 
 
+#: biquads the scalar head loop (:func:`_head_sos`) takes all of, with the
+#: loss and first-order sections: four where the vector registers are 32
+#: (AVX-512), three where they are 16 (AVX2, SSE2: a head of four kept its
+#: states on the stack).  With more, the head takes one (16 registers) or
+#: what passes of four leave (32), the rest run in passes (microbenchmark:
+#: ``tools/bench_heads.py``; docs/benchmarks.md, "Issue 11's cost, third
+#: pass")
+_HEAD_SOS = 4 if VECTOR_REGS >= 32 else 3
+
+#: biquads the lockstep head loop (:func:`_lanes_head`) takes all of, with
+#: the loss and first-order sections: its states and coefficients (16 + 13
+#: vectors with four biquads) fit in the 32 vector registers of an AVX-512
+#: build, not in the 16 of an AVX2 or SSE2 one, where the head of four
+#: biquads kept seven states on the stack (23 of 59 instructions a sample)
+#: and cost 1.2-1.6 x the head of one and passes of the rest.  With more,
+#: as :data:`_HEAD_SOS`.  Any split computes the same operations in the
+#: same order.
+_LANES_HEAD_SOS = 4 if VECTOR_REGS >= 32 else 2
+
+
 @njit(**JIT_OPTS)
 def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
     """Step 4 of the fast path over a chunk, first half: the far-end filter
@@ -2158,8 +2178,15 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
     nb = ipar[s, I_NSOS]
     j = 0
     if nb > 0 and ns <= 2:
-        # loss, first-order sections and the first biquads in one loop
-        j = nb if nb < 4 else 4
+        # loss, first-order sections and the first biquads in one loop: all
+        # of them up to _HEAD_SOS, else one (16 vector registers) or what
+        # passes of four leave (32)
+        if nb <= _HEAD_SOS:
+            j = nb
+        elif VECTOR_REGS >= 32:
+            j = (nb - 1) % 4 + 1
+        else:
+            j = 1
         _head_sos(xin, yo, C, st, fp, ns, s0, s1, c0, c1, j)
         cnt = ns
     else:
@@ -2182,9 +2209,11 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
         j += cnt
     j = jb
     while j < nb:
-        cnt = nb - j
-        if cnt > 4:
-            cnt = 4
+        # the rest in passes as even as passes of at most four allow (a
+        # pass of one biquad waits on its own recurrence)
+        left = nb - j
+        passes = (left + 3) // 4
+        cnt = (left + passes - 1) // passes
         _biquads(yo, C, st, fp, j, cnt)
         j += cnt
     if io == 0:
@@ -3270,7 +3299,16 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
     string's; ``buf``: 4 C samples of scratch."""
     ns = ipar[lead, I_NDISP] + 1
     nb = ipar[lead, I_NSOS]
-    cnt = nb if nb < 4 else 4
+    # the head loop takes all the biquads while its states fit in the
+    # vector registers (_LANES_HEAD_SOS), else one (16 registers) or what
+    # passes of four leave (32); the rest run in passes of two to four (a
+    # pass of one waits on its own recurrence)
+    if nb <= _LANES_HEAD_SOS:
+        cnt = nb
+    elif VECTOR_REGS >= 32:
+        cnt = (nb - 1) % 4 + 1
+    else:
+        cnt = 1
     dummy = cw[2 * G * _CW + 1:2 * G * _CW + 1 + C]    # the bridge row: written after this
     s = lead
     m = 0
@@ -3307,9 +3345,11 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
         _lanes_head(x0, x1, x2, x3, buf, C, fpar, fst, r0, r1, r2, r3, g, ns, cnt)
         j = cnt
         while j < nb:
-            c = nb - j
-            if c > 4:
-                c = 4
+            # the biquads left in passes as even as passes of at most four
+            # allow (5 -> 3 + 2, 7 -> 4 + 3)
+            left = nb - j
+            passes = (left + 3) // 4
+            c = (left + passes - 1) // passes
             _lanes_biquads(buf, C, fpar, fst, r0, r1, r2, r3, g, j, c)
             j += c
         _lanes_out(buf, C, y0, y1, y2, y3)
