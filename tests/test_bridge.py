@@ -234,6 +234,33 @@ def test_finer_grid_is_the_mean_of_its_steps(per_sample, M):
 
 
 @pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+def test_coupled_group_on_the_finer_grid_equals_the_naive_bridge(per_sample):
+    """The grand's top keys (105-108): three strings on one bridge, a region
+    each, no biquads, two steps per engine sample (``sub`` = 2) in short
+    chunks: per engine sample, the mean of the naive scheme's two steps on
+    the fine grid, to round-off, whatever the blocks."""
+    rng = np.random.default_rng(105)
+    dt, defs = _group(rng, 3, per_sample, sos=False)
+    M = 2
+    b = _bank_for(defs, dt, per_sample, sub=M)
+    R_b, f_ret = 3.0, 5.0
+    b.couple(range(3), R_b, f_ret)
+    for s, d in enumerate(defs):
+        b.activate(s)
+        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
+    n = 9 * defs[0]["N"] // M
+    mix = np.zeros(n)
+    for o in range(0, n, 73):
+        b.render(mix, o, min(73, n - o))
+    bra, brb = math.exp(-2 * math.pi * f_ret * dt), dt / R_b
+    ref, ub = naive_bridge_strings([dict(d, g=_g(d, n * M, dt)) for d in defs], n * M,
+                                   bra=bra, brb=brb)
+    want = ref.reshape(n, M).mean(axis=1)
+    assert np.max(np.abs(ub)) > 1e-4 * max(d["A"] for d in defs)      # the bridge moves
+    assert np.max(np.abs(mix - want)) < 1e-10 * np.max(np.abs(want))
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
 @pytest.mark.parametrize("M", [2, 4])
 def test_finer_grid_on_an_external_bridge_reads_m_values_per_sample(per_sample, M):
     """A string with ``sub`` = M steps per engine sample on an external

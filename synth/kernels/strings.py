@@ -2282,7 +2282,7 @@ def _force_out(yo, yp, un, up, has_ub, m0, m1, two, g0, g1, C):
     return peak
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, has_ub):
     """Step 4, second half: write the far end's outputs yb[1:C+1] back into
     the ring and, for the bridge-force output (``I_OUT`` 1), add the output
@@ -2522,7 +2522,7 @@ def _out_of_reach(ring, off, P, m0, C, R, B):
     return True
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3):
     """Step 3 of the fast path over a chunk (the termination region),
     skipped when no point can reach the obstacle (:func:`_out_of_reach`)."""
@@ -2563,7 +2563,7 @@ def _chunk_rest(s, ring, ipar, fpar, fst, U, C, o0, mix, work, gbuf, plucking, u
     _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking, False, peak)
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking, out, peak):
     """The end of a fast-path chunk: the output (the far end's bridge force
     already in w3 if ``out``; the ideal end's bridge force; or u at k,

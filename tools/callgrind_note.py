@@ -1,0 +1,206 @@
+"""Instructions of one grand note's sustain, per numba function (callgrind).
+
+    NUMBA_NUM_THREADS=1 python tools/callgrind_note.py KEY [KEY ...] [--out DIR] [--top 40]
+
+For each key (0: the engine with no note), in the AVX2 ("haswell") build
+of ``tools/cpu_target.py``: a warm-up run outside valgrind (compiles or
+loads the kernels), then a child under ``valgrind --tool=callgrind
+--instr-atstart=no``: a grand engine of polyphony 4 plays the key
+(velocity 0.8), renders 11 blocks of 256 output samples, and the
+instrumentation is on (``callgrind_control -i on/off``) for the next 18
+blocks (31,200 engine samples).  Prints the total and the functions' self
+and inclusive instructions and call counts.
+
+Numba's JIT code has no symbols in callgrind (``???:0x...``): the child
+keeps the object code numba loads from its cache
+(``CPUCodeLibrary._unserialize``), lists its symbols with ``nm -S`` and
+writes each function's load address (that of a global symbol less its
+offset) to ``DIR/kKEY.out.syms``; the report maps callgrind's addresses
+through it.  (So the cache must be warm: the warm-up run does that.)
+"""
+
+from __future__ import annotations
+
+import argparse
+import bisect
+import os
+import re
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+
+def child(key: int, wait: bool, syms: str) -> None:
+    from numba.core import codegen as cg
+
+    objs = {}
+    orig = cg.CPUCodeLibrary._unserialize.__func__
+
+    def unser(cls, codegen, state):
+        lib = orig(cls, codegen, state)
+        if state[1] == "object":
+            objs[id(lib)] = state[2][0]
+        return lib
+
+    cg.CPUCodeLibrary._unserialize = classmethod(unser)
+    from synth.engine.engine import Event
+    from synth.io.factory import build_engine
+
+    e = build_engine("grand-piano", (), polyphony=4)
+    if key:
+        e.schedule([Event(0.0, "note_on", key, 0.8)])
+    for _ in range(int(0.06 * e.fs_out / 256)):
+        e.render_block(256)
+    if wait:
+        print("ready", flush=True)
+        sys.stdin.readline()
+    for _ in range(int(0.1 * e.fs_out / 256)):
+        e.render_block(256)
+    if not wait:
+        return
+    print("done", flush=True)
+    sys.stdin.readline()
+    from numba.core.registry import CPUDispatcher
+
+    seen = set()
+    with open(syms, "w") as f:
+        for mn, m in list(sys.modules.items()):
+            if not mn.startswith("synth"):
+                continue
+            for o in list(vars(m).values()):
+                if not isinstance(o, CPUDispatcher) or id(o) in seen:
+                    continue
+                seen.add(id(o))
+                for cres in o.overloads.values():
+                    obj = objs.get(id(cres.library))
+                    if obj is None:
+                        continue
+                    with tempfile.NamedTemporaryFile(suffix=".o") as t:
+                        t.write(obj)
+                        t.flush()
+                        nm = subprocess.run(["nm", "-S", "--defined-only", t.name],
+                                            capture_output=True, text=True).stdout
+                    rows = [p for p in (ln.split() for ln in nm.splitlines())
+                            if len(p) == 4 and p[2] in "tTwW"]
+                    base = None
+                    for p in rows:
+                        if p[2] == "T":
+                            try:
+                                base = cres.library.get_pointer_to_function(p[3]) - int(p[0], 16)
+                                break
+                            except Exception:
+                                pass
+                    if base is None:
+                        continue
+                    for p in rows:
+                        f.write(f"{base + int(p[0], 16):x} {int(p[1], 16)} {p[3]}\n")
+
+
+def run(key: int, out: Path, env: dict) -> int:
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(key)]
+    subprocess.run(cmd, env=env, check=True)
+    env = dict(env, SYMS=str(out) + ".syms")
+    p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
+                          f"--callgrind-out-file={out}", *cmd, "--wait"], env=env,
+                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
+                         text=True)
+    try:
+        assert p.stdout.readline().strip() == "ready"
+        subprocess.run(["callgrind_control", "-i", "on", str(p.pid)], check=True,
+                       stdout=subprocess.DEVNULL)
+        p.stdin.write("go\n")
+        p.stdin.flush()
+        assert p.stdout.readline().strip() == "done"
+        subprocess.run(["callgrind_control", "-i", "off", str(p.pid)], check=True,
+                       stdout=subprocess.DEVNULL)
+        p.stdin.write("end\n")
+        p.stdin.flush()
+        if p.wait(timeout=3600) != 0:
+            raise SystemExit(f"the callgrind child of key {key} failed")
+    finally:
+        if p.poll() is None:
+            p.kill()
+    for line in out.read_text(errors="replace").splitlines():
+        if line.startswith("totals:"):
+            return int(line.split()[1])
+    raise SystemExit(f"{out}: no total")
+
+
+def report(out: Path, top: int) -> None:
+    syms = sorted((int(a, 16), int(s), n) for a, s, n in
+                  (ln.split() for ln in open(str(out) + ".syms")))
+    starts = [s[0] for s in syms]
+    names = {}
+
+    def name(text):
+        m = re.match(r"(?:\?\?\?:)?0x([0-9a-f]+)", text)
+        if not m:
+            return text[:70]
+        a = int(m.group(1), 16)
+        i = bisect.bisect_right(starts, a) - 1
+        if i < 0 or a >= syms[i][0] + max(syms[i][1], 1):
+            return text[:70]
+        raw = syms[i][2]
+        if raw not in names:
+            n = subprocess.run(["c++filt", raw], capture_output=True, text=True).stdout.strip()
+            names[raw] = re.sub(r"\[abi:[^\]]*\]", "", n).split("(")[0].replace("synth::kernels::", "")
+        return names[raw]
+
+    cost = {}
+    for col, incl in ((0, "no"), (1, "yes")):
+        txt = subprocess.run(["callgrind_annotate", f"--inclusive={incl}", "--threshold=100",
+                              str(out)], capture_output=True, text=True).stdout
+        for ln in txt.splitlines():
+            m = re.match(r"\s*([\d,]+) \(\s*[\d.]+%\)\s+(.*)", ln)
+            if m:
+                c = cost.setdefault(name(m.group(2)), [0, 0])
+                c[col] += int(m.group(1).replace(",", ""))
+    # call counts from the raw file (name compression: "(id) name" the first time)
+    ids, calls, cfn = {}, {}, None
+    for ln in open(out, errors="replace"):
+        if ln.startswith(("fn=", "cfn=")):
+            m = re.match(r"c?fn=\((\d+)\)(?: (.*))?", ln.strip())
+            if m.group(2):
+                ids[m.group(1)] = m.group(2)
+            if ln.startswith("cfn="):
+                cfn = m.group(1)
+        elif ln.startswith("calls="):
+            n = name(ids.get(cfn, ""))
+            calls[n] = calls.get(n, 0) + int(ln.split()[0][6:])
+    print(f"{'self':>12} {'inclusive':>12} {'calls':>8}  function")
+    for n, (s, i) in sorted(cost.items(), key=lambda kv: -kv[1][0])[:top]:
+        print(f"{s:>12,} {i:>12,} {calls.get(n, ''):>8}  {n}")
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("keys", nargs="*", type=int)
+    ap.add_argument("--out", default=None, help="directory for the callgrind outputs")
+    ap.add_argument("--top", type=int, default=40)
+    ap.add_argument("--child", type=int, default=None, help=argparse.SUPPRESS)
+    ap.add_argument("--wait", action="store_true", help=argparse.SUPPRESS)
+    a = ap.parse_args()
+    if a.child is not None:
+        child(a.child, a.wait, os.environ.get("SYMS", os.devnull))
+        return 0
+    sys.path.insert(0, str(HERE))
+    import cpu_target
+
+    env = cpu_target.environ_for("haswell")
+    env.update(NUMBA_NUM_THREADS="1", PYTHONHASHSEED="0")
+    if os.environ.get("NUMBA_CACHE_DIR"):           # one's own cache, if given
+        env["NUMBA_CACHE_DIR"] = os.environ["NUMBA_CACHE_DIR"]
+    out = Path(a.out or tempfile.mkdtemp(prefix="callgrind-note-"))
+    out.mkdir(parents=True, exist_ok=True)
+    for k in a.keys:
+        f = out / f"k{k}.out"
+        print(f"key {k}: {run(k, f, env):,} instructions ({f})", flush=True)
+        report(f, a.top)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
