@@ -167,32 +167,42 @@ def _ir(path: Path) -> int:
     raise SystemExit(f"{path}: no instruction total")
 
 
-def _callgrind_render(scene, seconds, skip, env, out: Path):
-    """One render under callgrind, counted from its start to its end only:
+def callgrind_window(cmd, out: Path, env, what: str, **popen_kw) -> str:
+    """Run ``cmd`` under callgrind, counting only the window the child opens:
     valgrind starts with the instrumentation off; the child loads and warms
     up, says "ready" and waits; ``callgrind_control -i on`` and a line on
-    its stdin start the render; it prints the output's digest and waits
-    again while the instrumentation goes off.  Returns (instructions,
-    digest)."""
+    its stdin start the measured work; it prints one line and waits again
+    while the instrumentation goes off.  Returns that line (``what`` names
+    the child in the error if it fails).  Also used by
+    tools/callgrind_note.py."""
     p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
-                          f"--callgrind-out-file={out}", *_child_cmd(scene, seconds, skip), "--wait"],
-                         env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+                          f"--callgrind-out-file={out}", *cmd, "--wait"],
+                         env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                         **popen_kw)
     try:
         assert p.stdout.readline().strip() == "ready"
         subprocess.run(["callgrind_control", "-i", "on", str(p.pid)], check=True,
                        stdout=subprocess.DEVNULL)
         p.stdin.write("go\n")
         p.stdin.flush()
-        digest = p.stdout.readline().strip()
+        reply = p.stdout.readline().strip()
         subprocess.run(["callgrind_control", "-i", "off", str(p.pid)], check=True,
                        stdout=subprocess.DEVNULL)
         p.stdin.write("end\n")
         p.stdin.flush()
         if p.wait(timeout=3600) != 0:
-            raise SystemExit(f"the callgrind child of {scene} failed")
+            raise SystemExit(f"the callgrind child of {what} failed")
     finally:
         if p.poll() is None:
             p.kill()
+    return reply
+
+
+def _callgrind_render(scene, seconds, skip, env, out: Path):
+    """One render under callgrind, counted from its start to its end only
+    (:func:`callgrind_window`; the child's line is the output's digest).
+    Returns (instructions, digest)."""
+    digest = callgrind_window(_child_cmd(scene, seconds, skip), out, env, scene)
     return _ir(out), digest
 
 

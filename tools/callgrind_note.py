@@ -30,6 +30,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from bench_reach import callgrind_window  # noqa: E402  (tools/, on sys.path when run as a script)
+
 HERE = Path(__file__).resolve().parent
 
 
@@ -103,26 +105,9 @@ def run(key: int, out: Path, env: dict) -> int:
     cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(key)]
     subprocess.run(cmd, env=env, check=True)
     env = dict(env, SYMS=str(out) + ".syms")
-    p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
-                          f"--callgrind-out-file={out}", *cmd, "--wait"], env=env,
-                         stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
-                         text=True)
-    try:
-        assert p.stdout.readline().strip() == "ready"
-        subprocess.run(["callgrind_control", "-i", "on", str(p.pid)], check=True,
-                       stdout=subprocess.DEVNULL)
-        p.stdin.write("go\n")
-        p.stdin.flush()
-        assert p.stdout.readline().strip() == "done"
-        subprocess.run(["callgrind_control", "-i", "off", str(p.pid)], check=True,
-                       stdout=subprocess.DEVNULL)
-        p.stdin.write("end\n")
-        p.stdin.flush()
-        if p.wait(timeout=3600) != 0:
-            raise SystemExit(f"the callgrind child of key {key} failed")
-    finally:
-        if p.poll() is None:
-            p.kill()
+    reply = callgrind_window(cmd, out, env, f"key {key}", stderr=subprocess.DEVNULL)
+    if reply != "done":
+        raise SystemExit(f"the callgrind child of key {key} said {reply!r}, not 'done'")
     for line in out.read_text(errors="replace").splitlines():
         if line.startswith("totals:"):
             return int(line.split()[1])

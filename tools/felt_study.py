@@ -38,6 +38,8 @@ from synth.analysis import episode_times, free_mode_energies
 from synth.dsp.bank import StringBank
 from synth.engine.engine import Event
 from synth.io.factory import build_engine
+
+from reproduce import a7_run  # noqa: E402  (tools/, on sys.path when run as a script): the A7 strike
 from synth.kernels import strings as K
 
 L, T, MU = 0.061, 774.6, 0.0042
@@ -45,34 +47,6 @@ LAYER = ("hammer.model=\"felt-layer\"",)
 MODELS = {"lumped": (), "felt-layer": LAYER}
 TIMES_S = (0.30e-3, 3.86e-3, 6.21e-3)
 N_MODES = 40
-
-
-def a7_run(name, sets=(), times_s=(), probe_s=0.0065):
-    """The A7 strike through the engine (as tools/reproduce.py): probe
-    channels over ``probe_s`` and two snapshots at each of ``times_s``."""
-    e = build_engine(name, list(sets), probe=True)
-    inst = e.inst
-    e.schedule([Event(0.0, "note_on", -1, 1.0)])
-    e.render_block(1)
-    b, s = e.bank, int(e.bank.active[0])
-    su = inst.setup()
-    n_total = int(round(probe_s * inst.fs))
-    b.ensure_probe_length(n_total + 2)
-    b.probe[:] = 0.0
-    mix = np.zeros(n_total + 2)
-    b.ipar[s, K.I_PROBE] = 0
-    done, snaps = e.time_in, []
-    for t in times_s:
-        target = int(round(t * inst.fs))
-        b.render(mix, done, target - done)
-        done = target
-        u0 = b.displacement(s)
-        b.render(mix, done, 1)
-        done += 1
-        snaps.append((u0, b.displacement(s)))
-    if done < n_total:
-        b.render(mix, done, n_total - done)
-    return inst, su, b.probe[0, :, :n_total].copy(), snaps
 
 
 def strike_summary(ch, fs, K_per):
