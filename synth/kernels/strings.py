@@ -2997,6 +2997,35 @@ def _put4(a, r0, r1, r2, r3, G, c, v):
         a[r3, c] = lane(v, 3)
 
 
+@njit(inline="always", **SERIAL_OPTS)
+def _put_biquads(fst, r0, r1, r2, r3, G, q0, cnt, x10, x20, y10, y20, y11, y21, y12, y22,
+                 y13, y23):
+    """The states of a pass of ``cnt`` (0-4) biquads in lanes, from state
+    column q0 on (x1, x2, y1, y2 each; a biquad's x are the one before's
+    y), written back to the G strings r0..r3 (:func:`_lanes_head`,
+    :func:`_lanes_biquads`)."""
+    if cnt > 0:
+        _put4(fst, r0, r1, r2, r3, G, q0, x10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 1, x20)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 2, y10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 3, y20)
+    if cnt > 1:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 4, y10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 5, y20)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 6, y11)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 7, y21)
+    if cnt > 2:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 8, y11)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 9, y21)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 10, y12)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 11, y22)
+    if cnt > 3:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 12, y12)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 13, y22)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 14, y13)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 15, y23)
+
+
 @njit(**SERIAL_OPTS)
 def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
     """The first pass of four strings' far ends (lanes): the loss glide and
@@ -3208,26 +3237,8 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
     if ns == 2:
         _put4(fst, r0, r1, r2, r3, G, S_APX, x1)
         _put4(fst, r0, r1, r2, r3, G, S_APX + 1, y1)
-    if cnt > 0:
-        _put4(fst, r0, r1, r2, r3, G, q0, x10)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 1, x20)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 2, y10)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 3, y20)
-    if cnt > 1:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 4, y10)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 5, y20)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 6, y11)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 7, y21)
-    if cnt > 2:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 8, y11)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 9, y21)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 10, y12)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 11, y22)
-    if cnt > 3:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 12, y12)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 13, y22)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 14, y13)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 15, y23)
+    _put_biquads(fst, r0, r1, r2, r3, G, q0, cnt, x10, x20, y10, y20, y11, y21, y12, y22,
+                 y13, y23)
 
 
 @njit(**SERIAL_OPTS)
@@ -3310,25 +3321,8 @@ def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt):
             y23 = y13
             y13 = o3
             store4(buf, 4 * i, o3)
-    _put4(fst, r0, r1, r2, r3, G, q0, x10)
-    _put4(fst, r0, r1, r2, r3, G, q0 + 1, x20)
-    _put4(fst, r0, r1, r2, r3, G, q0 + 2, y10)
-    _put4(fst, r0, r1, r2, r3, G, q0 + 3, y20)
-    if cnt > 1:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 4, y10)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 5, y20)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 6, y11)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 7, y21)
-    if cnt > 2:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 8, y11)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 9, y21)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 10, y12)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 11, y22)
-    if cnt > 3:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 12, y12)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 13, y22)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 14, y13)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 15, y23)
+    _put_biquads(fst, r0, r1, r2, r3, G, q0, cnt, x10, x20, y10, y20, y11, y21, y12, y22,
+                 y13, y23)
 
 
 @njit(**SERIAL_OPTS)
