@@ -1407,15 +1407,21 @@ def _excite_chunk(s, ring, ipar, fpar, fst, U, C, gbuf):
         st[S_G] = g
 
 
-@njit(**JIT_OPTS)
-def _ring_get(ring, off, P, j, dst, sc):
+@njit(inline="always", **JIT_OPTS)
+def _ring_get_in(ring, off, P, j, dst, sc):
     """dst = sc * the ring slots j, j+1, ... (mod P); 0 <= j < P,
     len(dst) <= P; ``sc`` is +-1 (exact).  Two contiguous loops split at
     the wrap (no wrap test per element), over slice views with the bare
     loop index: an index such as d0 + a, whose sign numba cannot know, gets
     a negative-index fix-up per element that stops the loop vectorising.
     (The ring helpers take no constant arguments: numba compiles a separate
-    copy of a function for every literal constant passed to it.)"""
+    copy of a function for every literal constant passed to it.)
+
+    Inlined into its caller (``inline="always"``): the per-chunk callers
+    of the fast path take it so (a call passes each array as its fields,
+    and a slice argument costs as much again); :func:`_ring_get` is the
+    same as a function.  One multiply by
+    +-1 per element: the caller's fast-math flags cannot change it."""
     n = dst.shape[0]
     n1 = P - j
     if n1 > n:
@@ -1431,8 +1437,16 @@ def _ring_get(ring, off, P, j, dst, sc):
 
 
 @njit(**JIT_OPTS)
-def _ring_put(ring, off, P, j, src, sc):
-    """The ring slots j, j+1, ... (mod P) = sc * src (see :func:`_ring_get`)."""
+def _ring_get(ring, off, P, j, dst, sc):
+    """:func:`_ring_get_in` as a function (for the callers outside the
+    per-chunk fast path, and the serial ones)."""
+    _ring_get_in(ring, off, P, j, dst, sc)
+
+
+@njit(inline="always", **JIT_OPTS)
+def _ring_put_in(ring, off, P, j, src, sc):
+    """The ring slots j, j+1, ... (mod P) = sc * src (see
+    :func:`_ring_get_in`; inlined)."""
     n = src.shape[0]
     n1 = P - j
     if n1 > n:
@@ -1445,6 +1459,12 @@ def _ring_put(ring, off, P, j, src, sc):
     d = src[n1:n]
     for a in range(n - n1):
         r[a] = sc * d[a]
+
+
+@njit(**JIT_OPTS)
+def _ring_put(ring, off, P, j, src, sc):
+    """:func:`_ring_put_in` as a function."""
+    _ring_put_in(ring, off, P, j, src, sc)
 
 
 @njit(**JIT_OPTS)
@@ -2093,14 +2113,14 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
     st[S_BW] = (w + n) % blen
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _io(ipar, s):
     """Where a string's filter input starts in its far-end window: 0 with
     the extra unit delay (the register S_XD first), else 1."""
     return 0 if ipar[s, I_XDELAY] == 1 else 1
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _far_prep(s, ring, ipar, fst, C, xb, yb):
     """The far end's windows of a chunk: xb[1:C+2] gets the samples arriving
     at x = L (contiguous ring slots j0 .. j0+C), xb[0] the extra-delay
@@ -2118,7 +2138,7 @@ def _far_prep(s, ring, ipar, fst, C, xb, yb):
     # xb[0] = the extra-delay register, so the filter's input is
     # xb[i] (with the unit delay) or xb[1 + i] (without)
     xb[0] = fst[s, S_XD]
-    _ring_get(ring, off, P, j0, xb[1:C + 2], 1.0)
+    _ring_get_in(ring, off, P, j0, xb[1:C + 2], 1.0)
     jp = j0 - 1
     if jp < 0:
         jp += P
@@ -2224,23 +2244,34 @@ def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
                     fp[F_TOG], hb)
 
 
-@njit(**SERIAL_OPTS)
+@njit(inline="always", **SERIAL_OPTS)
 def _hmax4(v, peak):
-    """The running maximum ``a if a > peak else peak`` over the lanes of v."""
+    """The running maximum ``a if a > peak else peak`` over the lanes of v
+    (comparisons only: inlined, the caller's fast-math flags change
+    nothing)."""
     for k in range(4):
         a = lane(v, k)
         peak = a if a > peak else peak
     return peak
 
 
-@njit(**SERIAL_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _force_out(yo, yp, un, up, has_ub, m0, m1, two, g0, g1, C):
     """The bridge force of a chunk, v = 2 (yo - yp) (+ (un - up) if
     ``has_ub``), added to the buses (g0 v to m0 and, if ``two``, g1 v to
     m1); returns max |v| (from 0).  Four samples to a vector (the running
     maximum is a reduction LLVM does not vectorise without no-NaN
     fast-math; :func:`synth.kernels.lanes.max4` keeps its NaN rule), the
-    same operations per sample as the scalar loop."""
+    same operations per sample as the scalar loop.
+
+    Inlined into its callers (``inline="always"``, saving a call that
+    passes six slices as their fields).  Its arithmetic keeps the serial
+    kernels' fast-math flags (no re-association) whatever the caller's:
+    the vector loops' is the lanes' (``synth.kernels.lanes``), which carry
+    them, and the C % 4 samples after the last full vector go through
+    :func:`_force_one`, a ``SERIAL_OPTS`` function (this was one
+    ``SERIAL_OPTS`` function, not inlined, before 2026-11-28: the same
+    samples)."""
     two4 = splat4(2.0)
     g04 = splat4(g0)
     g14 = splat4(g1)
@@ -2270,16 +2301,30 @@ def _force_out(yo, yp, un, up, has_ub, m0, m1, two, g0, g1, C):
             p4 = max4(p4, abs4(v))
     peak = _hmax4(p4, 0.0)
     for i in range(n4, C):
-        if has_ub:
-            v = 2.0 * (yo[i] - yp[i]) + (un[i] - up[i])
-        else:
-            v = 2.0 * (yo[i] - yp[i])
-        m0[i] += g0 * v
+        v, a0, a1 = _force_one(yo[i], yp[i], un[i], up[i], has_ub, m0[i], m1[i], g0, g1)
+        m0[i] = a0
         if two:
-            m1[i] += g1 * v
+            m1[i] = a1
         a = abs(v)
         peak = a if a > peak else peak
     return peak
+
+
+@njit(**SERIAL_OPTS)
+def _force_one(yo, yp, un, up, has_ub, m0, m1, g0, g1):
+    """One sample of :func:`_force_out` after its last full vector: v and
+    the buses' m0 + g0 v, m1 + g1 v, in the serial kernels' fast-math flags
+    (a function of its own, not inlined by numba: inlined, its arithmetic
+    would take the caller's flags; LLVM may still inline it, keeping each
+    instruction's own).  The same samples as the scalar loop of the
+    ``SERIAL_OPTS`` function :func:`_force_out` was before 2026-11-28 (not
+    always those of the vector loop's lanes: written in lane 0 of vectors,
+    the last bit of some samples differed)."""
+    if has_ub:
+        v = 2.0 * (yo - yp) + (un - up)
+    else:
+        v = 2.0 * (yo - yp)
+    return v, m0 + g0 * v, m1 + g1 * v
 
 
 @njit(inline="always", **JIT_OPTS)
@@ -2307,7 +2352,7 @@ def _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, has_ub):
     j0 = ipar[s, I_POS] + 1 - N
     if j0 < 0:
         j0 += P
-    _ring_put(ring, off, P, j0, yb[1:C + 1], 1.0)
+    _ring_put_in(ring, off, P, j0, yb[1:C + 1], 1.0)
     peak = 0.0
     if ipar[s, I_OUT] == 1:
         sc = fpar[s, F_GAIN] * fpar[s, F_TDX]
@@ -2390,7 +2435,7 @@ _SCRATCH_GROUP = _GIB + GROUP * _GROW + GROUP + 8
 IWORK_EXTRA = 8 * GROUP
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _fold_if_ended(s, ring, ipar, fst):
     """An excitation that ended on the last sample of the previous chunk:
     fold its constant g into the ring now, between chunks."""
@@ -2418,7 +2463,7 @@ def _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0, mix, scratch, ubx):
                 plucking, ubx)
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _work_windows(work, C, R):
     """The three windows of a chunk's region and far-end steps, and the rest
     (bend history).  Windows Wm samples apart with Wm = 168 mod 512: 1344
@@ -2432,11 +2477,11 @@ def _work_windows(work, C, R):
     return work[0:Wm], work[Wm:2 * Wm], work[2 * Wm:3 * Wm], work[3 * Wm:]
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _pairs_below(r, n, th):
     """Whether |r[a] - r[a + 2]| < th for a = 0 .. n - 3: blocks of 64
     pairs, leaving at the first block with one at or over ``th`` (a NaN
-    counts as over)."""
+    counts as over).  Inlined into :func:`_out_of_reach`."""
     a0 = 0
     while a0 < n - 2:
         a1 = a0 + 64
@@ -2467,7 +2512,7 @@ def _pairs_below(r, n, th):
     return True
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _out_of_reach(ring, off, P, m0, C, R, B):
     """Whether no point of the termination region can touch the obstacle
     during the fast-path chunk of C samples after time m0, so that its
@@ -2501,12 +2546,19 @@ def _out_of_reach(ring, off, P, m0, C, R, B):
     if not (th > 0.0):
         return False
     n1 = P - j                     # window values before the ring's wrap
-    if n1 >= L:
-        return _pairs_below(ring[off + j:off + j + L], L, th)
-    if not _pairs_below(ring[off + j:off + P], n1, th):
-        return False
-    if not _pairs_below(ring[off:off + L - n1], L - n1, th):
-        return False
+    if n1 > L:
+        n1 = L
+    # the window's part before the wrap, then the part after it (none if
+    # n1 = L), in one loop: the inlined test has one copy of the pairs' loop
+    a0 = off + j
+    k = n1
+    for _ in range(2):
+        if not _pairs_below(ring[a0:a0 + k], k, th):
+            return False
+        a0 = off
+        k = L - n1
+    if n1 == L:
+        return True
     # the (at most two) pairs across the wrap
     for a in range(n1 - 2, n1):
         if a >= 0 and a + 2 < L:
@@ -2585,8 +2637,8 @@ def _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking,
         jb = m0 - N
         if jb < 0:
             jb += P
-        _ring_get(ring, off, P, ja, w1[0:C], 1.0)
-        _ring_get(ring, off, P, jb, w2[0:C], 1.0)
+        _ring_get_in(ring, off, P, ja, w1[0:C], 1.0)
+        _ring_get_in(ring, off, P, jb, w2[0:C], 1.0)
         mo = w3[0:C]
         for i in range(C):
             v = sc * (w1[i] - w2[i])
@@ -2601,8 +2653,8 @@ def _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking,
         j2 = m0 + 1 + k
         if j2 >= P:
             j2 -= P
-        _ring_get(ring, off, P, j1, w1[0:C], 1.0)
-        _ring_get(ring, off, P, j2, w2[0:C], 1.0)
+        _ring_get_in(ring, off, P, j1, w1[0:C], 1.0)
+        _ring_get_in(ring, off, P, j2, w2[0:C], 1.0)
         mo = w3[0:C]
         if plucking:
             for i in range(C):
@@ -2945,6 +2997,35 @@ def _put4(a, r0, r1, r2, r3, G, c, v):
         a[r3, c] = lane(v, 3)
 
 
+@njit(inline="always", **SERIAL_OPTS)
+def _put_biquads(fst, r0, r1, r2, r3, G, q0, cnt, x10, x20, y10, y20, y11, y21, y12, y22,
+                 y13, y23):
+    """The states of a pass of ``cnt`` (0-4) biquads in lanes, from state
+    column q0 on (x1, x2, y1, y2 each; a biquad's x are the one before's
+    y), written back to the G strings r0..r3 (:func:`_lanes_head`,
+    :func:`_lanes_biquads`)."""
+    if cnt > 0:
+        _put4(fst, r0, r1, r2, r3, G, q0, x10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 1, x20)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 2, y10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 3, y20)
+    if cnt > 1:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 4, y10)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 5, y20)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 6, y11)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 7, y21)
+    if cnt > 2:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 8, y11)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 9, y21)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 10, y12)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 11, y22)
+    if cnt > 3:
+        _put4(fst, r0, r1, r2, r3, G, q0 + 12, y12)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 13, y22)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 14, y13)
+        _put4(fst, r0, r1, r2, r3, G, q0 + 15, y23)
+
+
 @njit(**SERIAL_OPTS)
 def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
     """The first pass of four strings' far ends (lanes): the loss glide and
@@ -3156,26 +3237,8 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
     if ns == 2:
         _put4(fst, r0, r1, r2, r3, G, S_APX, x1)
         _put4(fst, r0, r1, r2, r3, G, S_APX + 1, y1)
-    if cnt > 0:
-        _put4(fst, r0, r1, r2, r3, G, q0, x10)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 1, x20)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 2, y10)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 3, y20)
-    if cnt > 1:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 4, y10)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 5, y20)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 6, y11)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 7, y21)
-    if cnt > 2:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 8, y11)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 9, y21)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 10, y12)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 11, y22)
-    if cnt > 3:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 12, y12)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 13, y22)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 14, y13)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 15, y23)
+    _put_biquads(fst, r0, r1, r2, r3, G, q0, cnt, x10, x20, y10, y20, y11, y21, y12, y22,
+                 y13, y23)
 
 
 @njit(**SERIAL_OPTS)
@@ -3258,25 +3321,8 @@ def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt):
             y23 = y13
             y13 = o3
             store4(buf, 4 * i, o3)
-    _put4(fst, r0, r1, r2, r3, G, q0, x10)
-    _put4(fst, r0, r1, r2, r3, G, q0 + 1, x20)
-    _put4(fst, r0, r1, r2, r3, G, q0 + 2, y10)
-    _put4(fst, r0, r1, r2, r3, G, q0 + 3, y20)
-    if cnt > 1:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 4, y10)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 5, y20)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 6, y11)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 7, y21)
-    if cnt > 2:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 8, y11)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 9, y21)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 10, y12)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 11, y22)
-    if cnt > 3:
-        _put4(fst, r0, r1, r2, r3, G, q0 + 12, y12)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 13, y22)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 14, y13)
-        _put4(fst, r0, r1, r2, r3, G, q0 + 15, y23)
+    _put_biquads(fst, r0, r1, r2, r3, G, q0, cnt, x10, x20, y10, y20, y11, y21, y12, y22,
+                 y13, y23)
 
 
 @njit(**SERIAL_OPTS)
