@@ -129,10 +129,6 @@ def _capo_change_db(key, sets=()):
 THESIS_CAPO = ("strings.capo_grid=4", "strings.capo_grid_from_key=73")
 
 
-#: the sub-cell contact with the bar on the engine's 325 kHz grid
-SUBCELL_CAPO = ("strings.capo_contact=subcell",)
-
-
 @pytest.mark.parametrize("key", [78, 84, 90, 96])
 def test_the_capo_bar_colours_the_free_vibration_of_treble_notes(key):
     """Issue 11: on the thesis's grid the treble strings reach the bar after
@@ -153,20 +149,6 @@ def test_the_capo_bar_colours_the_free_vibration_of_treble_notes(key):
     assert rms >= 2.5 and (upper >= 2.0 or low <= -2.0), (rms, upper, low, g)
     if key == 78:
         assert np.all(np.abs(_capo_change_db(key)) < 0.05)   # the default: untouched
-
-
-@pytest.mark.parametrize("key", [78, 84, 90, 96])
-def test_the_subcell_contact_puts_the_capo_bar_in_the_free_vibration_on_the_engines_grid(key):
-    """``strings.capo_contact = "subcell"``: on the 325 kHz grid, where the
-    clamp at grid points leaves key 78 untouched once the hammer has left
-    (above), the string wraps the bar within the first cell, and the bar
-    colours the free vibration by the same measure as on the thesis's grid
-    (in detail the partials differ from the fine grid's by up to 2 dB on
-    keys 78 and 84, 5 dB on 90; docs/voicing.md)."""
-    g = _capo_change_db(key, SUBCELL_CAPO)
-    rms = float(np.sqrt(np.mean(g ** 2)))
-    upper, low = float(np.mean(g[len(g) // 2:])), float(np.mean(g[1:4]))
-    assert rms >= 2.5 and (upper >= 2.0 or low <= -2.0), (rms, upper, low, g)
 
 
 def _level_db(y, t0, t1):

@@ -57,16 +57,6 @@ continue through the note, as in the thesis's study (tens of contacts in
 the first 50 ms), and the top keys' strike points no longer fall on the
 first one or two cells (a 6 dB step from B7 to C8 at 325 kHz).
 
-``strings.capo_contact = "subcell"`` (default ``"grid"``) gives the capo
-strings the jawari's sub-cell contact instead
-(:func:`synth.physics.profiles.subcell_share`, the kernel's ``F_CURV``): the
-bar x^2 / (2R) is level at x = 0, so a string leaning towards it wraps it
-from x = 0 to where it leaves tangentially, however small its swing, and
-the kernel solves that contact within the first cell at every sample.  On
-the 325 kHz grid the bar then acts in free vibration, and keys 78-90 move
-as on the thesis's 1.3 MHz grid; the serial solve costs about 2.8 x the
-sustaining note (docs/voicing.md, "The capo bar in free vibration").
-
 Output: each string writes the force on the bridge into two buses, split by
 the key's place along the bridge (bus 0 the bass end, bus 1 the treble
 end).
@@ -88,7 +78,7 @@ from ..dsp.bank import HammerTemplate, SlotTemplate, StringBank, hammer_template
 from ..kernels import strings as K
 from ..physics import piano as P
 from ..physics.dispersion import retune_sos_loop, tune_stiff_loop_sos
-from ..physics.profiles import Termination, capo, subcell_share
+from ..physics.profiles import Termination, capo
 from ..physics.soundboard import knock_impulse_ns
 from ..physics.dispersion import tune_stiff_loop
 from .base import BankSizes, SympatheticDesign, Voice
@@ -133,7 +123,6 @@ class GrandStringSetup:
     c_m_per_s: float
     f1_hz: float
     sub: int = 1                            # steps per engine sample (a finer grid)
-    subcell: float = 0.0                    # the first cell's sub-cell contact on the capo bar (F_CURV)
     slot: SlotTemplate | None = None        # the bank configuration, validated once
     hammer: HammerTemplate | None = None    # its hammer (speed and soft pedal per strike)
     hammer_soft: HammerTemplate | None = None  # with the una corda: its share of one string fewer
@@ -301,20 +290,13 @@ class GrandPianoInstrument(Voice):
             # would strike nearer the end: at 0.35 l on F7)
             k = min(max(int(round(gs.strike_distance_m / dx)), 1), cells - 2)
             U = None
-            su_share = 0.0
             if gs.has_capo and sp.capo_region_m > 0:
                 R = max(1, int(round(sp.capo_region_m / dx)))
                 R = min(R, cells // 3)
                 U = Termination(self._capo, 1, R).sample(dx)
-                # the bar x^2 / (2R) is level at x = 0 (slope 0): the string
-                # wraps it within the first cell (the jawari's sub-cell
-                # contact, profiles.subcell_share; it reads points 1 and 2,
-                # so the strike must lie at point 3 or beyond)
-                if sp.capo_contact == "subcell" and k >= 3:
-                    su_share = subcell_share(float(U[0]), 0.0, dx, 1)
             out.append(GrandStringSetup(cells, k, dt, U, loop.b0, loop.a1, loop.eta,
                                         loop.extra_delay, loop.n_fo, loop.a_fo, loop.sos,
-                                        gs.tension_n, gs.c_m_per_s, fj, sub=M, subcell=su_share))
+                                        gs.tension_n, gs.c_m_per_s, fj, sub=M))
         # validated bank rows, so that a note-on in the audio thread only
         # copies them (~10 us per key instead of ~35)
         full = []
@@ -326,7 +308,7 @@ class GrandPianoInstrument(Voice):
                                  lossy=True, n_disp=su.n_disp, a_disp=su.a_disp, sos=su.sos,
                                  glide_s=StringBank.LOSS_GLIDE_S,
                                  bend_glide_s=StringBank.BEND_GLIDE_S,
-                                 pan=self.pan(key), sub=su.sub, subcell=su.subcell)
+                                 pan=self.pan(key), sub=su.sub)
             hp = self._hammer(key, len(out), su)
             hps = self._hammer(key, max(len(out) - 1, 1), su)
             # the damper's felt: T60 from the damped value (release_t60_s, at

@@ -131,7 +131,6 @@ class StringsSpec:
     capo_region_m: float
     capo_grid: int | None = None          # grand: steps per engine sample of the capo strings
     capo_grid_from_key: int | None = None  # grand: the first key on that finer grid
-    capo_contact: str | None = None       # grand: "grid" (clamp at grid points) or "subcell"
     bridge_coupling: float | None = None  # grand: factor on the bridge's admittance (0: rigid)
     sympathetic: float | None = None      # grand: factor on the board's bridge the free strings see
 

@@ -71,8 +71,6 @@ HAMMER_MODELS = ("lumped", "felt-layer")
 CAPO_COUPLINGS = ("direct", "injected")
 #: termination.contact of the jawari (synth.physics.profiles.Termination.subcell)
 JAWARI_CONTACTS = ("subcell", "grid")
-#: strings.capo_contact of the grand (synth.voices.grand: the capo bar's sub-cell contact)
-CAPO_CONTACTS = ("grid", "subcell")
 PLUCK_MODELS = ("sitar", "biwa")
 PROFILES = (
     "none",
@@ -318,12 +316,6 @@ SECTIONS: tuple[Section, ...] = (
               when=When("voice", ("grand",))),
         Field("capo_grid_from_key", "int", "the first key whose capo-bar strings run on that "
               "finer grid (MIDI; the bar starts at 73)", 21, 128, when=When("voice", ("grand",))),
-        Field("capo_contact", "str", "subcell: the string also wraps the bar between x = 0 and "
-              "the first grid point (the jawari's sub-cell contact: the bar acts in free "
-              "vibration on the engine's grid, about 2.8 x the cost of a sustaining note); grid: "
-              "the clamp at grid points alone (on the 325 kHz grid the bar acts only while the "
-              "hammer presses)", choices=CAPO_CONTACTS, when=When("voice", ("grand",)),
-              default="grid"),
         Field("bridge_coupling", "float", "factor on the bridge's admittance that couples a "
               "key's strings (1: the designed two-stage decay; 0: a rigid bridge)", 0.0, 4.0,
               when=When("voice", ("grand",))),
