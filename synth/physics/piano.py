@@ -73,7 +73,7 @@ documented design values, not from a table of 88 typed numbers:
   0.9 s at C8, is what one hears of its 1-2 s), monotone decreasing over
   the keyboard.  ``t60_prompt_s`` is the in-phase motion's: ``t60_low_s /
   PROMPT_RATIO`` (Weinreich's prompt decay rates are 3-10 times the
-  aftersound's; 4 for trichords, easing to 3 over the top octave, 6 for
+  aftersound's; 4 for trichords, easing to 3 over the top octave, 7 for
   bichords, :func:`prompt_ratio`), which fixes the bridge's
   resistance per key
   (:func:`bridge_resistance_ns_per_m`): R_b = 2 f0 Z n / (sigma_p -
@@ -160,8 +160,11 @@ T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 3.6)
 #: much faster), by strings per key: a bichord's two strings mix their motions
 #: less than a trichord's three, so its bridge couples them harder for the
 #: same two-stage decay (ratio >= 3 between the stages as measured on the
-#: rendered note's level)
-PROMPT_RATIO = {1: 4.0, 2: 6.0, 3: 4.0}
+#: rendered note's level); 7 rather than 6 for G1, the lowest bichord, whose
+#: 49 Hz partial 1 sits on the soundboard's lowest mode (50 Hz, T60 2 s): at
+#: 6 its level's late/early ratio read 2.91 with the board and 3.15 without
+#: it, at 7 3.18 with it (docs/voicing.md)
+PROMPT_RATIO = {1: 4.0, 2: 7.0, 3: 4.0}
 #: relative hammer speed on each string of a unison: the hammer's crown is
 #: never level, so the strings start unequally and the out-of-phase motions,
 #: which make the aftersound, are excited too (Weinreich 1977, section V)
