@@ -178,6 +178,34 @@ def test_dampers_pedal_and_undamped_top():
     assert abs(_level_db(top_off, 0.5, 0.9) - _level_db(top, 0.5, 0.9)) < 0.5
 
 
+_REGER = __import__("helpers").shared_dir() / "midi" / "kw569bw0899_exp.mid"
+
+
+@pytest.mark.skipif(not _REGER.is_file(), reason="shared MIDI files not available")
+def test_a_pedal_let_up_is_not_a_click():
+    """The Reger roll's pedal-up at 84.73 s (a step from 1 to 0 under the
+    strings it held since 81.37 s, one restruck 87 ms before): every
+    damper falls at once.  With the bank's 5 ms glide of the strings' loss
+    the whole file's click scan read 30.3 dB there (the report's limit is
+    30); the grand's ``dampers.land_s`` of 20 ms takes it to 21.4.  On the
+    file's 80.9-85.5 s alone (the notes held before it not sounding) the
+    scan reads 19.1-19.3 dB at 5 ms and 12.7-13.2 dB with the preset."""
+    import synth.io.midi as M
+    from synth.analysis.clicks import click_scan
+    raw = M.read_midi_file(str(_REGER))
+    t0 = 80.9
+    ev = [Event(e.time_s - t0, e.kind, e.key, e.value, e.channel)
+          for e in M.midi_to_events([e for e in raw if t0 <= e.time_s < 85.5])]
+    on = [e.time_s for e in ev if e.kind == "note_on" and e.value > 0]
+    worst = {}
+    for sets in ((), ("dampers.land_s=0.005",)):
+        y = engine("grand-piano", sets).render(ev, duration_s=4.6)
+        worst[sets] = max(click_scan(y[:, c], FS, ignore_s=on)["worst_jump_db"]
+                          for c in range(y.shape[1]))
+    assert worst[()] <= 16.0, worst
+    assert worst[("dampers.land_s=0.005",)] >= worst[()] + 4.0, worst
+
+
 def _struck_and_sounding(soft):
     from synth.kernels import strings as K
     e = engine("grand-piano")

@@ -157,7 +157,7 @@ def test_decay_times():
     assert np.all(np.diff(lo) < 0)
     assert 35 <= lo[0] <= 45                   # A0, the aftersound (a string's own decay)
     assert 15 <= lo[60 - 21] <= 25             # middle C
-    assert 3.0 <= lo[-1] <= 4.0                # C8
+    assert 5.5 <= lo[-1] <= 6.5                # C8 (a real grand's top keys: late T60s of 6-47 s)
     pr = col("t60_prompt_s")
     ns = col("n_strings")
     assert np.allclose(lo / pr, [P.prompt_ratio(m) for m in MIDIS])    # the in-phase motion

@@ -68,12 +68,16 @@ documented design values, not from a table of 88 typed numbers:
   and hardly any from the motions in which they cancel at the bridge (the
   "aftersound").  ``t60_low_s`` is a string's own decay at f0, the
   aftersound: a log-log quadratic in f0 through A0 = 40 s, C4 = 20 s and
-  C8 = 3.6 s (orders of measured late decay times: Martin 1947; Weinreich
-  1977 fig. 8; Bank, Zambon & Fontana 2010; the top octave's prompt sound,
-  0.9 s at C8, is what one hears of its 1-2 s), monotone decreasing over
-  the keyboard.  ``t60_prompt_s`` is the in-phase motion's: ``t60_low_s /
+  C8 = 6 s (orders of measured late decay times: Martin 1947; Weinreich
+  1977 fig. 8; Bank, Zambon & Fontana 2010; at C8 the lower end of the
+  late T60s, 6-47 s, that the two-stage fit of ``tools/voicing_report.py``
+  gives a Yamaha C5's top keys, recorded, by ``tools/real_grand.py``,
+  docs/voicing.md: with 3.6 s the top octave's aftersound had fallen to
+  the fit's -50 dB floor within 1.5 s; the top octave's prompt sound, 1.1
+  s, is what one hears of its 1-2 s), monotone decreasing over the
+  keyboard.  ``t60_prompt_s`` is the in-phase motion's: ``t60_low_s /
   PROMPT_RATIO`` (Weinreich's prompt decay rates are 3-10 times the
-  aftersound's; 4 for trichords, easing to 3 over the top octave, 6 for
+  aftersound's; 4 for trichords, easing to 3 over the top octave, 7 for
   bichords, :func:`prompt_ratio`), which fixes the bridge's
   resistance per key
   (:func:`bridge_resistance_ns_per_m`): R_b = 2 f0 Z n / (sigma_p -
@@ -155,13 +159,16 @@ STRIKE_RAMP_WIDTH_ST = 2.0
 #: cents beat faster the higher the note, so the treble is tuned closer)
 UNISON_SPREAD_CENTS = 1.0
 UNISON_SPREAD_HZ = 0.6
-T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 3.6))
+T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 6.0))
 #: aftersound T60 / prompt T60 at f0 (the unison's in-phase motion decays this
 #: much faster), by strings per key: a bichord's two strings mix their motions
 #: less than a trichord's three, so its bridge couples them harder for the
 #: same two-stage decay (ratio >= 3 between the stages as measured on the
-#: rendered note's level)
-PROMPT_RATIO = {1: 4.0, 2: 6.0, 3: 4.0}
+#: rendered note's level); 7 rather than 6 for G1, the lowest bichord, whose
+#: 49 Hz partial 1 sits on the soundboard's lowest mode (50 Hz, T60 2 s): at
+#: 6 its level's late/early ratio read 2.91 with the board and 3.15 without
+#: it, at 7 3.18 with it (docs/voicing.md)
+PROMPT_RATIO = {1: 4.0, 2: 7.0, 3: 4.0}
 #: relative hammer speed on each string of a unison: the hammer's crown is
 #: never level, so the strings start unequally and the out-of-phase motions,
 #: which make the aftersound, are excited too (Weinreich 1977, section V)
@@ -398,7 +405,7 @@ _T60_C = _t60_low_coeffs()
 def t60_fundamental_s(f0_hz: float) -> float:
     """Aftersound decay time (s) of a grand-piano fundamental at ``f0_hz``
     (20..5000 Hz): the log-log quadratic through A0 = 40 s, C4 = 20 s,
-    C8 = 3.6 s."""
+    C8 = 6 s."""
     f = _check("f0_hz", f0_hz, 20.0, 5000.0)
     x = math.log2(f / T60_ANCHORS[1][0])
     return 2.0 ** (_T60_C[0] + _T60_C[1] * x + _T60_C[2] * x * x)

@@ -230,7 +230,7 @@ class GrandPianoInstrument(Voice):
                 gain=self.preset.output.gain * gs.n_strings,
                 tension_over_dx=gs.tension_n / (gs.c_m_per_s * dt), b0=loop.b0, a1=loop.a1,
                 eta=loop.eta, extra_delay=loop.extra_delay, lossy=True, n_disp=loop.M,
-                a_disp=loop.a_disp, glide_s=StringBank.LOSS_GLIDE_S,
+                a_disp=loop.a_disp, glide_s=self.damper_land_s,
                 bend_glide_s=StringBank.BEND_GLIDE_S, pan=self.pan(key)))
             t_damped = min(self.release_t60_s(key), t_free) if gs.has_damper else t_free
             dampers.append((loop.b0, f1, t_damped, t_free))
@@ -306,7 +306,7 @@ class GrandPianoInstrument(Voice):
                                  tension_over_dx=su.tension_n / (su.c_m_per_s * su.dt_s),
                                  b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
                                  lossy=True, n_disp=su.n_disp, a_disp=su.a_disp, sos=su.sos,
-                                 glide_s=StringBank.LOSS_GLIDE_S,
+                                 glide_s=self.damper_land_s,
                                  bend_glide_s=StringBank.BEND_GLIDE_S,
                                  pan=self.pan(key), sub=su.sub)
             hp = self._hammer(key, len(out), su)
@@ -407,6 +407,17 @@ class GrandPianoInstrument(Voice):
             # every string sounds: an unstruck one (una corda) through the bridge
             if R_b is not None or j < struck:
                 bank.activate(slot)
+
+    @property
+    def damper_land_s(self) -> float:
+        """Time constant (s) over which a damper takes hold of its string or
+        lets go (``dampers.land_s``): the loss glide of the strings' slots
+        (the bank's ``F_B0S``).  A damper's felt does not stop a string in
+        one step, and a pedal let up drops every lifted damper at once: with
+        the bank's 5 ms, a MIDI file's pedal-up (a step from 1 to 0) under a
+        held chord read as a 30 dB click (docs/voicing.md, "Clicks at a
+        pedal let up")."""
+        return float(self.preset.dampers.land_s or StringBank.LOSS_GLIDE_S)
 
     def release_t60_s(self, key: int) -> float:
         d = self.preset.dampers

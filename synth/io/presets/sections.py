@@ -329,6 +329,10 @@ SECTIONS: tuple[Section, ...] = (
         Field("half_pedal_low", "float", "pedal value below which the dampers rest fully", 0.0, 1.0),
         Field("half_pedal_high", "float", "pedal value above which the dampers are fully lifted",
               0.0, 1.0),
+        Field("land_s", "float", "time constant over which a damper's felt takes hold of its "
+              "string (or lets go), s: the string's loss glides to its new value (a shorter "
+              "one clicks when many dampers fall together, a pedal let up)", 0.001, 0.1,
+              default=0.005),
     ), when=_KEYBOARD, checks=(OrderCheck("half_pedal_low", "<", "half_pedal_high"),)),
     Section("body", "the instrument's body (soundboard, gourd, wooden box) as a modal filter "
             "on the bridge force (optional: absent, the bare strings)", BodySpec, (
