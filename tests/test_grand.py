@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from helpers import engine
+from helpers import engine, shared_dir
 from synth.analysis import (as_mono, cents, estimate_f0, fit_inharmonicity, partial_peaks,
                             spectral_centroid_hz)
 from synth.engine.engine import Event
@@ -178,7 +178,7 @@ def test_dampers_pedal_and_undamped_top():
     assert abs(_level_db(top_off, 0.5, 0.9) - _level_db(top, 0.5, 0.9)) < 0.5
 
 
-_REGER = __import__("helpers").shared_dir() / "midi" / "kw569bw0899_exp.mid"
+_REGER = shared_dir() / "midi" / "kw569bw0899_exp.mid"
 
 
 @pytest.mark.skipif(not _REGER.is_file(), reason="shared MIDI files not available")

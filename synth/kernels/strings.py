@@ -2270,7 +2270,7 @@ def _force_out(yo, yp, un, up, has_ub, m0, m1, two, g0, g1, C):
     the vector loops' is the lanes' (``synth.kernels.lanes``), which carry
     them, and the C % 4 samples after the last full vector go through
     :func:`_force_one`, a ``SERIAL_OPTS`` function (this was one
-    ``SERIAL_OPTS`` function, not inlined, before 2026-11-28: the same
+    ``SERIAL_OPTS`` function, not inlined, before 2026-11-27: the same
     samples)."""
     two4 = splat4(2.0)
     g04 = splat4(g0)
@@ -2317,7 +2317,7 @@ def _force_one(yo, yp, un, up, has_ub, m0, m1, g0, g1):
     (a function of its own, not inlined by numba: inlined, its arithmetic
     would take the caller's flags; LLVM may still inline it, keeping each
     instruction's own).  The same samples as the scalar loop of the
-    ``SERIAL_OPTS`` function :func:`_force_out` was before 2026-11-28 (not
+    ``SERIAL_OPTS`` function :func:`_force_out` was before 2026-11-27 (not
     always those of the vector loop's lanes: written in lane 0 of vectors,
     the last bit of some samples differed)."""
     if has_ub:

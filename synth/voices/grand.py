@@ -417,7 +417,7 @@ class GrandPianoInstrument(Voice):
         the bank's 5 ms, a MIDI file's pedal-up (a step from 1 to 0) under a
         held chord read as a 30 dB click (docs/voicing.md, "Clicks at a
         pedal let up")."""
-        return float(self.preset.dampers.land_s or StringBank.LOSS_GLIDE_S)
+        return float(self.preset.dampers.land_s)
 
     def release_t60_s(self, key: int) -> float:
         d = self.preset.dampers

@@ -145,7 +145,7 @@ class Harpsichord(Voice):
                              tension_over_dx=gs.tension_n / (gs.c_m_per_s * dt),
                              b0=loop.b0, a1=loop.a1, eta=loop.eta, extra_delay=loop.extra_delay,
                              lossy=True, n_disp=loop.M, a_disp=loop.a_disp,
-                             glide_s=pre.dampers.land_s or StringBank.LOSS_GLIDE_S,
+                             glide_s=pre.dampers.land_s,
                              bend_glide_s=StringBank.BEND_GLIDE_S)
         string = IdealString(gs.speaking_length_m, gs.tension_n, gs.linear_density_kg_per_m)
         t_damped = min(self.release_t60_s(key), t_lo)

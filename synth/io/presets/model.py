@@ -144,7 +144,7 @@ class DampersSpec:
     release_t60_treble_s: float
     half_pedal_low: float
     half_pedal_high: float
-    land_s: float | None = None   # time constant of a damper taking hold (s); None: the bank's 5 ms
+    land_s: float | None = None   # time constant of a damper taking hold (s); the schema's default 5 ms
 
 
 @dataclass(frozen=True)

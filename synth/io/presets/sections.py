@@ -332,7 +332,7 @@ SECTIONS: tuple[Section, ...] = (
         Field("land_s", "float", "time constant over which a damper's felt takes hold of its "
               "string (or lets go), s: the string's loss glides to its new value (a shorter "
               "one clicks when many dampers fall together, a pedal let up)", 0.001, 0.1,
-              default=0.005),
+              default=0.005),   # StringBank.LOSS_GLIDE_S, the bank's own glide
     ), when=_KEYBOARD, checks=(OrderCheck("half_pedal_low", "<", "half_pedal_high"),)),
     Section("body", "the instrument's body (soundboard, gourd, wooden box) as a modal filter "
             "on the bridge force (optional: absent, the bare strings)", BodySpec, (
