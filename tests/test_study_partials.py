@@ -1,0 +1,73 @@
+"""tools/study_partials.py: its early T60s and its peak and band levels on
+synthetic notes whose partials are known in closed form."""
+
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT / "tools"))
+
+import study_partials as sp  # noqa: E402
+
+from synth.physics.piano import grand_string  # noqa: E402
+
+FS = 48_000
+
+
+def _note(key, t60s, amps, seconds=1.6, split_hz=None, split=()):
+    """Partials 1..len(t60s) of ``key`` on its stiff-string law, partial n
+    decaying with ``t60s[n-1]`` from amplitude ``amps[n-1]``; the partials
+    in ``split`` are two lines of half that amplitude ``split_hz`` apart
+    (a unison's strings, beating)."""
+    g = grand_string(key)
+    t = np.arange(int(seconds * FS)) / FS
+    y = np.zeros_like(t)
+    for n, (T, a) in enumerate(zip(t60s, amps), start=1):
+        f = g.partial_hz(n)
+        env = a * np.exp(-math.log(1000.0) * t / T)
+        if n not in split:
+            y += env * np.sin(2 * np.pi * f * t)
+        else:
+            y += 0.5 * env * (np.sin(2 * np.pi * (f - split_hz / 2) * t)
+                              + np.sin(2 * np.pi * (f + split_hz / 2) * t + 0.3))
+    return y
+
+
+def test_early_t60s_of_known_decays():
+    t60 = [4.0, 3.0, 2.5, 2.0, 1.5, 1.2, 1.0, 0.8]
+    amps = [1.0, 0.5, 0.3, 0.2, 0.1, 0.1, 0.05, 0.05]
+    got = sp.early_t60_s(_note(60, t60, amps), 60)
+    assert np.allclose(got, t60, rtol=0.03), got
+
+
+def test_a_steady_partial_reads_99():
+    got = sp.early_t60_s(_note(60, [1e9, 2.0], [1.0, 0.3]), 60)
+    assert got[0] == 99.0 and abs(got[1] - 2.0) < 0.06
+
+
+def test_peak_and_band_levels():
+    amps = [1.0, 0.5, 0.1, 0.05]
+    db = 20 * np.log10(np.array(amps))
+    # a steady note: both read the partials' levels
+    pk, bd = sp.partial_levels_db(_note(60, [1e9] * 4, amps), 60, 0.05, 1.05, n=4)
+    assert np.allclose(pk, db, atol=0.2) and np.allclose(bd, db, atol=0.2)
+    # partial 3 split into two lines of half its amplitude 4 Hz apart (they
+    # beat between 0 and its amplitude: their mean power is 3 dB under the
+    # single line's): in a one-second window they are two peaks, each 6 dB
+    # under the single line, which the band level sums
+    pk, bd = sp.partial_levels_db(_note(60, [1e9] * 4, amps, split_hz=4.0, split=(3,)), 60,
+                                  0.05, 1.05, n=4)
+    want = db.copy()
+    want[2] -= 10 * np.log10(2)
+    assert np.allclose(bd, want, atol=0.3), bd
+    assert pk[2] < bd[2] - 2.0 and np.allclose(np.delete(pk, 2), np.delete(db, 2), atol=0.2), pk
+
+
+def test_keys_are_checked():
+    with pytest.raises(SystemExit):
+        sp.main(["una-corda", "--keys", "20"])
+    assert sp.main(["decay", "--real", "/no/such/folder"]) == 2
