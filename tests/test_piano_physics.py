@@ -354,16 +354,18 @@ def test_stretch_input_validation():
 
 def test_the_bridge_mass_corner_and_the_resistance_that_keeps_the_prompt_decay():
     """bridge_mass_hz: ratio x f0 on the trichords up to key 72, then twice
-    as far every 6 semitones, none on the bass; bridge_resistance_ns_per_m with a mass keeps the real part of
+    as far every 6 semitones, none on the bass nor at 20 kHz and above;
+    bridge_resistance_ns_per_m with a mass keeps the real part of
     the bridge's admittance at f0, 1 / (R (1 + (f0 / f_m)^2)), at the
     dashpot's 1 / R_b, so the prompt T60 at f0 stays."""
     for m in (49, 60, 72):
         assert P.bridge_mass_hz(m, 3.0) == pytest.approx(3.0 * grand_string(m).f0_hz)
     assert P.bridge_mass_hz(33, 3.0) == 0.0 and P.bridge_mass_hz(48, 3.0) == 0.0   # the bass: none
     assert P.bridge_mass_hz(78, 3.0) == pytest.approx(6.0 * grand_string(78).f0_hz)
-    assert P.bridge_mass_hz(96, 2.0) == pytest.approx(32.0 * grand_string(96).f0_hz)
+    assert P.bridge_mass_hz(84, 1.0) == pytest.approx(4.0 * grand_string(84).f0_hz)
+    assert P.bridge_mass_hz(87, 3.0) == 0.0 and P.bridge_mass_hz(96, 1.0) == 0.0   # >= 20 kHz: none
     assert P.bridge_mass_hz(60, 0.0) == 0.0
-    for m in (49, 60, 90):
+    for m in (49, 60, 84):
         fm = P.bridge_mass_hz(m, 3.0)
         R = P.bridge_resistance_ns_per_m(m, fm)
         f0 = grand_string(m).f0_hz

@@ -531,6 +531,9 @@ def bridge_resistance_ns_per_m(midi: int, mass_hz: float = 0.0) -> float:
 #: their upper partials
 BRIDGE_MASS_FADE_FROM_MIDI = 72
 BRIDGE_MASS_FADE_ST = 6.0
+#: a corner at or above this (Hz) is no mass at all: it would change nothing
+#: heard (from D#6 up at a ratio of 3), and the dashpot's step is cheaper
+BRIDGE_MASS_MAX_HZ = 20000.0
 
 
 def bridge_mass_hz(midi: int, ratio: float) -> float:
@@ -538,7 +541,8 @@ def bridge_mass_hz(midi: int, ratio: float) -> float:
     ``ratio`` (> 0; 0: no mass, returns 0) times the key's f0, up to
     ``BRIDGE_MASS_FADE_FROM_MIDI``, then twice as far every
     ``BRIDGE_MASS_FADE_ST`` semitones (at C7 16 times as far: the mass is
-    gone from the treble).  Trichords only (0 for the bass's one- and
+    gone from the treble), and 0 where that reaches
+    ``BRIDGE_MASS_MAX_HZ``.  Trichords only (0 for the bass's one- and
     two-string keys): the recorded grand's bass fundamentals show no prompt
     sound at all (early T60 of partial 1 8-125 s on keys 33-45), so the
     model's bass bridge is voiced for the two-stage decay the voicing asks
@@ -549,7 +553,8 @@ def bridge_mass_hz(midi: int, ratio: float) -> float:
     if r == 0.0 or n_strings_for(m) < 3:
         return 0.0
     up = max(0, m - BRIDGE_MASS_FADE_FROM_MIDI) / BRIDGE_MASS_FADE_ST
-    return r * grand_string(m).f0_hz * 2.0 ** up
+    f = r * grand_string(m).f0_hz * 2.0 ** up
+    return f if f < BRIDGE_MASS_MAX_HZ else 0.0
 
 
 def single_string_t60_s(midi: int) -> float:
