@@ -360,7 +360,7 @@ def felt_layer_on_ideal_string(N, k, dt, n_steps, *, m, V, h, A, rho, Ed, p, gam
     return g, Fm
 
 
-def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
+def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None, mu=0.0):
     """Lossy strings (``naive_lossy_string``'s far end, bridge-force output)
     whose ends at x = L sit on one bridge.  Each step every string's loop
     filter gives z (the wave reaching the end); their summed force with the
@@ -370,7 +370,10 @@ def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
     wave is y = z - u_b(m) and its force on the bridge T/dx (2 (y - y_prev)
     + (u_b - u_b_prev)) (the loop filter read as standing just before the
     end) is its output.  With ``ubx`` (one value per step) the bridge is
-    external: u_b(m) = ubx[m] and nothing is fed back.  A string with
+    external: u_b(m) = ubx[m] and nothing is fed back.  With ``mu`` > 0 the
+    bridge has a mass M = mu R_b dt (R_b = dt / brb): M (v(m) - v(m-1)) / dt
+    = F(m) - R_b v(m), u_b(m) = bra u_b(m-1) + dt v(m), F(m) = f - sum T/dx
+    (u_b(m) - u_b(m-1)), solved for v(m) in the same step.  A string with
     ``on`` = (m0, m1) hangs on the bridge only at steps m0 <= m < m1 (an
     open bridge: it joins and leaves); off it its end is still; at its first
     step on it, its previous z and u_b read as the bridge's previous
@@ -392,6 +395,7 @@ def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
     out = np.zeros(n_steps)
     ubs = np.zeros(n_steps)
     ub_last = 0.0
+    v_last = 0.0
     for m in range(n_steps):
         f = 0.0
         B = 0.0
@@ -430,7 +434,15 @@ def naive_bridge_strings(strings, n_steps, *, bra, brb, ubx=None):
                 f += d["tdx"] * 2 * (yo - d["zprev"])
                 B += d["tdx"]
             zs.append((yo, hang))
-        if ubx is None:
+        if ubx is None and mu > 0.0:
+            dt = 1.0                      # (time in steps: R_b = 1 / brb, M = mu R_b)
+            Rb = dt / brb
+            M = mu * Rb * dt
+            # M (v - v_last) / dt = f - B ((bra - 1) u_last + dt v) - Rb v
+            v = (M / dt * v_last + f - B * (bra - 1.0) * ub_last) / (M / dt + Rb + B * dt)
+            ub = bra * ub_last + dt * v
+            v_last = v
+        elif ubx is None:
             r = brb * B
             ub = ((bra + r) * ub_last + brb * f) / (1 + r)
         else:

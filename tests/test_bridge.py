@@ -475,3 +475,62 @@ def test_a_bridge_of_any_resistance_is_passive(ratio):
         b.render(mix, o, 1000)
     assert np.all(np.isfinite(mix))
     assert np.max(np.abs(mix[35_000:])) <= np.max(np.abs(mix[:5000]))
+
+
+@pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
+@pytest.mark.parametrize("n_str,mass_hz", [(1, 2000.0), (3, 300.0), (3, 5000.0)])
+def test_a_bridge_with_mass_equals_the_naive_bridge(per_sample, n_str, mass_hz):
+    """A bridge with a mass above ``mass_hz`` (its admittance 1 / (R + j w
+    M)) equals the naive scheme's, the mass stepped in the same sample as
+    the strings' force, on both paths, to round-off."""
+    rng = np.random.default_rng(31 + n_str)
+    dt, defs = _group(rng, n_str, per_sample)
+    b = _bank_for(defs, dt, per_sample)
+    R_b, f_ret = 3.0, 5.0
+    b.couple(range(n_str), R_b, f_ret, mass_hz)
+    for s, d in enumerate(defs):
+        b.activate(s)
+        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
+    n = 9 * defs[0]["N"]
+    mix = np.zeros(n)
+    for o in range(0, n, 211):
+        b.render(mix, o, min(211, n - o))
+    bra, brb = math.exp(-2 * math.pi * f_ret * dt), dt / R_b
+    mu = 1.0 / (2 * math.pi * mass_hz * dt)
+    ref, ub = naive_bridge_strings([dict(d, g=_g(d, n, dt)) for d in defs], n, bra=bra, brb=brb,
+                                   mu=mu)
+    still, _ = naive_bridge_strings([dict(d, g=_g(d, n, dt)) for d in defs], n, bra=bra, brb=brb)
+    assert np.max(np.abs(ub)) > 1e-5 * max(d["A"] for d in defs)      # the bridge moves
+    assert np.max(np.abs(ref - still)) > 1e-3 * np.max(np.abs(ref))    # and its mass matters
+    assert np.max(np.abs(mix - ref)) < 1e-10 * np.max(np.abs(ref))
+
+
+@pytest.mark.parametrize("ratio,mass_hz", [(0.5, 100.0), (2.05, 3000.0), (10.0, 300.0),
+                                           (1000.0, 50.0), (1.0, 1e5)])
+def test_a_bridge_with_mass_is_passive(ratio, mass_hz):
+    """The mass is stepped backward (Euler) in the same sample as the
+    strings' force: the impedance R + M (1 - z^-1) / dt has a real part R +
+    M (1 - cos w dt) / dt >= R, so a plucked group on it stays bounded and
+    dies away whatever the resistance and the mass."""
+    rng = np.random.default_rng(9)
+    dt, defs = _group(rng, 3, False, region=False)
+    z = sum(d["tdx"] for d in defs) * dt
+    b = _bank_for(defs, dt, False, cap=4)
+    b.couple([0, 1, 2], ratio * z, 0.0, mass_hz)
+    for s, d in enumerate(defs):
+        b.activate(s)
+        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
+    mix = np.zeros(40_000)
+    for o in range(0, 40_000, 1000):
+        b.render(mix, o, 1000)
+    assert np.all(np.isfinite(mix))
+    assert np.max(np.abs(mix[35_000:])) <= np.max(np.abs(mix[:5000]))
+
+
+def test_the_mass_argument_is_checked():
+    rng = np.random.default_rng(3)
+    dt, defs = _group(rng, 2, False, region=False)
+    b = _bank_for(defs, dt, False)
+    for bad in (-1.0, float("nan"), float("inf")):
+        with pytest.raises(ValueError, match="mass_hz"):
+            b.couple([0, 1], 3.0, 5.0, bad)

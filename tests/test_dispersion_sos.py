@@ -16,6 +16,7 @@ import pytest
 
 from synth.physics.dispersion import (
     MAX_SOS,
+    BridgeLag,
     MIN_CELLS,
     SosStiffLoop,
     retune_sos_loop,
@@ -25,7 +26,7 @@ from synth.physics.dispersion import (
     tune_stiff_loop,
     tune_stiff_loop_sos,
 )
-from synth.physics.piano import grand_string, stretched_f0_hz
+from synth.physics.piano import bridge_resistance_ns_per_m, grand_string, stretched_f0_hz
 
 FS = 325000.0
 KEYS = range(21, 109)
@@ -448,3 +449,32 @@ def test_time_domain_fallback_and_retuned_loops():
     meas = run_reference(r)
     assert np.max(np.abs(cents(meas, r.partials(r.n_partials)))) < 0.05       # cents
     assert np.max(np.abs(cents(meas, r.target_partials(r.n_partials)))) <= TOL + 0.05
+
+
+@pytest.mark.parametrize("key,k", [(33, 3.0), (60, 3.0), (60, 1.0), (72, 3.0)])
+def test_a_bridge_with_mass_is_tuned_into_the_loop(key, k):
+    """With a bridge that moves as a mass above k f0 (BridgeLag: the unison's
+    in-phase reflection (Z_b - N Z) / (Z_b + N Z), Z_b = R + j w M, leads),
+    the loop's resonances with the bridge's phase in it (the in-phase
+    motion's) sit on the law within the tolerance, partial 1 exact; the
+    same loop without it (the motions that cancel at the bridge) lies lower
+    by the bridge's lead at partial 1, which the design took out."""
+    g = grand_string(key)
+    fm = k * g.f0_hz
+    R = bridge_resistance_ns_per_m(key, fm)
+    br = BridgeLag(R, R / (2 * np.pi * fm), g.n_strings * g.impedance_ns_per_m, FS)
+    f1, B, *loss = string_args(key)
+    lp = tune_stiff_loop_sos(f1, B, FS, *loss, bridge=br)
+    K = lp.n_partials
+    e = cents(lp.partials(K), lp.target_partials(K))
+    assert np.max(np.abs(e)) <= TOL and abs(e[0]) < 0.01, e
+    assert np.max(np.abs(np.angle(loop_response(lp, lp.partials(K))
+                                  * np.exp(-1j * br.lag(2 * np.pi * lp.partials(K) / FS))))) < 1e-8
+    lead = -float(br.lag(2 * np.pi * f1 / FS))                 # rad, > 0: the loop is shorter
+    assert lead > 0
+    bare = lp.__class__(**{**lp.__dict__, "bridge": None})
+    shift = cents(bare.partials(1)[0], f1)
+    assert shift == pytest.approx(-1200 / math.log(2) * lead / (2 * np.pi), rel=0.02)
+    # a retuned unison string keeps the bridge
+    lr = retune_sos_loop(lp, f1 * 2 ** (0.5 / 1200), *loss[:1], f1, *loss[2:])
+    assert lr.bridge is br and abs(cents(lr.partials(1)[0], f1 * 2 ** (0.5 / 1200))) < 0.01

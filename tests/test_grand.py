@@ -137,7 +137,11 @@ def test_the_capo_bar_colours_the_free_vibration_of_treble_notes(key):
     section 1.3.2: the low modes fall, mode 4 by about 6 dB, the high ones
     rise by up to 15 dB): the partials move by 2.5 dB RMS or more, and
     either the upper half of them rises by 2 dB on average or partials 2-4
-    fall by 2 dB.  At the engine's 325 kHz alone a grid cell of 1-1.3 mm is
+    fall by 2 dB or one of the upper half rises by 6 dB or more (key 78
+    since the trichords' bridge has its mass and the middle's prompt ratio
+    (2026-11-27): partials 10-12 +4 to +9 dB, partial 9, by the strike's
+    node where the ideal string is weak, -11 dB, so the upper half's mean
+    is +1.4 dB; it was +2.7).  At the engine's 325 kHz alone a grid cell of 1-1.3 mm is
     wider than the part of the string that lifts onto the bar, so the bar
     acts only while the hammer presses: key 78 does not change at all and
     keys 84-96 by 1.2-4 dB RMS, mostly on one partial (the default's
@@ -146,7 +150,8 @@ def test_the_capo_bar_colours_the_free_vibration_of_treble_notes(key):
     g = _capo_change_db(key, THESIS_CAPO)
     rms = float(np.sqrt(np.mean(g ** 2)))
     upper, low = float(np.mean(g[len(g) // 2:])), float(np.mean(g[1:4]))
-    assert rms >= 2.5 and (upper >= 2.0 or low <= -2.0), (rms, upper, low, g)
+    rise = float(np.max(g[len(g) // 2:]))
+    assert rms >= 2.5 and (upper >= 2.0 or low <= -2.0 or rise >= 6.0), (rms, upper, low, g)
     if key == 78:
         assert np.all(np.abs(_capo_change_db(key)) < 0.05)   # the default: untouched
 
@@ -379,3 +384,41 @@ def test_hardness_voices_the_hammers_brighter_and_shorter():
     soft = np.count_nonzero(_contacts(60, 2.0, ["action.hardness=0.5"])[1] > 0)
     hard = np.count_nonzero(_contacts(60, 2.0, ["action.hardness=2.0"])[1] > 0)
     assert hard < 0.98 * soft                 # 546 against 570 samples at 325 kHz
+
+
+def _decay_db_per_s(y, key, n_partials=8, t0=0.1, t1=1.3, win=0.2):
+    """Slopes (dB/s) of partials 1..n's peak levels over t0..t1 (0.2 s
+    frames every 0.1 s, a least-squares line)."""
+    B = P.grand_string(key).inharmonicity_b
+    f1 = engine("grand-piano").inst.tuning_hz(key)
+    ts = np.arange(t0, t1 - win + 1e-9, 0.1)
+    lv = np.array([partial_peaks(y[int(t * FS):int((t + win) * FS)], FS, f1 / np.sqrt(1 + B),
+                                 n_partials, search_cents=40, inharmonicity=B)[1] for t in ts])
+    return np.array([np.polyfit(ts + win / 2, lv[:, k], 1)[0] for k in range(n_partials)])
+
+
+def test_the_bridge_mass_keeps_the_upper_partials_of_the_prompt_sound():
+    """C4 with its unison exact (only the in-phase motion, the prompt
+    sound): each partial decays at the string's own rate plus the bridge's,
+    sigma(f) = sigma_a(f) + sigma_b Re Y(f) / Re Y(f0) (amplitude, 1/s;
+    8.69 dB per unit), where the bridge's share sigma_b = sigma_p - sigma_a
+    at f0 is the same for every partial on a dashpot and falls as 1 / (1 +
+    (f / f_m)^2) (times 1 + (f0 / f_m)^2) on the preset's bridge, which
+    moves as a mass above f_m = 3 f0: partial 1 falls as fast either way,
+    partial 8 at about half the dashpot's rate.  Within 12 % of the closed
+    form on partials 1-8."""
+    key = 60
+    g = P.grand_string(key)
+    ln = np.log(1000.0)
+    sig_b = ln / g.t60_prompt_s - ln / g.t60_low_s
+    fm = P.bridge_mass_hz(key, 3.0)
+    n = np.arange(1, 9)
+    sig_a = np.array([ln / g.t60_s(g.partial_hz(j)) for j in n])
+    share = (1 + (g.f0_hz / fm) ** 2) / (1 + (n * g.f0_hz / fm) ** 2)
+    db = 20 / np.log(10)
+    for sets, want in ((["strings.detune_scale=0"], sig_a + sig_b * share),
+                       (["strings.detune_scale=0", "strings.bridge_mass_f0=0"], sig_a + sig_b)):
+        y, _ = render(key, 80 / 127, 1.4, sets)
+        got = -_decay_db_per_s(y, key) / db
+        assert np.allclose(got, want, rtol=0.12), (sets, got, want)
+    assert want[7] > 1.7 * (sig_a + sig_b * share)[7]

@@ -161,7 +161,13 @@ def test_decay_times():
     pr = col("t60_prompt_s")
     ns = col("n_strings")
     assert np.allclose(lo / pr, [P.prompt_ratio(m) for m in MIDIS])    # the in-phase motion
-    assert P.prompt_ratio(60) == P.PROMPT_RATIO[3] and P.prompt_ratio(108) == 3.0
+    assert P.prompt_ratio(49) == P.PROMPT_RATIO[3] and P.prompt_ratio(108) == 3.0
+    # the middle's trichords as a recorded grand's (the anchors), 4 again from A#5
+    for m, r in P.TRICHORD_PROMPT_ANCHORS:
+        assert P.prompt_ratio(m) == pytest.approx(r)
+    assert P.prompt_ratio(65) == pytest.approx(7.4) and P.prompt_ratio(90) == P.PROMPT_RATIO[3]
+    assert all(3.0 <= P.prompt_ratio(m) <= 7.4 for m in range(49, 109))
+    assert P.prompt_ratio(40) == P.PROMPT_RATIO[2] and P.prompt_ratio(25) == P.PROMPT_RATIO[1]
     assert np.all(hi < lo)
     assert np.all(fh == np.maximum(5000.0, 2 * f0))
     assert np.all((hi > 0.1) & (hi < 2.0))
@@ -344,3 +350,26 @@ def test_stretch_input_validation():
         stretch_curve_cents(octave_k=0)
     with pytest.raises(ValueError, match="midi"):
         stretched_f0_hz(20)
+
+
+def test_the_bridge_mass_corner_and_the_resistance_that_keeps_the_prompt_decay():
+    """bridge_mass_hz: ratio x f0 on the trichords up to key 72, then twice
+    as far every 6 semitones, none on the bass nor at 20 kHz and above;
+    bridge_resistance_ns_per_m with a mass keeps the real part of
+    the bridge's admittance at f0, 1 / (R (1 + (f0 / f_m)^2)), at the
+    dashpot's 1 / R_b, so the prompt T60 at f0 stays."""
+    for m in (49, 60, 72):
+        assert P.bridge_mass_hz(m, 3.0) == pytest.approx(3.0 * grand_string(m).f0_hz)
+    assert P.bridge_mass_hz(33, 3.0) == 0.0 and P.bridge_mass_hz(48, 3.0) == 0.0   # the bass: none
+    assert P.bridge_mass_hz(78, 3.0) == pytest.approx(6.0 * grand_string(78).f0_hz)
+    assert P.bridge_mass_hz(84, 1.0) == pytest.approx(4.0 * grand_string(84).f0_hz)
+    assert P.bridge_mass_hz(87, 3.0) == 0.0 and P.bridge_mass_hz(96, 1.0) == 0.0   # >= 20 kHz: none
+    assert P.bridge_mass_hz(60, 0.0) == 0.0
+    for m in (49, 60, 84):
+        fm = P.bridge_mass_hz(m, 3.0)
+        R = P.bridge_resistance_ns_per_m(m, fm)
+        f0 = grand_string(m).f0_hz
+        re_y = (1.0 / complex(R, 2 * np.pi * f0 * R / (2 * np.pi * fm))).real
+        assert re_y == pytest.approx(1.0 / P.bridge_resistance_ns_per_m(m), rel=1e-12)
+    with pytest.raises(ValueError, match="ratio"):
+        P.bridge_mass_hz(60, -1.0)

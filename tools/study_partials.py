@@ -1,6 +1,7 @@
 """Two studies behind docs/voicing.md's "misses that remain" (issue 11).
 
     python tools/study_partials.py decay --real node_modules/@audio-samples [--keys 48,51,...]
+    python tools/study_partials.py ratios --real node_modules/@audio-samples
     python tools/study_partials.py una-corda [--keys 78,81,...] [--set PATH=VALUE ...]
 
 ``decay``: the early T60 of partials 1-8 of each key, on a real grand's
@@ -14,6 +15,13 @@ partials 1-10 over 0.05-0.35 s and 0.05-1.05 s re the strongest, as peak
 levels (the voicing report's measure) and as band levels (the power within
 0.45 f0 of each partial: a unison's partial splits into its strings' peaks
 in a one-second window, which a peak level reads low).
+
+``ratios``: the prompt ratio a real grand implies, key by key (every
+minor third): ``synth.physics.piano``'s aftersound T60 at f0 over the
+recording's early T60 of partial 1, the median of layers v4, v10 and v14,
+and the running median of five keys (the smoothed curve
+``synth.physics.piano.TRICHORD_PROMPT_ANCHORS`` follows), beside the
+model's own ratio.
 
 ``una-corda``: the voicing report's una corda measure (the centroid of the
 first 100 ms, CC67 down against up, velocity 80) on any keys, with the
@@ -36,7 +44,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from voicing_report import FS, Renderer, attack_centroid_hz, max_momentary  # noqa: E402
 
 from synth.analysis import estimate_f0, track_partials  # noqa: E402
-from synth.physics.piano import et_f0_hz, grand_string  # noqa: E402
+from synth.physics.piano import et_f0_hz, grand_string, prompt_ratio  # noqa: E402
 
 N_PARTIALS = 8
 _NAMES = {0: "C", 3: "D#", 6: "F#", 9: "A"}
@@ -81,10 +89,10 @@ def partial_levels_db(y, key, t0, t1, n=10):
     return peak - np.nanmax(peak), band - band.max()
 
 
-def _load_real(folder: Path, key: int):
+def _load_real(folder: Path, key: int, layer: int = 10):
     from real_grand import load
 
-    name = f"{_NAMES[key % 12]}{key // 12 - 1}v10.ogg"
+    name = f"{_NAMES[key % 12]}{key // 12 - 1}v{layer}.ogg"
     p = next(folder.rglob(name), None)
     if p is None:
         raise SystemExit(f"study_partials: error: no sample {name} under {folder}")
@@ -122,6 +130,42 @@ def decay(args) -> None:
             print(_row(f"{label}, {t0}-{t1} s, band", bd))
 
 
+def implied_ratios(folder: Path, keys, layers=(4, 10, 14)):
+    """{key: (early T60 of partial 1 per layer (s), their median, the
+    aftersound T60 over it)} of the recorded grand."""
+    out = {}
+    for key in keys:
+        t = [float(early_t60_s(_load_real(folder, key, v), key)[0]) for v in layers]
+        med = float(np.median(t))
+        out[key] = (t, med, grand_string(key).t60_low_s / med)
+    return out
+
+
+def running_median(values, width=5):
+    """Median of each value with its (width - 1) / 2 neighbours on each
+    side (fewer at the ends)."""
+    h = width // 2
+    v = list(values)
+    return [float(np.median(v[max(0, i - h):i + h + 1])) for i in range(len(v))]
+
+
+def ratios(args) -> None:
+    folder = Path(args.real)
+    if not folder.is_dir():
+        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
+    keys = list(range(21, 109, 3))
+    got = implied_ratios(folder, keys)
+    smooth = running_median([got[k][2] for k in keys])
+    print("| key | strings | early T60 of partial 1, v4 / v10 / v14 (s) | median | aftersound T60 "
+          "(model) | implied ratio | running median of 5 | model's ratio |")
+    print("|---|---|---|---|---|---|---|---|")
+    for key, sm in zip(keys, smooth):
+        t, med, r = got[key]
+        print(f"| {key} | {grand_string(key).n_strings} | {' / '.join(f'{v:.1f}' for v in t)} | "
+              f"{med:.1f} | {grand_string(key).t60_low_s:.1f} | {r:.1f} | {sm:.1f} | "
+              f"{prompt_ratio(key):.2f} |")
+
+
 def una_corda(args) -> None:
     r = Renderer("grand-piano", tuple(args.set))
     print("| key | centroid change | centroid / f0, pedal up -> down | loudness change, dB |")
@@ -152,12 +196,14 @@ def main(argv=None) -> int:
     d.add_argument("--real", required=True, help="the folder of tools/real_grand.py's samples")
     d.add_argument("--keys", type=_keys, default=_keys("48,51,54,57,60,63,66,69,72"))
     d.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
+    q = sub.add_parser("ratios", help="the prompt ratio a real grand implies, key by key")
+    q.add_argument("--real", required=True, help="the folder of tools/real_grand.py's samples")
     u = sub.add_parser("una-corda", help="the una corda's centroid change on any keys")
     u.add_argument("--keys", type=_keys, default=_keys("78,81,84,87,90,92,94,96,98,100,104"))
     u.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
     args = ap.parse_args(argv)
     try:
-        decay(args) if args.study == "decay" else una_corda(args)
+        {"decay": decay, "ratios": ratios, "una-corda": una_corda}[args.study](args)
     except SystemExit as e:
         if isinstance(e.code, str):
             print(e.code, file=sys.stderr)

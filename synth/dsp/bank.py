@@ -836,13 +836,17 @@ class StringBank:
         return int(self.U[int(self.ipar[s, K.I_GT_OFF]) + FL.L_STEPS])
 
     # -- bridges ----------------------------------------------------------------
-    def couple(self, slots, resistance_ns_per_m: float, return_hz: float = 5.0) -> None:
+    def couple(self, slots, resistance_ns_per_m: float, return_hz: float = 5.0,
+               mass_hz: float = 0.0) -> None:
         """Put the strings of ``slots`` (1 .. ``max_group`` distinct slots,
         configured lossy, with the bridge-force output, the same grid) on
         one bridge: a dashpot of resistance ``resistance_ns_per_m`` (N s/m,
         > 0) with a spring that brings it back at ``return_hz`` (Hz, >= 0;
         keeps it from drifting), driven by the strings' summed force, whose
         motion every string's end follows (Weinreich's coupled unison).
+        ``mass_hz`` (Hz, >= 0; 0: none) gives the bridge a mass M =
+        R / (2 pi mass_hz): its admittance 1 / (R + j w M) is the dashpot's
+        below ``mass_hz`` and falls as a mass's above it.
         Every slot must be activated (:meth:`activate`): the group renders
         from its first slot.  The bridge starts at rest.  The group goes as
         a whole (:meth:`reap`)."""
@@ -851,7 +855,7 @@ class StringBank:
         if not (1 <= G <= self.max_group) or len(set(slots)) != G:
             raise ValueError(f"slots = {slots!r} is out of range (1 to {self.max_group} "
                              f"distinct slots)")
-        self._new_bridge(slots[0], resistance_ns_per_m, return_hz)
+        self._new_bridge(slots[0], resistance_ns_per_m, return_hz, mass_hz)
         for s in slots[1:]:
             self._check_member(s, slots[0])
         self._members[slots[0]] = slots
@@ -915,18 +919,23 @@ class StringBank:
         """The slots on the bridge led by ``lead`` (empty: no such group)."""
         return tuple(self._members.get(int(lead), ()))
 
-    def _new_bridge(self, lead: int, resistance_ns_per_m: float, return_hz: float) -> None:
+    def _new_bridge(self, lead: int, resistance_ns_per_m: float, return_hz: float,
+                    mass_hz: float = 0.0) -> None:
         if not (resistance_ns_per_m > 0.0) or not math.isfinite(resistance_ns_per_m):
             raise ValueError(f"resistance_ns_per_m = {resistance_ns_per_m!r} is out of range (value > 0)")
         if not (return_hz >= 0.0):
             raise ValueError(f"return_hz = {return_hz!r} is out of range (value >= 0)")
+        if not (mass_hz >= 0.0) or not math.isfinite(mass_hz):
+            raise ValueError(f"mass_hz = {mass_hz!r} is out of range (value >= 0, finite)")
         if self._leader[lead] >= 0:
             self.leave(lead)
         self._check_member(lead, lead)
         dt = float(self.fpar[lead, K.F_DT])
         self.fpar[lead, K.F_BRB] = dt / resistance_ns_per_m
         self.fpar[lead, K.F_BRA] = math.exp(-2.0 * math.pi * return_hz * dt)
-        self.fst[lead, K.S_UB0] = 0.0
+        # mu = M / (R dt) with M = R / (2 pi mass_hz): the mass's step against the dashpot's
+        self.fpar[lead, K.F_BRMU] = 1.0 / (2.0 * math.pi * mass_hz * dt) if mass_hz > 0 else 0.0
+        self.fst[lead, K.S_UBW] = 0.0
         self.fst[lead, K.S_UBM] = 0.0
 
     def _check_member(self, s: int, lead: int) -> None:

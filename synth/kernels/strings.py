@@ -231,7 +231,9 @@ F_REACH = F_HTOLG + 1  # the region's reach: min over its points of side U(n) / 
 #                        out of reach; inf: no point can be touched), see _out_of_reach
 F_CURV = F_REACH + 1   # sub-cell contact in the first cell (0: off; see _subcell_delta): the share
 #                        of U(1) that is the profile's curvature, 1 - theta dx / U(1) (0 < value <= 1)
-F_NF = F_CURV + 1
+F_BRMU = F_CURV + 1   # the bridge's mass (coupled group, on its leader): mu = M / (R_b dt)
+#                        (0: a dashpot, the old bridge; see _bridge)
+F_NF = F_BRMU + 1
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -264,8 +266,9 @@ S_HC_GAP = S_HC_EP + 1  # samples since the last hammer contact (-1: none yet)
 S_HF_PK = S_HC_GAP + 1  # peak hammer force (N)
 # second-order sections' states: x1, x2, y1, y2 per section (direct form I)
 S_SOS = S_HF_PK + 1
-S_UB0 = S_SOS + 4 * MAX_SOS   # coupled group (leader): (unused since the bridge's same-sample step)
-S_UBM = S_UB0 + 1             # coupled group (leader): the bridge displacement of the last sample (m)
+S_UBW = S_SOS + 4 * MAX_SOS   # coupled group (leader): the bridge's last step w = u_b(i) - a u_b(i-1)
+#                               (m; its velocity times dt: the state of its mass, F_BRMU > 0)
+S_UBM = S_UBW + 1             # coupled group (leader): the bridge displacement of the last sample (m)
 S_UBP = S_UBM + 1             # a string on a bridge: the bridge displacement of its last sample
 S_UBOFF = S_UBP + 1           # a string on an external bridge: the offset its end eases off
 S_TO = S_UBOFF + 1            # pitch bend: the tune-out, extra delay of the bend line (samples,
@@ -2911,7 +2914,21 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
     frequency, the dashpot's own: passive for any R_b.  (The step one
     sample behind the force, u_b(i+1) = a u_b(i) + b F(i), used until
     2026-11-25, reflects by (1 - r z^-1) / (1 + r z^-1): more than 1 above
-    fs/4, and a sitar's taraf on a soft bridge blew up.)  The bridge row of
+    fs/4, and a sitar's taraf on a soft bridge blew up.)
+
+    With a mass (``F_BRMU`` = mu = M / (R_b dt) > 0; the grand's bridge
+    moves as a mass above f_m = 1 / (2 pi mu dt)), the dashpot's step w(i)
+    = u_b(i) - a u_b(i-1) = b F(i) becomes the backward-Euler step of
+    M dv/dt = F - R_b v, w = v dt:
+
+        mu (w(i) - w(i-1)) + w(i) = b F(i),   F(i) = f(i) - B (w(i) + (a - 1) u_b(i-1))
+        =>  w(i) = (mu w(i-1) + b f(i) - r (a - 1) u_b(i-1)) / (1 + mu + r),
+
+    w kept in ``S_UBW``: the strings meet the impedance R_b + j w M
+    (its backward-Euler form, whose real part only grows with frequency:
+    passive), and a unison's in-phase motion loses 1 / (1 + (f / f_m)^2)
+    of the dashpot's decay rate at f.  mu = 0 takes the dashpot's loop
+    (the same samples as before the mass).  The bridge row of
     ``cw`` (after the G members' windows) gets u_b of the sample before the
     chunk and of its C samples (for the members' force outputs).  The
     members are the chain from ``lead`` (``I_CPLNX``)."""
@@ -2938,10 +2955,22 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
             fo[i] += t2 * (zo[i] - zp[i])
         yb[0] = y_prev
     row[0] = ubm
-    for i in range(C):
-        ubm = (ar * ubm + b * fo[i]) * den
-        fo[i] = ubm
-    fst[lead, S_UB0] = ubm
+    mu = fpar[lead, F_BRMU]
+    if mu == 0.0:
+        for i in range(C):
+            ubm = (ar * ubm + b * fo[i]) * den
+            fo[i] = ubm
+    else:
+        # the bridge with its mass: w(i) = u_b(i) - a u_b(i-1) solves
+        # mu (w(i) - w(i-1)) + w(i) = b F(i), F(i) = f(i) - B (w(i) + (a - 1) u_b(i-1))
+        w = fst[lead, S_UBW]
+        dm = 1.0 / (1.0 + mu + r)
+        ra = r * (a - 1.0)
+        for i in range(C):
+            w = (mu * w + b * fo[i] - ra * ubm) * dm
+            ubm = a * ubm + w
+            fo[i] = ubm
+        fst[lead, S_UBW] = w
     fst[lead, S_UBM] = ubm
     s = lead
     for m in range(G):
@@ -3485,16 +3514,25 @@ def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, on
     their summed force then gives the bridge's true u_b(i) = U0 + dU
     (:func:`_bridge`'s step), and each member's outgoing wave, its force
     output and its bridge reading are corrected by dU (the scheme is
-    linear in u_b; the members' peaks keep the provisional output).
-    ``one``: two scratch values."""
+    linear in u_b; the members' peaks keep the provisional output).  With
+    the bridge's mass (``F_BRMU`` > 0) U0 = a u_b(i-1) + (mu w(i-1) - r (a
+    - 1) u_b(i-1)) / (1 + mu + r) and dU = b f / (1 + mu + r) (the same
+    step, :func:`_bridge`).  ``one``: two scratch values."""
     a = fpar[lead, F_BRA]
     b = fpar[lead, F_BRB]
     r = b * fpar[lead, F_BTDX]
+    mu = fpar[lead, F_BRMU]
     den = 1.0 / (1.0 + r)
+    if mu != 0.0:
+        den = 1.0 / (1.0 + mu + r)
+    ra = r * (a - 1.0)
     two = mix.shape[0] > 1
     for i in range(n):
         ubm = fst[lead, S_UBM]
-        U0 = (a + r) * ubm * den
+        if mu == 0.0:
+            U0 = (a + r) * ubm * den
+        else:
+            U0 = a * ubm + (mu * fst[lead, S_UBW] - ra * ubm) * den
         one[0] = U0
         one[1] = 0.0
         cf = one[1:2]
@@ -3524,7 +3562,7 @@ def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, on
                 mix[0, o0 + i] += v
             s = ipar[s, I_CPLNX]
         fst[lead, S_UBM] = ub
-        fst[lead, S_UB0] = ub
+        fst[lead, S_UBW] = ub - a * ubm
 
 
 @njit(**JIT_OPTS)

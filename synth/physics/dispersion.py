@@ -739,17 +739,52 @@ def _loop_lag_terms(eta: float, a1: float, n_fo: int, a_fo: float, sos):
     return 1.0 + n_fo + len(p), np.array(q, dtype=complex), np.array(m)
 
 
-def _lag_and_delay(w, L: float, q, m, want_delay: bool = True):
-    """Loop lag (rad) and group delay (samples) at w (array, rad/sample)."""
+@dataclass(frozen=True)
+class BridgeLag:
+    """The phase of a unison's reflection from its bridge, as a lag of the
+    loop: strings of summed impedance ``nz`` (N s/m) moving together meet
+    the bridge's impedance Z_b = R + j w M (``resistance``, N s/m; ``mass``,
+    kg) and come back by rho = (Z_b - nz) / (Z_b + nz), whose phase
+    arctan(w M / (R - nz)) - arctan(w M / (R + nz)) is a lead (the loop
+    shorter: a mass raises the in-phase motion); a dashpot (M = 0) has none.
+    ``fs`` the loop's rate (Hz): w in rad/sample is w fs rad/s."""
+
+    resistance: float
+    mass: float
+    nz: float
+    fs: float
+
+    def lag(self, w):
+        """Lag (rad) at w (rad/sample, array): minus rho's phase."""
+        x = np.asarray(w, dtype=float) * self.fs * self.mass
+        return np.arctan2(x, self.resistance + self.nz) - np.arctan2(x, self.resistance - self.nz)
+
+    def delay(self, w):
+        """d lag / d w (samples)."""
+        x = np.asarray(w, dtype=float) * self.fs * self.mass
+        k = self.fs * self.mass
+        ap, am = self.resistance + self.nz, self.resistance - self.nz
+        return k * (ap / (ap * ap + x * x) - am / (am * am + x * x))
+
+
+def _lag_and_delay(w, L: float, q, m, want_delay: bool = True, extra: BridgeLag | None = None):
+    """Loop lag (rad) and group delay (samples) at w (array, rad/sample),
+    with a bridge's lag (``extra``) if given."""
     v = q[:, None] * np.exp(-1j * w)[None, :]
     u = 1.0 - v
     lag = L * w + m @ np.angle(u)
+    if extra is not None:
+        lag = lag + extra.lag(w)
     if not want_delay:
         return lag, None
-    return lag, L + m @ (v / u).real
+    gd = L + m @ (v / u).real
+    if extra is not None:
+        gd = gd + extra.delay(w)
+    return lag, gd
 
 
-def _loop_partials_w(Dint: int, L: float, q, m, n, w_guess=None) -> np.ndarray:
+def _loop_partials_w(Dint: int, L: float, q, m, n, w_guess=None,
+                     extra: BridgeLag | None = None) -> np.ndarray:
     """w (rad/sample) at which the loop's lag is 2 pi n, for partial numbers n.
 
     Newton's method from ``w_guess`` when it is given and converges (the
@@ -761,12 +796,12 @@ def _loop_partials_w(Dint: int, L: float, q, m, n, w_guess=None) -> np.ndarray:
     if w_guess is not None:
         w = np.array(w_guess, dtype=float)
         for _ in range(8):
-            lag, gd = _lag_and_delay(w, Ltot, q, m)
+            lag, gd = _lag_and_delay(w, Ltot, q, m, extra=extra)
             step = (lag - target) / gd
             w = w - step
             if np.all(np.abs(step) <= 1e-15 * w):
                 break
-        lag, _ = _lag_and_delay(w, Ltot, q, m, False)
+        lag, _ = _lag_and_delay(w, Ltot, q, m, False, extra)
         if np.all(np.isfinite(w)) and np.all((w > 0) & (w < math.pi)) and \
                 np.all(np.abs(lag - target) <= 1e-9 * target):
             return w
@@ -776,7 +811,7 @@ def _loop_partials_w(Dint: int, L: float, q, m, n, w_guess=None) -> np.ndarray:
         mid = 0.5 * (lo + hi)
         if np.all((mid == lo) | (mid == hi)):
             break
-        above = _lag_and_delay(mid, Ltot, q, m, False)[0] > target
+        above = _lag_and_delay(mid, Ltot, q, m, False, extra)[0] > target
         hi = np.where(above, mid, hi)
         lo = np.where(above, lo, mid)
     return 0.5 * (lo + hi)
@@ -800,8 +835,10 @@ class _SosProblem:
     first-order section.
     """
 
-    def __init__(self, f0: float, B: float, fs: float, K: int, a1: float):
+    def __init__(self, f0: float, B: float, fs: float, K: int, a1: float,
+                 bridge: BridgeLag | None = None):
         self.f0, self.B, self.fs, self.K, self.a1 = f0, B, fs, K, a1
+        self.bridge = bridge
         n = np.arange(1, K + 1, dtype=float)
         fn = stiff_partials(f0, B, n)
         w = 2.0 * math.pi * fn / fs
@@ -809,7 +846,7 @@ class _SosProblem:
         self.w1 = float(w[0])
         self.Ewc = np.exp(-1j * w)
         self.P1 = fs / float(fn[0])
-        lpl = _lp_lag(w, a1)
+        lpl = self.fixed_lag(w)
         self.lpd1 = float(lpl[0]) / self.w1
         self.wr = w[1:]
         self.ratio = w[1:] / self.w1
@@ -818,6 +855,11 @@ class _SosProblem:
         self.scale = -CENTS_PER_LN / (w * tau)          # cents per rad of excess lag
         self.sc = self.scale[1:]
         self._avs_grid = None
+
+    def fixed_lag(self, w):
+        """The loss filter's lag and the bridge's (rad) at w."""
+        lag = _lp_lag(w, self.a1)
+        return lag if self.bridge is None else lag + self.bridge.lag(w)
 
     # -- tuning (partial 1 exact)
     def tuning(self, C1: float):
@@ -959,12 +1001,12 @@ class _SosProblem:
             w_top = 2.0 * math.pi * float(stiff_partials(f0, B, n_top)) / fs
             wg = np.linspace(0.0, w_top, 512)
             base = (2.0 * math.pi * partial_number(wg * fs / (2.0 * math.pi), f0, B)
-                    - _lp_lag(wg, self.a1))
+                    - self.fixed_lag(wg))
             self._avs_grid = (n_top, w_top, wg, base, float(np.gradient(base, wg).min()))
         n_top, w_top, wg, base, slope_min = self._avs_grid
         fo_top = float(_fo_lag(np.array([w_top]), a0)[0]) if m1 else 0.0
         tot = 2.0 * math.pi * M + fo_top
-        L = (2.0 * math.pi * n_top - float(_lp_lag(np.array([w_top]), self.a1)[0]) - tot) / w_top
+        L = (2.0 * math.pi * n_top - float(self.fixed_lag(np.array([w_top]))[0]) - tot) / w_top
         fo = _fo_lag(wg, a0) if m1 else 0.0
         phi = base - L * wg - fo
         targets = 2.0 * math.pi * (np.arange(1, M + 1) - 0.5)
@@ -997,7 +1039,7 @@ class _SosProblem:
         N, extra, eta, _ = self.tuning(float(C[0]))
         sos = sos_coefficients(th, R) if M else np.zeros((0, 2))
         L, q, m = _loop_lag_terms(eta, self.a1, m1, a, sos)
-        w = _loop_partials_w(2 * N + extra, L, q, m, self.n, self.w)
+        w = _loop_partials_w(2 * N + extra, L, q, m, self.n, self.w, self.bridge)
         cents = CENTS_PER_LN * np.log(w / self.w)
         return N, extra, eta, sos, a, cents
 
@@ -1090,6 +1132,10 @@ class SosStiffLoop:
         Loop sample rate (Hz).
     tol_cents, f_max_hz, max_partials : float, float, int
         The design's tolerance and band (:func:`retune_sos_loop` uses them).
+    bridge : BridgeLag or None
+        The bridge whose reflection phase the loop was tuned with (partial
+        1 exact, partials 1 .. K within the tolerance of the law, with it
+        in the loop); None: a rigid end or a dashpot.
     """
 
     cells: int
@@ -1111,6 +1157,7 @@ class SosStiffLoop:
     tol_cents: float
     f_max_hz: float
     max_partials: int
+    bridge: BridgeLag | None = None
 
     @property
     def n_sos(self) -> int:
@@ -1141,10 +1188,12 @@ class SosStiffLoop:
         return self.delay_samples + L, q, m
 
     def phase_lag(self, f_hz) -> np.ndarray:
-        """Continuous phase lag (rad) of the loop at f (Hz, array), 0 .. fs/2."""
+        """Continuous phase lag (rad) of the loop at f (Hz, array), 0 .. fs/2
+        (with its bridge's, :class:`BridgeLag`, if it has one: so do
+        :meth:`group_delay` and :meth:`partials`)."""
         L, q, m = self._terms()
         w = 2.0 * math.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)) / self.fs
-        return _lag_and_delay(w, L, q, m, False)[0]
+        return _lag_and_delay(w, L, q, m, False, self.bridge)[0]
 
     def total_phase_delay(self, f_hz: float | None = None) -> float:
         """Loop phase delay (samples) at f (Hz; default partial 1)."""
@@ -1156,7 +1205,7 @@ class SosStiffLoop:
         of a mode there."""
         L, q, m = self._terms()
         w = 2.0 * math.pi * np.atleast_1d(np.asarray(f_hz, dtype=float)) / self.fs
-        return _lag_and_delay(w, L, q, m)[1]
+        return _lag_and_delay(w, L, q, m, extra=self.bridge)[1]
 
     def partials(self, n) -> np.ndarray:
         """Resonance frequencies (Hz) of the loop.
@@ -1185,12 +1234,14 @@ class SosStiffLoop:
             if ns.size == 0 or np.any(ns < 1) or np.any(ns != np.round(ns)):
                 raise ValueError(f"n = {n!r} is out of range (partial numbers, integers >= 1)")
         L, q, m = self._terms()
-        top = float(_lag_and_delay(np.array([math.pi * (1.0 - 1e-12)]), L, q, m, False)[0][0])
+        top = float(_lag_and_delay(np.array([math.pi * (1.0 - 1e-12)]), L, q, m, False,
+                                   self.bridge)[0][0])
         top /= 2.0 * math.pi
         if ns.max() >= top:
             raise ValueError(f"n = {int(ns.max())} is out of range (the loop has fewer than "
                              f"{int(ns.max())} partials below fs/2; 1 <= n < {top:.3f})")
-        w = _loop_partials_w(self.delay_samples, L - self.delay_samples, q, m, ns)
+        w = _loop_partials_w(self.delay_samples, L - self.delay_samples, q, m, ns,
+                             extra=self.bridge)
         return w * self.fs / (2.0 * math.pi)
 
     def target_partials(self, n) -> np.ndarray:
@@ -1237,7 +1288,8 @@ def _first_order_loop(pb: _SosProblem, m_max: int, tol: float):
 def tune_stiff_loop_sos(f1_hz: float, B: float, fs: float, t60_low_s: float, f_low_hz: float,
                         t60_high_s: float, f_high_hz: float, *, tol_cents: float = TOL_CENTS,
                         max_partials: int = N_PARTIALS_MAX, f_max_hz: float = F_MAX_HZ,
-                        max_biquads: int = MAX_SOS, m_max: int = M_LIMIT) -> SosStiffLoop:
+                        max_biquads: int = MAX_SOS, m_max: int = M_LIMIT,
+                        bridge: BridgeLag | None = None) -> SosStiffLoop:
     """Loss filter, biquad dispersion cascade, integer delay and tuning
     allpass of a stiff string whose partial 1 is exactly ``f1_hz`` and whose
     partials 1 .. K lie within ``tol_cents`` of n f0 sqrt(1 + B n^2).
@@ -1294,6 +1346,12 @@ def tune_stiff_loop_sos(f1_hz: float, B: float, fs: float, t60_low_s: float, f_l
         Most biquads, 0 .. MAX_SOS.
     m_max : int
         Most identical sections of the first-order fallback, 0 .. 16.
+    bridge : BridgeLag or None
+        A bridge at the loop's end whose reflection phase (a unison's
+        in-phase motion on a bridge with mass) the design takes into the
+        loop: partial 1 exact and partials 2 .. K on the law with it.  The
+        first-order fallback does not (its partials then lie off by the
+        bridge's shift).
 
     Returns
     -------
@@ -1324,7 +1382,7 @@ def tune_stiff_loop_sos(f1_hz: float, B: float, fs: float, t60_low_s: float, f_l
     f0 = f1_hz / math.sqrt(1.0 + B)
     K = default_n_partials(f0, B, f_max_hz, max_partials)
     b0, a1 = _stiff_loss_filter(f0, B, fs, t60_low_s, f_low_hz, t60_high_s, f_high_hz)
-    pb = _SosProblem(f0, B, fs, K, a1)
+    pb = _SosProblem(f0, B, fs, K, a1, bridge)
 
     found = None
     if K >= 2 and B > 0.0:
@@ -1341,7 +1399,8 @@ def tune_stiff_loop_sos(f1_hz: float, B: float, fs: float, t60_low_s: float, f_l
                          f"cells (allowed: >= {MIN_CELLS}, f1 < fs/16)")
     return SosStiffLoop(int(N), int(extra), b0, a1, float(eta), int(n_fo), a_fo, _frozen(sos),
                         int(K), float(np.max(np.abs(cents))), _frozen(cents), kind, f0,
-                        float(f1_hz), float(B), float(fs), tol_cents, f_max_hz, max_partials)
+                        float(f1_hz), float(B), float(fs), tol_cents, f_max_hz, max_partials,
+                        bridge if kind == "sos" else None)
 
 
 def retune_sos_loop(loop: SosStiffLoop, f1_hz: float, t60_low_s: float, f_low_hz: float,
@@ -1392,7 +1451,7 @@ def retune_sos_loop(loop: SosStiffLoop, f1_hz: float, t60_low_s: float, f_low_hz
         raise ValueError(f"f1_hz = {f1_hz!r} is out of range: partial {K} would be at {top:g} Hz "
                          f"(allowed: below 0.45 fs = {0.45 * fs:g} Hz)")
     b0, a1 = _stiff_loss_filter(f0, B, fs, t60_low_s, f_low_hz, t60_high_s, f_high_hz)
-    pb = _SosProblem(f0, B, fs, K, a1)
+    pb = _SosProblem(f0, B, fs, K, a1, loop.bridge)
 
     def build(sos, a_fo):
         # the cascade's lag at this string's partial 1, then the tuning
@@ -1403,7 +1462,7 @@ def retune_sos_loop(loop: SosStiffLoop, f1_hz: float, t60_low_s: float, f_low_hz
             C1 += loop.n_fo * float(_fo_lag(pb.w1, a_fo))
         N, extra, eta, _ = pb.tuning(C1)
         L, q, m = _loop_lag_terms(eta, a1, loop.n_fo, a_fo, sos)
-        w = _loop_partials_w(2 * N + extra, L, q, m, pb.n, pb.w)
+        w = _loop_partials_w(2 * N + extra, L, q, m, pb.n, pb.w, pb.bridge)
         return N, extra, eta, sos, a_fo, CENTS_PER_LN * np.log(w / pb.w)
 
     best = build(loop.sos, loop.a_fo)
@@ -1428,4 +1487,4 @@ def retune_sos_loop(loop: SosStiffLoop, f1_hz: float, t60_low_s: float, f_low_hz
                          f"cells (allowed: >= {MIN_CELLS}, f1 < fs/16)")
     return SosStiffLoop(int(N), int(extra), b0, a1, float(eta), loop.n_fo, a_fo, _frozen(sos),
                         int(K), worst, _frozen(cents), loop.kind, f0, float(f1_hz), float(B),
-                        float(fs), loop.tol_cents, loop.f_max_hz, loop.max_partials)
+                        float(fs), loop.tol_cents, loop.f_max_hz, loop.max_partials, loop.bridge)

@@ -77,8 +77,9 @@ documented design values, not from a table of 88 typed numbers:
   s, is what one hears of its 1-2 s), monotone decreasing over the
   keyboard.  ``t60_prompt_s`` is the in-phase motion's: ``t60_low_s /
   PROMPT_RATIO`` (Weinreich's prompt decay rates are 3-10 times the
-  aftersound's; 4 for trichords, easing to 3 over the top octave, 7 for
-  bichords, :func:`prompt_ratio`), which fixes the bridge's
+  aftersound's; 4 for trichords, up to 7.4 in the middle as a recorded
+  grand's (``TRICHORD_PROMPT_ANCHORS``), easing to 3 over the top octave, 7
+  for bichords, :func:`prompt_ratio`), which fixes the bridge's
   resistance per key
   (:func:`bridge_resistance_ns_per_m`): R_b = 2 f0 Z n / (sigma_p -
   sigma_a), Z = sqrt(T mu) the string's impedance, n the strings on it (2
@@ -87,6 +88,13 @@ documented design values, not from a table of 88 typed numbers:
   keeps (R_b - n Z)/(R_b + n Z) of the in-phase wave).  The order of R_b:
   1-3 kg/s per string against 500-3000 kg/s for the bridge, the measured
   driving-point impedance of a grand's board (Giordano 1998; Conklin 1996).
+  The bridge may also move as a mass above a corner (:func:`bridge_mass_hz`,
+  the grand preset's ``strings.bridge_mass_f0``): its admittance 1 / (R_b +
+  j w M) keeps the prompt decay at f0 (R_b over 1 + (f0 / f_m)^2) and takes
+  less and less from the partials above f_m, so the fundamental falls fast
+  and the upper partials keep their own decay, as a recorded grand's do
+  (docs/voicing.md); its reactance raises the in-phase motion, which the
+  strings' loops are tuned with (``synth.physics.dispersion.BridgeLag``).
   High frequencies: the decay-rate law of Chaigne & Askenfelt (1994),
   ``sigma(f) = b1 + b3 (2 pi f)^2`` (amplitude decay rate, 1/s; T60 = ln(1000)
   / sigma) with b3 = 6.25e-9 s (the order of their fitted values) and b1 set by
@@ -169,6 +177,21 @@ T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 6.0)
 #: 6 its level's late/early ratio read 2.91 with the board and 3.15 without
 #: it, at 7 3.18 with it (docs/voicing.md)
 PROMPT_RATIO = {1: 4.0, 2: 7.0, 3: 4.0}
+#: a trichord's ratio by key, where it departs from PROMPT_RATIO[3] (linear
+#: between the anchors, MIDI key -> ratio): the middle's fundamentals fall
+#: faster.  Measured on a real grand (a Yamaha C5, the samples of
+#: tools/real_grand.py; `python tools/study_partials.py ratios --real DIR`):
+#: the ratio of this module's aftersound T60 at f0 to the recording's early
+#: T60 of partial 1 (0.1-1.2 s), the median of three velocity layers per key
+#: (every minor third), then the running median of five keys, which the
+#: anchors take at 54-84: up to 7.4 at D#4-F#4, 5.8 at C4 (a single key reads
+#: 0.2 to 11, C4 11: a board's modes lie under some keys and not others);
+#: 4 at 51 and from 87 (the running median 3.9 there), easing to 3 over the
+#: top octave (:func:`prompt_ratio`).  The bichords keep 7: the recording's
+#: bass reads 2.5-3.4, with which no bichord of this model shows a knee.
+TRICHORD_PROMPT_ANCHORS = ((51, 4.0), (54, 5.2), (57, 5.2), (60, 5.8), (63, 7.4), (66, 7.4),
+                           (69, 7.3), (72, 6.9), (75, 6.9), (78, 5.2), (81, 4.9), (84, 4.9),
+                           (87, 4.0))
 #: relative hammer speed on each string of a unison: the hammer's crown is
 #: never level, so the strings start unequally and the out-of-phase motions,
 #: which make the aftersound, are excited too (Weinreich 1977, section V)
@@ -413,12 +436,18 @@ def t60_fundamental_s(f0_hz: float) -> float:
 
 def prompt_ratio(midi: int) -> float:
     """Aftersound T60 / prompt T60 of the key's unison: ``PROMPT_RATIO`` by
-    its strings, easing from 4 to 3 over the top octave of trichords (C7 to
-    C8), whose prompt sound is most of what is heard of them."""
+    its strings; a trichord's along ``TRICHORD_PROMPT_ANCHORS`` (D#3 to D#6;
+    up to 7.4 in the middle, as a real grand's), easing from 4 to 3 over
+    the top octave (C7 to C8), whose prompt sound is most of what is heard
+    of them."""
     m = _check_midi(midi)
     r = PROMPT_RATIO[n_strings_for(m)]
-    if n_strings_for(m) == 3 and m > 96:
-        r -= (r - 3.0) * (m - 96) / (MIDI_HIGH - 96)
+    if n_strings_for(m) == 3:
+        ks, rs = zip(*TRICHORD_PROMPT_ANCHORS)
+        if ks[0] <= m <= ks[-1]:
+            r = float(np.interp(m, ks, rs))
+        if m > 96:
+            r -= (r - 3.0) * (m - 96) / (MIDI_HIGH - 96)
     return r
 
 
@@ -476,16 +505,56 @@ def grand_string(midi: int) -> GrandString:
     return grand_piano_strings()[_check_midi(midi) - MIDI_LOW]
 
 
-def bridge_resistance_ns_per_m(midi: int) -> float:
+def bridge_resistance_ns_per_m(midi: int, mass_hz: float = 0.0) -> float:
     """Resistance R_b (N s/m) of the bridge a key's unison hangs on, such
-    that the unison's in-phase motion decays with ``t60_prompt_s`` while
-    each string alone keeps ``t60_low_s`` (see the module docstring):
+    that the unison's in-phase motion decays with ``t60_prompt_s`` at f0
+    while each string alone keeps ``t60_low_s`` (see the module docstring):
     R_b = 2 f0 Z n / (sigma_p - sigma_a), n = the key's strings (2 for a
-    single string)."""
+    single string).  With a mass above ``mass_hz`` (Hz, > 0; the bridge's
+    admittance 1 / (R + j w M), M = R / (2 pi mass_hz), whose real part is
+    1 / (R (1 + (f / mass_hz)^2))), R is that over 1 + (f0 / mass_hz)^2, so
+    that the real part at f0, and the prompt T60 there, stay."""
     g = grand_string(midi)
     n = max(g.n_strings, 2)
     sig = _LN1000 * (1.0 / g.t60_prompt_s - 1.0 / g.t60_low_s)
-    return 2.0 * g.f0_hz * g.impedance_ns_per_m * n / sig
+    R = 2.0 * g.f0_hz * g.impedance_ns_per_m * n / sig
+    if mass_hz > 0.0:
+        R /= 1.0 + (g.f0_hz / mass_hz) ** 2
+    return R
+
+
+#: the bridge's mass corner (``bridge_mass_hz``) moves away from f0 above
+#: this key, doubling every BRIDGE_MASS_FADE_ST semitones: a real grand's
+#: treble partials 1-3 fall alike in their first second (tools/
+#: study_partials.py decay: keys 75-105 of the recorded C5), as a dashpot
+#: makes them, where its middle and bass fundamentals fall faster than
+#: their upper partials
+BRIDGE_MASS_FADE_FROM_MIDI = 72
+BRIDGE_MASS_FADE_ST = 6.0
+#: a corner at or above this (Hz) is no mass at all: it would change nothing
+#: heard (from D#6 up at a ratio of 3), and the dashpot's step is cheaper
+BRIDGE_MASS_MAX_HZ = 20000.0
+
+
+def bridge_mass_hz(midi: int, ratio: float) -> float:
+    """Frequency (Hz) above which the key's bridge moves as a mass:
+    ``ratio`` (> 0; 0: no mass, returns 0) times the key's f0, up to
+    ``BRIDGE_MASS_FADE_FROM_MIDI``, then twice as far every
+    ``BRIDGE_MASS_FADE_ST`` semitones (at C7 16 times as far: the mass is
+    gone from the treble), and 0 where that reaches
+    ``BRIDGE_MASS_MAX_HZ``.  Trichords only (0 for the bass's one- and
+    two-string keys): the recorded grand's bass fundamentals show no prompt
+    sound at all (early T60 of partial 1 8-125 s on keys 33-45), so the
+    model's bass bridge is voiced for the two-stage decay the voicing asks
+    for, which a mass there weakens (bichords' late/early 2.7-2.9 with it,
+    docs/voicing.md), not after this recording."""
+    m = _check_midi(midi)
+    r = _check("ratio", ratio, 0.0, 100.0)
+    if r == 0.0 or n_strings_for(m) < 3:
+        return 0.0
+    up = max(0, m - BRIDGE_MASS_FADE_FROM_MIDI) / BRIDGE_MASS_FADE_ST
+    f = r * grand_string(m).f0_hz * 2.0 ** up
+    return f if f < BRIDGE_MASS_MAX_HZ else 0.0
 
 
 def single_string_t60_s(midi: int) -> float:

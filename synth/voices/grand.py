@@ -36,7 +36,12 @@ by ``strings.bridge_coupling``) and little from the motions that cancel at
 the bridge.  The strings are slightly detuned and the hammer meets them
 unequally (``synth.physics.piano.UNISON_STRIKE``), so a note beats, falls
 fast, then decays slowly, and a string left unstruck (una corda) rings
-through the bridge.
+through the bridge.  A trichord's bridge also moves as a mass above
+``strings.bridge_mass_f0`` times its f0 (:func:`synth.physics.piano.
+bridge_mass_hz`): the prompt sound takes its energy from the low partials,
+and the upper ones keep their own decay, as a recorded grand's; the mass's
+reactance raises the in-phase motion, which the loops are tuned with
+(:meth:`GrandPianoInstrument.bridge_lag`).
 
 Dampers: a key's release damps its strings (T60 from
 ``dampers.release_t60_bass_s`` to ``..._treble_s`` across the keyboard),
@@ -77,7 +82,7 @@ import numpy as np
 from ..dsp.bank import HammerTemplate, SlotTemplate, StringBank, hammer_template, slot_template
 from ..kernels import strings as K
 from ..physics import piano as P
-from ..physics.dispersion import retune_sos_loop, tune_stiff_loop_sos
+from ..physics.dispersion import BridgeLag, retune_sos_loop, tune_stiff_loop_sos
 from ..physics.profiles import Termination, capo
 from ..physics.soundboard import knock_impulse_ns
 from ..physics.dispersion import tune_stiff_loop
@@ -279,7 +284,7 @@ class GrandPianoInstrument(Voice):
         # for the key and retuned for each string of its unison
         key_loop = tune_stiff_loop_sos(f1, B, fs, t_lo, f1, t_hi, max(gs.f_high_hz, 1.5 * f1),
                                        tol_cents=self.quality.dispersion_tol_cents,
-                                       m_max=sp.dispersion_sections)
+                                       m_max=sp.dispersion_sections, bridge=self.bridge_lag(key, fs))
         for j, det in enumerate(gs.unison_detune_cents):
             fj = f1 * 2.0 ** (det * sp.detune_scale / 1200.0)
             loop = key_loop if fj == f1 else retune_sos_loop(
@@ -347,7 +352,25 @@ class GrandPianoInstrument(Voice):
         c = self.preset.strings.bridge_coupling
         if not c:
             return None
-        return P.bridge_resistance_ns_per_m(int(key)) / c
+        return P.bridge_resistance_ns_per_m(int(key), self.bridge_mass_hz(key)) / c
+
+    def bridge_lag(self, key: int, fs: float) -> BridgeLag | None:
+        """The phase of the key's unison's in-phase reflection from its
+        bridge (a loop at ``fs`` Hz), which the strings' loops are tuned
+        with: a bridge with mass raises that motion (the prompt sound, what
+        a tuner tunes); None for a rigid bridge or a dashpot."""
+        R = self.bridge_resistance_ns_per_m(key)
+        f_m = self.bridge_mass_hz(key)
+        if R is None or not (f_m > 0.0):
+            return None
+        gs = P.grand_string(int(key))
+        return BridgeLag(R, R / (2.0 * math.pi * f_m), gs.n_strings * gs.impedance_ns_per_m, fs)
+
+    def bridge_mass_hz(self, key: int) -> float:
+        """Frequency (Hz) above which the key's bridge moves as a mass
+        (:func:`synth.physics.piano.bridge_mass_hz` of
+        ``strings.bridge_mass_f0``; 0: a dashpot)."""
+        return P.bridge_mass_hz(int(key), float(self.preset.strings.bridge_mass_f0 or 0.0))
 
     def hammer_speed(self, velocity: float) -> float:
         a = self.preset.action
@@ -397,7 +420,7 @@ class GrandPianoInstrument(Voice):
             else:
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
         if fresh and R_b is not None:
-            bank.couple(slots[:n], R_b, BRIDGE_RETURN_HZ)
+            bank.couple(slots[:n], R_b, BRIDGE_RETURN_HZ, self.bridge_mass_hz(key))
         speeds = P.UNISON_STRIKE[n]
         for j, (slot, su) in enumerate(zip(slots, sus)):
             if j < struck:

@@ -133,6 +133,7 @@ class StringsSpec:
     capo_grid_from_key: int | None = None  # grand: the first key on that finer grid
     bridge_coupling: float | None = None  # grand: factor on the bridge's admittance (0: rigid)
     sympathetic: float | None = None      # grand: factor on the board's bridge the free strings see
+    bridge_mass_f0: float | None = None   # grand: the bridge moves as a mass above this x f0 (0: dashpot)
 
 
 @dataclass(frozen=True)

@@ -322,6 +322,10 @@ SECTIONS: tuple[Section, ...] = (
         Field("sympathetic", "float", "factor on the board's bridge admittance that drives the "
               "strings whose dampers are off (the pedal's halo; 0: no sympathetic strings)",
               0.0, 4.0, when=When("voice", ("grand",))),
+        Field("bridge_mass_f0", "float", "the bridge a key's strings share moves as a mass, not "
+              "a dashpot, above this multiple of the key's f0 (its loss falls there: the low "
+              "partials' prompt sound fast, the high ones' slow; 0: a dashpot at every "
+              "frequency)", 0.0, 100.0, when=When("voice", ("grand",)), default=0.0),
     ), when=_KEYBOARD),
     Section("dampers", "dampers and sustain pedal of the per-key strings", DampersSpec, (
         Field("release_t60_bass_s", "float", "T60 of a damped bass string, s", 0.02, 5.0),
