@@ -2174,6 +2174,15 @@ _LANES_HEAD_SOS = 4 if VECTOR_REGS >= 32 else 2
 #: a loop.  The lanes compute the same operations either way.
 _LANES_ZERO = splat4 if LANES == 4 else splat2
 
+#: :data:`_LANES_HEAD_SOS` for a string with a dispersion section (two
+#: first-order sections in the head, three more vectors): the same where
+#: the lanes are four; none in two lanes (SSE2), where the head of one
+#: biquad kept states on the stack and cost as much as the head alone and
+#: a pass of it (``ns`` 2, 1-8 biquads, 2.1-2.4 ns a two-lane sample more
+#: than the head of none and passes; docs/benchmarks.md, "Issue 11's cost,
+#: fifth pass")
+_LANES_HEAD_SOS2 = 0 if LANES == 2 else _LANES_HEAD_SOS
+
 
 @njit(**JIT_OPTS)
 def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
@@ -3366,15 +3375,17 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
     ns = ipar[lead, I_NDISP] + 1
     nb = ipar[lead, I_NSOS]
     # the head loop takes all the biquads while its states fit in the
-    # vector registers (_LANES_HEAD_SOS), else one (16 registers) or what
+    # vector registers (_LANES_HEAD_SOS; _LANES_HEAD_SOS2 with a dispersion
+    # section), else one (16 registers; none if it may take none) or what
     # passes of four leave (32); the rest run in passes of two to four (a
     # pass of one waits on its own recurrence)
-    if nb <= _LANES_HEAD_SOS:
+    hmax = _LANES_HEAD_SOS if ns == 1 else _LANES_HEAD_SOS2
+    if nb <= hmax:
         cnt = nb
     elif VECTOR_REGS >= 32:
         cnt = (nb - 1) % 4 + 1
     else:
-        cnt = 1
+        cnt = 1 if hmax > 0 else 0
     dummy = cw[2 * G * _CW + 1:2 * G * _CW + 1 + C]    # the bridge row: written after this
     zt = _LANES_ZERO(0.0)           # the lanes' type: four, or two in an SSE2 build
     L = width(zt)
