@@ -2939,6 +2939,13 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
     ar = a + r
     den = 1.0 / (1.0 + r)
     ubm = fst[lead, S_UBM]
+    if LANES == 2 and G <= 3:
+        # the SSE2 build (no FMA; the loop below is compiled as ubm =
+        # (ar den) ubm + (b den) f: re-association distributes the
+        # reciprocal); with FMA, which products LLVM fuses differs between
+        # the two forms (last bits), so the AVX2 and AVX-512 builds keep this
+        _bridge_fused(lead, G, ipar, fpar, fst, C, cw, ubm, ar * den, b * den)
+        return
     row = cw[2 * G * _CW:2 * G * _CW + C + 1]
     fo = row[1:1 + C]
     for i in range(C):
@@ -2968,6 +2975,81 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
             yo[i] -= fo[i]
         fst[s, S_UBP] = ubm
         s = ipar[s, I_CPLNX]
+
+
+@njit(**SERIAL_OPTS)
+def _bridge_fused(lead, G, ipar, fpar, fst, C, cw, ubm, ard, bd):
+    """:func:`_bridge` for a group of one to three strings in one loop: the
+    bridge's recurrence (``ubm = bd f + ard ubm``, ard = (a + r) / (1 + r),
+    bd = b / (1 + r) as products with the reciprocal: what :func:`_bridge`'s
+    loop compiles to, re-association having distributed its ``* den``; a
+    multiply and an add or a multiply-add on its path) with the members'
+    forces and outgoing waves beside it, where :func:`_bridge` runs them as
+    vector loops of their own before and after it.  The same operations in
+    the same order (each sample's force summed over the members in turn
+    from 0.0; the serial flags: no re-association may reorder that sum),
+    bit for bit where there is no FMA (the SSE2 build, its only caller): with
+    FMA, LLVM contracts other products of the fused loop than of
+    :func:`_bridge`'s (renders differed by up to 4e-12)."""
+    s0 = lead
+    s1 = ipar[s0, I_CPLNX] if G > 1 else s0
+    s2 = ipar[s1, I_CPLNX] if G > 2 else s1
+    t0 = 2.0 * fpar[s0, F_TDX]
+    t1 = 2.0 * fpar[s1, F_TDX]
+    t2 = 2.0 * fpar[s2, F_TDX]
+    y0 = cw[_CW:_CW + C + 1]
+    y1 = cw[3 * _CW:3 * _CW + C + 1] if G > 1 else y0
+    y2 = cw[5 * _CW:5 * _CW + C + 1] if G > 2 else y0
+    row = cw[2 * G * _CW:2 * G * _CW + C + 1]
+    # z(-1), each filter's own previous output
+    p0 = y0[0] + ubm
+    p1 = y1[0] + ubm
+    p2 = y2[0] + ubm
+    row[0] = ubm
+    if G == 3:
+        for i in range(1, C + 1):
+            z0 = y0[i]
+            z1 = y1[i]
+            z2 = y2[i]
+            f = 0.0
+            f += t0 * (z0 - p0)
+            f += t1 * (z1 - p1)
+            f += t2 * (z2 - p2)
+            p0 = z0
+            p1 = z1
+            p2 = z2
+            ubm = bd * f + ard * ubm
+            row[i] = ubm
+            y0[i] = z0 - ubm
+            y1[i] = z1 - ubm
+            y2[i] = z2 - ubm
+    elif G == 2:
+        for i in range(1, C + 1):
+            z0 = y0[i]
+            z1 = y1[i]
+            f = 0.0
+            f += t0 * (z0 - p0)
+            f += t1 * (z1 - p1)
+            p0 = z0
+            p1 = z1
+            ubm = bd * f + ard * ubm
+            row[i] = ubm
+            y0[i] = z0 - ubm
+            y1[i] = z1 - ubm
+    else:
+        for i in range(1, C + 1):
+            z0 = y0[i]
+            f = 0.0
+            f += t0 * (z0 - p0)
+            p0 = z0
+            ubm = bd * f + ard * ubm
+            row[i] = ubm
+            y0[i] = z0 - ubm
+    fst[lead, S_UB0] = ubm
+    fst[lead, S_UBM] = ubm
+    fst[s0, S_UBP] = ubm
+    fst[s1, S_UBP] = ubm
+    fst[s2, S_UBP] = ubm
 
 
 # ---- the loop filters of a coupled group in lockstep (four lanes) ------------
