@@ -133,7 +133,8 @@ def test_compiled_code_of_target(tmp_path, target):
 
 REGS_CHECK = textwrap.dedent("""
     from synth.kernels import config, strings
-    print(config.VECTOR_REGS, strings._HEAD_SOS, strings._LANES_HEAD_SOS)
+    print(config.VECTOR_REGS, strings._HEAD_SOS, strings._LANES_HEAD_SOS, config.LANES,
+          strings._LANES_HEAD_SOS2)
 """)
 
 
@@ -141,7 +142,9 @@ REGS_CHECK = textwrap.dedent("""
 def test_vector_registers_of_target(tmp_path, target):
     """The kernels' register count follows numba's code target: 16 for the
     AVX2 and SSE2 builds (the head loops then take fewer biquads), 32 only
-    where the target has AVX-512."""
+    where the target has AVX-512; the lockstep filters run four lanes where
+    it has AVX, two in the SSE2 build (whose head then takes no biquad
+    after a dispersion section)."""
     if target == "haswell" and not host_is_x86_64_v3():
         pytest.skip("this CPU cannot run AVX2 code")
     env = cpu_target.environ_for(target, tmp_path)
@@ -149,7 +152,10 @@ def test_vector_registers_of_target(tmp_path, target):
     r = subprocess.run([sys.executable, "-c", REGS_CHECK], env=env, capture_output=True,
                        text=True, timeout=120, cwd=str(TOOLS.parent))
     assert r.returncode == 0, r.stderr
-    regs, head, lanes = (int(x) for x in r.stdout.split())
+    regs, head, lanes, width, lanes2 = (int(x) for x in r.stdout.split())
     host512 = cpu_target.host_features().get("avx512f", False)
+    hostavx = cpu_target.host_features().get("avx", False)
     assert regs == (32 if target == "host" and host512 else 16)
     assert (head, lanes) == ((4, 4) if regs == 32 else (3, 2))
+    assert width == (2 if target == "generic" or not hostavx else 4)
+    assert lanes2 == (0 if width == 2 else lanes)

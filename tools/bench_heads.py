@@ -37,6 +37,7 @@ from numba import njit  # noqa: E402
 import cpu_target  # noqa: E402
 from synth.kernels import strings as K  # noqa: E402
 from synth.kernels.config import SERIAL_OPTS  # noqa: E402
+from synth.kernels.lanes import splat4  # noqa: E402
 
 _OPTS = dict(SERIAL_OPTS, cache=False)
 
@@ -53,11 +54,11 @@ def _passes(nb, j, even):
 @njit(**_OPTS)
 def _lanes(h, nb, even, reps, X0, X1, X2, X3, buf, n, fpar, fst):
     for _ in range(reps):
-        K._lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, 0, 1, 2, 3, 3, 2, h)
+        K._lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, 0, 1, 2, 3, 3, 2, h, splat4(0.0))
         j = h
         while j < nb:
             c = _passes(nb, j, even)
-            K._lanes_biquads(buf, n, fpar, fst, 0, 1, 2, 3, 3, j, c)
+            K._lanes_biquads(buf, n, fpar, fst, 0, 1, 2, 3, 3, j, c, splat4(0.0))
             j += c
 
 

@@ -3,7 +3,8 @@
     NUMBA_NUM_THREADS=1 python tools/callgrind_note.py KEY [KEY ...] [--out DIR] [--top 40]
 
 For each key (0: the engine with no note), in the AVX2 ("haswell") build
-of ``tools/cpu_target.py``: a warm-up run outside valgrind (compiles or
+of ``tools/cpu_target.py`` (``--cpu-name generic``: the SSE2 build;
+valgrind cannot run the host's AVX-512 one): a warm-up run outside valgrind (compiles or
 loads the kernels), then a child under ``valgrind --tool=callgrind
 --instr-atstart=no``: a grand engine of polyphony 4 plays the key
 (velocity 0.8), renders 11 blocks of 256 output samples, and the
@@ -165,6 +166,8 @@ def main() -> int:
     ap.add_argument("keys", nargs="*", type=int)
     ap.add_argument("--out", default=None, help="directory for the callgrind outputs")
     ap.add_argument("--top", type=int, default=40)
+    ap.add_argument("--cpu-name", default="haswell", choices=("haswell", "generic"),
+                    help="numba code target (tools/cpu_target.py; default haswell)")
     ap.add_argument("--child", type=int, default=None, help=argparse.SUPPRESS)
     ap.add_argument("--wait", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args()
@@ -174,7 +177,7 @@ def main() -> int:
     sys.path.insert(0, str(HERE))
     import cpu_target
 
-    env = cpu_target.environ_for("haswell")
+    env = cpu_target.environ_for(a.cpu_name)
     env.update(NUMBA_NUM_THREADS="1", PYTHONHASHSEED="0")
     if os.environ.get("NUMBA_CACHE_DIR"):           # one's own cache, if given
         env["NUMBA_CACHE_DIR"] = os.environ["NUMBA_CACHE_DIR"]

@@ -41,13 +41,10 @@ SERIAL_OPTS = dict(nogil=True, cache=True, fastmath=FASTMATH_SERIAL, _nrt=False,
                    error_model="numpy")
 
 
-def _vector_registers() -> int:
-    """Vector registers of numba's code target: 32 with AVX-512 (zmm0-31,
-    and ymm/xmm16-31 usable by AVX-512VL code), else 16.  Read as numba
-    reads its target (``NUMBA_CPU_FEATURES`` if set, else the host's
-    features; an empty feature string, as ``NUMBA_CPU_NAME=generic`` gives,
-    counts 16).  The kernels that differ by it compute the same operations
-    in the same order either way; only how they split a loop differs."""
+def _target_features() -> list[str] | None:
+    """numba's target features as it reads them (``NUMBA_CPU_FEATURES`` if
+    set, else the host's; an empty string, as ``NUMBA_CPU_NAME=generic``
+    gives, is no feature), or None if they cannot be read."""
     try:
         from numba.core import config as nbconfig
         from numba.core.codegen import get_host_cpu_features
@@ -56,9 +53,38 @@ def _vector_registers() -> int:
         if feats is None:
             feats = get_host_cpu_features()
     except Exception:  # pragma: no cover - numba without these names
+        return None
+    return str(feats).split(",")
+
+
+def _vector_registers() -> int:
+    """Vector registers of numba's code target: 32 with AVX-512 (zmm0-31,
+    and ymm/xmm16-31 usable by AVX-512VL code), else 16.  Read as numba
+    reads its target (``NUMBA_CPU_FEATURES`` if set, else the host's
+    features; an empty feature string, as ``NUMBA_CPU_NAME=generic`` gives,
+    counts 16).  The kernels that differ by it compute the same operations
+    in the same order either way; only how they split a loop differs."""
+    feats = _target_features()
+    if feats is None:  # pragma: no cover
         return 16
-    return 32 if "+avx512f" in str(feats).split(",") else 16
+    return 32 if "+avx512f" in feats else 16
 
 
 #: vector registers of the code target (see :func:`_vector_registers`)
 VECTOR_REGS = _vector_registers()
+
+
+def _lanes() -> int:
+    """Lanes of the lockstep filters (:mod:`synth.kernels.lanes`): four (a
+    ymm or zmm register) if numba's target has AVX, else two: an SSE2
+    build's xmm register holds two, a ``<4 x double>`` took two registers
+    and two instructions an operation, so a group of one or two strings
+    paid for four lanes and a four-lane loop for twice the registers (its
+    states on the stack).  Two lanes compute the same operations in each
+    lane as four (the same samples)."""
+    feats = _target_features()
+    return 4 if feats is not None and "+avx" in feats else 2
+
+
+#: lanes of the lockstep filters of the code target (see :func:`_lanes`)
+LANES = _lanes()

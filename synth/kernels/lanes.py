@@ -22,6 +22,14 @@ holds a vector in one ymm register; a plain x86-64 (SSE2) build in two xmm
 registers (two instructions per operation, still half of four scalar
 ones).  Only the AVX-512 build could hold eight lanes; four keep the
 AVX2 and SSE2 builds the same code.
+
+``f64x2`` is the same for two lanes (an LLVM ``<2 x double>``: one xmm
+register, the width of an SSE2 build's vector unit).  The functions whose
+first argument is a vector of either type (:func:`vec`, :func:`splat`,
+:func:`loadv`, :func:`width`) give a value of that type, so one kernel
+written with them compiles to two or four lanes by the type of the vector
+it is handed (:data:`synth.kernels.config.LANES`); each lane computes the
+same operations in either.
 """
 
 from __future__ import annotations
@@ -38,6 +46,7 @@ from .config import FASTMATH_SERIAL
 #: LLVM fast-math flags of the lanes' arithmetic (those of the serial kernels)
 _FLAGS = tuple(sorted(FASTMATH_SERIAL))
 _VT = ir.VectorType(ir.DoubleType(), 4)
+_VT2 = ir.VectorType(ir.DoubleType(), 2)
 _I32 = ir.IntType(32)
 
 
@@ -55,6 +64,31 @@ f64x4 = F64x4()
 class _F64x4Model(models.PrimitiveModel):
     def __init__(self, dmm, fe_type):
         super().__init__(dmm, fe_type, _VT)
+
+
+class F64x2(types.Type):
+    """Two float64 lanes (an LLVM ``<2 x double>``)."""
+
+    def __init__(self):
+        super().__init__(name="f64x2")
+
+
+f64x2 = F64x2()
+
+
+@register_model(F64x2)
+class _F64x2Model(models.PrimitiveModel):
+    def __init__(self, dmm, fe_type):
+        super().__init__(dmm, fe_type, _VT2)
+
+
+def _isvec(t):
+    return isinstance(t, (F64x4, F64x2))
+
+
+def _vtype(t):
+    """The LLVM vector type of a lanes type."""
+    return _VT if isinstance(t, F64x4) else _VT2
 
 
 @intrinsic
@@ -86,12 +120,79 @@ def splat4(typingctx, a):
 
 
 @intrinsic
-def lane(typingctx, v, k):
-    """Lane k (0..3) of v."""
-    sig = types.float64(f64x4, types.intp)
+def splat2(typingctx, a):
+    """Two lanes of a."""
+    sig = f64x2(types.float64)
 
     def codegen(context, builder, signature, args):
-        return builder.extract_element(args[0], builder.trunc(args[1], _I32))
+        v = ir.Constant(_VT2, ir.Undefined)
+        for k in range(2):
+            v = builder.insert_element(v, args[0], ir.Constant(_I32, k))
+        return v
+
+    return sig, codegen
+
+
+@intrinsic
+def vec(typingctx, z, a, b, c, d):
+    """The lanes (a, b, c, d) as z's type: (a, b) if z is an ``f64x2``."""
+    if not _isvec(z):
+        return None
+    sig = z(z, types.float64, types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        vt = _vtype(signature.return_type)
+        v = ir.Constant(vt, ir.Undefined)
+        for k in range(vt.count):
+            v = builder.insert_element(v, args[1 + k], ir.Constant(_I32, k))
+        return v
+
+    return sig, codegen
+
+
+@intrinsic
+def splat(typingctx, z, a):
+    """All lanes of z's type a."""
+    if not _isvec(z):
+        return None
+    sig = z(z, types.float64)
+
+    def codegen(context, builder, signature, args):
+        vt = _vtype(signature.return_type)
+        v = ir.Constant(vt, ir.Undefined)
+        for k in range(vt.count):
+            v = builder.insert_element(v, args[1], ir.Constant(_I32, k))
+        return v
+
+    return sig, codegen
+
+
+@intrinsic
+def width(typingctx, z):
+    """The lanes of z's type (2 or 4), a constant of the compiled code."""
+    if not _isvec(z):
+        return None
+    sig = types.intp(z)
+
+    def codegen(context, builder, signature, args):
+        return context.get_constant(types.intp, _vtype(signature.args[0]).count)
+
+    return sig, codegen
+
+
+@intrinsic
+def lane(typingctx, v, k):
+    """Lane k (0..3; 0..1 of an ``f64x2``, whose k is taken modulo 2) of v."""
+    if not _isvec(v):
+        return None
+    sig = types.float64(v, types.intp)
+
+    def codegen(context, builder, signature, args):
+        k = args[1]
+        n = _vtype(signature.args[0]).count
+        if n < 4:
+            k = builder.and_(k, ir.Constant(k.type, n - 1))
+        return builder.extract_element(args[0], builder.trunc(k, _I32))
 
     return sig, codegen
 
@@ -101,10 +202,10 @@ def _contiguous(arr):
             and arr.dtype == types.float64)
 
 
-def _array_ptr(context, builder, aty, arr, idx):
+def _array_ptr(context, builder, aty, arr, idx, vt=_VT):
     a = context.make_array(aty)(context, builder, arr)
     p = builder.gep(a.data, [idx])
-    return builder.bitcast(p, _VT.as_pointer())
+    return builder.bitcast(p, vt.as_pointer())
 
 
 @intrinsic
@@ -125,14 +226,33 @@ def load4(typingctx, arr, i):
 
 
 @intrinsic
-def store4(typingctx, arr, i, v):
-    """arr[i:i+4] = the lanes of v (arr as :func:`load4`)."""
-    if not _contiguous(arr):
+def loadv(typingctx, z, arr, i):
+    """arr[i:i+w] as the w lanes of z's type (arr as :func:`load4`)."""
+    if not (_isvec(z) and _contiguous(arr)):
         return None
-    sig = types.void(arr, types.intp, f64x4)
+    sig = z(z, arr, types.intp)
 
     def codegen(context, builder, signature, args):
-        p = _array_ptr(context, builder, signature.args[0], args[0], args[1])
+        p = _array_ptr(context, builder, signature.args[1], args[1], args[2],
+                       _vtype(signature.return_type))
+        ld = builder.load(p)
+        ld.align = 8
+        return ld
+
+    return sig, codegen
+
+
+@intrinsic
+def store4(typingctx, arr, i, v):
+    """arr[i:i+w] = the w lanes of v (an ``f64x4`` or ``f64x2``; arr as
+    :func:`load4`)."""
+    if not (_contiguous(arr) and _isvec(v)):
+        return None
+    sig = types.void(arr, types.intp, v)
+
+    def codegen(context, builder, signature, args):
+        p = _array_ptr(context, builder, signature.args[0], args[0], args[1],
+                       _vtype(signature.args[2]))
         st = builder.store(args[2], p)
         st.align = 8
         return context.get_dummy_value()
@@ -170,7 +290,9 @@ def max4(typingctx, p, a):
 def _binop(name):
     @intrinsic
     def op(typingctx, a, b):
-        sig = f64x4(f64x4, f64x4)
+        if not (_isvec(a) and a == b):
+            return None
+        sig = a(a, b)
 
         def codegen(context, builder, signature, args):
             return getattr(builder, name)(args[0], args[1], flags=_FLAGS)
@@ -187,7 +309,7 @@ _mul = _binop("fmul")
 
 def _overload(op, impl):
     def ol(a, b):
-        if isinstance(a, F64x4) and isinstance(b, F64x4):
+        if _isvec(a) and a == b:
             return lambda a, b: impl(a, b)
         return None
 
@@ -198,4 +320,5 @@ _overload(operator.add, _add)
 _overload(operator.sub, _sub)
 _overload(operator.mul, _mul)
 
-__all__ = ["F64x4", "f64x4", "v4", "splat4", "lane", "load4", "store4", "abs4", "max4"]
+__all__ = ["F64x4", "f64x4", "F64x2", "f64x2", "v4", "splat4", "splat2", "vec", "splat", "width",
+           "lane", "load4", "loadv", "store4", "abs4", "max4"]

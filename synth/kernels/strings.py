@@ -105,9 +105,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .config import JIT_OPTS, SERIAL_OPTS, VECTOR_REGS
+from .config import JIT_OPTS, LANES, SERIAL_OPTS, VECTOR_REGS
 from .felt_layer import felt_layer_start, felt_layer_step
-from .lanes import abs4, lane, load4, max4, splat4, store4, v4
+from .lanes import abs4, lane, load4, loadv, max4, splat, splat2, splat4, store4, v4, vec, width
 
 # ---- integer parameter columns (ipar[s, :]) ---------------------------------
 I_OFF = 0        # ring offset in the flat ring array
@@ -2168,6 +2168,24 @@ _HEAD_SOS = 4 if VECTOR_REGS >= 32 else 3
 #: same order.
 _LANES_HEAD_SOS = 4 if VECTOR_REGS >= 32 else 2
 
+#: the lockstep filters' vector type, by its zero's constructor: four lanes
+#: (``<4 x double>``) where the target has AVX, two (one xmm register) in
+#: an SSE2 build (:data:`synth.kernels.config.LANES`), where a
+#: ``<4 x double>`` took two registers and two instructions an operation:
+#: a key's three strings then run as two lanes and one, a bichord as two
+#: (instead of four lanes of which two were idle), with half the registers
+#: a loop.  The lanes compute the same operations either way.
+_LANES_ZERO = splat4 if LANES == 4 else splat2
+
+#: :data:`_LANES_HEAD_SOS` for a string with a dispersion section (two
+#: first-order sections in the head, three more vectors): the same where
+#: the lanes are four; none in two lanes (SSE2), where the head of one
+#: biquad kept states on the stack and cost as much as the head alone and
+#: a pass of it (``ns`` 2, 1-8 biquads, 2.1-2.4 ns a two-lane sample more
+#: than the head of none and passes; docs/benchmarks.md, "Issue 11's cost,
+#: fifth pass")
+_LANES_HEAD_SOS2 = 0 if LANES == 2 else _LANES_HEAD_SOS
+
 
 @njit(**JIT_OPTS)
 def _far_filter(s, ring, ipar, fpar, fst, U, C, xb, yb, hb):
@@ -2938,6 +2956,13 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
     ar = a + r
     den = 1.0 / (1.0 + r)
     ubm = fst[lead, S_UBM]
+    if LANES == 2 and G <= 3 and fpar[lead, F_BRMU] == 0.0:
+        # the SSE2 build (no FMA; the loop below is compiled as ubm =
+        # (ar den) ubm + (b den) f: re-association distributes the
+        # reciprocal); with FMA, which products LLVM fuses differs between
+        # the two forms (last bits), so the AVX2 and AVX-512 builds keep this
+        _bridge_fused(lead, G, ipar, fpar, fst, C, cw, ubm, ar * den, b * den)
+        return
     row = cw[2 * G * _CW:2 * G * _CW + C + 1]
     fo = row[1:1 + C]
     for i in range(C):
@@ -2981,6 +3006,80 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
         s = ipar[s, I_CPLNX]
 
 
+@njit(**SERIAL_OPTS)
+def _bridge_fused(lead, G, ipar, fpar, fst, C, cw, ubm, ard, bd):
+    """:func:`_bridge` for a group of one to three strings in one loop: the
+    bridge's recurrence (``ubm = bd f + ard ubm``, ard = (a + r) / (1 + r),
+    bd = b / (1 + r) as products with the reciprocal: what :func:`_bridge`'s
+    loop compiles to, re-association having distributed its ``* den``; a
+    multiply and an add or a multiply-add on its path) with the members'
+    forces and outgoing waves beside it, where :func:`_bridge` runs them as
+    vector loops of their own before and after it.  The same operations in
+    the same order (each sample's force summed over the members in turn
+    from 0.0; the serial flags: no re-association may reorder that sum),
+    bit for bit where there is no FMA (the SSE2 build, its only caller): with
+    FMA, LLVM contracts other products of the fused loop than of
+    :func:`_bridge`'s (renders differed by up to 4e-12)."""
+    s0 = lead
+    s1 = ipar[s0, I_CPLNX] if G > 1 else s0
+    s2 = ipar[s1, I_CPLNX] if G > 2 else s1
+    t0 = 2.0 * fpar[s0, F_TDX]
+    t1 = 2.0 * fpar[s1, F_TDX]
+    t2 = 2.0 * fpar[s2, F_TDX]
+    y0 = cw[_CW:_CW + C + 1]
+    y1 = cw[3 * _CW:3 * _CW + C + 1] if G > 1 else y0
+    y2 = cw[5 * _CW:5 * _CW + C + 1] if G > 2 else y0
+    row = cw[2 * G * _CW:2 * G * _CW + C + 1]
+    # z(-1), each filter's own previous output
+    p0 = y0[0] + ubm
+    p1 = y1[0] + ubm
+    p2 = y2[0] + ubm
+    row[0] = ubm
+    if G == 3:
+        for i in range(1, C + 1):
+            z0 = y0[i]
+            z1 = y1[i]
+            z2 = y2[i]
+            f = 0.0
+            f += t0 * (z0 - p0)
+            f += t1 * (z1 - p1)
+            f += t2 * (z2 - p2)
+            p0 = z0
+            p1 = z1
+            p2 = z2
+            ubm = bd * f + ard * ubm
+            row[i] = ubm
+            y0[i] = z0 - ubm
+            y1[i] = z1 - ubm
+            y2[i] = z2 - ubm
+    elif G == 2:
+        for i in range(1, C + 1):
+            z0 = y0[i]
+            z1 = y1[i]
+            f = 0.0
+            f += t0 * (z0 - p0)
+            f += t1 * (z1 - p1)
+            p0 = z0
+            p1 = z1
+            ubm = bd * f + ard * ubm
+            row[i] = ubm
+            y0[i] = z0 - ubm
+            y1[i] = z1 - ubm
+    else:
+        for i in range(1, C + 1):
+            z0 = y0[i]
+            f = 0.0
+            f += t0 * (z0 - p0)
+            p0 = z0
+            ubm = bd * f + ard * ubm
+            row[i] = ubm
+            y0[i] = z0 - ubm
+    fst[lead, S_UBM] = ubm
+    fst[s0, S_UBP] = ubm
+    fst[s1, S_UBP] = ubm
+    fst[s2, S_UBP] = ubm
+
+
 # ---- the loop filters of a coupled group in lockstep (four lanes) ------------
 # The members of a coupled group run their far ends over the same chunk.
 # When they have the same filter structure (the strings of a piano key do),
@@ -3011,8 +3110,9 @@ def _lanes_ok(lead, G, ipar):
 
 
 @njit(**SERIAL_OPTS)
-def _col4(a, r0, r1, r2, r3, c):
-    return v4(a[r0, c], a[r1, c], a[r2, c], a[r3, c])
+def _col4(z, a, r0, r1, r2, r3, c):
+    """Column c of rows r0..r3 of a as lanes of z's type (r0, r1 for two)."""
+    return vec(z, a[r0, c], a[r1, c], a[r2, c], a[r3, c])
 
 
 @njit(**SERIAL_OPTS)
@@ -3056,65 +3156,66 @@ def _put_biquads(fst, r0, r1, r2, r3, G, q0, cnt, x10, x20, y10, y20, y11, y21, 
 
 
 @njit(**SERIAL_OPTS)
-def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
+def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt, zt):
     """The first pass of four strings' far ends (lanes): the loss glide and
     one-pole loss, ``ns`` (1 or 2) first-order sections (the dispersion
     section at S_D0 if ns is 2, then the tuning allpass at S_APX) and the
     first ``cnt`` (0..4) biquads, from X0..X3[0:n] into buf[0:4n]
     (interleaved: sample i of lane m at 4 i + m), as :func:`_head_sos`
     (:func:`_head` for cnt 0) computes each string's."""
-    b0 = _col4(fpar, r0, r1, r2, r3, F_B0)
-    gk = splat4(1.0) - _col4(fpar, r0, r1, r2, r3, F_B0S)
-    gc = _col4(fpar, r0, r1, r2, r3, F_B0S) * _col4(fpar, r0, r1, r2, r3, F_B0T)
-    a1 = _col4(fpar, r0, r1, r2, r3, F_A1)
-    lp = _col4(fst, r0, r1, r2, r3, S_LP)
+    b0 = _col4(zt, fpar, r0, r1, r2, r3, F_B0)
+    W = width(zt)
+    gk = splat(zt, 1.0) - _col4(zt, fpar, r0, r1, r2, r3, F_B0S)
+    gc = _col4(zt, fpar, r0, r1, r2, r3, F_B0S) * _col4(zt, fpar, r0, r1, r2, r3, F_B0T)
+    a1 = _col4(zt, fpar, r0, r1, r2, r3, F_A1)
+    lp = _col4(zt, fst, r0, r1, r2, r3, S_LP)
     s0 = S_D0 if ns == 2 else S_APX
-    c0 = _col4(fpar, r0, r1, r2, r3, F_ADISP if ns == 2 else F_ETA)
-    x0 = _col4(fst, r0, r1, r2, r3, s0)
-    y0 = _col4(fst, r0, r1, r2, r3, s0 + 1)
-    c1 = _col4(fpar, r0, r1, r2, r3, F_ETA)
-    x1 = _col4(fst, r0, r1, r2, r3, S_APX)
-    y1 = _col4(fst, r0, r1, r2, r3, S_APX + 1)
+    c0 = _col4(zt, fpar, r0, r1, r2, r3, F_ADISP if ns == 2 else F_ETA)
+    x0 = _col4(zt, fst, r0, r1, r2, r3, s0)
+    y0 = _col4(zt, fst, r0, r1, r2, r3, s0 + 1)
+    c1 = _col4(zt, fpar, r0, r1, r2, r3, F_ETA)
+    x1 = _col4(zt, fst, r0, r1, r2, r3, S_APX)
+    y1 = _col4(zt, fst, r0, r1, r2, r3, S_APX + 1)
     q0 = S_SOS
-    x10 = _col4(fst, r0, r1, r2, r3, q0)
-    x20 = _col4(fst, r0, r1, r2, r3, q0 + 1)
-    z = splat4(0.0)
-    ca0 = _col4(fpar, r0, r1, r2, r3, F_SOS + 0) if cnt > 0 else z
-    cb0 = _col4(fpar, r0, r1, r2, r3, F_SOS + 1) if cnt > 0 else z
-    y10 = _col4(fst, r0, r1, r2, r3, q0 + 2) if cnt > 0 else z
-    y20 = _col4(fst, r0, r1, r2, r3, q0 + 3) if cnt > 0 else z
-    ca1 = _col4(fpar, r0, r1, r2, r3, F_SOS + 2) if cnt > 1 else z
-    cb1 = _col4(fpar, r0, r1, r2, r3, F_SOS + 3) if cnt > 1 else z
-    y11 = _col4(fst, r0, r1, r2, r3, q0 + 6) if cnt > 1 else z
-    y21 = _col4(fst, r0, r1, r2, r3, q0 + 7) if cnt > 1 else z
-    ca2 = _col4(fpar, r0, r1, r2, r3, F_SOS + 4) if cnt > 2 else z
-    cb2 = _col4(fpar, r0, r1, r2, r3, F_SOS + 5) if cnt > 2 else z
-    y12 = _col4(fst, r0, r1, r2, r3, q0 + 10) if cnt > 2 else z
-    y22 = _col4(fst, r0, r1, r2, r3, q0 + 11) if cnt > 2 else z
-    ca3 = _col4(fpar, r0, r1, r2, r3, F_SOS + 6) if cnt > 3 else z
-    cb3 = _col4(fpar, r0, r1, r2, r3, F_SOS + 7) if cnt > 3 else z
-    y13 = _col4(fst, r0, r1, r2, r3, q0 + 14) if cnt > 3 else z
-    y23 = _col4(fst, r0, r1, r2, r3, q0 + 15) if cnt > 3 else z
+    x10 = _col4(zt, fst, r0, r1, r2, r3, q0)
+    x20 = _col4(zt, fst, r0, r1, r2, r3, q0 + 1)
+    z = splat(zt, 0.0)
+    ca0 = _col4(zt, fpar, r0, r1, r2, r3, F_SOS + 0) if cnt > 0 else z
+    cb0 = _col4(zt, fpar, r0, r1, r2, r3, F_SOS + 1) if cnt > 0 else z
+    y10 = _col4(zt, fst, r0, r1, r2, r3, q0 + 2) if cnt > 0 else z
+    y20 = _col4(zt, fst, r0, r1, r2, r3, q0 + 3) if cnt > 0 else z
+    ca1 = _col4(zt, fpar, r0, r1, r2, r3, F_SOS + 2) if cnt > 1 else z
+    cb1 = _col4(zt, fpar, r0, r1, r2, r3, F_SOS + 3) if cnt > 1 else z
+    y11 = _col4(zt, fst, r0, r1, r2, r3, q0 + 6) if cnt > 1 else z
+    y21 = _col4(zt, fst, r0, r1, r2, r3, q0 + 7) if cnt > 1 else z
+    ca2 = _col4(zt, fpar, r0, r1, r2, r3, F_SOS + 4) if cnt > 2 else z
+    cb2 = _col4(zt, fpar, r0, r1, r2, r3, F_SOS + 5) if cnt > 2 else z
+    y12 = _col4(zt, fst, r0, r1, r2, r3, q0 + 10) if cnt > 2 else z
+    y22 = _col4(zt, fst, r0, r1, r2, r3, q0 + 11) if cnt > 2 else z
+    ca3 = _col4(zt, fpar, r0, r1, r2, r3, F_SOS + 6) if cnt > 3 else z
+    cb3 = _col4(zt, fpar, r0, r1, r2, r3, F_SOS + 7) if cnt > 3 else z
+    y13 = _col4(zt, fst, r0, r1, r2, r3, q0 + 14) if cnt > 3 else z
+    y23 = _col4(zt, fst, r0, r1, r2, r3, q0 + 15) if cnt > 3 else z
     if ns == 1 and cnt == 0:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
-            store4(buf, 4 * i, y0)
+            store4(buf, W * i, y0)
     elif ns == 2 and cnt == 0:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
             y1 = c1 * y0 + x1 - c1 * y1
             x1 = y0
-            store4(buf, 4 * i, y1)
+            store4(buf, W * i, y1)
     elif ns == 1 and cnt == 1:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
             h = y0
@@ -3123,11 +3224,11 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
             x10 = h
             y20 = y10
             y10 = o0
-            store4(buf, 4 * i, o0)
+            store4(buf, W * i, o0)
     elif ns == 2 and cnt == 1:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
             y1 = c1 * y0 + x1 - c1 * y1
@@ -3138,11 +3239,11 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
             x10 = h
             y20 = y10
             y10 = o0
-            store4(buf, 4 * i, o0)
+            store4(buf, W * i, o0)
     elif ns == 1 and cnt == 2:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
             h = y0
@@ -3154,11 +3255,11 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
             y10 = o0
             y21 = y11
             y11 = o1
-            store4(buf, 4 * i, o1)
+            store4(buf, W * i, o1)
     elif ns == 2 and cnt == 2:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
             y1 = c1 * y0 + x1 - c1 * y1
@@ -3172,11 +3273,11 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
             y10 = o0
             y21 = y11
             y11 = o1
-            store4(buf, 4 * i, o1)
+            store4(buf, W * i, o1)
     elif ns == 1 and cnt == 3:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
             h = y0
@@ -3191,11 +3292,11 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
             y11 = o1
             y22 = y12
             y12 = o2
-            store4(buf, 4 * i, o2)
+            store4(buf, W * i, o2)
     elif ns == 2 and cnt == 3:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
             y1 = c1 * y0 + x1 - c1 * y1
@@ -3212,11 +3313,11 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
             y11 = o1
             y22 = y12
             y12 = o2
-            store4(buf, 4 * i, o2)
+            store4(buf, W * i, o2)
     elif ns == 1:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
             h = y0
@@ -3234,11 +3335,11 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
             y12 = o2
             y23 = y13
             y13 = o3
-            store4(buf, 4 * i, o3)
+            store4(buf, W * i, o3)
     else:
         for i in range(n):
             b0 = gk * b0 + gc
-            lp = b0 * v4(X0[i], X1[i], X2[i], X3[i]) - a1 * lp
+            lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp
             y0 = c0 * lp + x0 - c0 * y0
             x0 = lp
             y1 = c1 * y0 + x1 - c1 * y1
@@ -3258,7 +3359,7 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
             y12 = o2
             y23 = y13
             y13 = o3
-            store4(buf, 4 * i, o3)
+            store4(buf, W * i, o3)
     _put4(fpar, r0, r1, r2, r3, G, F_B0, b0)
     _put4(fst, r0, r1, r2, r3, G, S_LP, lp)
     _put4(fst, r0, r1, r2, r3, G, s0, x0)
@@ -3271,43 +3372,44 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt):
 
 
 @njit(**SERIAL_OPTS)
-def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt):
+def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt, zt):
     """Biquads j0 .. j0+cnt-1 (cnt 1..4) of four strings (lanes) over the
     interleaved buf[0:4n] in place, as :func:`_biquads` computes each
     string's."""
     q0 = S_SOS + 4 * j0
     f0 = F_SOS + 2 * j0
-    z = splat4(0.0)
-    ca0 = _col4(fpar, r0, r1, r2, r3, f0)
-    cb0 = _col4(fpar, r0, r1, r2, r3, f0 + 1)
-    x10 = _col4(fst, r0, r1, r2, r3, q0)
-    x20 = _col4(fst, r0, r1, r2, r3, q0 + 1)
-    y10 = _col4(fst, r0, r1, r2, r3, q0 + 2)
-    y20 = _col4(fst, r0, r1, r2, r3, q0 + 3)
-    ca1 = _col4(fpar, r0, r1, r2, r3, f0 + 2) if cnt > 1 else z
-    cb1 = _col4(fpar, r0, r1, r2, r3, f0 + 3) if cnt > 1 else z
-    y11 = _col4(fst, r0, r1, r2, r3, q0 + 6) if cnt > 1 else z
-    y21 = _col4(fst, r0, r1, r2, r3, q0 + 7) if cnt > 1 else z
-    ca2 = _col4(fpar, r0, r1, r2, r3, f0 + 4) if cnt > 2 else z
-    cb2 = _col4(fpar, r0, r1, r2, r3, f0 + 5) if cnt > 2 else z
-    y12 = _col4(fst, r0, r1, r2, r3, q0 + 10) if cnt > 2 else z
-    y22 = _col4(fst, r0, r1, r2, r3, q0 + 11) if cnt > 2 else z
-    ca3 = _col4(fpar, r0, r1, r2, r3, f0 + 6) if cnt > 3 else z
-    cb3 = _col4(fpar, r0, r1, r2, r3, f0 + 7) if cnt > 3 else z
-    y13 = _col4(fst, r0, r1, r2, r3, q0 + 14) if cnt > 3 else z
-    y23 = _col4(fst, r0, r1, r2, r3, q0 + 15) if cnt > 3 else z
+    W = width(zt)
+    z = splat(zt, 0.0)
+    ca0 = _col4(zt, fpar, r0, r1, r2, r3, f0)
+    cb0 = _col4(zt, fpar, r0, r1, r2, r3, f0 + 1)
+    x10 = _col4(zt, fst, r0, r1, r2, r3, q0)
+    x20 = _col4(zt, fst, r0, r1, r2, r3, q0 + 1)
+    y10 = _col4(zt, fst, r0, r1, r2, r3, q0 + 2)
+    y20 = _col4(zt, fst, r0, r1, r2, r3, q0 + 3)
+    ca1 = _col4(zt, fpar, r0, r1, r2, r3, f0 + 2) if cnt > 1 else z
+    cb1 = _col4(zt, fpar, r0, r1, r2, r3, f0 + 3) if cnt > 1 else z
+    y11 = _col4(zt, fst, r0, r1, r2, r3, q0 + 6) if cnt > 1 else z
+    y21 = _col4(zt, fst, r0, r1, r2, r3, q0 + 7) if cnt > 1 else z
+    ca2 = _col4(zt, fpar, r0, r1, r2, r3, f0 + 4) if cnt > 2 else z
+    cb2 = _col4(zt, fpar, r0, r1, r2, r3, f0 + 5) if cnt > 2 else z
+    y12 = _col4(zt, fst, r0, r1, r2, r3, q0 + 10) if cnt > 2 else z
+    y22 = _col4(zt, fst, r0, r1, r2, r3, q0 + 11) if cnt > 2 else z
+    ca3 = _col4(zt, fpar, r0, r1, r2, r3, f0 + 6) if cnt > 3 else z
+    cb3 = _col4(zt, fpar, r0, r1, r2, r3, f0 + 7) if cnt > 3 else z
+    y13 = _col4(zt, fst, r0, r1, r2, r3, q0 + 14) if cnt > 3 else z
+    y23 = _col4(zt, fst, r0, r1, r2, r3, q0 + 15) if cnt > 3 else z
     if cnt == 1:
         for i in range(n):
-            h = load4(buf, 4 * i)
+            h = loadv(zt, buf, W * i)
             o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
             x20 = x10
             x10 = h
             y20 = y10
             y10 = o0
-            store4(buf, 4 * i, o0)
+            store4(buf, W * i, o0)
     elif cnt == 2:
         for i in range(n):
-            h = load4(buf, 4 * i)
+            h = loadv(zt, buf, W * i)
             o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
             x20 = x10
             x10 = h
@@ -3316,10 +3418,10 @@ def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt):
             y10 = o0
             y21 = y11
             y11 = o1
-            store4(buf, 4 * i, o1)
+            store4(buf, W * i, o1)
     elif cnt == 3:
         for i in range(n):
-            h = load4(buf, 4 * i)
+            h = loadv(zt, buf, W * i)
             o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
             x20 = x10
             x10 = h
@@ -3331,10 +3433,10 @@ def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt):
             y11 = o1
             y22 = y12
             y12 = o2
-            store4(buf, 4 * i, o2)
+            store4(buf, W * i, o2)
     else:
         for i in range(n):
-            h = load4(buf, 4 * i)
+            h = loadv(zt, buf, W * i)
             o0 = (cb0 * (h - y20) + x20 + ca0 * x10) - ca0 * y10
             x20 = x10
             x10 = h
@@ -3349,20 +3451,28 @@ def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt):
             y12 = o2
             y23 = y13
             y13 = o3
-            store4(buf, 4 * i, o3)
+            store4(buf, W * i, o3)
     _put_biquads(fst, r0, r1, r2, r3, G, q0, cnt, x10, x20, y10, y20, y11, y21, y12, y22,
                  y13, y23)
 
 
 @njit(**SERIAL_OPTS)
-def _lanes_out(buf, n, Y0, Y1, Y2, Y3):
-    """The lanes of buf[0:4n] into Y0..Y3[0:n]."""
-    for i in range(n):
-        v = load4(buf, 4 * i)
-        Y0[i] = lane(v, 0)
-        Y1[i] = lane(v, 1)
-        Y2[i] = lane(v, 2)
-        Y3[i] = lane(v, 3)
+def _lanes_out(buf, n, Y0, Y1, Y2, Y3, zt):
+    """The W lanes (zt's type) of buf[0:Wn] into Y0..Y3[0:n] (Y0, Y1 for
+    two)."""
+    W = width(zt)
+    if W == 4:
+        for i in range(n):
+            v = loadv(zt, buf, 4 * i)
+            Y0[i] = lane(v, 0)
+            Y1[i] = lane(v, 1)
+            Y2[i] = lane(v, 2)
+            Y3[i] = lane(v, 3)
+    else:
+        for i in range(n):
+            v = loadv(zt, buf, W * i)
+            Y0[i] = lane(v, 0)
+            Y1[i] = lane(v, 1)
 
 
 @njit(**JIT_OPTS)
@@ -3375,20 +3485,24 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
     ns = ipar[lead, I_NDISP] + 1
     nb = ipar[lead, I_NSOS]
     # the head loop takes all the biquads while its states fit in the
-    # vector registers (_LANES_HEAD_SOS), else one (16 registers) or what
+    # vector registers (_LANES_HEAD_SOS; _LANES_HEAD_SOS2 with a dispersion
+    # section), else one (16 registers; none if it may take none) or what
     # passes of four leave (32); the rest run in passes of two to four (a
     # pass of one waits on its own recurrence)
-    if nb <= _LANES_HEAD_SOS:
+    hmax = _LANES_HEAD_SOS if ns == 1 else _LANES_HEAD_SOS2
+    if nb <= hmax:
         cnt = nb
     elif VECTOR_REGS >= 32:
         cnt = (nb - 1) % 4 + 1
     else:
-        cnt = 1
+        cnt = 1 if hmax > 0 else 0
     dummy = cw[2 * G * _CW + 1:2 * G * _CW + 1 + C]    # the bridge row: written after this
+    zt = _LANES_ZERO(0.0)           # the lanes' type: four, or two in an SSE2 build
+    L = width(zt)
     s = lead
     m = 0
     while m < G:
-        g = G - m if G - m < 4 else 4
+        g = G - m if G - m < L else L
         r0 = s
         x0 = cw[2 * m * _CW + _io(ipar, r0):][:C]
         y0 = cw[(2 * m + 1) * _CW + 1:(2 * m + 1) * _CW + 1 + C]
@@ -3417,7 +3531,7 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
             x3 = cw[2 * (m + 3) * _CW + _io(ipar, r3):][:C]
             y3 = cw[(2 * m + 7) * _CW + 1:(2 * m + 7) * _CW + 1 + C]
             s = ipar[s, I_CPLNX]
-        _lanes_head(x0, x1, x2, x3, buf, C, fpar, fst, r0, r1, r2, r3, g, ns, cnt)
+        _lanes_head(x0, x1, x2, x3, buf, C, fpar, fst, r0, r1, r2, r3, g, ns, cnt, zt)
         j = cnt
         while j < nb:
             # the biquads left in passes as even as passes of at most four
@@ -3425,9 +3539,9 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
             left = nb - j
             passes = (left + 3) // 4
             c = (left + passes - 1) // passes
-            _lanes_biquads(buf, C, fpar, fst, r0, r1, r2, r3, g, j, c)
+            _lanes_biquads(buf, C, fpar, fst, r0, r1, r2, r3, g, j, c, zt)
             j += c
-        _lanes_out(buf, C, y0, y1, y2, y3)
+        _lanes_out(buf, C, y0, y1, y2, y3, zt)
         m += g
     # the extra-delay registers: the last arriving sample
     s = lead
