@@ -56,6 +56,32 @@ def _g(d, n, dt):
     return sitar_g(t, d["A"], d["t0"])
 
 
+def _pluck_and_render(b, defs, n, block):
+    """Activate and pluck every string of ``defs`` on bank ``b``; render n
+    samples in blocks of ``block``."""
+    for s, d in enumerate(defs):
+        b.activate(s)
+        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
+    mix = np.zeros(n)
+    for o in range(0, n, block):
+        b.render(mix, o, min(block, n - o))
+    return mix
+
+
+def _assert_dies_away(seed, ratio, mass_hz=0.0):
+    """A plucked group of three on a bridge of ``ratio`` times their summed
+    impedance (with a mass above ``mass_hz``) stays finite and is no louder
+    after 35,000 samples than in its first 5,000."""
+    rng = np.random.default_rng(seed)
+    dt, defs = _group(rng, 3, False, region=False)
+    z = sum(d["tdx"] for d in defs) * dt
+    b = _bank_for(defs, dt, False, cap=4)
+    b.couple([0, 1, 2], ratio * z, 0.0, mass_hz)
+    mix = _pluck_and_render(b, defs, 40_000, 1000)
+    assert np.all(np.isfinite(mix))
+    assert np.max(np.abs(mix[35_000:])) <= np.max(np.abs(mix[:5000]))
+
+
 @pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
 @pytest.mark.parametrize("n_str", [1, 2, 3])
 def test_coupled_strings_equal_the_naive_bridge(per_sample, n_str):
@@ -67,13 +93,8 @@ def test_coupled_strings_equal_the_naive_bridge(per_sample, n_str):
     b = _bank_for(defs, dt, per_sample)
     R_b, f_ret = 3.0, 5.0
     b.couple(range(n_str), R_b, f_ret)
-    for s, d in enumerate(defs):
-        b.activate(s)
-        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
     n = 9 * defs[0]["N"]
-    mix = np.zeros(n)
-    for o in range(0, n, 211):
-        b.render(mix, o, min(211, n - o))
+    mix = _pluck_and_render(b, defs, n, 211)
     bra, brb = math.exp(-2 * math.pi * f_ret * dt), dt / R_b
     ref, ub = naive_bridge_strings([dict(d, g=_g(d, n, dt)) for d in defs], n, bra=bra, brb=brb)
     assert np.max(np.abs(ub)) > 1e-4 * max(d["A"] for d in defs)      # the bridge moves
@@ -462,19 +483,7 @@ def test_a_bridge_of_any_resistance_is_passive(ratio):
     by (1 - r z^-1) / (1 + r z^-1), more than 1 above fs/4: this group grew
     without bound at every ratio up to 10; tools/stress.py found the
     sitar's taraf blowing up at 1 N s/m.)"""
-    rng = np.random.default_rng(5)
-    dt, defs = _group(rng, 3, False, region=False)
-    z = sum(d["tdx"] for d in defs) * dt
-    b = _bank_for(defs, dt, False, cap=4)
-    b.couple([0, 1, 2], ratio * z, 0.0)
-    for s, d in enumerate(defs):
-        b.activate(s)
-        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
-    mix = np.zeros(40_000)
-    for o in range(0, 40_000, 1000):
-        b.render(mix, o, 1000)
-    assert np.all(np.isfinite(mix))
-    assert np.max(np.abs(mix[35_000:])) <= np.max(np.abs(mix[:5000]))
+    _assert_dies_away(5, ratio)
 
 
 @pytest.mark.parametrize("per_sample", [False, True], ids=["fast", "per-sample"])
@@ -488,13 +497,8 @@ def test_a_bridge_with_mass_equals_the_naive_bridge(per_sample, n_str, mass_hz):
     b = _bank_for(defs, dt, per_sample)
     R_b, f_ret = 3.0, 5.0
     b.couple(range(n_str), R_b, f_ret, mass_hz)
-    for s, d in enumerate(defs):
-        b.activate(s)
-        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
     n = 9 * defs[0]["N"]
-    mix = np.zeros(n)
-    for o in range(0, n, 211):
-        b.render(mix, o, min(211, n - o))
+    mix = _pluck_and_render(b, defs, n, 211)
     bra, brb = math.exp(-2 * math.pi * f_ret * dt), dt / R_b
     mu = 1.0 / (2 * math.pi * mass_hz * dt)
     ref, ub = naive_bridge_strings([dict(d, g=_g(d, n, dt)) for d in defs], n, bra=bra, brb=brb,
@@ -512,19 +516,7 @@ def test_a_bridge_with_mass_is_passive(ratio, mass_hz):
     strings' force: the impedance R + M (1 - z^-1) / dt has a real part R +
     M (1 - cos w dt) / dt >= R, so a plucked group on it stays bounded and
     dies away whatever the resistance and the mass."""
-    rng = np.random.default_rng(9)
-    dt, defs = _group(rng, 3, False, region=False)
-    z = sum(d["tdx"] for d in defs) * dt
-    b = _bank_for(defs, dt, False, cap=4)
-    b.couple([0, 1, 2], ratio * z, 0.0, mass_hz)
-    for s, d in enumerate(defs):
-        b.activate(s)
-        b.start_pluck(s, K.EXC_SITAR, d["A"], d["t0"])
-    mix = np.zeros(40_000)
-    for o in range(0, 40_000, 1000):
-        b.render(mix, o, 1000)
-    assert np.all(np.isfinite(mix))
-    assert np.max(np.abs(mix[35_000:])) <= np.max(np.abs(mix[:5000]))
+    _assert_dies_away(9, ratio, mass_hz)
 
 
 def test_the_mass_argument_is_checked():

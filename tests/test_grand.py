@@ -386,11 +386,11 @@ def test_hardness_voices_the_hammers_brighter_and_shorter():
     assert hard < 0.98 * soft                 # 546 against 570 samples at 325 kHz
 
 
-def _decay_db_per_s(y, key, n_partials=8, t0=0.1, t1=1.3, win=0.2):
+def _decay_db_per_s(y, key, f1, n_partials=8, t0=0.1, t1=1.3, win=0.2):
     """Slopes (dB/s) of partials 1..n's peak levels over t0..t1 (0.2 s
-    frames every 0.1 s, a least-squares line)."""
+    frames every 0.1 s, a least-squares line); ``f1`` the key's partial 1
+    (Hz)."""
     B = P.grand_string(key).inharmonicity_b
-    f1 = engine("grand-piano").inst.tuning_hz(key)
     ts = np.arange(t0, t1 - win + 1e-9, 0.1)
     lv = np.array([partial_peaks(y[int(t * FS):int((t + win) * FS)], FS, f1 / np.sqrt(1 + B),
                                  n_partials, search_cents=40, inharmonicity=B)[1] for t in ts])
@@ -418,7 +418,7 @@ def test_the_bridge_mass_keeps_the_upper_partials_of_the_prompt_sound():
     db = 20 / np.log(10)
     for sets, want in ((["strings.detune_scale=0"], sig_a + sig_b * share),
                        (["strings.detune_scale=0", "strings.bridge_mass_f0=0"], sig_a + sig_b)):
-        y, _ = render(key, 80 / 127, 1.4, sets)
-        got = -_decay_db_per_s(y, key) / db
+        y, e = render(key, 80 / 127, 1.4, sets)
+        got = -_decay_db_per_s(y, key, e.inst.tuning_hz(key)) / db
         assert np.allclose(got, want, rtol=0.12), (sets, got, want)
     assert want[7] > 1.7 * (sig_a + sig_b * share)[7]

@@ -91,16 +91,21 @@ def _vtype(t):
     return _VT if isinstance(t, F64x4) else _VT2
 
 
+def _build(builder, vt, xs):
+    """An LLVM vector of type ``vt`` whose lane k is xs[k]."""
+    v = ir.Constant(vt, ir.Undefined)
+    for k in range(vt.count):
+        v = builder.insert_element(v, xs[k], ir.Constant(_I32, k))
+    return v
+
+
 @intrinsic
 def v4(typingctx, a, b, c, d):
     """The lanes (a, b, c, d)."""
     sig = f64x4(types.float64, types.float64, types.float64, types.float64)
 
     def codegen(context, builder, signature, args):
-        v = ir.Constant(_VT, ir.Undefined)
-        for k, x in enumerate(args):
-            v = builder.insert_element(v, x, ir.Constant(_I32, k))
-        return v
+        return _build(builder, _VT, args)
 
     return sig, codegen
 
@@ -111,10 +116,7 @@ def splat4(typingctx, a):
     sig = f64x4(types.float64)
 
     def codegen(context, builder, signature, args):
-        v = ir.Constant(_VT, ir.Undefined)
-        for k in range(4):
-            v = builder.insert_element(v, args[0], ir.Constant(_I32, k))
-        return v
+        return _build(builder, _VT, [args[0]] * 4)
 
     return sig, codegen
 
@@ -125,10 +127,7 @@ def splat2(typingctx, a):
     sig = f64x2(types.float64)
 
     def codegen(context, builder, signature, args):
-        v = ir.Constant(_VT2, ir.Undefined)
-        for k in range(2):
-            v = builder.insert_element(v, args[0], ir.Constant(_I32, k))
-        return v
+        return _build(builder, _VT2, [args[0]] * 2)
 
     return sig, codegen
 
@@ -141,11 +140,7 @@ def vec(typingctx, z, a, b, c, d):
     sig = z(z, types.float64, types.float64, types.float64, types.float64)
 
     def codegen(context, builder, signature, args):
-        vt = _vtype(signature.return_type)
-        v = ir.Constant(vt, ir.Undefined)
-        for k in range(vt.count):
-            v = builder.insert_element(v, args[1 + k], ir.Constant(_I32, k))
-        return v
+        return _build(builder, _vtype(signature.return_type), args[1:])
 
     return sig, codegen
 
@@ -159,10 +154,7 @@ def splat(typingctx, z, a):
 
     def codegen(context, builder, signature, args):
         vt = _vtype(signature.return_type)
-        v = ir.Constant(vt, ir.Undefined)
-        for k in range(vt.count):
-            v = builder.insert_element(v, args[1], ir.Constant(_I32, k))
-        return v
+        return _build(builder, vt, [args[1]] * vt.count)
 
     return sig, codegen
 

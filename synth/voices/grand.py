@@ -132,6 +132,7 @@ class GrandStringSetup:
     hammer: HammerTemplate | None = None    # its hammer (speed and soft pedal per strike)
     hammer_soft: HammerTemplate | None = None  # with the una corda: its share of one string fewer
     damper: tuple | None = None             # its damper row (StringBank.set_damper)
+    bridge: tuple | None = None             # its key's bridge (R_b N s/m, mass corner Hz); None: rigid
 
 
 @register_voice("grand")
@@ -304,6 +305,8 @@ class GrandPianoInstrument(Voice):
                                         gs.tension_n, gs.c_m_per_s, fj, sub=M))
         # validated bank rows, so that a note-on in the audio thread only
         # copies them (~10 us per key instead of ~35)
+        R_b = self.bridge_resistance_ns_per_m(key)
+        bridge = None if R_b is None else (R_b, self.bridge_mass_hz(key))
         full = []
         for su in out:
             slot = slot_template(cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=1,
@@ -323,7 +326,7 @@ class GrandPianoInstrument(Voice):
             t_damped = min(self.release_t60_s(key), t_nat) if gs.has_damper else t_nat
             full.append(replace(su, slot=slot, hammer=hammer_template(dt_s=su.dt_s, **hp),
                                 hammer_soft=hammer_template(dt_s=su.dt_s, **hps),
-                                damper=(su.b0, su.f1_hz, t_damped, t_nat)))
+                                damper=(su.b0, su.f1_hz, t_damped, t_nat), bridge=bridge))
         self._keys[key] = tuple(full)
         return self._keys[key]
 
@@ -411,7 +414,7 @@ class GrandPianoInstrument(Voice):
         a = self.preset.action
         # the soft pedal's softer felt, on hammers voiced `hardness` times stiffer
         stiff = a.hardness * (1.0 - (1.0 - a.soft_stiffness) * min(max(soft, 0.0), 1.0))
-        R_b = self.bridge_resistance_ns_per_m(key)
+        bridge = sus[0].bridge
         fresh = not restrike or not all(bank.is_active(s) for s in slots[:n])
         for j, (slot, su) in enumerate(zip(slots, sus)):
             if fresh:
@@ -419,8 +422,8 @@ class GrandPianoInstrument(Voice):
                 bank.set_damper(slot, su.damper)
             else:
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
-        if fresh and R_b is not None:
-            bank.couple(slots[:n], R_b, BRIDGE_RETURN_HZ, self.bridge_mass_hz(key))
+        if fresh and bridge is not None:
+            bank.couple(slots[:n], bridge[0], BRIDGE_RETURN_HZ, bridge[1])
         speeds = P.UNISON_STRIKE[n]
         for j, (slot, su) in enumerate(zip(slots, sus)):
             if j < struck:
@@ -428,7 +431,7 @@ class GrandPianoInstrument(Voice):
                 h = su.hammer if struck == n else su.hammer_soft
                 bank.start_hammer_from(slot, h, V * speeds[j], stiff)
             # every string sounds: an unstruck one (una corda) through the bridge
-            if R_b is not None or j < struck:
+            if bridge is not None or j < struck:
                 bank.activate(slot)
 
     @property
