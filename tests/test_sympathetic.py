@@ -6,6 +6,7 @@ import pytest
 from helpers import engine
 from synth.analysis import as_mono, halo
 from synth.engine.engine import Event
+from synth.physics import piano as P
 
 FS = 48000
 
@@ -22,8 +23,12 @@ def _db(x):
 def test_pedal_down_the_other_strings_ring_along():
     """C4 held with the sustain pedal down sounds with a halo that the same
     note without the pedal lacks: energy at the other keys' frequencies
-    (synth.analysis.halo), growing after the attack; the strings of C4
-    itself are not doubled (its sympathetic copy stays silent)."""
+    (synth.analysis.halo: +28 dB), growing after the attack; the strings
+    of C4 itself are not doubled (its sympathetic copy stays silent).
+    (Until 2026-11-27 the note's own partials were left out on a harmonic
+    series, so its stretched upper partials counted as halo without the
+    pedal and the gain read 9 dB; with the strings' loss fitted to a
+    recorded grand they ring longer, and it read 4.4.)"""
     note = [Event(0.0, "note_on", 60, 0.7)]
     down, e = _take([Event(0.0, "control", 64, 1.0)] + note, 3.0)
     up, _ = _take(note, 3.0)
@@ -33,8 +38,13 @@ def test_pedal_down_the_other_strings_ring_along():
     w = slice(int(0.5 * FS), int(3.0 * FS))
     inst = e.inst
     probes = [inst.tuning_hz(k) for k in range(21, 109) if k != 60]
-    f1 = inst.tuning_hz(60)
-    own = [n * f1 for n in range(1, 40) if n * f1 < FS / 2]
+    # the note's own partials, on its stiff-string law (stretched: partial
+    # 30 lies 50 cents above 30 f1, where a harmonic series would leave it
+    # among the probes; tools/voicing_report.py does the same)
+    B = P.grand_string(60).inharmonicity_b
+    f0 = inst.tuning_hz(60) / np.sqrt(1.0 + B)
+    own = [n * f0 * np.sqrt(1.0 + B * n * n) for n in range(1, 60)]
+    own = [f for f in own if f < FS / 2]
     h = halo(down[w], up[w], FS, probes, own)
     assert h["gain_db"] >= 6.0, h
     # the halo is quieter than the note, and absent without the pedal
