@@ -71,3 +71,20 @@ def test_keys_are_checked():
     with pytest.raises(SystemExit):
         sp.main(["una-corda", "--keys", "20"])
     assert sp.main(["decay", "--real", "/no/such/folder"]) == 2
+
+
+def test_damping_rows_keep_the_band_above_the_floor_and_the_ratio():
+    """``damping_rows`` keeps the partials at 3-8 kHz within 50 dB of the
+    strongest (key 84, f0 1047 Hz: partials 3-7), and reads each one's T60
+    on both notes; ``ratio_summary`` gives the median of model / real."""
+    key = 84
+    t_real = [2.0, 2.0, 2.0, 1.8, 1.6, 1.4, 1.2, 1.0]
+    t_model = [2.0, 2.0, 1.0, 0.9, 0.8, 0.7, 0.6, 0.5]
+    amps = [1.0, 0.3, 0.1, 0.05, 0.02, 0.01, 0.005, 0.001]   # partial 8: -60 dB
+    rows = sp.damping_rows(key, _note(key, t_real, amps), _note(key, t_model, amps))
+    assert [r[0] for r in rows] == [3, 4, 5, 6, 7], rows
+    for p, f, lv, t, m in rows:
+        assert abs(t - t_real[p - 1]) < 0.05 * t_real[p - 1]
+        assert abs(m - t_model[p - 1]) < 0.05 * t_model[p - 1]
+    med, lo, hi = sp.ratio_summary(rows)
+    assert abs(med - 0.5) < 0.02 and lo <= med <= hi

@@ -1,8 +1,9 @@
-"""Two studies behind docs/voicing.md's "misses that remain" (issue 11).
+"""Studies behind docs/voicing.md's "misses that remain" (issue 11).
 
     python tools/study_partials.py decay --real node_modules/@audio-samples [--keys 48,51,...]
     python tools/study_partials.py ratios --real node_modules/@audio-samples
     python tools/study_partials.py una-corda [--keys 78,81,...] [--set PATH=VALUE ...]
+    python tools/study_partials.py damping --real node_modules/@audio-samples [--set ...]
 
 ``decay``: the early T60 of partials 1-8 of each key, on a real grand's
 samples (the folder of ``tools/real_grand.py``, layer v10) and on the
@@ -22,6 +23,14 @@ recording's early T60 of partial 1, the median of layers v4, v10 and v14,
 and the running median of five keys (the smoothed curve
 ``synth.physics.piano.TRICHORD_PROMPT_ANCHORS`` follows), beside the
 model's own ratio.
+
+``damping``: the strings' loss at 3-8 kHz against a real grand's: the
+early T60 (as ``decay``) of every partial of keys 63-99 (every minor
+third) that lies at 3-8 kHz and, in the recording's first 0.05-0.35 s,
+within 50 dB of its strongest partial (above the recording's floor), on
+the recording (layer v10) and on the model at velocity 80, and the
+median and quartiles of model / real over them: the check on
+``synth.physics.piano.DAMPING_B3_S``.
 
 ``una-corda``: the voicing report's una corda measure (the centroid of the
 first 100 ms, CC67 down against up, velocity 80) on any keys, with the
@@ -149,6 +158,58 @@ def running_median(values, width=5):
     return [float(np.median(v[max(0, i - h):i + h + 1])) for i in range(len(v))]
 
 
+#: the band and the level floor of the ``damping`` study
+DAMPING_BAND_HZ = (3000.0, 8000.0)
+DAMPING_FLOOR_DB = -50.0
+
+
+def damping_rows(key, real, model):
+    """(partial, f (Hz), level (dB), real T60, model T60) of each partial
+    1-8 of ``key`` in ``DAMPING_BAND_HZ`` whose level in ``real``'s
+    0.05-0.35 s lies within ``-DAMPING_FLOOR_DB`` of its strongest, and
+    whose early T60 both notes read (not 99)."""
+    g = grand_string(key)
+    tr, tm = early_t60_s(real, key), early_t60_s(model, key)
+    pk, _ = partial_levels_db(real, key, 0.05, 0.35, n=N_PARTIALS)
+    out = []
+    for j in range(N_PARTIALS):
+        f = g.partial_hz(j + 1)
+        if (DAMPING_BAND_HZ[0] <= f <= DAMPING_BAND_HZ[1] and pk[j] > DAMPING_FLOOR_DB
+                and tr[j] < 99.0 and tm[j] < 99.0):
+            out.append((j + 1, f, float(pk[j]), float(tr[j]), float(tm[j])))
+    return out
+
+
+def ratio_summary(rows):
+    """(median, lower quartile, upper quartile) of model / real T60 over
+    ``rows`` (geometric: the quantiles of log2 of the ratios)."""
+    lr = np.log2([m / t for *_, t, m in rows])
+    return tuple(float(2.0 ** np.percentile(lr, q)) for q in (50, 25, 75))
+
+
+def damping(args) -> None:
+    from synth.physics.piano import DAMPING_B3_S
+
+    folder = Path(args.real)
+    if not folder.is_dir():
+        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
+    r = Renderer("grand-piano", tuple(args.set))
+    print(f"Early T60 (s) of the partials at {DAMPING_BAND_HZ[0] / 1e3:.0f}-"
+          f"{DAMPING_BAND_HZ[1] / 1e3:.0f} kHz within {-DAMPING_FLOOR_DB:.0f} dB of the "
+          f"recording's strongest (b3 = {DAMPING_B3_S:.3g} s)\n")
+    print("| key | partial | kHz | level, dB | real v10 | model |")
+    print("|---|---|---|---|---|---|")
+    rows = []
+    for key in range(63, 100, 3):
+        for p, f, lv, t, m in damping_rows(key, _load_real(folder, key), r.note(key, 80, 1.5)):
+            rows.append((p, f, lv, t, m))
+            print(f"| {key} | {p} | {f / 1e3:.1f} | {lv:.1f} | {t:.1f} | {m:.1f} |")
+    if not rows:
+        raise SystemExit("study_partials: error: no partial in the band above the floor")
+    med, lo, hi = ratio_summary(rows)
+    print(f"\n{len(rows)} partials: model / real T60, median {med:.2f}, quartiles {lo:.2f}-{hi:.2f}")
+
+
 def ratios(args) -> None:
     folder = Path(args.real)
     if not folder.is_dir():
@@ -201,9 +262,13 @@ def main(argv=None) -> int:
     u = sub.add_parser("una-corda", help="the una corda's centroid change on any keys")
     u.add_argument("--keys", type=_keys, default=_keys("78,81,84,87,90,92,94,96,98,100,104"))
     u.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
+    w = sub.add_parser("damping", help="the strings' loss at 3-8 kHz against a real grand's")
+    w.add_argument("--real", required=True, help="the folder of tools/real_grand.py's samples")
+    w.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
     args = ap.parse_args(argv)
     try:
-        {"decay": decay, "ratios": ratios, "una-corda": una_corda}[args.study](args)
+        {"decay": decay, "ratios": ratios, "una-corda": una_corda,
+         "damping": damping}[args.study](args)
     except SystemExit as e:
         if isinstance(e.code, str):
             print(e.code, file=sys.stderr)

@@ -97,8 +97,14 @@ documented design values, not from a table of 88 typed numbers:
   strings' loops are tuned with (``synth.physics.dispersion.BridgeLag``).
   High frequencies: the decay-rate law of Chaigne & Askenfelt (1994),
   ``sigma(f) = b1 + b3 (2 pi f)^2`` (amplitude decay rate, 1/s; T60 = ln(1000)
-  / sigma) with b3 = 6.25e-9 s (the order of their fitted values) and b1 set by
-  T60 at f0.  ``f_high_hz = max(5 kHz, 2 f0)``: 5 kHz up to D#7, the second
+  / sigma) with b1 set by T60 at f0 and b3 = 5.0e-9 s, fitted to a recorded
+  grand (the Salamander Yamaha C5 of ``tools/real_grand.py``): over the 28
+  partials of keys 63-99 at 3-8 kHz that lie within 50 dB of their note's
+  strongest, the model's early T60 over the recording's has a median of
+  0.96 (quartiles 0.81-1.36) with 5.0e-9, 0.76 (0.66-1.20) with Chaigne &
+  Askenfelt's 6.25e-9 for their C4, whose faster loss left the treble's
+  partials above 4 kHz dying in half the recording's time (``python
+  tools/study_partials.py damping --real DIR``).  ``f_high_hz = max(5 kHz, 2 f0)``: 5 kHz up to D#7, the second
   harmonic above that (up to 8.4 kHz at C8).  ``GrandString.t60_s(f)`` gives
   the same law at any frequency.
 
@@ -196,7 +202,7 @@ TRICHORD_PROMPT_ANCHORS = ((51, 4.0), (54, 5.2), (57, 5.2), (60, 5.8), (63, 7.4)
 #: never level, so the strings start unequally and the out-of-phase motions,
 #: which make the aftersound, are excited too (Weinreich 1977, section V)
 UNISON_STRIKE = {1: (1.0,), 2: (1.0, 0.93), 3: (0.97, 1.0, 0.92)}
-DAMPING_B3_S = 6.25e-9
+DAMPING_B3_S = 5.0e-9
 F_HIGH_MIN_HZ = 5000.0
 
 _LN1000 = 3.0 * math.log(10.0)
