@@ -950,16 +950,30 @@ def _subcell_delta(ut, up, U1, G):
             return G * (y - rt)
     if rt > 1.0:
         # the root at or beyond 1 (point 1 touches): there Qi = y - 5/6 and
-        # (y - rt)(y - rp) + y - 5/6 - Qp = 0, the larger root; r(1) <= 0
-        if rp >= 1.0:
-            beyond = rt >= 2.0
+        # (y - rt)(y - rp) + y - 5/6 - Qp = 0, the larger root; r(1) <= 0.
+        # In z = y - rp: z^2 + B z + k = 0, B = rp - rt + 1, k = rp - 5/6
+        # - Qp <= 0.  Where rp > 0, with u = 1 - q(rp) (rp = 1 - u^2, Qp =
+        # 1/6 - u^2 + 4/3 u^3 - u^4 / 2): k = -u^3 (4/3 - u/2), and r(1) <=
+        # 0 is u^2 ((2 - rt) - u (4/3 - u/2)) <= 0, free of the
+        # cancellation of rp - 5/6 - Qp (at rt = 2, rp = 1 the root is
+        # double, and k's rounding cost sqrt(eps) of G: a hypothesis test
+        # found -0.99999999 G for -G)
+        if rp > 0.0:
+            u = 1.0 - b
+            w = u * (4.0 / 3.0 - 0.5 * u)
+            beyond = (2.0 - rt) - w <= 0.0
+            k = -u * u * w
         else:
-            beyond = (1.0 - rt) * (1.0 - rp) + (1.0 / 6.0 - Qp) <= 0.0
+            beyond = (1.0 - rt) * (1.0 - rp) + 1.0 / 6.0 <= 0.0
+            k = rp - 5.0 / 6.0
         if beyond:
-            c1 = rt + rp - 1.0
-            c0 = rt * rp - 5.0 / 6.0 - Qp
-            y = 0.5 * (c1 + np.sqrt(c1 * c1 - 4.0 * c0))
-            return G * (y - rt)
+            B = rp - rt + 1.0
+            sq = np.sqrt(B * B - 4.0 * k)
+            if B > 0.0:
+                z = -2.0 * k / (B + sq)
+            else:
+                z = 0.5 * (sq - B)
+            return G * (z + (rp - rt))
     # the root in 0 < y < 1, in a: P(a) has the sign of the equation's
     # residual (times (2 - a - b) or (y - rp), both > 0 there)
     lo = 0.0
