@@ -22,23 +22,6 @@ def _q2(r):
 _GL40 = np.polynomial.legendre.leggauss(40)
 
 
-def _phi(r):
-    """The integral of q^2 from 0 to r, by Gauss-Legendre quadrature (40
-    points on 0..min(r, 1), where q^2 is smooth but for the square root at
-    1; exact beyond 1: 40 points are exact for its polynomial in
-    t = sqrt(1 - r))."""
-    if r <= 0.0:
-        return 0.0
-    hi = min(r, 1.0)
-    xg, wg = _GL40
-    # substitute r = hi (1 - s^2) ... : integrate over s in the variable
-    # t = sqrt(1 - r) where the integrand (1 - t)^2 2t is a polynomial
-    t_lo, t_hi = np.sqrt(1.0 - hi), 1.0
-    t = 0.5 * (t_hi - t_lo) * xg + 0.5 * (t_hi + t_lo)
-    I = 0.5 * (t_hi - t_lo) * np.sum(wg * (1.0 - t) ** 2 * 2.0 * t)
-    return float(I + max(r - 1.0, 0.0))
-
-
 def _secant(a, b):
     """(phi(a) - phi(b)) / (a - b): the mean of q^2 between a and b, its
     integral taken over the interval itself (Gauss-Legendre in t = sqrt(1

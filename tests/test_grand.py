@@ -6,6 +6,7 @@ import pytest
 from helpers import engine, shared_dir
 from synth.analysis import (as_mono, cents, estimate_f0, fit_inharmonicity, partial_peaks,
                             spectral_centroid_hz)
+from synth.analysis.contacts import contact_summary
 from synth.engine.engine import Event
 from synth.kernels import strings as K
 from synth.physics import piano as P
@@ -138,9 +139,9 @@ def _bar_episodes_after_the_hammer(key, sets=(), vel=98, seconds=0.5):
     out = []
     for s in range(len(e.inst.setup(key))):
         ch = e.probe_channels(s)
-        F, c = ch[K.P_F], ch[K.P_CONTACT] > 0
-        after = c[np.flatnonzero(F > 0)[-1] + 1:]
-        out.append(int(np.sum(after[1:] & ~after[:-1]) + after[0]))
+        i = np.flatnonzero(ch[K.P_F] > 0)[-1] + 1
+        sm = contact_summary(ch[K.P_CONTACT, i:], ch[K.P_F, i:], e.fs_in, min_gap_s=0.0)
+        out.append(sm["termination"]["episodes"])
     return out
 
 

@@ -41,10 +41,9 @@ def test_pedal_down_the_other_strings_ring_along():
     # the note's own partials, on its stiff-string law (stretched: partial
     # 30 lies 50 cents above 30 f1, where a harmonic series would leave it
     # among the probes; tools/voicing_report.py does the same)
-    B = P.grand_string(60).inharmonicity_b
-    f0 = inst.tuning_hz(60) / np.sqrt(1.0 + B)
-    own = [n * f0 * np.sqrt(1.0 + B * n * n) for n in range(1, 60)]
-    own = [f for f in own if f < FS / 2]
+    g = P.grand_string(60)
+    scale = inst.tuning_hz(60) / g.partial_hz(1)
+    own = [f for f in (scale * g.partial_hz(n) for n in range(1, 60)) if f < FS / 2]
     h = halo(down[w], up[w], FS, probes, own)
     assert h["gain_db"] >= 6.0, h
     # the halo is quieter than the note, and absent without the pedal

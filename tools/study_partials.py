@@ -201,9 +201,10 @@ def damping(args) -> None:
     print("|---|---|---|---|---|---|")
     rows = []
     for key in range(63, 100, 3):
-        for p, f, lv, t, m in damping_rows(key, _load_real(folder, key), r.note(key, 80, 1.5)):
-            rows.append((p, f, lv, t, m))
+        got = damping_rows(key, _load_real(folder, key), r.note(key, 80, 1.5))
+        for p, f, lv, t, m in got:
             print(f"| {key} | {p} | {f / 1e3:.1f} | {lv:.1f} | {t:.1f} | {m:.1f} |")
+        rows += got
     if not rows:
         raise SystemExit("study_partials: error: no partial in the band above the floor")
     med, lo, hi = ratio_summary(rows)

@@ -104,8 +104,9 @@ documented design values, not from a table of 88 typed numbers:
   0.96 (quartiles 0.81-1.36) with 5.0e-9, 0.76 (0.66-1.20) with Chaigne &
   Askenfelt's 6.25e-9 for their C4, whose faster loss left the treble's
   partials above 4 kHz dying in half the recording's time (``python
-  tools/study_partials.py damping --real DIR``).  ``f_high_hz = max(5 kHz, 2 f0)``: 5 kHz up to D#7, the second
-  harmonic above that (up to 8.4 kHz at C8).  ``GrandString.t60_s(f)`` gives
+  tools/study_partials.py damping --real DIR``).  ``f_high_hz = max(5 kHz,
+  2 f0)``: 5 kHz up to D#7, the second harmonic above that (up to 8.4 kHz
+  at C8).  ``GrandString.t60_s(f)`` gives
   the same law at any frequency.
 
 Hammers (thesis eqs. 1.5-1.9; Publication III eqs. 3-7; physics notes sec. 4)
