@@ -89,10 +89,13 @@ def test_spectral_centroid_rises_with_velocity():
 
 def test_capo_bar_strengthens_the_high_partials_of_a7():
     """A7 with and without the capo bar, at the internal rate, in the first
-    6 ms: partials 6-12 (21-80 kHz; at 48 kHz only partials 1-5 remain) are
-    stronger with the bar, partials 1-5 weaker (thesis section 1.3.2).  At
-    325 kHz the grid resolves the bar only while the hammer presses the
-    string against it (the A7 study needs 1.3 MHz for the later contacts)."""
+    6 ms: the bar takes energy from the low partials and gives it to the
+    high ones (thesis section 1.3.2): partials 1-2 weaker, partials 6-12
+    (21-80 kHz; at 48 kHz only partials 1-5 remain) stronger.  Measured on
+    the preset's strike grid (1.3 MHz for the first 20 ms from key 84 up,
+    2026-11-27): partials 1-2 -4.8 and -3.5 dB, 3-5 +4 to +14, 6-12 +2.6 on
+    average.  (On the 650 kHz grid this key had until then, whose bar acted
+    only while the hammer pressed the string, partials 1-5 all fell.)"""
     levels = {}
     B = P.grand_string(105).inharmonicity_b
     for region in (0.0, 0.008):
@@ -106,7 +109,7 @@ def test_capo_bar_strengthens_the_high_partials_of_a7():
         levels[region] = lv
     gain = levels[0.008] - levels[0.0]
     assert np.mean(gain[5:]) > 2.0, gain
-    assert np.mean(gain[5:]) > np.mean(gain[:5]) + 3.0, gain
+    assert np.all(gain[:2] < -2.0), gain
 
 
 def _capo_change_db(key, sets=(), vel=80):
@@ -145,46 +148,57 @@ def _bar_episodes_after_the_hammer(key, sets=(), vel=98, seconds=0.5):
     return out
 
 
-#: the thesis's 1.3 MHz at the bar for every treble key (the preset's
-#: comment: about twice the cost of the default's, docs/benchmarks.md)
-THESIS_CAPO = ("strings.capo_grid=4", "strings.capo_grid_from_key=73")
+#: the thesis's 1.3 MHz at the bar for every treble key through the whole
+#: note (about twice the cost of the default's, docs/benchmarks.md)
+THESIS_CAPO = ("strings.capo_grid=4", "strings.capo_grid_from_key=73", "strings.capo_window_s=0")
 #: MIDI velocity of the thesis's study speed, V = 5 m/s (the grand
 #: preset's velocity curve: 0.17 + 7.33 ((98 - 1) / 126)^1.6 = 4.98 m/s)
 THESIS_VELOCITY = 98
 
 
-@pytest.mark.parametrize("key", [78, 84, 90, 96])
-def test_the_capo_bar_colours_the_free_vibration_of_treble_notes(key):
-    """Issue 11: on the thesis's grid the treble strings reach the bar after
-    the hammer has left (110-360 episodes per string in 0.5 s on keys
-    75-102 at V = 5 m/s; none on the default's grid, where the bar acts
-    only while the hammer presses), and the partials a listener hears move
-    as Publication I finds them on A7 (thesis section 1.3.2: the low modes
-    lose energy to the high ones).  Partials within 60 dB of partial 1, at
-    V = 5 m/s, against an ideal support on the same grid: from key 84 up
-    partial 2 falls by 2 dB or more (84: -8.5 dB, partials 3-6 +2.8 to
-    +5.0; 90: -3.2, partial 3 +5.6; 96: -3.2, partial 3 -14.1; 99-102:
-    -3.4 and -16.3); on the lower capo keys, whose strikes lie further from
-    the bar, the change is small and upwards (78: partial 2 -0.2, the upper
-    half +1.4 dB on average; 75-81 at most 2.8 dB), so there the upper half
-    must rise by 1 dB.  (Until 2026-11-27 this test judged the RMS of
-    every partial below 20 kHz at velocity 80, which partials 60-180 dB
-    under partial 1, next to the strike's node or at the arithmetic's
-    floor, made 5-16 dB.)"""
+@pytest.mark.parametrize("key", [84, 90, 96])
+def test_the_capo_bar_colours_every_treble_note_at_the_default(key):
+    """Issue 11: at the preset's settings the treble strings reach the bar
+    after the hammer has left, and the partials a listener hears move as
+    Publication I finds them on A7 (thesis section 1.3.2: the low modes
+    lose energy to the high ones).  A strike from key 84 up runs on the
+    thesis's 1.3 MHz grid for 20 ms, then its strings go on at the
+    engine's rate (:meth:`StringBank.hand_over`); the colour is made in
+    that attack (``tools/study_capo.py window``).  Partials within 60 dB of
+    partial 1, at V = 5 m/s, against an ideal support with the same grids
+    (2026-11-27): partial 2 -2.8 (84), -6.9 (90), -3.7 dB (96), partials
+    3-5 of key 90 +3 to +6, of key 96 -8 to -15 dB; 33-47 episodes per
+    string in the window.  (Until then the default's 325 kHz grid never let
+    a string touch the bar once the hammer had left: 0 episodes.)"""
+    g, aud = _capo_change_db(key, (), THESIS_VELOCITY)
+    ga = g[aud]
+    assert len(ga) >= 4, (aud, g)
+    assert float(ga[1]) <= -2.0, ga
+    assert abs(float(ga[0])) < 0.5, ga              # partial 1 keeps its level
+    ep = _bar_episodes_after_the_hammer(key)
+    assert min(ep) >= 20, ep
+
+
+def test_the_thesis_grid_through_the_whole_note_below_c6():
+    """Below key 84 the preset strikes on the engine's grid, where the bar
+    acts only while the hammer presses the string (key 78: no episode
+    after it, and at velocity 80 the audible partials untouched).  On the
+    thesis's grid through the whole note the bar is reached (199-243
+    episodes per string in 0.5 s at V = 5 m/s), but what a listener hears
+    changes little (partial 2 -0.2 dB, the upper half +1.4 dB on average;
+    keys 75-81 at most 2.8 dB): why the preset's finer strike starts at
+    84.  (Until 2026-11-27 the capo test judged the RMS of every partial
+    below 20 kHz at velocity 80, which partials 60-180 dB under partial 1,
+    next to the strike's node or at the arithmetic's floor, made 5-16 dB.)"""
+    key = 78
     g, aud = _capo_change_db(key, THESIS_CAPO, THESIS_VELOCITY)
     ga = g[aud]
     assert len(ga) >= 4, (aud, g)
-    p2, upper = float(ga[1]), float(np.mean(ga[len(ga) // 2:]))
-    if key >= 84:
-        assert p2 <= -2.0, (p2, ga)
-    else:
-        assert upper >= 1.0, (upper, ga)
-    ep = _bar_episodes_after_the_hammer(key, THESIS_CAPO)
-    assert min(ep) >= 50, ep
-    if key == 78:
-        assert _bar_episodes_after_the_hammer(key) == [0, 0, 0]   # the default's grid
-        g0, _ = _capo_change_db(key)
-        assert np.all(np.abs(g0) < 0.05)      # the default, velocity 80: untouched
+    assert float(np.mean(ga[len(ga) // 2:])) >= 1.0, ga
+    assert min(_bar_episodes_after_the_hammer(key, THESIS_CAPO)) >= 50
+    assert _bar_episodes_after_the_hammer(key) == [0, 0, 0]   # the default's grid
+    g0, _ = _capo_change_db(key)
+    assert np.all(np.abs(g0) < 0.05)      # the default, velocity 80: untouched
 
 
 def _level_db(y, t0, t1):
@@ -328,11 +342,12 @@ def test_key_up_does_not_click(name, key):
     assert around < 3.0 * before, (around, before)   # the click was ~50x
 
 
-def _damped_b0_reference(inst, key, pedal):
+def _damped_b0_reference(inst, key, pedal, coarse=False):
     """The damper law written out per string (slow reference of
-    StringBank.apply_dampers for the grand)."""
+    StringBank.apply_dampers for the grand); ``coarse``: the strings have
+    left the strike's finer grid (the treble's, after its window)."""
     import math
-    sus = inst.setup(key)
+    sus = inst.coarse_setup(key) if coarse else inst.setup(key)
     gs = P.grand_string(key)
     if not gs.has_damper:
         return [su.b0 for su in sus]
@@ -371,7 +386,8 @@ def test_pedal_damps_every_released_voice_at_once_and_spares_the_fading():
                 continue
             n = len(e.inst.setup(vo.key_arg))
             got = e.bank.fpar[list(vo.slots[:n]), K.F_B0T]
-            want = _damped_b0_reference(e.inst, vo.key_arg, pedal)
+            want = _damped_b0_reference(e.inst, vo.key_arg, pedal,
+                                        coarse=e.bank.grid_of(vo.slots[0]) == 1)
             assert np.allclose(got, want, rtol=1e-12, atol=0), (vo.key_arg, pedal)
         if dying[0] in e.voices:
             now = e.bank.fpar[list(e.voices[dying[0]].slots), K.F_B0T]

@@ -37,6 +37,44 @@ _HAMMER_Q_COLS = np.array([K.F_HQ, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F
                            K.F_HFPHI], dtype=np.int64)
 
 
+def _chained_state(xdel: int, nd: int, nb: int, n_cols: int) -> np.ndarray:
+    """The far-end filter's free state, as columns of an ``fst`` row (one
+    per free value): the fast path keeps each stage's input history as the
+    previous stage's output history (a first-order section's x1 is the
+    stage before's last output, the tuning allpass's S_APX the same, a
+    biquad's x1, x2 the stage before's y1, y2) and reads only the free
+    values, so a state must be chained: the unit delay's register, the
+    loss's output, each first-order section's y1, the tuning allpass's y1,
+    the first biquad's x2, each biquad's y1 and y2."""
+    cols = []
+
+    def col(*entries):
+        v = np.zeros(n_cols)
+        for c in entries:
+            v[c] = 1.0
+        cols.append(v)
+
+    if xdel:
+        col(K.S_XD)
+    # the loss's output feeds the first first-order section's x1, or the
+    # tuning allpass's
+    col(K.S_LP, K.S_D0 if nd else K.S_APX)
+    for d in range(nd):
+        nxt = K.S_D0 + 2 * (d + 1) if d + 1 < nd else K.S_APX
+        col(K.S_D0 + 2 * d + 1, nxt)
+    # the tuning allpass's output: the first biquad's x1
+    col(K.S_APY, *([K.S_SOS] if nb else []))
+    if nb:
+        col(K.S_SOS + 1)
+    for b in range(nb):
+        q = K.S_SOS + 4 * b
+        nx = [q + 4, ] if b + 1 < nb else []
+        col(q + 2, *nx)                        # y1: the next biquad's x1
+        nx2 = [q + 5] if b + 1 < nb else []
+        col(q + 3, *nx2)                       # y2: its x2
+    return np.array(cols).T
+
+
 def region_reach(U: np.ndarray | None, side: int, subcell: float = 0.0) -> float:
     """The reach bound of a termination region (the kernel's ``F_REACH``):
     min over its points n = 1..R of side U(n) / n (m), over the points
@@ -369,6 +407,10 @@ class StringBank:
 
     def is_active(self, s: int) -> bool:
         return bool(self._is_active[s])
+
+    def grid_of(self, s: int) -> int:
+        """Steps per engine sample of slot s (1: the engine's grid)."""
+        return int(self.ipar[s, K.I_SUB])
 
     # -- configuration ----------------------------------------------------------
     def configure(self, s: int, *, cells: int, k: int, dt_s: float,
@@ -956,6 +998,163 @@ class StringBank:
             self.ipar[m, K.I_CPLNX] = mem[i + 1] if i + 1 < G else -1
             self._leader[m] = lead
         self.fpar[lead, K.F_BTDX] = float(np.sum(self.fpar[mem, K.F_TDX]))
+
+    # -- leaving a finer grid ---------------------------------------------------
+    #: rows of the least-squares fit of the far-end filter's state (samples
+    #: of the coarser grid; at most N - 2, the waves that reach the far end
+    #: without passing the termination again)
+    HAND_OVER_ROWS = 96
+
+    def hand_over(self, slots, templates, damper_rows) -> bool:
+        """Move sounding strings from a finer grid to a coarser one without
+        a click: the strings of ``slots`` (one coupled group whole, in any
+        order, or single uncoupled strings), each to its template in
+        ``templates`` (the same string designed on the coarser grid, whose
+        ``I_SUB`` divides the slot's), with its damper row in ``damper_rows``
+        (:meth:`set_damper`).  Returns False, changing nothing, while an
+        excitation still runs on one of them, or one has a pitch-bend line,
+        or the grids do not divide; True when done.
+
+        The string's state is its loop: the ring holds the waves that will
+        arrive at the far end in the next 2N steps.  The coarser ring takes
+        them at the coarser steps (linear interpolation; a finer grid's
+        engine sample is the mean of its r steps, so the coarser step m
+        stands at fine step r m + (r - 1) / 2), placed so that the
+        termination (x = 0) keeps its place: arrival m of the new ring is
+        arrival r m + delta + (r - 1) / 2 of the old, delta = N_fine - r
+        N_coarse.  The far-end filter's state does not carry over between
+        two designs (its poles differ), so it is fitted: the state whose
+        next outputs, with the new ring's arrivals, come nearest (least
+        squares over :attr:`HAND_OVER_ROWS` steps) the old filter's, run on
+        from its own state on the old ring's arrivals
+        (:func:`synth.kernels.strings.far_end_run`).  The bridge keeps its
+        displacement, its step w = v dt is scaled by r, its constants are
+        the coarser step's; the loss keeps its damper's share (b0 over the
+        undamped b0).  ``tools/study_capo.py switch`` measured the scheme
+        on the numpy reference string: the wave at the far end within -54
+        to -66 dB of the fine string's own continuation (docs/voicing.md)."""
+        slots = [int(s) for s in slots]
+        if len(templates) != len(slots) or len(damper_rows) != len(slots):
+            raise ValueError(f"slots, templates and damper_rows have lengths {len(slots)}, "
+                             f"{len(templates)}, {len(damper_rows)} (one each per slot)")
+        lead = int(self._leader[slots[0]])
+        if lead >= 0 and sorted(self._members[lead]) != sorted(slots):
+            raise ValueError(f"slots {slots} are not the whole coupled group led by slot {lead}")
+        for s, t in zip(slots, templates):
+            ip = self.ipar[s]
+            if ip[K.I_EXC] > K.EXC_NONE or ip[K.I_BLEN] != 0:
+                return False
+            Mf, Mc = int(ip[K.I_SUB]), int(t.ipar[K.I_SUB])
+            if Mc > Mf or Mf % Mc:
+                return False
+            if int(t.ipar[K.I_N]) > self.max_cells or int(t.ipar[K.I_REG_N]) > self.max_region:
+                return False
+            if int(t.ipar[K.I_BLEN]) != 0:
+                return False
+        r = int(self.ipar[slots[0], K.I_SUB]) // int(templates[0].ipar[K.I_SUB])
+        if r == 1:
+            return True
+        one = np.zeros(1)
+        for s, t, row in zip(slots, templates, damper_rows):
+            self._hand_over_slot(s, t, row, r, one)
+        if lead >= 0:
+            # the bridge's constants for the coarser step (exp(-w dt), dt / R,
+            # M / (R dt)); its step w = v dt scales with dt; F_BTDX anew
+            fp = self.fpar[lead]
+            fp[K.F_BRA] = fp[K.F_BRA] ** r
+            fp[K.F_BRB] = fp[K.F_BRB] * r
+            fp[K.F_BRMU] = fp[K.F_BRMU] / r
+            self.fst[lead, K.S_UBW] *= r
+            self._chain(lead)
+        return True
+
+    def _hand_over_slot(self, s: int, t: SlotTemplate, damper_row, r: int,
+                        one: np.ndarray) -> None:
+        ip = self.ipar[s]
+        if ip[K.I_EXC] == K.EXC_ENDED:
+            K._fold_offset(self.ring, int(ip[K.I_OFF]), 2 * int(ip[K.I_N]), int(ip[K.I_POS]),
+                           int(ip[K.I_K]), float(self.fst[s, K.S_G]))
+            self.fst[s, K.S_G] = 0.0
+            ip[K.I_EXC] = K.EXC_NONE
+        Nf, off, pm = int(ip[K.I_N]), int(ip[K.I_OFF]), int(ip[K.I_POS])
+        Pf = 2 * Nf
+        ring = self.ring[off:off + Pf]
+        xf = ring[(pm + 1 + np.arange(Pf) - Nf) % Pf]          # arrivals 0 .. Pf - 1
+        Nc = int(t.ipar[K.I_N])
+        Pc = 2 * Nc
+        delta = Nf - r * Nc
+        phase = 0.5 * (r - 1)
+        H = max(1, min(self.HAND_OVER_ROWS, Nc - 2))
+        # the old filter run on from its state: outputs at fine steps 0 ..
+        n_run = r * H + r + 2
+        yf = np.zeros(n_run)
+        K.far_end_run(self.fst[s].copy(), self.fpar[s].copy(), int(ip[K.I_XDELAY]),
+                      int(ip[K.I_NDISP]), int(ip[K.I_NSOS]), np.ascontiguousarray(xf[:n_run]),
+                      yf, one)
+        ub = float(self.fst[s, K.S_UBP])
+        # the old outputs on one time line: written Pf steps before they
+        # arrive (the ring holds y - u_b: u_b added back, at its last value)
+        # and the ones to come; and the arrivals beyond the ring
+        Y = np.concatenate([xf + ub, yf])                         # Y[i] = y(i - Pf)
+        X = np.concatenate([xf, yf - ub])                         # X[i] = x(i)
+        dst_x = r * np.arange(Pc) + delta + phase
+        xc = np.interp(dst_x, np.arange(len(X)), X)
+        ty = r * np.arange(H) - delta + phase + Pf
+        target = np.interp(ty, np.arange(len(Y)), Y)
+        # the slot on the new grid (its group links, probe and telemetry kept)
+        keep_cols = _SLOT_COLS + (K.I_PROBE, K.I_TELEM, K.I_CPL, K.I_CPLN, K.I_CPLNX)
+        keep = [int(ip[c]) for c in keep_cols]
+        ring[:] = 0.0
+        ip[:] = t.ipar
+        for c, v in zip(keep_cols, keep):
+            ip[c] = v
+        ip[K.I_CHUNK] = min(int(ip[K.I_CHUNK]), self.max_block)
+        ip[K.I_CHUNK_FREE] = min(int(ip[K.I_CHUNK_FREE]), self.max_block)
+        ip[K.I_EXC] = K.EXC_NONE
+        ip[K.I_EXC_M] = 0
+        ip[K.I_HLAST] = -1
+        pmc = pm % Pc
+        ip[K.I_POS] = pmc
+        old_f = self.fpar[s].copy()
+        fp = self.fpar[s]
+        fp[:] = t.fpar
+        for c in (K.F_BRA, K.F_BRB, K.F_BRMU):
+            fp[c] = old_f[c]                  # the leader's, converted by the caller
+        fp[K.F_TGAP] = round(old_f[K.F_TGAP] / r)     # telemetry's episode gap, in steps
+        if not self.skip_unreachable:
+            fp[K.F_REACH] = 0.0
+        share = 1.0 / float(self.damper[s, 0])
+        fp[K.F_B0] = float(damper_row[0]) * old_f[K.F_B0] * share
+        fp[K.F_B0T] = float(damper_row[0]) * old_f[K.F_B0T] * share
+        self.damper[s, :] = damper_row
+        R = int(ip[K.I_REG_N])
+        if R:
+            self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = t.U
+        cring = self.ring[off:off + Pc]
+        cring[(pmc + 1 + np.arange(Pc) - Nc) % Pc] = xc
+        # the new filter's state: least squares over its next H outputs
+        st = self.fst[s]
+        keep_st = {c: float(st[c]) for c in (K.S_PEAK, K.S_UBM, K.S_UBW, K.S_UBP, K.S_TC_EP,
+                                            K.S_TC_PTS, K.S_HC_EP, K.S_HF_PK)}
+        # contact telemetry's sample counts: in the coarser steps
+        for c in (K.S_TC_N, K.S_HC_N, K.S_TC_GAP, K.S_HC_GAP):
+            keep_st[c] = float(st[c]) / r if st[c] >= 0.0 else float(st[c])
+        st[:] = 0.0
+        for c, v in keep_st.items():
+            st[c] = v
+        st[K.S_BD] = t.bend_delay
+        nd, nb = int(ip[K.I_NDISP]), int(ip[K.I_NSOS])
+        T = _chained_state(int(ip[K.I_XDELAY]), nd, nb, st.shape[0])
+        xin = np.ascontiguousarray(xc[:H])
+        base = np.zeros(H)
+        K.far_end_run(st.copy(), fp, int(ip[K.I_XDELAY]), nd, nb, xin, base, one)
+        A = np.zeros((H, T.shape[1]))
+        zero = np.zeros(H)
+        for j in range(T.shape[1]):
+            K.far_end_run(T[:, j].copy(), fp, int(ip[K.I_XDELAY]), nd, nb, zero, A[:, j], one)
+        sol, *_ = np.linalg.lstsq(A, target - base, rcond=None)
+        st += T @ sol
+        self._clean[s] = False
 
     def _unhook(self, s: int) -> None:
         self.fst[s, K.S_UBP] = 0.0

@@ -158,6 +158,10 @@ class Engine:
         # voice indices whose key is up and which are not fading out: the
         # sustain pedal damps exactly these (one array operation per CC64)
         self._released = np.zeros(self.n_index, dtype=bool)
+        #: voices whose strings leave a finer grid after a window (the
+        #: instrument's ``fine_window_s``): voice index -> (internal sample
+        #: due, the note-on's sample); done at the first block start after it
+        self._hand_over: dict[int, tuple[int, int]] = {}
         self._spv_range = np.arange(self.spv)
         self._out = np.zeros((self.channels, self.MAX_BLOCK_OUT))
         self._dout = np.zeros((self.n_dec, self.MAX_BLOCK_OUT))
@@ -323,6 +327,7 @@ class Engine:
                 if self.bend.get(ev.channel):
                     self.inst.pitch_bend(self.bank, slots, key, ev.f0_hz, self.bend[ev.channel])
             self._add_knock(key, ev, at)
+            self._schedule_hand_over(v, key, at)
             for s in self._slots(v):
                 # the block's samples before the note are not its silence
                 self.bank.reset_quiet(s, max(at - self.time_in, 0))
@@ -482,6 +487,17 @@ class Engine:
         pend = self._pending
         taraf = self.taraf
         while True:
+            if self._hand_over:
+                # strings leaving a finer grid, at their own sample (block
+                # boundaries do not move them: live and offline agree)
+                th = min(d for d, _ in self._hand_over.values())
+                if th < end and (not pend or th < pend[0][0]):
+                    off = max(th - start, 0)
+                    if off > cursor:
+                        bank.render(self.mix, cursor, off - cursor)
+                        cursor = off
+                    self._hand_overs_due(start + off)
+                    continue
             tp = None if taraf is None else taraf.next_pluck()
             if tp is not None and tp < end and (not pend or tp < pend[0][0]):
                 # a drone of a stroke is plucked (a stroke's later strings
@@ -553,6 +569,27 @@ class Engine:
         self._reap(n_in)
         self.time_out += n_out
         return y
+
+    def _schedule_hand_over(self, v: int, key, at: int) -> None:
+        """After a strike: if the instrument plays this key's strike on a
+        finer grid for a window (``fine_window_s``), its strings go on at
+        the coarser one from the internal sample that ends it."""
+        w = None if key is None else self.inst.fine_window_s(key)
+        if w is not None:
+            self._hand_over[v] = (at + int(math.ceil(w * self.fs_in)), at)
+
+    def _hand_overs_due(self, now: int) -> None:
+        for v, (due, at) in list(self._hand_over.items()):
+            if due > now:
+                continue
+            vo = self.voices.get(v)
+            if vo is None or vo.dying or vo.start != at:
+                del self._hand_over[v]          # gone, or struck again since
+            elif self.inst.leave_fine_grid(self.bank, vo.slots, vo.key_arg):
+                del self._hand_over[v]
+            else:
+                # a hammer still on the strings: look again a millisecond on
+                self._hand_over[v] = (now + max(1, int(0.001 * self.fs_in)), at)
 
     def _sympathetic_block(self, d: np.ndarray, n_out: int) -> None:
         """The strings that ring along, driven by the played strings' force

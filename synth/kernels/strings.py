@@ -870,6 +870,26 @@ def _far_end(ring, off, P, N, pm, b0, a1, eta, xdel, nd, ad, st, nb, fsos):
 
 
 @njit(**JIT_OPTS)
+def far_end_run(st, fp, xdel, nd, nb, x, y, one):
+    """The far-end filter chain of a string alone (:func:`_far_end`: the
+    unit delay, the one-pole loss at ``fp[F_B0]``, held, the first-order
+    and tuning allpasses, the second-order sections) from the state row
+    ``st`` (an ``fst`` row, advanced in place) on the arriving waves ``x``:
+    its outputs into ``y`` (no bridge, no bend line).  ``fp``: the
+    string's ``fpar`` row; ``one``: one scratch value.  Used by the hand-over
+    between grids (:meth:`synth.dsp.bank.StringBank.hand_over`)."""
+    b0 = fp[F_B0]
+    a1 = fp[F_A1]
+    eta = fp[F_ETA]
+    ad = fp[F_ADISP]
+    fsos = fp[F_SOS:F_SOS + 2 * MAX_SOS]
+    for i in range(x.shape[0]):
+        one[0] = x[i]
+        _, yi, _ = _far_end(one, 0, 1, 0, 0, b0, a1, eta, xdel, nd, ad, st, nb, fsos)
+        y[i] = yi
+
+
+@njit(**JIT_OPTS)
 def _subcell_q(r):
     """q(r) = 1 - sqrt(1 - r) = r / (1 + sqrt(1 - r)) for 0 <= r <= 1 (the
     first cell's tangent point over dx, :func:`_subcell_delta`); 0 below,

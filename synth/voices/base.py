@@ -254,6 +254,20 @@ class Voice:
         strings, 0 .. 1.  Default: a switch at 0.5 (no half pedal)."""
         return 1.0 if pedal >= 0.5 else 0.0
 
+    def fine_window_s(self, key: float | None) -> float | None:
+        """How long (s) a strike of ``key`` keeps its strings on a finer
+        grid than the one they go on with (the engine then calls
+        :meth:`leave_fine_grid` at that internal sample), or None: the
+        strings keep their grid.  Default: None."""
+        return None
+
+    def leave_fine_grid(self, bank: StringBank, slots: tuple[int, ...],
+                        key: float | None) -> bool:
+        """Move a note's sounding strings to their coarser grid; False
+        while that cannot be done yet (the engine tries again a millisecond
+        later).  Default: nothing to move."""
+        return True
+
     def pitch_bend(self, bank: StringBank, slots: tuple[int, ...], key: float | None,
                    f0_hz: float | None, value: float) -> None:
         """Pitch bend of a sounding note, ``value`` in [-1, 1] of the voice's

@@ -53,14 +53,23 @@ three-string unison (una corda shift), which then sounds only through the
 bridge; the felt gets softer continuously (stiffness times 1 - (1 -
 soft_stiffness) * soft).
 
-The strings on the capo bar from ``strings.capo_grid_from_key`` up run on a
-finer grid (``strings.capo_grid`` steps per engine sample, the kernel's
-``I_SUB``): at the engine's 325 kHz a grid cell is 1.3 mm, wider than the
-part of the string that lifts onto the bar in free vibration, so the bar
-acts only while the hammer presses the string; at 1.3 MHz (4) its contacts
-continue through the note, as in the thesis's study (tens of contacts in
-the first 50 ms), and the top keys' strike points no longer fall on the
-first one or two cells (a 6 dB step from B7 to C8 at 325 kHz).
+A strike from ``strings.capo_grid_from_key`` up (C6: the capo keys whose
+colour a listener hears) runs on a finer grid (``strings.capo_grid`` steps
+per engine sample, the kernel's ``I_SUB``): at the engine's 325 kHz a grid
+cell is 1.3 mm, wider than the part of the string that lifts onto the bar
+in free vibration, so there the bar acts only while the hammer presses the
+string; at 1.3 MHz (4) the string reaches the bar after the hammer has
+left (33-77 episodes per string in the first 20 ms at V = 5 m/s), and the
+low partials lose energy to the high ones, as the thesis's study finds
+(Publication I).  That colour is made in the attack (``tools/study_capo.py
+window``: the bar's first 5-20 ms give most of it), so after
+``strings.capo_window_s`` the strings go on at the engine's rate
+(:meth:`GrandPianoInstrument.leave_fine_grid`, :meth:`synth.dsp.bank.
+StringBank.hand_over`: the rings resampled with the bar's end in place,
+the loop filters' states fitted to go on where the finer ones would), and
+a sustaining treble note costs what it did on the engine's grid.  A key
+struck again after that meets its strings on the engine's grid.  Window 0
+keeps the finer grid for the whole note (the thesis's study).
 
 Output: each string writes the force on the bridge into two buses, split by
 the key's place along the bridge (bus 0 the bass end, bus 1 the treble
@@ -159,6 +168,7 @@ class GrandPianoInstrument(Voice):
         call before a live stream opens."""
         for key in range(self.KEY_LOW, self.KEY_HIGH + 1):
             self.setup(key)
+            self.coarse_setup(key)
 
     # -- sizes for the engine -----------------------------------------------------
     @property
@@ -261,15 +271,60 @@ class GrandPianoInstrument(Voice):
         return self.tuning_hz(int(round(key)))
 
     def setup(self, key: int) -> tuple[GrandStringSetup, ...]:
+        """The key's strings as a strike sets them up: on the finer grid
+        from ``strings.capo_grid_from_key`` up (the capo keys)."""
         key = int(key)
-        if key in self._keys:
-            return self._keys[key]
+        if key not in self._keys:
+            gs = P.grand_string(key)
+            M = self.capo_grid if (gs.has_capo and key >= self.fine_grid_key) else 1
+            self._keys[key] = self._design(key, M)
+        return self._keys[key]
+
+    def coarse_setup(self, key: int) -> tuple[GrandStringSetup, ...]:
+        """The key's strings on the engine's grid: where they go on after
+        a strike on the finer grid (:meth:`leave_fine_grid`); the same as
+        :meth:`setup` for a key that has no finer grid."""
+        key = int(key)
+        fine = self.setup(key)
+        if fine[0].sub == 1:
+            return fine
+        ck = ("coarse", key)
+        if ck not in self._keys:
+            self._keys[ck] = self._design(key, 1)
+        return self._keys[ck]
+
+    def fine_window_s(self, key) -> float | None:
+        """How long (s) a strike of ``key`` stays on its finer grid before
+        its strings go on at the engine's rate (``strings.capo_window_s``),
+        or None: the key has no finer grid, or it keeps it for the whole
+        note (window 0 or unset)."""
+        if key is None or not (self.KEY_LOW <= int(round(key)) <= self.KEY_HIGH):
+            return None
+        w = self.preset.strings.capo_window_s
+        if not w or self.setup(int(round(key)))[0].sub == 1:
+            return None
+        return float(w)
+
+    def leave_fine_grid(self, bank: StringBank, slots, key) -> bool:
+        """Move the key's sounding strings from the finer grid to the
+        engine's (:meth:`synth.dsp.bank.StringBank.hand_over`); False while
+        a hammer is still on them (try again later)."""
+        key = int(round(key))
+        coarse = self.coarse_setup(key)
+        use = [(sl, su) for sl, su in zip(slots, coarse) if bank.is_active(sl)]
+        if not use:
+            return True
+        return bank.hand_over([sl for sl, _ in use], [su.slot for _, su in use],
+                              [su.damper for _, su in use])
+
+    def _design(self, key: int, M: int) -> tuple[GrandStringSetup, ...]:
+        """The key's strings designed on a grid of ``M`` steps per engine
+        sample."""
         gs = P.grand_string(key)
         pre = self.preset
         sp = pre.strings
         f1 = self.tuning_hz(key)
         B = gs.inharmonicity_b
-        M = self.capo_grid if (gs.has_capo and key >= self.fine_grid_key) else 1
         fs = self.fs * M
         dt = 1.0 / fs
         dx = gs.c_m_per_s * dt
@@ -327,8 +382,7 @@ class GrandPianoInstrument(Voice):
             full.append(replace(su, slot=slot, hammer=hammer_template(dt_s=su.dt_s, **hp),
                                 hammer_soft=hammer_template(dt_s=su.dt_s, **hps),
                                 damper=(su.b0, su.f1_hz, t_damped, t_nat), bridge=bridge))
-        self._keys[key] = tuple(full)
-        return self._keys[key]
+        return tuple(full)
 
     def pan(self, key: int) -> float:
         """Where the key's strings meet the bridge, 0 (the bass end, bus 0)
@@ -409,6 +463,11 @@ class GrandPianoInstrument(Voice):
         key = int(round(key))
         sus = self.setup(key)
         n = len(sus)
+        if restrike and sus[0].sub > 1 and all(bank.is_active(s) for s in slots[:n]) \
+                and bank.grid_of(slots[0]) != sus[0].sub:
+            # struck again after its strings left the finer grid: they stay
+            # on the engine's (the hammer meets them there)
+            sus = self.coarse_setup(key)
         struck = n - 1 if (soft >= 0.5 and n >= 2) else n
         V = self.hammer_speed(velocity) if speed_m_per_s is None else float(speed_m_per_s)
         a = self.preset.action

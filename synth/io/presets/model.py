@@ -131,6 +131,7 @@ class StringsSpec:
     capo_region_m: float
     capo_grid: int | None = None          # grand: steps per engine sample of the capo strings
     capo_grid_from_key: int | None = None  # grand: the first key on that finer grid
+    capo_window_s: float | None = None    # grand: a strike's time on it (0 / None: the whole note)
     bridge_coupling: float | None = None  # grand: factor on the bridge's admittance (0: rigid)
     sympathetic: float | None = None      # grand: factor on the board's bridge the free strings see
     bridge_mass_f0: float | None = None   # grand: the bridge moves as a mass above this x f0 (0: dashpot)

@@ -316,6 +316,10 @@ SECTIONS: tuple[Section, ...] = (
               when=When("voice", ("grand",))),
         Field("capo_grid_from_key", "int", "the first key whose capo-bar strings run on that "
               "finer grid (MIDI; the bar starts at 73)", 21, 128, when=When("voice", ("grand",))),
+        Field("capo_window_s", "float", "how long a strike's strings stay on that finer grid "
+              "before they go on at the engine's rate, s (the bar's colour is made in the "
+              "attack; 0: the whole note, at the finer grid's cost)", 0.0, 1.0,
+              when=When("voice", ("grand",)), default=0.0),
         Field("bridge_coupling", "float", "factor on the bridge's admittance that couples a "
               "key's strings (1: the designed two-stage decay; 0: a rigid bridge)", 0.0, 4.0,
               when=When("voice", ("grand",))),
