@@ -164,3 +164,72 @@ def test_struck_again_after_the_window_in_tune_and_clean():
     # attack's own (no step at the hand-over, 20 ms in)
     assert d2[int(0.01 * fs):int(0.1 * fs)].max() < 1.5 * d2[:int(0.01 * fs)].max()
     assert d2[int(0.11 * fs):].max() < 1.5 * d2[int(0.1 * fs):int(0.11 * fs)].max()
+
+
+def _reference_hand_over(ring, Nf, pm, st_f, fp_f, ip_f, Nc, pmc, st_c, fp_c, ip_c, r, H, ub):
+    """Slow numpy reference of one string's hand-over
+    (:func:`synth.kernels.strings.hand_over_loop`): the coarser ring, and
+    the coarser filter's next H outputs from its fitted state (the state
+    itself is not unique: the chained state has a direction the filter's
+    outputs do not see), by np.interp and np.linalg.lstsq."""
+    Pf, Pc = 2 * Nf, 2 * Nc
+    xf = ring[(pm + 1 + np.arange(Pf) - Nf) % Pf]
+    n_run = r * H + r + 2
+    yf = np.zeros(n_run)
+    K.far_end_run(st_f.copy(), fp_f, ip_f[K.I_XDELAY], ip_f[K.I_NDISP], ip_f[K.I_NSOS],
+                  np.ascontiguousarray(xf[:n_run]), yf, np.zeros(1))
+    X = np.concatenate([xf, yf - ub])
+    grid = np.arange(len(X))
+    delta, phase = Nf - r * Nc, 0.5 * (r - 1)
+    xc = np.interp(r * np.arange(Pc) + delta + phase, grid, X)
+    target = np.interp(r * np.arange(H) - delta + phase + Pf, grid, X) + ub
+    cring = np.zeros(Pc)
+    cring[(pmc + 1 + np.arange(Pc) - Nc) % Pc] = xc
+    args = (fp_c, ip_c[K.I_XDELAY], ip_c[K.I_NDISP], ip_c[K.I_NSOS])
+    T = _chained_state(*args[1:], K.S_NS)
+    base = np.zeros(H)
+    K.far_end_run(st_c.copy(), *args, np.ascontiguousarray(xc[:H]), base, np.zeros(1))
+    A = np.zeros((H, T.shape[1]))
+    for j in range(T.shape[1]):
+        col = np.zeros(H)
+        K.far_end_run(T[:, j].copy(), *args, np.zeros(H), col, np.zeros(1))
+        A[:, j] = col
+    sol, *_ = np.linalg.lstsq(A, target - base, rcond=None)
+    st = st_c + T @ sol
+    out = np.zeros(H)
+    K.far_end_run(st, *args, np.ascontiguousarray(xc[:H]), out, np.zeros(1))
+    return cring, out, target
+
+
+@pytest.mark.parametrize("key", [84, 96, 108])
+def test_the_hand_over_kernel_against_a_slow_reference(key):
+    """hand_over_loop (gathers, interpolates, fits by Gram-Schmidt in
+    place) gives the ring of the numpy reference to round-off, and a state
+    whose next outputs are the reference's within 1e-9 of their size (and
+    both within 1e-3 of the target, the finer filter's own, which the
+    coarser design cannot follow exactly: 4e-6 to 3.3e-4 measured)."""
+    e, slots = _struck(key, 0.02)
+    b = e.bank
+    s = slots[0]
+    ip_f, fp_f, st_f = b.ipar[s].copy(), b.fpar[s].copy(), b.fst[s].copy()
+    Nf, off, pm = int(ip_f[K.I_N]), int(ip_f[K.I_OFF]), int(ip_f[K.I_POS])
+    ring_f = b.ring[off:off + 2 * Nf].copy()
+    assert e.inst.leave_fine_grid(b, slots, key)
+    ip_c, fp_c = b.ipar[s].copy(), b.fpar[s].copy()
+    Nc, pmc = int(ip_c[K.I_N]), int(ip_c[K.I_POS])
+    H = min(b.HAND_OVER_ROWS, Nc - 2)
+    st_c0 = np.zeros(K.S_NS)                       # the filter's columns zero
+    ref_ring, ref_out, target = _reference_hand_over(
+        ring_f, Nf, pm, st_f, fp_f, ip_f, Nc, pmc, st_c0, fp_c, ip_c, 4, H,
+        float(st_f[K.S_UBP]))
+    got_ring = b.ring[off:off + 2 * Nc]
+    np.testing.assert_allclose(got_ring, ref_ring, rtol=0, atol=1e-14 * np.abs(ref_ring).max())
+    assert not b.ring[off + 2 * Nc:off + 2 * Nf].any()          # the finer ring's rest cleared
+    out = np.zeros(H)
+    st = b.fst[s].copy()
+    K.far_end_run(st, fp_c, ip_c[K.I_XDELAY], ip_c[K.I_NDISP], ip_c[K.I_NSOS],
+                  np.ascontiguousarray(got_ring[(pmc + 1 + np.arange(H) - Nc) % (2 * Nc)]),
+                  out, np.zeros(1))
+    scale = np.abs(target).max()
+    np.testing.assert_allclose(out, ref_out, rtol=0, atol=1e-9 * scale)
+    assert np.abs(out - target).max() < 1e-3 * scale

@@ -23,7 +23,8 @@ def test_the_fitted_state_hands_over_where_a_zero_state_clicks():
 
 
 @pytest.mark.parametrize("argv", [["switch", "--keys", "60"], ["window", "--ms", "0"],
-                                  ["grid", "--grids", "9"], ["switch", "--velocity", "x"]])
+                                  ["grid", "--grids", "9"], ["switch", "--velocity", "x"],
+                                  ["cost", "--keys", "72"]])
 def test_bad_arguments_exit_2_with_one_line(argv, capsys):
     with pytest.raises(SystemExit) as ex:
         sc.main(argv)

@@ -3,6 +3,7 @@
     python tools/study_capo.py grid   [--keys 84,90,96,102] [--grids 4,6,8] [--velocity 98]
     python tools/study_capo.py window [--keys 84,90,96,102] [--ms 5,20,50,100] [--grid 4]
     python tools/study_capo.py switch [--keys 84,90,96] [--ms 20]
+    python tools/study_capo.py cost   [--keys 84,90,96,102,108]
 
 ``grid``: is the thesis's grid (1.3 MHz at the bar, ``strings.capo_grid=4``)
 converged?  For each key and grid, the change of the audible partials
@@ -33,6 +34,11 @@ error of the coarse string's wave arriving at the far end against the
 fine string's (run on with the bar lifted at T, at the same places), RMS
 over the first 2 ms and over 2-50 ms after the switch, in dB re that
 wave's RMS.
+
+``cost``: the time one hand-over takes (a key's strings, 20 ms after a
+strike at velocity 0.8, the preset's grids; median of 20 from the same
+state, after one untimed call): what a live block pays once per treble
+strike.
 
 Exit 0 after printing; 2 with a one-line error on stderr.
 """
@@ -314,6 +320,39 @@ def switch(args) -> None:
               f"{r['fit'][1]:.1f} |", flush=True)
 
 
+def hand_over_cost_ms(key: int, repeats: int = 20) -> float:
+    """Median time (ms) of one hand-over of ``key``'s strings 20 ms after
+    a strike (velocity 0.8; :meth:`GrandPianoInstrument.leave_fine_grid`,
+    warm: after one untimed call, each from the same bank state)."""
+    import time
+
+    e = build_engine("grand-piano", ("strings.capo_window_s=0",))
+    e.schedule([Event(0.0, "note_on", key, 0.8)])
+    for _ in range(int(0.02 * FS) // BLOCK):
+        e.render_block(BLOCK)
+    slots = list(next(iter(e.voices.values())).slots)
+    b = e.bank
+    saved = [a.copy() for a in (b.ring, b.ipar, b.fpar, b.fst, b.U, b.damper)]
+    times = []
+    for i in range(repeats + 1):
+        for a, v in zip((b.ring, b.ipar, b.fpar, b.fst, b.U, b.damper), saved):
+            a[...] = v
+        t = time.perf_counter()
+        if not e.inst.leave_fine_grid(b, slots, key):
+            raise ValueError(f"key {key}: a hammer is still on the strings after 20 ms")
+        if i:
+            times.append(time.perf_counter() - t)
+    return 1e3 * float(np.median(times))
+
+
+def cost(args) -> None:
+    print("Hand-over of a key's strings from the finer grid, ms (median of 20, warm)")
+    print("| key | ms |")
+    print("|---|---|")
+    for key in args.keys:
+        print(f"| {key} | {hand_over_cost_ms(key):.3f} |", flush=True)
+
+
 def _ints(text: str, lo: int, hi: int, name: str) -> list:
     try:
         v = [int(t) for t in text.split(",") if t.strip()]
@@ -339,7 +378,8 @@ def main(argv=None) -> int:
     sub = ap.add_subparsers(dest="study", required=True)
     for name, helptext in (("grid", "is the thesis's grid converged"),
                            ("window", "the bar for the first T ms only"),
-                           ("switch", "leaving the fine grid: the error of the hand-over")):
+                           ("switch", "leaving the fine grid: the error of the hand-over"),
+                           ("cost", "the time of one hand-over, per key")):
         p = sub.add_parser(name, help=helptext)
         p.add_argument("--keys", type=lambda t: _ints(t, P.CAPO_FIRST_MIDI, 108, "--keys"),
                        default=[84, 90, 96, 102])
@@ -348,14 +388,14 @@ def main(argv=None) -> int:
         if name == "grid":
             p.add_argument("--grids", type=lambda t: _ints(t, 1, K.MAX_SUB, "--grids"),
                            default=[4, 6, 8])
-        else:
+        elif name != "cost":
             p.add_argument("--grid", type=lambda t: _ints(t, 2, K.MAX_SUB, "--grid")[0],
                            default=4)
             p.add_argument("--ms", type=_floats, default=[5, 20, 50, 100] if name == "window"
                            else [20])
     args = ap.parse_args(argv)
     try:
-        {"grid": grid, "window": window, "switch": switch}[args.study](args)
+        {"grid": grid, "window": window, "switch": switch, "cost": cost}[args.study](args)
     except ValueError as exc:
         print(f"study_capo: {exc}", file=sys.stderr)
         return 2

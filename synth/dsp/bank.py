@@ -23,6 +23,12 @@ from ..kernels import strings as K
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
 #: per-slot columns of ``ipar`` that a template does not carry
 _SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF)
+#: ``ipar`` columns a slot keeps when it changes grid (:meth:`StringBank.hand_over`)
+_HAND_OVER_KEEP = _SLOT_COLS + (K.I_PROBE, K.I_TELEM, K.I_CPL, K.I_CPLN, K.I_CPLNX)
+#: ``fst`` columns it keeps as they are: the peak, the bridge, the telemetry's
+#: episodes, most points and peak force
+_HAND_OVER_ST = (K.S_PEAK, K.S_UBM, K.S_UBW, K.S_UBP, K.S_TC_EP, K.S_TC_PTS, K.S_HC_EP,
+                 K.S_HF_PK)
 #: ``fpar`` columns a hammer template sets (speed F_HV and F_HDTV are per strike)
 _HAMMER_COLS = np.array([K.F_HQ, K.F_HP, K.F_HA, K.F_HT, K.F_HREL, K.F_HE, K.F_HK, K.F_HMC,
                          K.F_HDZ, K.F_HD, K.F_HKCA, K.F_HKCBY, K.F_HKCBP, K.F_HKCD, K.F_HPE,
@@ -370,6 +376,16 @@ class StringBank:
         self._members: dict[int, list[int]] = {}
         self._leader = np.full(self.capacity, -1, dtype=np.int64)
         self._open: set[int] = set()
+        # the hand-over between grids (:meth:`hand_over`): its scratch, and
+        # the far-end filters' free state directions by (unit delay,
+        # first-order sections, biquads)
+        self._ho_buf = np.zeros(K.hand_over_buffer_length(self.max_cells, self.HAND_OVER_ROWS))
+        self._ho_At = np.zeros((K.MAX_FREE, self.HAND_OVER_ROWS))
+        self._ho_R = np.zeros((K.MAX_FREE, K.MAX_FREE))
+        self._ho_st = np.zeros(K.S_NS)
+        self._ho_fp = np.zeros(K.F_NF)
+        self._ho_one = np.zeros(1)
+        self._free_dirs: dict[tuple, np.ndarray] = {}
 
     # -- slot management ------------------------------------------------------
     def activate(self, s: int) -> None:
@@ -1026,8 +1042,10 @@ class StringBank:
         two designs (its poles differ), so it is fitted: the state whose
         next outputs, with the new ring's arrivals, come nearest (least
         squares over :attr:`HAND_OVER_ROWS` steps) the old filter's, run on
-        from its own state on the old ring's arrivals
-        (:func:`synth.kernels.strings.far_end_run`).  The bridge keeps its
+        from its own state on the old ring's arrivals (one call of
+        :func:`synth.kernels.strings.hand_over_loop` per string, no
+        allocation in it: 0.23-0.32 ms for a key's three strings, most of
+        it this method's Python; ``tools/study_capo.py cost``).  The bridge keeps its
         displacement, its step w = v dt is scaled by r, its constants are
         the coarser step's; the loss keeps its damper's share (b0 over the
         undamped b0).  ``tools/study_capo.py switch`` measured the scheme
@@ -1054,9 +1072,8 @@ class StringBank:
         r = int(self.ipar[slots[0], K.I_SUB]) // int(templates[0].ipar[K.I_SUB])
         if r == 1:
             return True
-        one = np.zeros(1)
         for s, t, row in zip(slots, templates, damper_rows):
-            self._hand_over_slot(s, t, row, r, one)
+            self._hand_over_slot(s, t, row, r)
         if lead >= 0:
             # the bridge's constants for the coarser step (exp(-w dt), dt / R,
             # M / (R dt)); its step w = v dt scales with dt; F_BTDX anew
@@ -1068,8 +1085,7 @@ class StringBank:
             self._chain(lead)
         return True
 
-    def _hand_over_slot(self, s: int, t: SlotTemplate, damper_row, r: int,
-                        one: np.ndarray) -> None:
+    def _hand_over_slot(self, s: int, t: SlotTemplate, damper_row, r: int) -> None:
         ip = self.ipar[s]
         if ip[K.I_EXC] == K.EXC_ENDED:
             K._fold_offset(self.ring, int(ip[K.I_OFF]), 2 * int(ip[K.I_N]), int(ip[K.I_POS]),
@@ -1077,83 +1093,55 @@ class StringBank:
             self.fst[s, K.S_G] = 0.0
             ip[K.I_EXC] = K.EXC_NONE
         Nf, off, pm = int(ip[K.I_N]), int(ip[K.I_OFF]), int(ip[K.I_POS])
-        Pf = 2 * Nf
-        ring = self.ring[off:off + Pf]
-        xf = ring[(pm + 1 + np.arange(Pf) - Nf) % Pf]          # arrivals 0 .. Pf - 1
+        xdel_f, nd_f, nb_f = int(ip[K.I_XDELAY]), int(ip[K.I_NDISP]), int(ip[K.I_NSOS])
+        st_f, fp_f = self._ho_st, self._ho_fp
+        st_f[:] = self.fst[s]
+        fp_f[:] = self.fpar[s]
         Nc = int(t.ipar[K.I_N])
-        Pc = 2 * Nc
-        delta = Nf - r * Nc
-        phase = 0.5 * (r - 1)
+        pmc = pm % (2 * Nc)
         H = max(1, min(self.HAND_OVER_ROWS, Nc - 2))
-        # the old filter run on from its state: outputs at fine steps 0 ..
-        n_run = r * H + r + 2
-        yf = np.zeros(n_run)
-        K.far_end_run(self.fst[s].copy(), self.fpar[s].copy(), int(ip[K.I_XDELAY]),
-                      int(ip[K.I_NDISP]), int(ip[K.I_NSOS]), np.ascontiguousarray(xf[:n_run]),
-                      yf, one)
-        ub = float(self.fst[s, K.S_UBP])
-        # the old outputs on one time line: written Pf steps before they
-        # arrive (the ring holds y - u_b: u_b added back, at its last value)
-        # and the ones to come; and the arrivals beyond the ring
-        Y = np.concatenate([xf + ub, yf])                         # Y[i] = y(i - Pf)
-        X = np.concatenate([xf, yf - ub])                         # X[i] = x(i)
-        dst_x = r * np.arange(Pc) + delta + phase
-        xc = np.interp(dst_x, np.arange(len(X)), X)
-        ty = r * np.arange(H) - delta + phase + Pf
-        target = np.interp(ty, np.arange(len(Y)), Y)
         # the slot on the new grid (its group links, probe and telemetry kept)
-        keep_cols = _SLOT_COLS + (K.I_PROBE, K.I_TELEM, K.I_CPL, K.I_CPLN, K.I_CPLNX)
-        keep = [int(ip[c]) for c in keep_cols]
-        ring[:] = 0.0
+        keep = [int(ip[c]) for c in _HAND_OVER_KEEP]
         ip[:] = t.ipar
-        for c, v in zip(keep_cols, keep):
+        for c, v in zip(_HAND_OVER_KEEP, keep):
             ip[c] = v
         ip[K.I_CHUNK] = min(int(ip[K.I_CHUNK]), self.max_block)
         ip[K.I_CHUNK_FREE] = min(int(ip[K.I_CHUNK_FREE]), self.max_block)
         ip[K.I_EXC] = K.EXC_NONE
         ip[K.I_EXC_M] = 0
         ip[K.I_HLAST] = -1
-        pmc = pm % Pc
         ip[K.I_POS] = pmc
-        old_f = self.fpar[s].copy()
         fp = self.fpar[s]
         fp[:] = t.fpar
         for c in (K.F_BRA, K.F_BRB, K.F_BRMU):
-            fp[c] = old_f[c]                  # the leader's, converted by the caller
-        fp[K.F_TGAP] = round(old_f[K.F_TGAP] / r)     # telemetry's episode gap, in steps
+            fp[c] = fp_f[c]                   # the leader's, converted by the caller
+        fp[K.F_TGAP] = round(fp_f[K.F_TGAP] / r)      # telemetry's episode gap, in steps
         if not self.skip_unreachable:
             fp[K.F_REACH] = 0.0
         share = 1.0 / float(self.damper[s, 0])
-        fp[K.F_B0] = float(damper_row[0]) * old_f[K.F_B0] * share
-        fp[K.F_B0T] = float(damper_row[0]) * old_f[K.F_B0T] * share
+        fp[K.F_B0] = float(damper_row[0]) * fp_f[K.F_B0] * share
+        fp[K.F_B0T] = float(damper_row[0]) * fp_f[K.F_B0T] * share
         self.damper[s, :] = damper_row
         R = int(ip[K.I_REG_N])
         if R:
             self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = t.U
-        cring = self.ring[off:off + Pc]
-        cring[(pmc + 1 + np.arange(Pc) - Nc) % Pc] = xc
-        # the new filter's state: least squares over its next H outputs
+        # the state: what carries over (the bridge, the peak, the telemetry's
+        # counts, those in the coarser steps), the filter's to be fitted
         st = self.fst[s]
-        keep_st = {c: float(st[c]) for c in (K.S_PEAK, K.S_UBM, K.S_UBW, K.S_UBP, K.S_TC_EP,
-                                            K.S_TC_PTS, K.S_HC_EP, K.S_HF_PK)}
-        # contact telemetry's sample counts: in the coarser steps
-        for c in (K.S_TC_N, K.S_HC_N, K.S_TC_GAP, K.S_HC_GAP):
-            keep_st[c] = float(st[c]) / r if st[c] >= 0.0 else float(st[c])
         st[:] = 0.0
-        for c, v in keep_st.items():
-            st[c] = v
+        for c in _HAND_OVER_ST:
+            st[c] = st_f[c]
+        for c in (K.S_TC_N, K.S_HC_N, K.S_TC_GAP, K.S_HC_GAP):
+            st[c] = st_f[c] / r if st_f[c] >= 0.0 else st_f[c]
         st[K.S_BD] = t.bend_delay
-        nd, nb = int(ip[K.I_NDISP]), int(ip[K.I_NSOS])
-        T = _chained_state(int(ip[K.I_XDELAY]), nd, nb, st.shape[0])
-        xin = np.ascontiguousarray(xc[:H])
-        base = np.zeros(H)
-        K.far_end_run(st.copy(), fp, int(ip[K.I_XDELAY]), nd, nb, xin, base, one)
-        A = np.zeros((H, T.shape[1]))
-        zero = np.zeros(H)
-        for j in range(T.shape[1]):
-            K.far_end_run(T[:, j].copy(), fp, int(ip[K.I_XDELAY]), nd, nb, zero, A[:, j], one)
-        sol, *_ = np.linalg.lstsq(A, target - base, rcond=None)
-        st += T @ sol
+        xdel, nd, nb = int(ip[K.I_XDELAY]), int(ip[K.I_NDISP]), int(ip[K.I_NSOS])
+        key = (xdel, nd, nb)
+        T = self._free_dirs.get(key)
+        if T is None:
+            T = self._free_dirs[key] = np.ascontiguousarray(_chained_state(xdel, nd, nb, K.S_NS))
+        K.hand_over_loop(self.ring, off, Nf, pm, st_f, fp_f, xdel_f, nd_f, nb_f, r, Nc, pmc,
+                         st, fp, xdel, nd, nb, T, T.shape[1], H, float(st_f[K.S_UBP]),
+                         self._ho_buf, self._ho_At, self._ho_R, self._ho_one)
         self._clean[s] = False
 
     def _unhook(self, s: int) -> None:

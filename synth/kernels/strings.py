@@ -889,6 +889,167 @@ def far_end_run(st, fp, xdel, nd, nb, x, y, one):
         y[i] = yi
 
 
+#: most free values of a far-end filter's state (:func:`hand_over_loop`):
+#: the unit delay, the loss, the first-order sections' outputs, the tuning
+#: allpass's, the first biquad's x2, two per biquad
+MAX_FREE = 4 + MAX_DISP + 2 * MAX_SOS
+
+
+def hand_over_buffer_length(max_cells: int, rows: int) -> int:
+    """Samples of ``buf`` that :func:`hand_over_loop` needs for strings of
+    at most ``max_cells`` cells (on the finer grid) and ``rows`` fitted
+    outputs."""
+    n_run = MAX_SUB * rows + MAX_SUB + 2
+    return 2 * max_cells + 2 * n_run + S_NS + 3 * rows + 2 * max_cells + 2 * MAX_FREE
+
+
+@njit(inline="always", **SERIAL_OPTS)
+def _lerp(a, n, f):
+    """a[0:n] linearly interpolated at the (fractional) index f, clamped."""
+    i = int(np.floor(f))
+    if i < 0:
+        return a[0]
+    if i >= n - 1:
+        return a[n - 1]
+    w = f - i
+    return a[i] + w * (a[i + 1] - a[i])
+
+
+@njit(**SERIAL_OPTS)
+def hand_over_loop(ring, off, Nf, pm, st_f, fp_f, xdel_f, nd_f, nb_f, r, Nc, pmc,
+                   st_c, fp_c, xdel_c, nd_c, nb_c, T, m, H, ub, buf, At, R, one):
+    """One string's loop from a finer grid (``Nf`` cells, position ``pm``,
+    its ``fst`` and ``fpar`` rows ``st_f``, ``fp_f``) to one ``r`` times
+    coarser (``Nc`` cells, position ``pmc``, rows ``st_c``, ``fp_c``), in
+    the ring at ``off`` (the finer ring's 2 Nf slots are cleared, the
+    coarser's 2 Nc written).
+
+    The ring holds the waves that will arrive at the far end, in order;
+    the coarser ring's arrival k is the finer one's r k + delta + (r - 1)
+    / 2 (linear interpolation; delta = Nf - r Nc keeps the termination's
+    place; a coarser step stands for the mean of r finer ones).  The finer
+    far-end filter, run on from its state over its next arrivals
+    (:func:`far_end_run`), gives the outputs the coarser filter must go on
+    with: its state is the least-squares fit, over ``H`` outputs, of the
+    ``m`` free directions ``T[:, 0:m]`` (chained states: the fast path
+    reads each stage's input history from the stage before), added into
+    ``st_c`` (whose filter columns are zero on entry).  ``ub``: the
+    bridge's displacement (the ring holds the filter's output less it).
+    ``buf`` (:func:`hand_over_buffer_length`), ``At`` (>= m x H), ``R``
+    (>= m x m): scratch; ``one``: one value."""
+    Pf = 2 * Nf
+    Pc = 2 * Nc
+    ns = st_f.shape[0]
+    n_run = r * H + r + 2
+    nX = Pf + n_run
+    X = buf[0:nX]
+    q = nX
+    yf = buf[q:q + n_run]
+    q += n_run
+    tmp = buf[q:q + ns]
+    q += ns
+    res = buf[q:q + H]
+    q += H
+    zero = buf[q:q + H]
+    q += H
+    tgt = buf[q:q + H]
+    q += H
+    xc = buf[q:q + Pc]
+    q += Pc
+    sol = buf[q:q + m]
+    q += m
+    keep = buf[q:q + m]
+    # the finer ring's arrivals, then the outputs its filter goes on with
+    for t in range(Pf):
+        j = pm + 1 + t - Nf
+        while j < 0:
+            j += Pf
+        while j >= Pf:
+            j -= Pf
+        X[t] = ring[off + j]
+    for i in range(ns):
+        tmp[i] = st_f[i]
+    far_end_run(tmp, fp_f, xdel_f, nd_f, nb_f, X[0:n_run], yf, one)
+    for t in range(n_run):
+        X[Pf + t] = yf[t] - ub
+    delta = Nf - r * Nc
+    phase = 0.5 * (r - 1)
+    for k in range(Pc):
+        xc[k] = _lerp(X, nX, r * k + delta + phase)
+    for k in range(H):
+        tgt[k] = _lerp(X, nX, r * k - delta + phase + Pf) + ub
+        zero[k] = 0.0
+    for i in range(Pf):
+        ring[off + i] = 0.0
+    for k in range(Pc):
+        j = pmc + 1 + k - Nc
+        while j < 0:
+            j += Pc
+        while j >= Pc:
+            j -= Pc
+        ring[off + j] = xc[k]
+    # the coarser filter from zero on the new arrivals, and each free
+    # direction's zero-input response
+    for i in range(ns):
+        tmp[i] = st_c[i]
+    far_end_run(tmp, fp_c, xdel_c, nd_c, nb_c, xc[0:H], res, one)
+    for k in range(H):
+        res[k] = tgt[k] - res[k]
+    for j in range(m):
+        for i in range(ns):
+            tmp[i] = T[i, j]
+        far_end_run(tmp, fp_c, xdel_c, nd_c, nb_c, zero, At[j, 0:H], one)
+    # least squares: modified Gram-Schmidt, twice, dropping a direction the
+    # others already span (the chained state has one more value than the
+    # filter's order)
+    big = 0.0
+    for j in range(m):
+        s = 0.0
+        for k in range(H):
+            s += At[j, k] * At[j, k]
+        big = max(big, np.sqrt(s))
+    for j in range(m):
+        for i in range(m):
+            R[i, j] = 0.0
+        for rep in range(2):
+            for i in range(j):
+                if keep[i] == 0.0:
+                    continue
+                c = 0.0
+                for k in range(H):
+                    c += At[i, k] * At[j, k]
+                R[i, j] += c
+                for k in range(H):
+                    At[j, k] -= c * At[i, k]
+        s = 0.0
+        for k in range(H):
+            s += At[j, k] * At[j, k]
+        s = np.sqrt(s)
+        if s <= 1e-9 * big:
+            keep[j] = 0.0
+            R[j, j] = 0.0
+        else:
+            keep[j] = 1.0
+            R[j, j] = s
+            for k in range(H):
+                At[j, k] /= s
+    for j in range(m - 1, -1, -1):
+        if keep[j] == 0.0:
+            sol[j] = 0.0
+            continue
+        c = 0.0
+        for k in range(H):
+            c += At[j, k] * res[k]
+        for i in range(j + 1, m):
+            c -= R[j, i] * sol[i]
+        sol[j] = c / R[j, j]
+    for i in range(ns):
+        s = 0.0
+        for j in range(m):
+            s += T[i, j] * sol[j]
+        st_c[i] += s
+
+
 @njit(**JIT_OPTS)
 def _subcell_q(r):
     """q(r) = 1 - sqrt(1 - r) = r / (1 + sqrt(1 - r)) for 0 <= r <= 1 (the
