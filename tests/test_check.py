@@ -189,6 +189,34 @@ max_db = 200
     assert [r.passed for r in run_spec(spec)] == [True, True]
 
 
+def test_partial_diff_reads_one_partial_of_two_renders(tmp_path):
+    """Two tones on 200 Hz whose partial 2 differs by a known 12 dB (the
+    others alike): partial_diff n=2 reads -12 dB, n=1 and n=3 read 0."""
+    t = np.arange(int(1.2 * FS)) / FS
+    for name, a2 in (("a", 0.1 * 10 ** (-12 / 20)), ("b", 0.1)):
+        x = 0.3 * np.sin(2 * np.pi * 200 * t) + a2 * np.sin(2 * np.pi * 400 * t) \
+            + 0.05 * np.sin(2 * np.pi * 600 * t)
+        sf.write(tmp_path / f"{name}.wav", x.astype(np.float32), FS, subtype="FLOAT")
+    spec = _spec(tmp_path, """
+[[render]]
+name = "a"
+wav = "a.wav"
+[[render]]
+name = "b"
+wav = "b.wav"
+""" + "".join(f"""
+[[expect]]
+render = "a"
+check = "partial_diff"
+against = "b"
+hz = 200.0
+n = {n}
+min_db = {lo}
+max_db = {hi}
+""" for n, lo, hi in ((2, -12.2, -11.8), (1, -0.2, 0.2), (3, -0.2, 0.2), (2, -2.0, 0.0))))
+    assert [r.passed for r in run_spec(spec)] == [True, True, True, False]
+
+
 def test_the_python_api(tmp_path):
     y, fs, f = testing.render_note("biwa", 52, 100, 1.0)
     assert testing.check_f0(y, fs, f, cents=1.0).passed

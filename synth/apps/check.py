@@ -40,6 +40,8 @@ centroid_ratio centroid(render) / centroid(against), item by    against, min, ma
                item
 highband_diff  energy above above_hz, render minus against, dB  against, above_hz, min_db, max_db
                over the whole render or a window, s            [start_s], [length_s]
+partial_diff   partial n's level, render minus against, item   against, n, min_db, max_db,
+               by item, dB (default 0.05-1.05 s)               [start_s], [length_s], [hz]
 ============== ================================================ ==================================
 """
 
@@ -540,6 +542,30 @@ def _c_highband_diff(items, e, others):
     return out
 
 
+def _partial_db(it, e):
+    """Partial ``n``'s peak level (dB) over ``length_s`` from ``start_s``
+    (default 0.05 and 1 s)."""
+    n = int(e["n"])
+    seg = _segment(it, e.get("start_s", 0.05), e.get("length_s", 1.0))
+    _, lv = partial_peaks(seg, it.fs, _tuned(it, e), n, search_cents=60.0)
+    return float(lv[n - 1])
+
+
+def _c_partial_diff(items, e, others):
+    """Partial ``n``'s level, this render minus ``against``, item by item:
+    what one part of the instrument does to one partial (the grand's capo
+    bar against an ideal support, a body against none)."""
+    out = []
+    s0 = e.get("start_s", 0.05)
+    s1 = s0 + e.get("length_s", 1.0)
+    for a, b in _pairs(items, e, others):
+        d = _partial_db(a, e) - _partial_db(b, e)
+        out.append((f"partial {int(e['n'])} {a.label} - {b.label}", f"{d:+.1f} dB",
+                    f"{e['min_db']:g} .. {e['max_db']:g} dB ({s0:g}-{s1:g} s)",
+                    bool(e["min_db"] <= d <= e["max_db"])))
+    return out
+
+
 def _c_smooth(items, e, others):
     """Per velocity of a key sweep: the largest distance of a key's
     maximum momentary loudness from a cubic fit over the keys."""
@@ -701,6 +727,11 @@ CHECKS = {
                            ("start_s", "length_s"),
                            {"above_hz": (1.0, 24000.0, False), "min_db": _DB, "max_db": _DB,
                             "start_s": (0.0, 60.0, False), "length_s": (0.01, 60.0, False)}),
+    "partial_diff": Check(_c_partial_diff, ("against", "n", "min_db", "max_db"),
+                          ("hz", "start_s", "length_s"),
+                          {"n": (1, 64, True), "min_db": _DB, "max_db": _DB,
+                           "hz": (1.0, 20000.0, False), "start_s": (0.0, 60.0, False),
+                           "length_s": (0.01, 60.0, False)}),
     "dynamic_range": Check(_c_dynamic_range, ("min_db",), ("max_db",),
                            {"min_db": _DB, "max_db": _DB}),
     "two_stage": Check(_per_item(_c_two_stage), ("min_ratio",),
