@@ -31,3 +31,13 @@ def test_bad_arguments_exit_2_with_one_line(argv, capsys):
     assert ex.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert err and "study_capo.py" in err[-1]
+
+
+def test_the_hand_over_stops_the_bars_faint_contact_noise():
+    """Key 96 at V = 5 m/s: before the hand-over the two renders are one
+    (the same median between the partials over 8-18 ms); after it the
+    fine grid's contacts go on leaving noise between the partials some 77
+    dB under the loudest bin, the preset's strings, off the bar, 84 dB."""
+    (fine, pre), _ = sc.contact_hash(96, 98)
+    assert abs(fine[0] - pre[0]) < 0.5, (fine, pre)
+    assert fine[1] < -70.0 and pre[1] < fine[1] - 3.0, (fine, pre)

@@ -4,6 +4,7 @@
     python tools/study_capo.py window [--keys 84,90,96,102] [--ms 5,20,50,100] [--grid 4]
     python tools/study_capo.py switch [--keys 84,90,96] [--ms 20]
     python tools/study_capo.py cost   [--keys 84,90,96,102,108]
+    python tools/study_capo.py hash   [--keys 84,96,102] [--png OUT.png]
 
 ``grid``: is the thesis's grid (1.3 MHz at the bar, ``strings.capo_grid=4``)
 converged?  For each key and grid, the change of the audible partials
@@ -34,6 +35,15 @@ error of the coarse string's wave arriving at the far end against the
 fine string's (run on with the bar lifted at T, at the same places), RMS
 over the first 2 ms and over 2-50 ms after the switch, in dB re that
 wave's RMS.
+
+``hash``: what the hand-over takes away.  On the fine grid the string
+goes on touching the bar through the note, and its contacts leave a
+faint noise between the partials; on the engine's grid they stop.
+Printed: the median level of the bins between the partials (500 Hz-20
+kHz, more than 400 Hz from each; 256-sample frames every 32 samples) over
+8-18 ms and 40-100 ms, dB re the loudest bin, on the fine grid through the
+whole note and on the preset; ``--png`` draws both spectrograms (the
+hand-over's 20 ms marked).
 
 ``cost``: the time one hand-over takes (a key's strings, 20 ms after a
 strike at velocity 0.8, the preset's grids; median of 20 from the same
@@ -353,6 +363,76 @@ def cost(args) -> None:
         print(f"| {key} | {hand_over_cost_ms(key):.3f} |", flush=True)
 
 
+def _spectrogram_db(y: np.ndarray, nfft: int = 256, hop: int = 32):
+    """Power (dB) of Hann-windowed frames of ``y`` (``nfft`` samples every
+    ``hop``), their frequencies (Hz) and centre times (s)."""
+    w = np.hanning(nfft)
+    starts = np.arange(0, len(y) - nfft, hop)
+    frames = np.stack([y[i:i + nfft] * w for i in starts])
+    P = np.abs(np.fft.rfft(frames, axis=1)) ** 2
+    return (10 * np.log10(P.T + 1e-300), np.fft.rfftfreq(nfft, 1.0 / FS),
+            (starts + nfft / 2) / FS)
+
+
+def contact_hash(key: int, velocity: int) -> tuple:
+    """The bar's contact noise between the partials: the median level (dB re
+    the loudest bin) of the 256-sample spectrogram's bins 500 Hz-20 kHz
+    more than 400 Hz from every partial, over 8-18 ms and 40-100 ms, on the
+    fine grid through the whole note and on the preset (hand-over at 20 ms);
+    and the two renders."""
+    B = P.grand_string(key).inharmonicity_b
+    out, ys = [], []
+    for sets in (("strings.capo_window_s=0",), ()):
+        y, e = render_note(key, velocity, sets, seconds=0.12)
+        f0 = e.inst.tuning_hz(key) / np.sqrt(1 + B)
+        L, f, t = _spectrogram_db(y)
+        mask = (f > 500) & (f < 20000)
+        for m in range(1, 60):
+            mask &= np.abs(f - m * f0 * np.sqrt(1 + B * m * m)) > 400
+        ref = L.max()
+        out.append([float(np.median(L[mask][:, (t > a) & (t < b)]) - ref)
+                    for a, b in ((0.008, 0.018), (0.04, 0.1))])
+        ys.append(y)
+    return out, ys
+
+
+def hash_(args) -> None:
+    print(f"Between the partials (median, dB re the loudest bin), velocity {args.velocity}")
+    print("| key | fine grid, 8-18 ms | 40-100 ms | the preset, 8-18 ms | 40-100 ms |")
+    print("|---|---|---|---|---|")
+    panels = []
+    for key in args.keys:
+        (fine, pre), ys = contact_hash(key, args.velocity)
+        print(f"| {key} | {fine[0]:.0f} | {fine[1]:.0f} | {pre[0]:.0f} | {pre[1]:.0f} |", flush=True)
+        panels.append((key, ys))
+    if args.png:
+        try:
+            import matplotlib
+        except ImportError:
+            raise ValueError("--png needs matplotlib: pip install 'synth[plots]'") from None
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, axs = plt.subplots(2, len(panels), figsize=(3.0 * len(panels), 4.2), sharey=True,
+                                squeeze=False)
+        for j, (key, ys) in enumerate(panels):
+            for i, (y, name) in enumerate(zip(ys, ("thesis's grid, whole note",
+                                                   "preset: 325 kHz after 20 ms"))):
+                L, f, t = _spectrogram_db(y)
+                ax = axs[i, j]
+                ax.pcolormesh(t, f, L - L.max(), vmin=-110, vmax=0, cmap=plt.get_cmap("magma", 12),
+                              shading="auto")
+                ax.axvline(0.02, color="c", lw=0.8)
+                ax.set_ylim(0, 20000)
+                ax.set_title(f"key {key}: {name}", fontsize=8)
+                ax.tick_params(labelsize=7)
+        axs[1, 0].set_xlabel("s", fontsize=8)
+        axs[1, 0].set_ylabel("Hz", fontsize=8)
+        fig.tight_layout()
+        fig.savefig(args.png, dpi=50)
+        print(f"plot: {args.png}")
+
+
 def _ints(text: str, lo: int, hi: int, name: str) -> list:
     try:
         v = [int(t) for t in text.split(",") if t.strip()]
@@ -379,7 +459,8 @@ def main(argv=None) -> int:
     for name, helptext in (("grid", "is the thesis's grid converged"),
                            ("window", "the bar for the first T ms only"),
                            ("switch", "leaving the fine grid: the error of the hand-over"),
-                           ("cost", "the time of one hand-over, per key")):
+                           ("cost", "the time of one hand-over, per key"),
+                           ("hash", "the bar's contact noise between the partials")):
         p = sub.add_parser(name, help=helptext)
         p.add_argument("--keys", type=lambda t: _ints(t, P.CAPO_FIRST_MIDI, 108, "--keys"),
                        default=[84, 90, 96, 102])
@@ -388,6 +469,9 @@ def main(argv=None) -> int:
         if name == "grid":
             p.add_argument("--grids", type=lambda t: _ints(t, 1, K.MAX_SUB, "--grids"),
                            default=[4, 6, 8])
+        elif name == "hash":
+            p.add_argument("--png", metavar="OUT.png", help="also draw the spectrograms "
+                           "(needs matplotlib, the [plots] extra)")
         elif name != "cost":
             p.add_argument("--grid", type=lambda t: _ints(t, 2, K.MAX_SUB, "--grid")[0],
                            default=4)
@@ -395,7 +479,8 @@ def main(argv=None) -> int:
                            else [20])
     args = ap.parse_args(argv)
     try:
-        {"grid": grid, "window": window, "switch": switch, "cost": cost}[args.study](args)
+        {"grid": grid, "window": window, "switch": switch, "cost": cost,
+         "hash": hash_}[args.study](args)
     except ValueError as exc:
         print(f"study_capo: {exc}", file=sys.stderr)
         return 2
