@@ -64,6 +64,9 @@ import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "tests"))
+
+from reference import _step  # noqa: E402  (the tests' naive scheme, one step)
 
 from synth.analysis import as_mono, partial_peaks  # noqa: E402
 from synth.engine.engine import Event  # noqa: E402
@@ -157,8 +160,8 @@ def window(args) -> None:
 # -- the switch, on the naive scheme -------------------------------------------------------
 
 class NaiveString:
-    """``tests/reference.naive_lossy_string``'s scheme (no pitch bend, no
-    sub-cell contact) with its state kept between calls, so that it can be
+    """``tests/reference.naive_lossy_string``'s scheme (its ``_step``; no
+    pitch bend, no sub-cell contact) with its state kept between calls, so that it can be
     copied, cut short and handed over: the rails ``ur``, ``ul`` (N + 1
     points), the termination region ``U`` (points 1..R, ``side`` +1) and
     the far end's filter state ``xd, lp, dx1, dy1, apx, apy, bq``."""
@@ -218,15 +221,7 @@ class NaiveString:
         xs, ys = np.empty(n), np.empty(n)
         for m in range(n):
             gm = 0.0 if g is None or m >= len(g) else g[m]
-            ur[1:] = ur[:-1].copy()
-            ul[:-1] = ul[1:].copy()
-            ur[0] = -ul[0]
-            ur[k] += gm
-            ul[k] += gm
-            for p in range(1, R + 1):
-                u = ur[p] + ul[p] - (gm if p == k else 0.0)
-                if u - self.U[p - 1] > 0:
-                    ur[p] += self.U[p - 1] - u
+            _step(ur, ul, k, gm, self.U, 1, R)
             xs[m] = ur[N]
             ys[m] = self.far_end(ur[N])
             ul[N] = -ys[m]

@@ -74,10 +74,9 @@ def _chained_state(xdel: int, nd: int, nb: int, n_cols: int) -> np.ndarray:
         col(K.S_SOS + 1)
     for b in range(nb):
         q = K.S_SOS + 4 * b
-        nx = [q + 4, ] if b + 1 < nb else []
-        col(q + 2, *nx)                        # y1: the next biquad's x1
-        nx2 = [q + 5] if b + 1 < nb else []
-        col(q + 3, *nx2)                       # y2: its x2
+        nxt = b + 1 < nb
+        col(q + 2, *([q + 4] if nxt else []))     # y1: the next biquad's x1
+        col(q + 3, *([q + 5] if nxt else []))     # y2: its x2
     return np.array(cols).T
 
 
@@ -483,24 +482,29 @@ class StringBank:
         if self._leader[s] >= 0:
             self.leave(s)              # a new string: off its bridge
         self.clear(s)                  # (free when the slot is already clean)
+        self._write_template(s, t, _SLOT_COLS)
         ip = self.ipar[s]
-        keep = [int(ip[c]) for c in _SLOT_COLS]
-        ip[:] = t.ipar
-        for c, v in zip(_SLOT_COLS, keep):
-            ip[c] = v
         ip[K.I_PROBE] = int(probe_row)
-        if ip[K.I_CHUNK] > self.max_block:
-            ip[K.I_CHUNK] = self.max_block
-        if ip[K.I_CHUNK_FREE] > self.max_block:
-            ip[K.I_CHUNK_FREE] = self.max_block
-        self.fpar[s, :] = t.fpar
-        if not self.skip_unreachable:
-            self.fpar[s, K.F_REACH] = 0.0
-        if R:
-            self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = t.U
         if blen:
             self.U[ip[K.I_BOFF]: ip[K.I_BOFF] + blen] = 0.0
         self.fst[s, K.S_BD] = t.bend_delay
+
+    def _write_template(self, s: int, t: SlotTemplate, keep_cols) -> None:
+        """Slot s's parameters and profile from template t, its ``ipar``
+        columns ``keep_cols`` kept; chunks within this bank's block."""
+        ip = self.ipar[s]
+        keep = [int(ip[c]) for c in keep_cols]
+        ip[:] = t.ipar
+        for c, v in zip(keep_cols, keep):
+            ip[c] = v
+        ip[K.I_CHUNK] = min(int(ip[K.I_CHUNK]), self.max_block)
+        ip[K.I_CHUNK_FREE] = min(int(ip[K.I_CHUNK_FREE]), self.max_block)
+        self.fpar[s, :] = t.fpar
+        if not self.skip_unreachable:
+            self.fpar[s, K.F_REACH] = 0.0
+        R = int(ip[K.I_REG_N])
+        if R:
+            self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = t.U
 
     def set_region(self, s: int, U: np.ndarray) -> None:
         """Replace slot s's termination profile U(1..R) (m) from its next
@@ -1101,30 +1105,19 @@ class StringBank:
         pmc = pm % (2 * Nc)
         H = max(1, min(self.HAND_OVER_ROWS, Nc - 2))
         # the slot on the new grid (its group links, probe and telemetry kept)
-        keep = [int(ip[c]) for c in _HAND_OVER_KEEP]
-        ip[:] = t.ipar
-        for c, v in zip(_HAND_OVER_KEEP, keep):
-            ip[c] = v
-        ip[K.I_CHUNK] = min(int(ip[K.I_CHUNK]), self.max_block)
-        ip[K.I_CHUNK_FREE] = min(int(ip[K.I_CHUNK_FREE]), self.max_block)
+        self._write_template(s, t, _HAND_OVER_KEEP)
         ip[K.I_EXC] = K.EXC_NONE
         ip[K.I_EXC_M] = 0
         ip[K.I_HLAST] = -1
         ip[K.I_POS] = pmc
         fp = self.fpar[s]
-        fp[:] = t.fpar
         for c in (K.F_BRA, K.F_BRB, K.F_BRMU):
             fp[c] = fp_f[c]                   # the leader's, converted by the caller
         fp[K.F_TGAP] = round(fp_f[K.F_TGAP] / r)      # telemetry's episode gap, in steps
-        if not self.skip_unreachable:
-            fp[K.F_REACH] = 0.0
         share = 1.0 / float(self.damper[s, 0])
         fp[K.F_B0] = float(damper_row[0]) * fp_f[K.F_B0] * share
         fp[K.F_B0T] = float(damper_row[0]) * fp_f[K.F_B0T] * share
         self.damper[s, :] = damper_row
-        R = int(ip[K.I_REG_N])
-        if R:
-            self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = t.U
         # the state: what carries over (the bridge, the peak, the telemetry's
         # counts, those in the coarser steps), the filter's to be fitted
         st = self.fst[s]

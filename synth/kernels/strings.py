@@ -877,7 +877,7 @@ def far_end_run(st, fp, xdel, nd, nb, x, y, one):
     ``st`` (an ``fst`` row, advanced in place) on the arriving waves ``x``:
     its outputs into ``y`` (no bridge, no bend line).  ``fp``: the
     string's ``fpar`` row; ``one``: one scratch value.  Used by the hand-over
-    between grids (:meth:`synth.dsp.bank.StringBank.hand_over`)."""
+    between grids (:func:`hand_over_loop`)."""
     b0 = fp[F_B0]
     a1 = fp[F_A1]
     eta = fp[F_ETA]
@@ -913,6 +913,15 @@ def _lerp(a, n, f):
         return a[n - 1]
     w = f - i
     return a[i] + w * (a[i + 1] - a[i])
+
+
+@njit(inline="always", **SERIAL_OPTS)
+def _dot(a, b, n):
+    """sum of a[k] b[k], k < n, in order."""
+    s = 0.0
+    for k in range(n):
+        s += a[k] * b[k]
+    return s
 
 
 @njit(**SERIAL_OPTS)
@@ -960,13 +969,10 @@ def hand_over_loop(ring, off, Nf, pm, st_f, fp_f, xdel_f, nd_f, nb_f, r, Nc, pmc
     q += m
     keep = buf[q:q + m]
     # the finer ring's arrivals, then the outputs its filter goes on with
-    for t in range(Pf):
-        j = pm + 1 + t - Nf
-        while j < 0:
-            j += Pf
-        while j >= Pf:
-            j -= Pf
-        X[t] = ring[off + j]
+    j0 = pm + 1 - Nf
+    if j0 < 0:
+        j0 += Pf
+    _ring_get(ring, off, Pf, j0, X[0:Pf], 1.0)
     for i in range(ns):
         tmp[i] = st_f[i]
     far_end_run(tmp, fp_f, xdel_f, nd_f, nb_f, X[0:n_run], yf, one)
@@ -981,13 +987,10 @@ def hand_over_loop(ring, off, Nf, pm, st_f, fp_f, xdel_f, nd_f, nb_f, r, Nc, pmc
         zero[k] = 0.0
     for i in range(Pf):
         ring[off + i] = 0.0
-    for k in range(Pc):
-        j = pmc + 1 + k - Nc
-        while j < 0:
-            j += Pc
-        while j >= Pc:
-            j -= Pc
-        ring[off + j] = xc[k]
+    j0 = pmc + 1 - Nc
+    if j0 < 0:
+        j0 += Pc
+    _ring_put(ring, off, Pc, j0, xc, 1.0)
     # the coarser filter from zero on the new arrivals, and each free
     # direction's zero-input response
     for i in range(ns):
@@ -1004,10 +1007,7 @@ def hand_over_loop(ring, off, Nf, pm, st_f, fp_f, xdel_f, nd_f, nb_f, r, Nc, pmc
     # filter's order)
     big = 0.0
     for j in range(m):
-        s = 0.0
-        for k in range(H):
-            s += At[j, k] * At[j, k]
-        big = max(big, np.sqrt(s))
+        big = max(big, np.sqrt(_dot(At[j], At[j], H)))
     for j in range(m):
         for i in range(m):
             R[i, j] = 0.0
@@ -1015,16 +1015,11 @@ def hand_over_loop(ring, off, Nf, pm, st_f, fp_f, xdel_f, nd_f, nb_f, r, Nc, pmc
             for i in range(j):
                 if keep[i] == 0.0:
                     continue
-                c = 0.0
-                for k in range(H):
-                    c += At[i, k] * At[j, k]
+                c = _dot(At[i], At[j], H)
                 R[i, j] += c
                 for k in range(H):
                     At[j, k] -= c * At[i, k]
-        s = 0.0
-        for k in range(H):
-            s += At[j, k] * At[j, k]
-        s = np.sqrt(s)
+        s = np.sqrt(_dot(At[j], At[j], H))
         if s <= 1e-9 * big:
             keep[j] = 0.0
             R[j, j] = 0.0
@@ -1037,9 +1032,7 @@ def hand_over_loop(ring, off, Nf, pm, st_f, fp_f, xdel_f, nd_f, nb_f, r, Nc, pmc
         if keep[j] == 0.0:
             sol[j] = 0.0
             continue
-        c = 0.0
-        for k in range(H):
-            c += At[j, k] * res[k]
+        c = _dot(At[j], res, H)
         for i in range(j + 1, m):
             c -= R[j, i] * sol[i]
         sol[j] = c / R[j, j]
