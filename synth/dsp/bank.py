@@ -1048,7 +1048,7 @@ class StringBank:
         squares over :attr:`HAND_OVER_ROWS` steps) the old filter's, run on
         from its own state on the old ring's arrivals (one call of
         :func:`synth.kernels.strings.hand_over_loop` per string, no
-        allocation in it: 0.23-0.32 ms for a key's three strings, most of
+        allocation in it: 0.17-0.23 ms for a key's three strings, most of
         it this method's Python; ``tools/study_capo.py cost``).  The bridge keeps its
         displacement, its step w = v dt is scaled by r, its constants are
         the coarser step's; the loss keeps its damper's share (b0 over the
