@@ -166,7 +166,7 @@ def test_the_capo_bar_colours_every_treble_note_at_the_default(key):
     engine's rate (:meth:`StringBank.hand_over`); the colour is made in
     that attack (``tools/study_capo.py window``).  Partials within 60 dB of
     partial 1, at V = 5 m/s, against an ideal support with the same grids
-    (2026-11-27): partial 2 -2.8 (84), -6.9 (90), -3.7 dB (96), partials
+    (2026-11-27): partial 2 -2.5 (84), -7.1 (90), -3.7 dB (96), partials
     3-5 of key 90 +3 to +6, of key 96 -8 to -15 dB; 33-47 episodes per
     string in the window.  (Until then the default's 325 kHz grid never let
     a string touch the bar once the hammer had left: 0 episodes.)"""
@@ -185,16 +185,17 @@ def test_the_thesis_grid_through_the_whole_note_below_c6():
     after it, and at velocity 80 the audible partials untouched).  On the
     thesis's grid through the whole note the bar is reached (199-243
     episodes per string in 0.5 s at V = 5 m/s), but what a listener hears
-    changes little (partial 2 -0.2 dB, the upper half +1.4 dB on average;
-    keys 75-81 at most 2.8 dB): why the preset's finer strike starts at
-    84.  (Until 2026-11-27 the capo test judged the RMS of every partial
+    changes little (partial 2 -0.2 dB, the upper half +0.8 dB on average,
+    Publication I's direction; +1.4 dB with the unison spread of 1 cent
+    before 2026-11-27; keys 75-81 at most 2.8 dB): why the preset's finer
+    strike starts at 84.  (Until 2026-11-27 the capo test judged the RMS of every partial
     below 20 kHz at velocity 80, which partials 60-180 dB under partial 1,
     next to the strike's node or at the arithmetic's floor, made 5-16 dB.)"""
     key = 78
     g, aud = _capo_change_db(key, THESIS_CAPO, THESIS_VELOCITY)
     ga = g[aud]
     assert len(ga) >= 4, (aud, g)
-    assert float(np.mean(ga[len(ga) // 2:])) >= 1.0, ga
+    assert float(np.mean(ga[len(ga) // 2:])) >= 0.5, ga
     assert min(_bar_episodes_after_the_hammer(key, THESIS_CAPO)) >= 50
     assert _bar_episodes_after_the_hammer(key) == [0, 0, 0]   # the default's grid
     g0, _ = _capo_change_db(key)

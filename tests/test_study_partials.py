@@ -88,3 +88,48 @@ def test_damping_rows_keep_the_band_above_the_floor_and_the_ratio():
         assert abs(m - t_model[p - 1]) < 0.05 * t_model[p - 1]
     med, lo, hi = sp.ratio_summary(rows)
     assert abs(med - 0.5) < 0.02 and lo <= med <= hi
+
+
+def test_beat_roughness_ignores_decays_and_knees_and_reads_beats():
+    """A partial decaying in one line, or in two with a knee, reads under
+    0.2 dB; a partial split into two lines 1 Hz apart (a unison beating)
+    reads several dB, the more the closer the lines' amplitudes."""
+    key = 60
+    t = np.arange(int(3.1 * FS)) / FS
+    g = grand_string(key)
+    ln = math.log(1000.0)
+    f3 = g.partial_hz(3)
+
+    def note(p3):
+        """Partials 1-8 decaying with T60 3 s, partial 3 replaced by ``p3``."""
+        y = 0.3 * p3
+        for n, a in enumerate([1.0, 0.5, 0.3, 0.2, 0.15, 0.1, 0.08, 0.05], start=1):
+            if n != 3:
+                y = y + a * np.exp(-ln * t / 3.0) * np.sin(2 * np.pi * g.partial_hz(n) * t)
+        return y
+
+    line = sp.beat_roughness_db(note(np.exp(-ln * t / 3.0) * np.sin(2 * np.pi * f3 * t)), key)
+    # 30 dB in the first 0.8 s, then a T60 of 8 s: a two-stage decay
+    knee_db = np.where(t < 0.8, -30.0 * t / 0.8, -30.0 - 60.0 * (t - 0.8) / 8.0)
+    kneed = sp.beat_roughness_db(note(10 ** (knee_db / 20) * np.sin(2 * np.pi * f3 * t)), key)
+    assert np.nanmax(line) < 0.2 and np.nanmax(kneed) < 0.2, (line, kneed)
+
+    def beating(r):
+        """Partial 3 as two lines 1 Hz apart, amplitudes 1 and r."""
+        return np.exp(-ln * t / 3.0) * (np.sin(2 * np.pi * (f3 - 0.5) * t)
+                                        + r * np.sin(2 * np.pi * (f3 + 0.5) * t)) / (1 + r)
+
+    deep = sp.beat_roughness_db(note(beating(0.9)), key)[2]
+    shallow = sp.beat_roughness_db(note(beating(0.3)), key)[2]
+    assert deep > shallow > 1.0, (deep, shallow)
+    # the envelope of 1 + 0.3 e^(j 2 pi t) swings 20 log10(1.3 / 0.7) = 5.4 dB
+    # peak to peak, near a sine in dB: an RMS of about 5.4 / (2 sqrt 2)
+    assert abs(shallow - 5.4 / (2 * math.sqrt(2))) < 0.5, shallow
+    others = np.delete(sp.beat_roughness_db(note(beating(0.9)), key), 2)
+    assert np.nanmax(others) < 0.2
+
+
+def test_beats_checks_its_arguments():
+    assert sp.main(["beats", "--real", "/no/such/folder"]) == 2
+    with pytest.raises(SystemExit):
+        sp.main(["beats", "--real", ".", "--scales", "x"])

@@ -4,6 +4,7 @@
     python tools/study_partials.py ratios --real node_modules/@audio-samples
     python tools/study_partials.py una-corda [--keys 78,81,...] [--set PATH=VALUE ...]
     python tools/study_partials.py damping --real node_modules/@audio-samples [--set ...]
+    python tools/study_partials.py beats --real node_modules/@audio-samples [--scales 1,0.6] [--keys ...]
 
 ``decay``: the early T60 of partials 1-8 of each key, on a real grand's
 samples (the folder of ``tools/real_grand.py``, layer v10) and on the
@@ -31,6 +32,16 @@ within 50 dB of its strongest partial (above the recording's floor), on
 the recording (layer v10) and on the model at velocity 80, and the
 median and quartiles of model / real over them: the check on
 ``synth.physics.piano.DAMPING_B3_S``.
+
+``beats``: how much a unison's partials beat, against a real grand's:
+each partial's level (0.1 s frames every 0.025 s, 0.1-3 s) about the best
+two-segment line through it (a knee anywhere, so a two-stage decay is not
+counted), as an RMS in dB, the median over partials 2-8 (those starting
+within 40 dB of the strongest); on the recording (the median of layers v4,
+v10 and v14) and on the model at velocity 80 with ``strings.detune_scale``
+at each of ``--scales``; then, per scale, the median and the mean absolute
+difference model - real over the keys: the check on
+``synth.physics.piano.UNISON_SPREAD_CENTS``.
 
 ``una-corda``: the voicing report's una corda measure (the centroid of the
 first 100 ms, CC67 down against up, velocity 80) on any keys, with the
@@ -228,6 +239,90 @@ def ratios(args) -> None:
               f"{prompt_ratio(key):.2f} |")
 
 
+#: the ``beats`` study: frames, span, and the partials it counts
+BEAT_WIN_S, BEAT_HOP_S, BEAT_SPAN_S = 0.1, 0.025, (0.1, 3.0)
+BEAT_START_DB, BEAT_FLOOR_DB = -40.0, -70.0
+
+
+def partial_envelopes_db(y, key, span_s=BEAT_SPAN_S, win_s=BEAT_WIN_S, hop_s=BEAT_HOP_S):
+    """(frame centres (s), peak levels (dB), shape (frames, 8)) of partials
+    1-8 of ``y`` (48 kHz, note-on at 0) in ``win_s`` frames every ``hop_s``
+    over ``span_s``."""
+    f0, B = _f0_law(y, key)
+    ts, levels = [], []
+    t = span_s[0]
+    while t + win_s <= span_s[1] + 1e-9:
+        _, lv, _ = track_partials(y[int(t * FS):int((t + win_s) * FS)], FS, f0, N_PARTIALS,
+                                  inharmonicity=B)
+        ts.append(t + win_s / 2)
+        levels.append(lv)
+        t += hop_s
+    return np.array(ts), np.array(levels)
+
+
+def hinge_residual_db(t, level):
+    """RMS (dB) of ``level`` about the continuous two-segment line through
+    it that fits best (its knee at any frame but the first and last four):
+    what is left is the beating, not the decay or its knee."""
+    best = np.inf
+    for tk in t[4:-4]:
+        A = np.stack([np.ones_like(t), t, np.maximum(t - tk, 0.0)], axis=1)
+        c, *_ = np.linalg.lstsq(A, level, rcond=None)
+        best = min(best, float(np.sqrt(np.mean((level - A @ c) ** 2))))
+    return best
+
+
+def beat_roughness_db(y, key):
+    """``hinge_residual_db`` of each partial 1-8 of ``y`` (NaN for those
+    whose first frame lies more than ``-BEAT_START_DB`` under the
+    strongest; frames more than ``-BEAT_FLOOR_DB`` under it are left out)."""
+    ts, L = partial_envelopes_db(y, key)
+    top = np.nanmax(L[0])
+    out = []
+    for k in range(N_PARTIALS):
+        e = L[:, k]
+        ok = np.isfinite(e) & (e > top + BEAT_FLOOR_DB)
+        if not e[0] >= top + BEAT_START_DB or ok.sum() < 12:
+            out.append(np.nan)
+            continue
+        out.append(hinge_residual_db(ts[ok], e[ok]))
+    return np.array(out)
+
+
+def beats(args) -> None:
+    from synth.physics.piano import UNISON_SPREAD_CENTS
+
+    folder = Path(args.real)
+    if not folder.is_dir():
+        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
+    for key in args.keys:
+        if key % 12 not in _NAMES:
+            raise SystemExit(f"study_partials: error: key {key} has no real sample (every minor third from A0)")
+    rs = [(sc, Renderer("grand-piano", tuple(args.set) + (f"strings.detune_scale={sc:g}",)))
+          for sc in args.scales]
+    print(f"Beating of partials 2-8, 0.1-3 s: RMS (dB) about the best two-segment line, median over "
+          f"the partials (the law's spread: {UNISON_SPREAD_CENTS:g} cent)\n")
+    print("| key | real v4 / v10 / v14 | median | " + " | ".join(f"model x{sc:g}" for sc, _ in rs) + " |")
+    print("|---|---|---|" + "---|" * len(rs))
+    diff = {sc: [] for sc, _ in rs}
+    for key in args.keys:
+        real = [float(np.nanmedian(beat_roughness_db(_load_real(folder, key, v), key)[1:]))
+                for v in (4, 10, 14)]
+        rm = float(np.median(real))
+        got = []
+        for sc, r in rs:
+            m = float(np.nanmedian(beat_roughness_db(r.note(key, 80, BEAT_SPAN_S[1] + 0.05), key)[1:]))
+            diff[sc].append(m - rm)
+            got.append(m)
+        print(f"| {key} | {' / '.join(f'{v:.1f}' for v in real)} | {rm:.1f} | "
+              + " | ".join(f"{v:.1f}" for v in got) + " |")
+    print("\n| scale | cents at C4 | model - real, median (dB) | mean absolute (dB) |")
+    print("|---|---|---|---|")
+    for sc, _ in rs:
+        d = np.array(diff[sc])
+        print(f"| {sc:g} | {sc * UNISON_SPREAD_CENTS:.2f} | {np.median(d):+.2f} | {np.mean(np.abs(d)):.2f} |")
+
+
 def una_corda(args) -> None:
     r = Renderer("grand-piano", tuple(args.set))
     print("| key | centroid change | centroid / f0, pedal up -> down | loudness change, dB |")
@@ -251,6 +346,16 @@ def _keys(text: str) -> list:
     return keys
 
 
+def _scales(text: str) -> list:
+    try:
+        sc = [float(k) for k in text.split(",") if k.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--scales {text!r}: comma-separated factors 0-5") from None
+    if not sc or any(not 0.0 <= v <= 5.0 for v in sc):
+        raise argparse.ArgumentTypeError(f"--scales {text!r}: comma-separated factors 0-5")
+    return sc
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="study", required=True)
@@ -266,10 +371,16 @@ def main(argv=None) -> int:
     w = sub.add_parser("damping", help="the strings' loss at 3-8 kHz against a real grand's")
     w.add_argument("--real", required=True, help="the folder of tools/real_grand.py's samples")
     w.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
+    b = sub.add_parser("beats", help="how much the unisons' partials beat, against a real grand's")
+    b.add_argument("--real", required=True, help="the folder of tools/real_grand.py's samples")
+    b.add_argument("--keys", type=_keys, default=_keys("39,42,45,48,51,54,57,60,63,66,69,72,75,78,81,84,87"))
+    b.add_argument("--scales", type=_scales, default=_scales("1"),
+                   help="comma-separated factors on the law's unison spread (strings.detune_scale)")
+    b.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
     args = ap.parse_args(argv)
     try:
         {"decay": decay, "ratios": ratios, "una-corda": una_corda,
-         "damping": damping}[args.study](args)
+         "damping": damping, "beats": beats}[args.study](args)
     except SystemExit as e:
         if isinstance(e.code, str):
             print(e.code, file=sys.stderr)

@@ -55,13 +55,20 @@ documented design values, not from a table of 88 typed numbers:
 * Capo d'astro bar: MIDI >= 73 (C#5) terminate on the capo bar (the first
   capo section of a Steinway D starts at C#5); lower strings run through
   agraffes.
-* Unison detune (cents, per string): spread s = 1 cent between the outer
-  strings, or less where that would beat faster than 0.6 Hz (from about A5
-  up: 0.5 cent at C7, 0.25 cent at C8; a tuner tunes unisons by ear to a
-  slow beat or none, and the same cents beat faster the higher the note;
-  Kirk 1959 found unisons mistuned by up to 1-2 cents in the middle
-  range); one string (0,), two (-s/2, +s/2), three (-0.55 s, 0, +0.45 s)
-  (slightly asymmetric, as a tuner leaves them).
+* Unison detune (cents, per string): spread s = 0.6 cent between the
+  outer strings, or less where that would beat faster than 0.6 Hz (from
+  about A6 up: 0.5 cent at C7, 0.25 cent at C8; a tuner tunes unisons by
+  ear to a slow beat or none, and the same cents beat faster the higher
+  the note); one string (0,), two (-s/2, +s/2), three (-0.55 s, 0,
+  +0.45 s) (slightly asymmetric, as a tuner leaves them).  The 0.6 cent
+  is fitted to a recorded grand (the Salamander Yamaha C5 of
+  ``tools/real_grand.py``): how much partials 2-8 beat over 0.1-3 s, as
+  the RMS of their level about the best two-segment line, on keys 39-87
+  every minor third (``python tools/study_partials.py beats``, 2026-11-27):
+  the model minus the recording reads +1.61 dB on median with 1 cent (the
+  spread until then, from Kirk 1959, who found unisons mistuned by up to
+  1-2 cents in the middle range), +0.52 with 0.7, -0.09 with 0.6 and
+  -0.14 with 0.5 (mean absolute 1.45, 0.71, 0.65, 0.74 dB).
 * Decay, in two stages (Weinreich, "Coupled piano strings", JASA 62, 1977):
   the strings of a unison share the bridge, whose motion under their summed
   force takes energy fast from their in-phase motion (the "prompt" sound)
@@ -172,7 +179,7 @@ STRIKE_RAMP_WIDTH_ST = 2.0
 #: unison spread: at most UNISON_SPREAD_CENTS, and at most UNISON_SPREAD_HZ
 #: between the outer strings (a tuner tunes unisons by their beats: the same
 #: cents beat faster the higher the note, so the treble is tuned closer)
-UNISON_SPREAD_CENTS = 1.0
+UNISON_SPREAD_CENTS = 0.6
 UNISON_SPREAD_HZ = 0.6
 T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 6.0))
 #: aftersound T60 / prompt T60 at f0 (the unison's in-phase motion decays this
@@ -193,10 +200,14 @@ PROMPT_RATIO = {1: 4.0, 2: 7.0, 3: 4.0}
 #: (every minor third), then the running median of five keys, which the
 #: anchors take at 54-84: up to 7.4 at D#4-F#4, 5.8 at C4 (a single key reads
 #: 0.2 to 11, C4 11: a board's modes lie under some keys and not others);
-#: 4 at 51 and from 87 (the running median 3.9 there), easing to 3 over the
-#: top octave (:func:`prompt_ratio`).  The bichords keep 7: the recording's
-#: bass reads 2.5-3.4, with which no bichord of this model shows a knee.
-TRICHORD_PROMPT_ANCHORS = ((51, 4.0), (54, 5.2), (57, 5.2), (60, 5.8), (63, 7.4), (66, 7.4),
+#: 4 from 87 (the running median 3.9 there), easing to 3 over the top
+#: octave (:func:`prompt_ratio`).  At 51, the first trichord, the
+#: recording's own 5.2 (its running median, 2.5, mixes in the bichords 45
+#: and 48; the anchor was 4 until 2026-11-27, when the unison's spread came
+#: down to 0.6 cent and key 51's late/early read 2.95 with it, 3.33 with
+#: 5.2).  The bichords keep 7: the recording's bass reads 2.5-3.4, with
+#: which no bichord of this model shows a knee.
+TRICHORD_PROMPT_ANCHORS = ((51, 5.2), (54, 5.2), (57, 5.2), (60, 5.8), (63, 7.4), (66, 7.4),
                            (69, 7.3), (72, 6.9), (75, 6.9), (78, 5.2), (81, 4.9), (84, 4.9),
                            (87, 4.0))
 #: relative hammer speed on each string of a unison: the hammer's crown is
