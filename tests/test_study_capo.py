@@ -15,10 +15,14 @@ import study_capo as sc  # noqa: E402
 def test_the_fitted_state_hands_over_where_a_zero_state_clicks():
     """Key 96 after 20 ms on the 1.3 MHz grid: with the far-end filter's
     state fitted, the coarse string's wave follows the fine one's within
-    -50 dB (measured -64 / -54 dB over 0-2 / 2-50 ms); with it zeroed, the
-    filter's memory is lost and the wave is off by -6 dB."""
+    -55 dB over the first 2 ms, where a click would show (measured -61.6
+    dB), and within -45 dB over 2-50 ms, where the two grids' own loop
+    designs drift apart (-49.8 dB since the strings' own decay was fitted
+    to a recorded grand's tails on 2026-11-27, -53.9 before; keys 84, 90
+    and 105: -65 to -78 dB); with it zeroed, the filter's memory is lost
+    and the wave is off by -6 dB."""
     r = sc.switch_errors(96, 98, 20.0)
-    assert max(r["fit"]) < -50.0, r
+    assert r["fit"][0] < -55.0 and r["fit"][1] < -45.0, r
     assert min(r["zero"]) > -20.0, r
 
 

@@ -133,3 +133,21 @@ def test_beats_checks_its_arguments():
     assert sp.main(["beats", "--real", "/no/such/folder"]) == 2
     with pytest.raises(SystemExit):
         sp.main(["beats", "--real", ".", "--scales", "x"])
+
+
+def test_tail_reads_a_known_decay_and_level():
+    """A note falling 30 dB in its first second, then with a T60 of 20 s:
+    the tail's T60 reads 20 s and its level over 2.5-4 s the line's
+    median there; a note too short or silent reads NaN."""
+    t = np.arange(int(11.0 * FS)) / FS
+    db = np.where(t < 1.0, -30.0 * t, -30.0 - 60.0 * (t - 1.0) / 20.0)
+    y = 10 ** (db / 20) * np.sin(2 * np.pi * 261.6 * t)
+    t60, level = sp.tail_t60_and_level(y)
+    assert abs(t60 - 20.0) < 0.3, t60
+    # the level's median over 2.5-4 s is the line at 3.25 s, re the loudest
+    # frame, the first, whose mean power lies 0.75 dB under the start (30
+    # dB/s over 50 ms; a sine's frame RMS is its amplitude / sqrt 2 in both)
+    assert abs(level - (-30.0 - 60.0 * 2.25 / 20.0 + 0.75)) < 0.1, level
+    assert np.isnan(sp.tail_t60_and_level(y[:int(3.0 * FS)])[0])
+    steady = np.sin(2 * np.pi * 261.6 * t)
+    assert sp.tail_t60_and_level(steady)[0] == float("inf")

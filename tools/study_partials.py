@@ -5,6 +5,7 @@
     python tools/study_partials.py una-corda [--keys 78,81,...] [--set PATH=VALUE ...]
     python tools/study_partials.py damping --real node_modules/@audio-samples [--set ...]
     python tools/study_partials.py beats --real node_modules/@audio-samples [--scales 1,0.6] [--keys ...]
+    python tools/study_partials.py tail --real node_modules/@audio-samples [--scales 1,3] [--keys ...]
 
 ``decay``: the early T60 of partials 1-8 of each key, on a real grand's
 samples (the folder of ``tools/real_grand.py``, layer v10) and on the
@@ -19,8 +20,9 @@ levels (the voicing report's measure) and as band levels (the power within
 in a one-second window, which a peak level reads low).
 
 ``ratios``: the prompt ratio a real grand implies, key by key (every
-minor third): ``synth.physics.piano``'s aftersound T60 at f0 over the
-recording's early T60 of partial 1, the median of layers v4, v10 and v14,
+minor third): ``synth.physics.piano``'s reference T60 at f0
+(``t60_prompt_reference_s``, the law the prompt ratios divide; the strings'
+own T60 until 2026-11-27) over the recording's early T60 of partial 1, the median of layers v4, v10 and v14,
 and the running median of five keys (the smoothed curve
 ``synth.physics.piano.TRICHORD_PROMPT_ANCHORS`` follows), beside the
 model's own ratio.
@@ -43,6 +45,14 @@ at each of ``--scales``; then, per scale, the median and the mean absolute
 difference model - real over the keys: the check on
 ``synth.physics.piano.UNISON_SPREAD_CENTS``.
 
+``tail``: how long and how loud a note's aftersound is, against a real
+grand's: the note's level (50 ms frames, dB re its loudest) over
+2.5-9 s (or to 1.5 s before the recording ends: its samples fade out),
+a line through it, as a T60, and the median level over 2.5-4 s; on the
+recording (layers v4, v10, v14) and on the model at velocity 80 with
+``strings.t60_scale`` at each of ``--scales`` (a factor on the strings' own
+T60, the bridge's loss unchanged).
+
 ``una-corda``: the voicing report's una corda measure (the centroid of the
 first 100 ms, CC67 down against up, velocity 80) on any keys, with the
 attack's centroid in units of f0 and the loudness change.
@@ -64,7 +74,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from voicing_report import FS, Renderer, attack_centroid_hz, max_momentary  # noqa: E402
 
 from synth.analysis import estimate_f0, track_partials  # noqa: E402
-from synth.physics.piano import et_f0_hz, grand_string, prompt_ratio  # noqa: E402
+from synth.physics.piano import (  # noqa: E402
+    et_f0_hz, grand_string, prompt_ratio, t60_prompt_reference_s,
+)
 
 N_PARTIALS = 8
 _NAMES = {0: "C", 3: "D#", 6: "F#", 9: "A"}
@@ -152,12 +164,13 @@ def decay(args) -> None:
 
 def implied_ratios(folder: Path, keys, layers=(4, 10, 14)):
     """{key: (early T60 of partial 1 per layer (s), their median, the
-    aftersound T60 over it)} of the recorded grand."""
+    reference T60 (:func:`synth.physics.piano.t60_prompt_reference_s`)
+    over it)} of the recorded grand."""
     out = {}
     for key in keys:
         t = [float(early_t60_s(_load_real(folder, key, v), key)[0]) for v in layers]
         med = float(np.median(t))
-        out[key] = (t, med, grand_string(key).t60_low_s / med)
+        out[key] = (t, med, t60_prompt_reference_s(grand_string(key).f0_hz) / med)
     return out
 
 
@@ -229,13 +242,13 @@ def ratios(args) -> None:
     keys = list(range(21, 109, 3))
     got = implied_ratios(folder, keys)
     smooth = running_median([got[k][2] for k in keys])
-    print("| key | strings | early T60 of partial 1, v4 / v10 / v14 (s) | median | aftersound T60 "
+    print("| key | strings | early T60 of partial 1, v4 / v10 / v14 (s) | median | reference T60 "
           "(model) | implied ratio | running median of 5 | model's ratio |")
     print("|---|---|---|---|---|---|---|---|")
     for key, sm in zip(keys, smooth):
         t, med, r = got[key]
         print(f"| {key} | {grand_string(key).n_strings} | {' / '.join(f'{v:.1f}' for v in t)} | "
-              f"{med:.1f} | {grand_string(key).t60_low_s:.1f} | {r:.1f} | {sm:.1f} | "
+              f"{med:.1f} | {t60_prompt_reference_s(grand_string(key).f0_hz):.1f} | {r:.1f} | {sm:.1f} | "
               f"{prompt_ratio(key):.2f} |")
 
 
@@ -323,6 +336,53 @@ def beats(args) -> None:
         print(f"| {sc:g} | {sc * UNISON_SPREAD_CENTS:.2f} | {np.median(d):+.2f} | {np.mean(np.abs(d)):.2f} |")
 
 
+#: the ``tail`` study's window (s) and level floor (dB re the loudest frame)
+TAIL_SPAN_S, TAIL_LEVEL_S, TAIL_FLOOR_DB = (2.5, 9.0), 1.5, -70.0
+
+
+def tail_t60_and_level(y, span_s=TAIL_SPAN_S, level_s=TAIL_LEVEL_S, floor_db=TAIL_FLOOR_DB):
+    """(T60 (s) of a line through the note's level over ``span_s``, the
+    median level (dB re the loudest 50 ms frame) over the first
+    ``level_s`` of it) of ``y`` (48 kHz, note-on at 0); the span ends at
+    most 1.5 s before ``y`` does.  T60 is inf where the level does not
+    fall, and both NaN with fewer than 20 frames above ``floor_db``."""
+    fr = int(0.05 * FS)
+    n = len(y) // fr
+    lv = 10.0 * np.log10(np.mean(np.asarray(y[:n * fr], dtype=np.float64).reshape(n, fr) ** 2, axis=1)
+                         + 1e-30)
+    lv -= lv.max()
+    t = (np.arange(n) + 0.5) * 0.05
+    t1 = min(span_s[1], len(y) / FS - 1.5)
+    m = (t >= span_s[0]) & (t <= t1) & (lv > floor_db)
+    if m.sum() < 20:
+        return float("nan"), float("nan")
+    slope = np.polyfit(t[m], lv[m], 1)[0]
+    level = float(np.median(lv[(t >= span_s[0]) & (t <= span_s[0] + level_s)]))
+    return (-60.0 / slope if slope < 0 else float("inf")), level
+
+
+def tail(args) -> None:
+    folder = Path(args.real)
+    if not folder.is_dir():
+        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
+    for key in args.keys:
+        if key % 12 not in _NAMES:
+            raise SystemExit(f"study_partials: error: key {key} has no real sample (every minor third from A0)")
+    rs = [(sc, Renderer("grand-piano", tuple(args.set) + (f"strings.t60_scale={sc:g}",)))
+          for sc in args.scales]
+    print(f"The aftersound: T60 (s) of the note's level over {TAIL_SPAN_S[0]:g}-{TAIL_SPAN_S[1]:g} s "
+          f"and its level (dB re the loudest 50 ms) over the first {TAIL_LEVEL_S:g} s of it\n")
+    print("| key | real T60 v4 / v10 / v14 | real level | "
+          + " | ".join(f"model x{sc:g}: T60, level" for sc, _ in rs) + " |")
+    print("|---|---|---|" + "---|" * len(rs))
+    for key in args.keys:
+        real = [tail_t60_and_level(_load_real(folder, key, v)) for v in (4, 10, 14)]
+        got = [tail_t60_and_level(r.note(key, 80, TAIL_SPAN_S[1] + 1.55, keep_s=0.1)) for _, r in rs]
+        print(f"| {key} | {' / '.join(f'{a:.1f}' for a, _ in real)} | "
+              f"{' / '.join(f'{b:.1f}' for _, b in real)} | "
+              + " | ".join(f"{a:.1f}, {b:.1f}" for a, b in got) + " |", flush=True)
+
+
 def una_corda(args) -> None:
     r = Renderer("grand-piano", tuple(args.set))
     print("| key | centroid change | centroid / f0, pedal up -> down | loudness change, dB |")
@@ -377,10 +437,17 @@ def main(argv=None) -> int:
     b.add_argument("--scales", type=_scales, default=_scales("1"),
                    help="comma-separated factors on the law's unison spread (strings.detune_scale)")
     b.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
+    t = sub.add_parser("tail", help="the aftersound's T60 and level, against a real grand's")
+    t.add_argument("--real", required=True, help="the folder of tools/real_grand.py's samples")
+    t.add_argument("--keys", type=_keys, default=_keys("21,27,33,39,45,51,57,60,63,69,75,81,87,93"))
+    t.add_argument("--scales", type=_scales, default=_scales("1"),
+                   help="comma-separated factors on the strings' own T60 (strings.t60_scale)")
+    t.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
     args = ap.parse_args(argv)
     try:
         {"decay": decay, "ratios": ratios, "una-corda": una_corda,
-         "damping": damping, "beats": beats}[args.study](args)
+         "damping": damping, "beats": beats,
+         "tail": tail}[args.study](args)
     except SystemExit as e:
         if isinstance(e.code, str):
             print(e.code, file=sys.stderr)

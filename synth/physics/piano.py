@@ -74,20 +74,25 @@ documented design values, not from a table of 88 typed numbers:
   force takes energy fast from their in-phase motion (the "prompt" sound)
   and hardly any from the motions in which they cancel at the bridge (the
   "aftersound").  ``t60_low_s`` is a string's own decay at f0, the
-  aftersound: a log-log quadratic in f0 through A0 = 40 s, C4 = 20 s and
-  C8 = 6 s (orders of measured late decay times: Martin 1947; Weinreich
-  1977 fig. 8; Bank, Zambon & Fontana 2010; at C8 the lower end of the
-  late T60s, 6-47 s, that the two-stage fit of ``tools/voicing_report.py``
-  gives a Yamaha C5's top keys, recorded, by ``tools/real_grand.py``,
-  docs/voicing.md: with 3.6 s the top octave's aftersound had fallen to
-  the fit's -50 dB floor within 1.5 s; the top octave's prompt sound, 1.1
-  s, is what one hears of its 1-2 s), monotone decreasing over the
-  keyboard.  ``t60_prompt_s`` is the in-phase motion's: ``t60_low_s /
-  PROMPT_RATIO`` (Weinreich's prompt decay rates are 3-10 times the
-  aftersound's; 4 for trichords, up to 7.4 in the middle as a recorded
-  grand's (``TRICHORD_PROMPT_ANCHORS``), easing to 3 over the top octave, 7
-  for bichords, :func:`prompt_ratio`), which fixes the bridge's
-  resistance per key
+  aftersound: a log-log quadratic in f0 through A0 = 120 s, C4 = 50 s and
+  C8 = 6 s (``T60_ANCHORS``).  A0 and C4 are fitted to a recorded grand's
+  tails (a Yamaha C5, the samples of ``tools/real_grand.py``; ``python
+  tools/study_partials.py tail``, 2026-11-27, docs/voicing.md "The
+  aftersound"): with the earlier 40 s and 20 s (orders of measured late
+  decay times: Martin 1947; Weinreich 1977 fig. 8; Bank, Zambon & Fontana
+  2010) the middle's notes fell 2.5-3 times too fast and 8-18 dB too low
+  after 2.5 s; at C8 the lower end of the late T60s, 6-47 s, that the
+  two-stage fit of ``tools/voicing_report.py`` gives the same recording's
+  top keys (with 3.6 s the top octave's aftersound had fallen to the
+  fit's -50 dB floor within 1.5 s; the top octave's prompt sound, 1.1 s, is
+  what one hears of its 1-2 s); monotone decreasing over the keyboard.
+  ``t60_prompt_s`` is the in-phase motion's: the reference law
+  ``PROMPT_REFERENCE_ANCHORS`` (A0 = 40 s, C4 = 20 s, C8 = 6 s, the strings'
+  own law until then) over ``PROMPT_RATIO`` (Weinreich's prompt decay
+  rates are 3-10 times the aftersound's; 4 for trichords, up to 7.4 in the
+  middle as a recorded grand's early decay (``TRICHORD_PROMPT_ANCHORS``),
+  easing to 3 over the top octave, 3 for bichords as the recording's, :func:`prompt_ratio`),
+  which fixes the bridge's resistance per key
   (:func:`bridge_resistance_ns_per_m`): R_b = 2 f0 Z n / (sigma_p -
   sigma_a), Z = sqrt(T mu) the string's impedance, n the strings on it (2
   for the single bass strings, whose bridge is as stiff as their
@@ -181,21 +186,30 @@ STRIKE_RAMP_WIDTH_ST = 2.0
 #: cents beat faster the higher the note, so the treble is tuned closer)
 UNISON_SPREAD_CENTS = 0.6
 UNISON_SPREAD_HZ = 0.6
-T60_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 6.0))
-#: aftersound T60 / prompt T60 at f0 (the unison's in-phase motion decays this
-#: much faster), by strings per key: a bichord's two strings mix their motions
-#: less than a trichord's three, so its bridge couples them harder for the
-#: same two-stage decay (ratio >= 3 between the stages as measured on the
-#: rendered note's level); 7 rather than 6 for G1, the lowest bichord, whose
-#: 49 Hz partial 1 sits on the soundboard's lowest mode (50 Hz, T60 2 s): at
-#: 6 its level's late/early ratio read 2.91 with the board and 3.15 without
-#: it, at 7 3.18 with it (docs/voicing.md)
-PROMPT_RATIO = {1: 4.0, 2: 7.0, 3: 4.0}
+T60_ANCHORS = ((27.5, 120.0), (261.6255653005986, 50.0), (4186.009044809578, 6.0))
+#: the law the prompt ratios divide (s at f0, the same log-log quadratic):
+#: ``t60_prompt_s = `` this ``/ prompt_ratio``.  It was the strings' own
+#: decay until 2026-11-27, when that (``T60_ANCHORS``) was fitted to a
+#: recorded grand's aftersound; the prompt ratios, fitted to the same
+#: recording's early decay against this law, keep the prompt sound as it was
+PROMPT_REFERENCE_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 6.0))
+#: reference T60 (``PROMPT_REFERENCE_ANCHORS``, the strings' own T60 until
+#: 2026-11-27) / prompt T60 at f0 (the unison's in-phase motion decays this
+#: much faster than the reference), by strings per key.  The bichords' 3 is
+#: the recorded grand's (``python tools/study_partials.py ratios``: 2.5-3.4
+#: on keys 33-45, the running median 2.8-3.4): their prompt sound falls in
+#: 7-13 s (the recording's 8-14 s), and with the strings' own decay fitted
+#: to the same recording's tails every bichord still shows its knee
+#: (late/early 3.7-4.6).  It was 7 until 2026-11-27: with the strings' own
+#: T60 at 40 s at A0 the bichords showed no knee at the recording's ratio,
+#: and 7 made them fall in 4-5 s, their aftersound 12-18 dB under the
+#: recording's (docs/voicing.md, "The aftersound")
+PROMPT_RATIO = {1: 4.0, 2: 3.0, 3: 4.0}
 #: a trichord's ratio by key, where it departs from PROMPT_RATIO[3] (linear
 #: between the anchors, MIDI key -> ratio): the middle's fundamentals fall
 #: faster.  Measured on a real grand (a Yamaha C5, the samples of
 #: tools/real_grand.py; `python tools/study_partials.py ratios --real DIR`):
-#: the ratio of this module's aftersound T60 at f0 to the recording's early
+#: the ratio of this module's reference T60 at f0 to the recording's early
 #: T60 of partial 1 (0.1-1.2 s), the median of three velocity layers per key
 #: (every minor third), then the running median of five keys, which the
 #: anchors take at 54-84: up to 7.4 at D#4-F#4, 5.8 at C4 (a single key reads
@@ -205,8 +219,7 @@ PROMPT_RATIO = {1: 4.0, 2: 7.0, 3: 4.0}
 #: recording's own 5.2 (its running median, 2.5, mixes in the bichords 45
 #: and 48; the anchor was 4 until 2026-11-27, when the unison's spread came
 #: down to 0.6 cent and key 51's late/early read 2.95 with it, 3.33 with
-#: 5.2).  The bichords keep 7: the recording's bass reads 2.5-3.4, with
-#: which no bichord of this model shows a knee.
+#: 5.2).
 TRICHORD_PROMPT_ANCHORS = ((51, 5.2), (54, 5.2), (57, 5.2), (60, 5.8), (63, 7.4), (66, 7.4),
                            (69, 7.3), (72, 6.9), (75, 6.9), (78, 5.2), (81, 4.9), (84, 4.9),
                            (87, 4.0))
@@ -432,28 +445,42 @@ def strike_position_for(midi: int) -> float:
     return 1.0 / (STRIKE_RATIO_LOW * 2.0 ** (_strike_ramp(m) / _STRIKE_K))
 
 
-def _t60_low_coeffs():
+def _t60_coeffs(anchors):
     # log2 T60 = c0 + c1 x + c2 x^2, x = log2(f / C4): exact through the anchors
-    xs = [math.log2(f / T60_ANCHORS[1][0]) for f, _ in T60_ANCHORS]
-    ys = [math.log2(t) for _, t in T60_ANCHORS]
+    xs = [math.log2(f / anchors[1][0]) for f, _ in anchors]
+    ys = [math.log2(t) for _, t in anchors]
     A = np.array([[1.0, x, x * x] for x in xs])
     return np.linalg.solve(A, np.array(ys))
 
 
-_T60_C = _t60_low_coeffs()
+_T60_C = _t60_coeffs(T60_ANCHORS)
+_PROMPT_REF_C = _t60_coeffs(PROMPT_REFERENCE_ANCHORS)
 
 
 def t60_fundamental_s(f0_hz: float) -> float:
     """Aftersound decay time (s) of a grand-piano fundamental at ``f0_hz``
-    (20..5000 Hz): the log-log quadratic through A0 = 40 s, C4 = 20 s,
-    C8 = 6 s."""
+    (20..5000 Hz), a string's own: the log-log quadratic through
+    ``T60_ANCHORS`` (A0 = 120 s, C4 = 50 s, C8 = 6 s)."""
     f = _check("f0_hz", f0_hz, 20.0, 5000.0)
     x = math.log2(f / T60_ANCHORS[1][0])
     return 2.0 ** (_T60_C[0] + _T60_C[1] * x + _T60_C[2] * x * x)
 
 
+def t60_prompt_reference_s(f0_hz: float) -> float:
+    """The law the prompt ratios divide (s, 20..5000 Hz): the log-log
+    quadratic through ``PROMPT_REFERENCE_ANCHORS`` (A0 = 40 s, C4 = 20 s,
+    C8 = 6 s); a key's prompt sound decays with this over
+    :func:`prompt_ratio`."""
+    f = _check("f0_hz", f0_hz, 20.0, 5000.0)
+    x = math.log2(f / PROMPT_REFERENCE_ANCHORS[1][0])
+    return 2.0 ** (_PROMPT_REF_C[0] + _PROMPT_REF_C[1] * x + _PROMPT_REF_C[2] * x * x)
+
+
 def prompt_ratio(midi: int) -> float:
-    """Aftersound T60 / prompt T60 of the key's unison: ``PROMPT_RATIO`` by
+    """Reference T60 (:func:`t60_prompt_reference_s`) / prompt T60 of the
+    key's unison (the aftersound over the prompt until 2026-11-27, when the
+    strings' own T60 was fitted to a recorded grand's tails and the prompt
+    kept where this puts it): ``PROMPT_RATIO`` by
     its strings; a trichord's along ``TRICHORD_PROMPT_ANCHORS`` (D#3 to D#6;
     up to 7.4 in the middle, as a real grand's), easing from 4 to 3 over
     the top octave (C7 to C8), whose prompt sound is most of what is heard
@@ -508,7 +535,7 @@ def _build_string(m: int) -> GrandString:
         youngs_modulus_pa=STEEL_YOUNGS_MODULUS_PA, strike_position=strike_position_for(m),
         has_damper=m <= DAMPER_LAST_MIDI, has_capo=m >= CAPO_FIRST_MIDI,
         unison_detune_cents=_unison_detune(m, n), t60_low_s=t60_low, t60_high_s=t60_low,
-        f_high_hz=f_high, t60_prompt_s=t60_low / prompt_ratio(m))
+        f_high_hz=f_high, t60_prompt_s=t60_prompt_reference_s(f0) / prompt_ratio(m))
     return replace(proto, t60_high_s=proto.t60_s(f_high))
 
 
@@ -575,15 +602,17 @@ def bridge_mass_hz(midi: int, ratio: float) -> float:
     return f if f < BRIDGE_MASS_MAX_HZ else 0.0
 
 
-def single_string_t60_s(midi: int) -> float:
+def single_string_t60_s(midi: int, t60_own_s: float | None = None) -> float:
     """T60 (s) at f0 of one of the key's strings alone on its bridge (no
     unison partner): its own loss and the bridge's share of one string,
     ln(1000) / T60 = sigma_a + (sigma_p - sigma_a) / n (n as in
     :func:`bridge_resistance_ns_per_m`): a voice with a single string per
-    key and no coupled unison."""
+    key and no coupled unison.  ``t60_own_s``: the string's own T60 at f0
+    (s; None: the key's ``t60_low_s``), at least its prompt T60."""
     g = grand_string(midi)
     n = max(g.n_strings, 2)
-    sa = 1.0 / g.t60_low_s
+    t_own = g.t60_low_s if t60_own_s is None else _check("t60_own_s", t60_own_s, g.t60_prompt_s, 200.0)
+    sa = 1.0 / t_own
     return 1.0 / (sa + (1.0 / g.t60_prompt_s - sa) / n)
 
 

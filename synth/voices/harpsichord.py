@@ -42,7 +42,7 @@ the piano's.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -132,10 +132,15 @@ class Harpsichord(Voice):
         pre, sp = self.preset, self.preset.strings
         f1 = self.pitch_hz(key)
         dt = 1.0 / self.fs
-        # one string on the bridge: its own loss and the bridge's share
-        t_one = P.single_string_t60_s(key)
+        # one string on the bridge: its own loss and the bridge's share (its
+        # own T60 the grand's law as it was until 2026-11-27, which this
+        # voice was voiced on: the grand's strings' own decay has since been
+        # fitted to a recorded grand's aftersound, a piano's, not this voice's)
+        t_own = P.t60_prompt_reference_s(gs.f0_hz)
+        t_one = P.single_string_t60_s(key, t_own)
         t_lo = t_one * sp.t60_scale
-        t_hi = min(gs.t60_high_s * t_one / gs.t60_low_s * sp.t60_scale, t_lo)
+        g_own = replace(gs, t60_low_s=t_own, t60_high_s=min(gs.t60_high_s, t_own))
+        t_hi = min(g_own.t60_s(gs.f_high_hz) * t_one / t_own * sp.t60_scale, t_lo)
         loop = tune_stiff_loop(f1, gs.inharmonicity_b, self.fs, t_lo, f1, t_hi,
                                max(gs.f_high_hz, 1.5 * f1), m_max=sp.dispersion_sections,
                                f_max_hz=18000.0)
