@@ -662,18 +662,37 @@ def _c_partials_law(it, e):
             bool(abs(c[j]) <= e["cents"]))
 
 
+def _own_partials_hz(item: Item, f1_hz: float) -> np.ndarray:
+    """The note's own partials (Hz) below 0.45 fs: the stiff-string law
+    f_n = n f0 sqrt(1 + B n^2) fitted to its first 8 partials (B 0 for a
+    harmonic note).  A piano's upper partials lie far above n f1 (C4's
+    partial 40: +130 cents), where harmonic guesses would leave them in the
+    halo's probe bands."""
+    fa, _ = partial_peaks(_segment(item), item.fs, f1_hz, min(8, max(1, int(0.45 * item.fs // f1_hz))),
+                          search_cents=60.0)
+    ok = np.isfinite(fa)
+    f0, B = f1_hz, 0.0
+    if ok.sum() >= 3:
+        f0, B = fit_inharmonicity(fa[ok], np.arange(1, len(fa) + 1)[ok])
+        B = min(max(B, 0.0), 0.1)
+    n = np.arange(1, 400)
+    law = n * f0 * np.sqrt(1.0 + B * n * n)
+    return law[law < 0.45 * item.fs]
+
+
 def _c_halo(items, e, others):
     """Energy at the other keys' partial-1 frequencies (bands of
-    ``probe_cents``; those within 40 cents of the note's own partials left
-    out), this render over ``against``, item by item, from ``start_s`` on:
-    the halo of strings that ring along (:func:`synth.analysis.halo`)."""
+    ``probe_cents``; those within 40 cents of the note's own partials, on
+    the stiff-string law fitted to the note without the halo, left out),
+    this render over ``against``, item by item, from ``start_s`` on: the
+    halo of strings that ring along (:func:`synth.analysis.halo`)."""
     out = []
     for a, b in _pairs(items, e, others):
         if a.pitch_of is None or a.key is None:
             raise SpecError(f"check = 'halo' needs a preset's notes (render '{a.render}')")
         f1 = a.pitch_hz
         probes = [a.pitch_of(k) for k in range(21, 109) if k != a.key]
-        own = [n * f1 for n in range(1, 64) if n * f1 < 0.45 * a.fs]
+        own = _own_partials_hz(b, f1)
         s0 = int(e.get("start_s", 0.5) * a.fs)
         n = min(len(a.audio), len(b.audio))
         h = halo(a.audio[s0:n], b.audio[s0:n], a.fs, probes, own,
