@@ -91,8 +91,8 @@ documented design values, not from a table of 88 typed numbers:
   own law until then) over ``PROMPT_RATIO`` (Weinreich's prompt decay
   rates are 3-10 times the aftersound's; 4 for trichords, up to 7.4 in the
   middle as a recorded grand's early decay (``TRICHORD_PROMPT_ANCHORS``),
-  easing to 3 over the top octave, 3 for bichords as the recording's, :func:`prompt_ratio`),
-  which fixes the bridge's resistance per key
+  easing to 3 over the top octave, 3 for bichords as the recording's,
+  :func:`prompt_ratio`), which fixes the bridge's resistance per key
   (:func:`bridge_resistance_ns_per_m`): R_b = 2 f0 Z n / (sigma_p -
   sigma_a), Z = sqrt(T mu) the string's impedance, n the strings on it (2
   for the single bass strings, whose bridge is as stiff as their
@@ -198,7 +198,7 @@ PROMPT_REFERENCE_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.00904
 #: much faster than the reference), by strings per key.  The bichords' 3 is
 #: the recorded grand's (``python tools/study_partials.py ratios``: 2.5-3.4
 #: on keys 33-45, the running median 2.8-3.4): their prompt sound falls in
-#: 7-13 s (the recording's 8-14 s), and with the strings' own decay fitted
+#: 7.6-13.3 s (the recording's 4-15 s), and with the strings' own decay fitted
 #: to the same recording's tails every bichord still shows its knee
 #: (late/early 3.7-4.6).  It was 7 until 2026-11-27: with the strings' own
 #: T60 at 40 s at A0 the bichords showed no knee at the recording's ratio,
