@@ -151,3 +151,21 @@ def test_tail_reads_a_known_decay_and_level():
     assert np.isnan(sp.tail_t60_and_level(y[:int(3.0 * FS)])[0])
     steady = np.sin(2 * np.pi * 261.6 * t)
     assert sp.tail_t60_and_level(steady)[0] == float("inf")
+
+
+def test_level_curve_reads_a_known_decay():
+    """``level_curve_db``: 0.1 s frames of a note falling 20 dB a second
+    read 2 dB a frame, from the loudest (0 dB) down (250 Hz: whole periods
+    in a frame)."""
+    t = np.arange(int(2.0 * FS)) / FS
+    y = 10 ** (-20.0 * t / 20) * np.sin(2 * np.pi * 250.0 * t)
+    c = sp.level_curve_db(y)
+    assert len(c) == 20 and c[0] == 0.0
+    assert np.allclose(np.diff(c), -2.0, atol=0.01)
+
+
+def test_tail_checks_its_arguments():
+    assert sp.main(["tail", "--real", "/no/such/folder"]) == 2
+    assert sp.main(["tail", "--real", ".", "--keys", "40"]) == 2     # no sample every minor third
+    with pytest.raises(SystemExit):
+        sp.main(["tail", "--real", ".", "--scales", "-1"])

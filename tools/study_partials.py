@@ -51,7 +51,11 @@ grand's: the note's level (50 ms frames, dB re its loudest) over
 a line through it, as a T60, and the median level over 2.5-4 s; on the
 recording (layers v4, v10, v14) and on the model at velocity 80 with
 ``strings.t60_scale`` at each of ``--scales`` (a factor on the strings' own
-T60, the bridge's loss unchanged).
+T60, the bridge's loss unchanged).  ``--png F`` draws the level curves of
+keys 39 and 60 (0.1 s frames, 12 s) on the recording and the model, and
+those of ``--before-json J``, written by ``--curves-json J`` on an earlier
+version (``PYTHONPATH=<its checkout>``: this tool runs on packages from
+before the reference law).
 
 ``una-corda``: the voicing report's una corda measure (the centroid of the
 first 100 ms, CC67 down against up, velocity 80) on any keys, with the
@@ -74,9 +78,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from voicing_report import FS, Renderer, attack_centroid_hz, max_momentary  # noqa: E402
 
 from synth.analysis import estimate_f0, track_partials  # noqa: E402
-from synth.physics.piano import (  # noqa: E402
-    et_f0_hz, grand_string, prompt_ratio, t60_prompt_reference_s,
-)
+from synth.physics.piano import et_f0_hz, grand_string, prompt_ratio  # noqa: E402
 
 N_PARTIALS = 8
 _NAMES = {0: "C", 3: "D#", 6: "F#", 9: "A"}
@@ -162,6 +164,14 @@ def decay(args) -> None:
             print(_row(f"{label}, {t0}-{t1} s, band", bd))
 
 
+def _reference_t60_s(key):
+    # imported here: the ``tail`` study also runs against older packages
+    # (PYTHONPATH), which have no reference law
+    from synth.physics.piano import t60_prompt_reference_s
+
+    return t60_prompt_reference_s(grand_string(key).f0_hz)
+
+
 def implied_ratios(folder: Path, keys, layers=(4, 10, 14)):
     """{key: (early T60 of partial 1 per layer (s), their median, the
     reference T60 (:func:`synth.physics.piano.t60_prompt_reference_s`)
@@ -170,7 +180,7 @@ def implied_ratios(folder: Path, keys, layers=(4, 10, 14)):
     for key in keys:
         t = [float(early_t60_s(_load_real(folder, key, v), key)[0]) for v in layers]
         med = float(np.median(t))
-        out[key] = (t, med, t60_prompt_reference_s(grand_string(key).f0_hz) / med)
+        out[key] = (t, med, _reference_t60_s(key) / med)
     return out
 
 
@@ -248,7 +258,7 @@ def ratios(args) -> None:
     for key, sm in zip(keys, smooth):
         t, med, r = got[key]
         print(f"| {key} | {grand_string(key).n_strings} | {' / '.join(f'{v:.1f}' for v in t)} | "
-              f"{med:.1f} | {t60_prompt_reference_s(grand_string(key).f0_hz):.1f} | {r:.1f} | {sm:.1f} | "
+              f"{med:.1f} | {_reference_t60_s(key):.1f} | {r:.1f} | {sm:.1f} | "
               f"{prompt_ratio(key):.2f} |")
 
 
@@ -361,6 +371,68 @@ def tail_t60_and_level(y, span_s=TAIL_SPAN_S, level_s=TAIL_LEVEL_S, floor_db=TAI
     return (-60.0 / slope if slope < 0 else float("inf")), level
 
 
+def level_curve_db(y, frame_s=0.1):
+    """The note's level (dB re its loudest frame) in ``frame_s`` frames."""
+    fr = int(frame_s * FS)
+    n = len(y) // fr
+    lv = 10.0 * np.log10(np.mean(np.asarray(y[:n * fr], dtype=np.float64).reshape(n, fr) ** 2, axis=1)
+                         + 1e-30)
+    return lv - lv.max()
+
+
+#: the ``tail`` study's figure: keys and length (s)
+CURVE_KEYS, CURVE_S = (39, 60), 12.0
+
+
+def _tail_curves(args, folder):
+    """``--curves-json`` and ``--png``: the level curves of ``CURVE_KEYS``
+    (velocity 80), with the recording's and a ``--before-json``'s."""
+    import json
+
+    r = Renderer("grand-piano", tuple(args.set))
+    model = {str(k): level_curve_db(r.note(k, 80, CURVE_S)).tolist() for k in CURVE_KEYS}
+    if args.curves_json:
+        Path(args.curves_json).write_text(json.dumps({"model": model}))
+    if not args.png:
+        return
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        raise SystemExit("study_partials: error: --png needs matplotlib: pip install 'synth[plots]'")
+    before = json.loads(Path(args.before_json).read_text())["model"] if args.before_json else None
+    fig, axs = plt.subplots(1, len(CURVE_KEYS), figsize=(8, 3.6), dpi=100, sharey=True)
+    for ax, k in zip(axs, CURVE_KEYS):
+        for i, v in enumerate((4, 10, 14)):
+            c = level_curve_db(_load_real(folder, k, v))
+            ax.plot((np.arange(len(c)) + 0.5) * 0.1, c, color="0.6", lw=1,
+                    label="recorded grand, v4/v10/v14" if i == 0 else None)
+        for curve, style, colour, label in ((before and before[str(k)], "--", "C3", "model before"),
+                                            (model[str(k)], "-", "C0", "model")):
+            if curve:
+                ax.plot((np.arange(len(curve)) + 0.5) * 0.1, curve, style, color=colour, lw=1.3,
+                        label=label)
+        g = grand_string(k)
+        ax.set_title(f"key {k} ({g.n_strings} strings)", fontsize=10)
+        ax.set_xlim(0, CURVE_S)
+        ax.set_ylim(-75, 2)
+        ax.grid(alpha=0.3)
+        ax.set_xlabel("s")
+    axs[0].set_ylabel("level, dB re the loudest 0.1 s")
+    axs[0].legend(fontsize=8, loc="lower left")
+    fig.suptitle("The aftersound: velocity 80 against a recorded Yamaha C5", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(args.png)
+    plt.close(fig)
+    try:
+        from PIL import Image
+
+        Image.open(args.png).convert("RGB").quantize(64).save(args.png, optimize=True)
+    except ImportError:
+        pass
+
+
 def tail(args) -> None:
     folder = Path(args.real)
     if not folder.is_dir():
@@ -381,6 +453,8 @@ def tail(args) -> None:
         print(f"| {key} | {' / '.join(f'{a:.1f}' for a, _ in real)} | "
               f"{' / '.join(f'{b:.1f}' for _, b in real)} | "
               + " | ".join(f"{a:.1f}, {b:.1f}" for a, b in got) + " |", flush=True)
+    if args.png or args.curves_json:
+        _tail_curves(args, folder)
 
 
 def una_corda(args) -> None:
@@ -443,6 +517,9 @@ def main(argv=None) -> int:
     t.add_argument("--scales", type=_scales, default=_scales("1"),
                    help="comma-separated factors on the strings' own T60 (strings.t60_scale)")
     t.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
+    t.add_argument("--png", help="also draw the level curves of keys 39 and 60 (needs [plots])")
+    t.add_argument("--curves-json", help="also write the model's level curves of keys 39 and 60")
+    t.add_argument("--before-json", help="a --curves-json of an earlier version, drawn beside")
     args = ap.parse_args(argv)
     try:
         {"decay": decay, "ratios": ratios, "una-corda": una_corda,
