@@ -123,6 +123,18 @@ def partial_levels_db(y, key, t0, t1, n=10):
     return peak - np.nanmax(peak), band - band.max()
 
 
+def _real_folder(args, keys=()) -> Path:
+    """``--real`` as a folder, with a sample for every key of ``keys``
+    (the recording has one every minor third from A0); else exit 2."""
+    folder = Path(args.real)
+    if not folder.is_dir():
+        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
+    for key in keys:
+        if key % 12 not in _NAMES:
+            raise SystemExit(f"study_partials: error: key {key} has no real sample (every minor third from A0)")
+    return folder
+
+
 def _load_real(folder: Path, key: int, layer: int = 10):
     from real_grand import load
 
@@ -138,17 +150,13 @@ def _row(label, values, fmt="{:5.1f}"):
 
 
 def decay(args) -> None:
-    folder = Path(args.real)
-    if not folder.is_dir():
-        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
+    folder = _real_folder(args, args.keys)
     r = Renderer("grand-piano", tuple(args.set))
     ln = math.log(1000.0)
     print("Early T60 (s) of partials 1-8, 0.1-1.2 s (99: the level does not fall)\n")
     print("| key | source | " + " | ".join(str(j) for j in range(1, N_PARTIALS + 1)) + " |")
     print("|---|---|" + "---|" * N_PARTIALS)
     for key in args.keys:
-        if key % 12 not in _NAMES:
-            raise SystemExit(f"study_partials: error: key {key} has no real sample (every minor third from A0)")
         g = grand_string(key)
         law = np.array([g.t60_s(g.partial_hz(j)) for j in range(1, N_PARTIALS + 1)])
         sig_b = ln / g.t60_prompt_s - ln / g.t60_low_s
@@ -224,9 +232,7 @@ def ratio_summary(rows):
 def damping(args) -> None:
     from synth.physics.piano import DAMPING_B3_S
 
-    folder = Path(args.real)
-    if not folder.is_dir():
-        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
+    folder = _real_folder(args)
     r = Renderer("grand-piano", tuple(args.set))
     print(f"Early T60 (s) of the partials at {DAMPING_BAND_HZ[0] / 1e3:.0f}-"
           f"{DAMPING_BAND_HZ[1] / 1e3:.0f} kHz within {-DAMPING_FLOOR_DB:.0f} dB of the "
@@ -246,9 +252,7 @@ def damping(args) -> None:
 
 
 def ratios(args) -> None:
-    folder = Path(args.real)
-    if not folder.is_dir():
-        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
+    folder = _real_folder(args)
     keys = list(range(21, 109, 3))
     got = implied_ratios(folder, keys)
     smooth = running_median([got[k][2] for k in keys])
@@ -315,12 +319,7 @@ def beat_roughness_db(y, key):
 def beats(args) -> None:
     from synth.physics.piano import UNISON_SPREAD_CENTS
 
-    folder = Path(args.real)
-    if not folder.is_dir():
-        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
-    for key in args.keys:
-        if key % 12 not in _NAMES:
-            raise SystemExit(f"study_partials: error: key {key} has no real sample (every minor third from A0)")
+    folder = _real_folder(args, args.keys)
     rs = [(sc, Renderer("grand-piano", tuple(args.set) + (f"strings.detune_scale={sc:g}",)))
           for sc in args.scales]
     print(f"Beating of partials 2-8, 0.1-3 s: RMS (dB) about the best two-segment line, median over "
@@ -356,12 +355,8 @@ def tail_t60_and_level(y, span_s=TAIL_SPAN_S, level_s=TAIL_LEVEL_S, floor_db=TAI
     ``level_s`` of it) of ``y`` (48 kHz, note-on at 0); the span ends at
     most 1.5 s before ``y`` does.  T60 is inf where the level does not
     fall, and both NaN with fewer than 20 frames above ``floor_db``."""
-    fr = int(0.05 * FS)
-    n = len(y) // fr
-    lv = 10.0 * np.log10(np.mean(np.asarray(y[:n * fr], dtype=np.float64).reshape(n, fr) ** 2, axis=1)
-                         + 1e-30)
-    lv -= lv.max()
-    t = (np.arange(n) + 0.5) * 0.05
+    lv = level_curve_db(y, 0.05)
+    t = (np.arange(len(lv)) + 0.5) * 0.05
     t1 = min(span_s[1], len(y) / FS - 1.5)
     m = (t >= span_s[0]) & (t <= t1) & (lv > floor_db)
     if m.sum() < 20:
@@ -434,12 +429,7 @@ def _tail_curves(args, folder):
 
 
 def tail(args) -> None:
-    folder = Path(args.real)
-    if not folder.is_dir():
-        raise SystemExit(f"study_partials: error: --real {folder} is not a folder")
-    for key in args.keys:
-        if key % 12 not in _NAMES:
-            raise SystemExit(f"study_partials: error: key {key} has no real sample (every minor third from A0)")
+    folder = _real_folder(args, args.keys)
     rs = [(sc, Renderer("grand-piano", tuple(args.set) + (f"strings.t60_scale={sc:g}",)))
           for sc in args.scales]
     print(f"The aftersound: T60 (s) of the note's level over {TAIL_SPAN_S[0]:g}-{TAIL_SPAN_S[1]:g} s "
