@@ -457,13 +457,17 @@ _T60_C = _t60_coeffs(T60_ANCHORS)
 _PROMPT_REF_C = _t60_coeffs(PROMPT_REFERENCE_ANCHORS)
 
 
+def _t60_law(f0_hz: float, anchors, c) -> float:
+    f = _check("f0_hz", f0_hz, 20.0, 5000.0)
+    x = math.log2(f / anchors[1][0])
+    return 2.0 ** (c[0] + c[1] * x + c[2] * x * x)
+
+
 def t60_fundamental_s(f0_hz: float) -> float:
     """Aftersound decay time (s) of a grand-piano fundamental at ``f0_hz``
     (20..5000 Hz), a string's own: the log-log quadratic through
     ``T60_ANCHORS`` (A0 = 120 s, C4 = 50 s, C8 = 6 s)."""
-    f = _check("f0_hz", f0_hz, 20.0, 5000.0)
-    x = math.log2(f / T60_ANCHORS[1][0])
-    return 2.0 ** (_T60_C[0] + _T60_C[1] * x + _T60_C[2] * x * x)
+    return _t60_law(f0_hz, T60_ANCHORS, _T60_C)
 
 
 def t60_prompt_reference_s(f0_hz: float) -> float:
@@ -471,9 +475,7 @@ def t60_prompt_reference_s(f0_hz: float) -> float:
     quadratic through ``PROMPT_REFERENCE_ANCHORS`` (A0 = 40 s, C4 = 20 s,
     C8 = 6 s); a key's prompt sound decays with this over
     :func:`prompt_ratio`."""
-    f = _check("f0_hz", f0_hz, 20.0, 5000.0)
-    x = math.log2(f / PROMPT_REFERENCE_ANCHORS[1][0])
-    return 2.0 ** (_PROMPT_REF_C[0] + _PROMPT_REF_C[1] * x + _PROMPT_REF_C[2] * x * x)
+    return _t60_law(f0_hz, PROMPT_REFERENCE_ANCHORS, _PROMPT_REF_C)
 
 
 def prompt_ratio(midi: int) -> float:
