@@ -169,3 +169,24 @@ def test_tail_checks_its_arguments():
     assert sp.main(["tail", "--real", ".", "--keys", "40"]) == 2     # no sample every minor third
     with pytest.raises(SystemExit):
         sp.main(["tail", "--real", ".", "--scales", "-1"])
+
+
+def test_thump_reads_the_band_below_the_note_re_c4s_partial_1():
+    """``thump_db``: a 100 Hz hum of amplitude a under a note, against a C4
+    of amplitude A, reads 20 log10(a / A); the note's own partial 1 and
+    anything above 1 kHz or f0 / 2 is left out of the band."""
+    t = np.arange(int(0.3 * FS)) / FS
+    c4 = 0.5 * np.sin(2 * np.pi * sp.et_f0_hz(60) * t)
+    for key in (96, 60):
+        note = np.sin(2 * np.pi * sp.et_f0_hz(key) * t + 0.4)
+        hum = 0.02 * np.sin(2 * np.pi * 100.0 * t + 1.0)
+        assert abs(sp.thump_db(note + hum, key, c4) - 20 * math.log10(0.02 / 0.5)) < 0.1
+    # under key 60 a 600 Hz component lies above f0 / 2 (131 Hz): not the thump
+    key = 60
+    note = np.sin(2 * np.pi * sp.et_f0_hz(key) * t) + 0.02 * np.sin(2 * np.pi * 600.0 * t)
+    assert sp.thump_db(note, key, c4) < 20 * math.log10(0.02 / 0.5) - 40
+
+
+def test_thump_checks_its_arguments():
+    assert sp.main(["thump", "--real", "/no/such/folder"]) == 2
+    assert sp.main(["thump", "--real", ".", "--keys", "61"]) == 2    # no sample every minor third

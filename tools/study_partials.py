@@ -6,6 +6,7 @@
     python tools/study_partials.py damping --real node_modules/@audio-samples [--set ...]
     python tools/study_partials.py beats --real node_modules/@audio-samples [--scales 1,0.6] [--keys ...]
     python tools/study_partials.py tail --real node_modules/@audio-samples [--scales 1,3] [--keys ...]
+    python tools/study_partials.py thump --real node_modules/@audio-samples [--keys ...] [--set ...]
 
 ``decay``: the early T60 of partials 1-8 of each key, on a real grand's
 samples (the folder of ``tools/real_grand.py``, layer v10) and on the
@@ -56,6 +57,21 @@ keys 39 and 60 (0.1 s frames, 12 s) on the recording and the model, and
 those of ``--before-json J``, written by ``--curves-json J`` on an earlier
 version (``PYTHONPATH=<its checkout>``: this tool runs on packages from
 before the reference law).
+
+``thump``: how loud the low thump under a note's attack is (the key on
+the keybed, the action and the case: ``action.knock``), against a real
+grand's: the power over the first 100 ms (Hann window, mean removed) in
+20 Hz to 1 kHz or f0 / 2, whichever is lower (below the note's own
+partials), in dB re the power of C4's partial 1 (within 0.3 f0 of 261.6
+Hz) over the same window in the same layer, so a key's thump is read on
+the keyboard's common scale, not on its own tone; on the recording
+(layers v4, v10, v14) and on the model at velocities 40, 80, 110, and at
+80 with ``action.knock = 0`` (what the strings and the board give without
+it); then the median gap real - model at each pair and the knock that
+closes the median at velocity 80 (the thump is linear in ``action.knock``
+once the knock carries the band).  Keys 48-105 by default: below C3 the
+band (20 Hz to f0 / 2, 46 Hz at F#2) lies under the board's lowest mode
+(50 Hz), where the model's board carries nothing to compare.
 
 ``una-corda``: the voicing report's una corda measure (the centroid of the
 first 100 ms, CC67 down against up, velocity 80) on any keys, with the
@@ -121,6 +137,35 @@ def partial_levels_db(y, key, t0, t1, n=10):
     band = np.array([10 * np.log10(P[np.abs(fr - j * f0 * math.sqrt(1 + B * j * j)) < 0.45 * f0].sum()
                                    + 1e-300) for j in range(1, n + 1)])
     return peak - np.nanmax(peak), band - band.max()
+
+
+#: the thump's band (Hz): from THUMP_LOW_HZ to THUMP_HIGH_HZ or f0 / 2, whichever is lower
+THUMP_LOW_HZ, THUMP_HIGH_HZ = 20.0, 1000.0
+#: the attack window the thump is read over (s)
+THUMP_WINDOW_S = 0.1
+#: the recording's layers and the model's velocities read against each other
+THUMP_PAIRS = ((4, 40), (10, 80), (14, 110))
+
+
+def _band_power_db(y, lo_hz, hi_hz, window_s=THUMP_WINDOW_S):
+    """Power (dB) of ``y``'s first ``window_s`` (Hann, mean removed, 8x
+    zero-padded) in ``lo_hz`` < f < ``hi_hz``."""
+    seg = np.array(y[:int(round(window_s * FS))], dtype=np.float64)
+    seg -= seg.mean()
+    n = 8 * len(seg)
+    P = np.abs(np.fft.rfft(seg * np.hanning(len(seg)), n)) ** 2
+    fr = np.fft.rfftfreq(n, 1.0 / FS)
+    return 10.0 * math.log10(P[(fr > lo_hz) & (fr < hi_hz)].sum() + 1e-300)
+
+
+def thump_db(y, key, c4):
+    """The thump under key ``key``'s attack ``y``: its power below the
+    note (20 Hz to 1 kHz or f0 / 2) over the first 100 ms, dB re the power
+    of partial 1 of ``c4`` (C4 in the same layer) over the same window."""
+    f0 = et_f0_hz(key)
+    ref = et_f0_hz(60)
+    return (_band_power_db(y, THUMP_LOW_HZ, min(THUMP_HIGH_HZ, 0.5 * f0))
+            - _band_power_db(c4, 0.7 * ref, 1.3 * ref))
 
 
 def _real_folder(args, keys=()) -> Path:
@@ -447,6 +492,35 @@ def tail(args) -> None:
         _tail_curves(args, folder)
 
 
+def thump(args) -> None:
+    folder = _real_folder(args, list(args.keys) + [60])
+    r = Renderer("grand-piano", tuple(args.set))
+    knock = float(r.voice.preset.action.knock or 0.0)
+    r0 = Renderer("grand-piano", tuple(args.set) + ("action.knock=0",))
+    c4r = {v: _load_real(folder, 60, v) for v, _ in THUMP_PAIRS}
+    c4m = {m: r.note(60, m, 0.3) for _, m in THUMP_PAIRS}
+    c40 = r0.note(60, 80, 0.3)
+    print(f"thump re C4's partial 1, dB (action.knock = {knock:g})")
+    print("| key | recording v4 / v10 / v14 | model 40 / 80 / 110 | model 80, knock 0 | gap at 80 |")
+    print("|---|---|---|---|---|")
+    gaps = {m: [] for _, m in THUMP_PAIRS}
+    for key in args.keys:
+        real = [thump_db(_load_real(folder, key, v), key, c4r[v]) for v, _ in THUMP_PAIRS]
+        model = [thump_db(r.note(key, m, 0.3), key, c4m[m]) for _, m in THUMP_PAIRS]
+        bare = thump_db(r0.note(key, 80, 0.3), key, c40)
+        for (a, b), (_, m) in zip(zip(real, model), THUMP_PAIRS):
+            gaps[m].append(a - b)
+        print(f"| {key} | {' / '.join(f'{a:.1f}' for a in real)} | "
+              f"{' / '.join(f'{b:.1f}' for b in model)} | {bare:.1f} | {real[1] - model[1]:+.1f} |", flush=True)
+    for v, m in THUMP_PAIRS:
+        g = np.array(gaps[m])
+        print(f"v{v} against velocity {m}: gap real - model median {np.median(g):+.1f} dB, "
+              f"quartiles {np.percentile(g, 25):+.1f} / {np.percentile(g, 75):+.1f}")
+    g80 = float(np.median(gaps[80]))
+    if knock > 0:
+        print(f"the knock that closes the median gap at velocity 80: {knock * 10 ** (g80 / 20):.2f}")
+
+
 def una_corda(args) -> None:
     r = Renderer("grand-piano", tuple(args.set))
     print("| key | centroid change | centroid / f0, pedal up -> down | loudness change, dB |")
@@ -510,11 +584,15 @@ def main(argv=None) -> int:
     t.add_argument("--png", help="also draw the level curves of keys 39 and 60 (needs [plots])")
     t.add_argument("--curves-json", help="also write the model's level curves of keys 39 and 60")
     t.add_argument("--before-json", help="a --curves-json of an earlier version, drawn beside")
+    h = sub.add_parser("thump", help="the low thump under the attack, against a real grand's")
+    h.add_argument("--real", required=True, help="the folder of tools/real_grand.py's samples")
+    h.add_argument("--keys", type=_keys, default=_keys("48,54,60,66,72,78,84,90,96,102,105"))
+    h.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
     args = ap.parse_args(argv)
     try:
         {"decay": decay, "ratios": ratios, "una-corda": una_corda,
          "damping": damping, "beats": beats,
-         "tail": tail}[args.study](args)
+         "tail": tail, "thump": thump}[args.study](args)
     except SystemExit as e:
         if isinstance(e.code, str):
             print(e.code, file=sys.stderr)

@@ -272,6 +272,8 @@ MAX_INPUTS = MAX_OUTPUTS = 2
 KNOCK_DURATION_S = 0.005
 KNOCK_DURATION_RANGE_S = (0.0002, 0.02)
 KNOCK_IMPULSE_RATIO = 0.1
+#: the largest knock ratio allowed (the grand's fitted 3.9, with room)
+KNOCK_RATIO_MAX = 10.0
 
 
 @dataclass(frozen=True)
@@ -789,20 +791,26 @@ def smoothed_db(f_hz, power, fraction=1.0 / 3.0):
 def knock_impulse_ns(hammer_mass_kg, hammer_speed_m_per_s, ratio=KNOCK_IMPULSE_RATIO):
     """Impulse of the knock as an equivalent bridge force (N s).
 
-    ``J = ratio * m_h * v_h``: a fraction of the hammer's momentum. Why this
+    ``J = ratio * m_h * v_h``: a multiple of the hammer's momentum. Why this
     scale: the key stops on the keybed within a few ms of the hammer-string
     contact (Askenfelt & Jansson 1990), carrying a momentum m_k v_k; with the
     grand action's hammer-to-key speed ratio of about 5 and an effective
     key mass at the front of ~0.05 kg, m_k v_k ~ 0.01 v_h, about the
     hammer's own momentum (5-11 g, :func:`synth.physics.piano.hammer_mass_kg`
-    with one string). Only part of it reaches the board, through the keybed,
-    the case and the rim; ``KNOCK_IMPULSE_RATIO`` = 0.1 (-20 dB re the
-    hammer's momentum) is an estimate, not a measured transfer (the sources
-    give the mechanism, timing and spectrum of the thump, not its force).
+    with one string). It reaches the air through the keybed, the case, the
+    rim and the board, and the hammer's blow also pushes the whole
+    string-frame-board system; J is the force on the bridge that radiates
+    the same thump, not a transferred momentum, so ``ratio`` may exceed 1.
+    ``KNOCK_IMPULSE_RATIO`` = 0.1 is an estimate (the sources give the
+    mechanism, timing and spectrum of the thump, not its force); the grand
+    preset's ``action.knock`` = 3.9 is fitted to a recorded grand's thump
+    (``python tools/study_partials.py thump``: 20 Hz to 1 kHz or f0/2
+    over the first 100 ms, re C4's partial 1; docs/voicing.md "The thump").
     For comparison, the hammer gives the string about m_h v_h, which reaches
     the bridge as the string's own wave. Linear in the hammer speed, so the
     knock keeps its level relative to the tone at every velocity
-    (:func:`knock_pulse` makes the force signal).
+    (:func:`knock_pulse` makes the force signal), as the recording's does
+    (its thump re C4's partial 1 moves by under 3 dB between layers).
 
     Parameters
     ----------
@@ -811,7 +819,7 @@ def knock_impulse_ns(hammer_mass_kg, hammer_speed_m_per_s, ratio=KNOCK_IMPULSE_R
     hammer_speed_m_per_s : float
         Hammer speed at the strings, 0 .. 20 m/s.
     ratio : float
-        Impulse re the hammer's momentum, 0 .. 1 (default 0.1).
+        Impulse re the hammer's momentum, 0 .. 10 (default 0.1).
 
     Returns
     -------
@@ -820,7 +828,7 @@ def knock_impulse_ns(hammer_mass_kg, hammer_speed_m_per_s, ratio=KNOCK_IMPULSE_R
     """
     m = _float_param("hammer_mass_kg", hammer_mass_kg, 0.001, 0.05, unit=" kg")
     v = _float_param("hammer_speed_m_per_s", hammer_speed_m_per_s, 0.0, 20.0, unit=" m/s")
-    ratio = _float_param("ratio", ratio, 0.0, 1.0)
+    ratio = _float_param("ratio", ratio, 0.0, KNOCK_RATIO_MAX)
     return ratio * m * v
 
 

@@ -295,7 +295,7 @@ SECTIONS: tuple[Section, ...] = (
               "voiced for a concert grand (synth.physics.piano.VOICINGS)",
               choices=("thesis", "concert")),
         Field("knock", "float", "impulse of the action's knock on the board (the key on the "
-              "keybed: the thump under a note) re the hammer's momentum (0: none)", 0.0, 1.0),
+              "keybed: the thump under a note) re the hammer's momentum (0: none)", 0.0, 10.0),
         Field("hardness", "float", "factor on every key's felt stiffness (Q0 or F0): above 1 "
               "hammers voiced harder (lacquered, brighter), below 1 softer (needled)", 0.25, 4.0,
               default=1.0),
