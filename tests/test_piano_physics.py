@@ -216,8 +216,10 @@ def test_three_parameter_hammer_laws():
 
 def test_concert_voicing_keeps_the_laws_and_changes_their_constants():
     """The grand's voicing: the same forms, softer in the bass and harder in
-    the treble (static force at 0.3 mm x0.25 at A0, x1.18 at C4, x8 at C8 of
-    the thesis's), C4's near Chaigne & Askenfelt's felt (7.0 N at 0.3 mm)."""
+    the treble (static force at 0.3 mm x0.25 at A0, x1.18 at C4, x2.4 at C8
+    of the thesis's), C4's and C7's near Chaigne & Askenfelt's felts (7.0 N
+    and 27 N at 0.3 mm); from C#5 to C7 the treble eases to that C7 felt
+    (24.4 N) and to about the thesis's hereditary time (x0.67 at C7)."""
     from synth.physics.piano import CONCERT_VOICING, VOICINGS
 
     def force(m, v):
@@ -225,9 +227,16 @@ def test_concert_voicing_keeps_the_laws_and_changes_their_constants():
         return q0 * 0.3 ** p
 
     assert VOICINGS["thesis"] == P.THESIS_VOICING and VOICINGS["concert"] == CONCERT_VOICING
-    for m, ratio in ((21, 0.25), (60, 1.18), (108, 8.0)):
+    for m, ratio in ((21, 0.25), (60, 1.18), (96, 1.48), (108, 2.38)):
         assert force(m, CONCERT_VOICING) / force(m, P.THESIS_VOICING) == pytest.approx(ratio, rel=0.1)
     assert force(60, CONCERT_VOICING) == pytest.approx(7.4, rel=0.05)
+    assert force(96, CONCERT_VOICING) == pytest.approx(27.0, rel=0.12)
+    for m in range(78, 97):
+        assert force(m, CONCERT_VOICING) == pytest.approx(24.4, rel=0.01)
+    alpha = [hammer_three_param(m, v).alpha_s for v in (CONCERT_VOICING, P.THESIS_VOICING) for m in (96, 108)]
+    assert alpha[0] / alpha[2] == pytest.approx(0.67, abs=0.01) and alpha[1] / alpha[3] == pytest.approx(0.91, abs=0.01)
+    # the thesis's own voicing has no treble easing
+    assert P.THESIS_VOICING.treble_q == P.THESIS_VOICING.treble_alpha == 1.0
     ps = [hammer_three_param(m, CONCERT_VOICING).p for m in MIDIS]
     assert ps[0] == pytest.approx(3.707, abs=1e-3) and ps[-1] == pytest.approx(4.307, abs=1e-3)
     assert np.all(np.diff([hammer_three_param(m, CONCERT_VOICING).q0_n_per_mm_p for m in MIDIS]) > 0)

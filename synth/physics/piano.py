@@ -642,7 +642,10 @@ class HammerVoicing(NamedTuple):
     """Constants of the three-parameter felt laws (the thesis's forms,
     eqs. 1.6-1.8): Q0 = q_a exp(q_b n) N/mm^p, p = p_c + p_d n, alpha =
     alpha_scale exp(alpha_tilt (n - 44)) (259.5 + 0.58 n + 6.6e-2 n^2 -
-    1.25e-3 n^3 + 1.172e-5 n^4) microseconds, n = midi - 20."""
+    1.25e-3 n^3 + 1.172e-5 n^4) microseconds, n = midi - 20; then, for the
+    treble, Q0 times treble_q ** w and alpha times treble_alpha ** w with
+    w = (n - treble_from) / treble_span clipped to 0 .. 1 (the defaults
+    change nothing)."""
 
     q_a: float
     q_b: float
@@ -650,6 +653,10 @@ class HammerVoicing(NamedTuple):
     p_d: float
     alpha_scale: float
     alpha_tilt: float
+    treble_from: float = 88.0
+    treble_span: float = 1.0
+    treble_q: float = 1.0
+    treble_alpha: float = 1.0
 
 
 #: the felt laws as the thesis prints them (its Abel hammer set, unvoiced)
@@ -660,12 +667,19 @@ THESIS_VOICING = HammerVoicing(183.0, 0.045, 3.7, 0.015, 1.0, 0.0)
 #: bass and harder in the treble than it leaves the factory.  The static
 #: force at 0.3 mm of compression is x0.25 the thesis's at A0, x1.18 at C4
 #: (7.4 N: Chaigne & Askenfelt 1994's C4 felt, K = 4.5e9 N/m^2.5, gives
-#: 7.0 N) and x8 at C8; the exponent rises from 3.7 to 4.3 (thesis 3.7 to
+#: 7.0 N), 24.4 N from C#5 to C7 (x1.5 the thesis's at C7; Chaigne &
+#: Askenfelt's C7 felt, K = 1.0e12 N/m^3, gives 27 N) and x2.4 at C8; the exponent rises from 3.7 to 4.3 (thesis 3.7 to
 #: 5.0; Chaigne & Askenfelt's 2.3, 2.5, 3.0 at C2, C4, C7 and Hall &
 #: Askenfelt 1988's 2.2-3.5 rise the same way, less steeply); the
-#: hereditary time is x0.3 at A0, x0.85 at C4, x3 at C8 (it keeps a treble
-#: hammer firm at small compression, so the top keys speak at pp).  Q0, p
-#: and alpha were fitted on the rendered grand (the hammer study of issue
+#: hereditary time is x0.3 at A0, x0.85 at C4, x1.4 at C#5 (its largest),
+#: x0.7 at C7 and x0.9 at C8.  From C#5 (thesis key 58) to C7 (76) the treble eases from
+#: the concert tilts (x8 stiffness, x3 hereditary time at C8 until
+#: 2026-11-27) back to those measured felts (``treble_q`` = ``treble_alpha``
+#: = 0.3 there): with the harder, more hereditary felt the una corda's
+#: softer felt could not darken keys 90-98 (-6 % at C7 under CC67 against
+#: the 10 % asked; now 11-28 % on every key from C#5 up, docs/voicing.md
+#: "The treble's felt"), while the top keys keep their pp and loudness.
+#: Q0, p and alpha were fitted on the rendered grand (the hammer study of issue
 #: 11: C4's 35 dB from velocity 1 to 127, its partials 2-8 within 25 dB at
 #: velocity 80, the top octave alive at pp), within those measured orders;
 #: with the preset's hammer speeds 0.2-7.5 m/s (Askenfelt & Jansson 1991: ~1
@@ -673,7 +687,8 @@ THESIS_VOICING = HammerVoicing(183.0, 0.045, 3.7, 0.015, 1.0, 0.0)
 #: string after let-off).  The masses stay the thesis's (eq. 1.9): their
 #: share per string, 4.96 / 2.76 / 2.01 g at C2 / C4 / C7, is Chaigne &
 #: Askenfelt's 4.9 / 2.97 / 2.2 g.
-CONCERT_VOICING = HammerVoicing(44.0, 0.0750, 3.7, 0.0069, 0.95, 0.0265)
+CONCERT_VOICING = HammerVoicing(44.0, 0.0750, 3.7, 0.0069, 0.95, 0.0265,
+                               treble_from=58.0, treble_span=18.0, treble_q=0.3, treble_alpha=0.3)
 
 #: the voicings a preset may name (``action.voicing``)
 VOICINGS = {"thesis": THESIS_VOICING, "concert": CONCERT_VOICING}
@@ -695,6 +710,9 @@ def hammer_three_param(midi: int, voicing: HammerVoicing = THESIS_VOICING) -> Th
     p = v.p_c + v.p_d * n
     alpha_us = 259.5 + 0.58 * n + 6.6e-2 * n ** 2 - 1.25e-3 * n ** 3 + 1.172e-5 * n ** 4
     alpha_us *= v.alpha_scale * math.exp(v.alpha_tilt * (n - 44))
+    w = min(max((n - v.treble_from) / v.treble_span, 0.0), 1.0)
+    q0 *= v.treble_q ** w
+    alpha_us *= v.treble_alpha ** w
     return ThreeParamHammer(q0, p, alpha_us * 1e-6)
 
 
