@@ -240,7 +240,11 @@ def test_a_pedal_let_up_is_not_a_click():
     the whole file's click scan read 30.3 dB there (the report's limit is
     30); the grand's ``dampers.land_s`` of 20 ms takes it to 21.4.  On the
     file's 80.9-85.5 s alone (the notes held before it not sounding) the
-    scan reads 19.1-19.3 dB at 5 ms and 12.7-13.2 dB with the preset."""
+    scan reads 19.1-19.3 dB at 5 ms and 12.7-13.2 dB with the preset; with
+    the knock fitted to a recorded grand's thump (``action.knock`` 3.9
+    instead of 0.25, 2026-11-27) 24.4 and 15.3-16.5 dB, the worst frame
+    then the let-up itself (3.83 s), over the thump of the key restruck
+    87 ms before, still ringing on the board."""
     import synth.io.midi as M
     from synth.analysis.clicks import click_scan
     raw = M.read_midi_file(str(_REGER))
@@ -253,7 +257,7 @@ def test_a_pedal_let_up_is_not_a_click():
         y = engine("grand-piano", sets).render(ev, duration_s=4.6)
         worst[sets] = max(click_scan(y[:, c], FS, ignore_s=on)["worst_jump_db"]
                           for c in range(y.shape[1]))
-    assert worst[()] <= 16.0, worst
+    assert worst[()] <= 20.0, worst
     assert worst[("dampers.land_s=0.005",)] >= worst[()] + 4.0, worst
 
 
@@ -520,3 +524,25 @@ def test_the_thump_under_the_attack_is_a_recorded_grands():
     for key in (60, 96):
         y = c4 if key == 60 else render(key, 80 / 127, 0.3)[0]
         assert -30.0 <= thump_db(y, key, c4) <= -12.0, (key, thump_db(y, key, c4))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("key", [90, 96, 102])
+def test_the_una_corda_darkens_the_top_keys(key):
+    """Issue 11's una corda target on the top keys, by the voicing
+    report's measure (the centroid of the first 100 ms, flat window with a
+    10 ms fade, CC67 down against up, velocity 80): 2026-11-27, -11.6,
+    -11.7 and -16.4 % on keys 90, 96 and 102 with the treble's felt eased
+    to measured felts and the knock at a recorded grand's thump (-9.8,
+    -6.0, -14.0 % with the knock alone; keys 90 and 96 -4.8 and +4.2 %
+    before both)."""
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
+    from voicing_report import attack_centroid_hz
+
+    up, _ = render(key, 80 / 127, 0.3)
+    down, _ = render(key, 80 / 127, 0.3, events=[Event(0.0, "control", 67, 1.0)])
+    change = attack_centroid_hz(down) / attack_centroid_hz(up) - 1.0
+    assert change <= -0.10, change
