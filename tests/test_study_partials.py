@@ -190,3 +190,17 @@ def test_thump_reads_the_band_below_the_note_re_c4s_partial_1():
 def test_thump_checks_its_arguments():
     assert sp.main(["thump", "--real", "/no/such/folder"]) == 2
     assert sp.main(["thump", "--real", ".", "--keys", "61"]) == 2    # no sample every minor third
+
+
+def test_thump_spectrum_reads_band_densities():
+    """``thump_spectrum_db``: tones at 50, 200, 500 and 850 Hz of amplitudes
+    1, 1, 0.5, 0.25 read the band powers per Hz: 10 log10(a^2 / width)
+    re the 90-360 Hz band's."""
+    t = np.arange(int(0.3 * FS)) / FS
+    y = (np.sin(2 * np.pi * 50 * t) + np.sin(2 * np.pi * 200 * t)
+         + 0.5 * np.sin(2 * np.pi * 500 * t) + 0.25 * np.sin(2 * np.pi * 850 * t))
+    got = sp.thump_spectrum_db(y)
+    widths = [70.0, 270.0, 360.0, 280.0]
+    amps = [1.0, 1.0, 0.5, 0.25]
+    want = [10 * math.log10(a * a / w) - 10 * math.log10(1.0 / 270.0) for a, w in zip(amps, widths)]
+    assert np.allclose(got, want, atol=0.2), (got, want)

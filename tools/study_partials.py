@@ -71,7 +71,11 @@ it); then the median gap real - model at each pair and the knock that
 closes the median at velocity 80 (the thump is linear in ``action.knock``
 once the knock carries the band).  Keys 48-105 by default: below C3 the
 band (20 Hz to f0 / 2, 46 Hz at F#2) lies under the board's lowest mode
-(50 Hz), where the model's board carries nothing to compare.
+(50 Hz), where the model's board carries nothing to compare.  Then, on
+the keys whose f0 / 2 lies above 1 kHz, the thump's spectrum: its power
+per Hz in 20-90, 360-720 and 720-1000 Hz re 90-360 Hz, the recording (the
+mean of its layers) and the model at velocity 80 (``action.knock_s``, the
+pulse's duration, sets how high it reaches).
 
 ``una-corda``: the voicing report's una corda measure (the centroid of the
 first 100 ms, CC67 down against up, velocity 80) on any keys, with the
@@ -166,6 +170,18 @@ def thump_db(y, key, c4):
     ref = et_f0_hz(60)
     return (_band_power_db(y, THUMP_LOW_HZ, min(THUMP_HIGH_HZ, 0.5 * f0))
             - _band_power_db(c4, 0.7 * ref, 1.3 * ref))
+
+
+#: the thump's spectrum: bands (Hz) whose power per Hz is read re the 90-360 Hz band's
+THUMP_BANDS_HZ = ((20.0, 90.0), (90.0, 360.0), (360.0, 720.0), (720.0, 1000.0))
+
+
+def thump_spectrum_db(y):
+    """The thump's spectrum over the first 100 ms: the power per Hz in each
+    of ``THUMP_BANDS_HZ``, dB re the 90-360 Hz band's (read it on keys
+    whose f0 / 2 lies above 1 kHz, where no partial falls in the bands)."""
+    lv = [_band_power_db(y, lo, hi) - 10.0 * math.log10(hi - lo) for lo, hi in THUMP_BANDS_HZ]
+    return np.array(lv) - lv[1]
 
 
 def _real_folder(args, keys=()) -> Path:
@@ -519,6 +535,18 @@ def thump(args) -> None:
     g80 = float(np.median(gaps[80]))
     if knock > 0:
         print(f"the knock that closes the median gap at velocity 80: {knock * 10 ** (g80 / 20):.2f}")
+    top = [k for k in args.keys if et_f0_hz(k) / 2 >= THUMP_BANDS_HZ[-1][1]]
+    if top:
+        names = " | ".join(f"{lo:.0f}-{hi:.0f} Hz" for lo, hi in THUMP_BANDS_HZ)
+        print(f"\nthe thump's spectrum, power per Hz re 90-360 Hz, dB (action.knock_s = "
+              f"{r.voice.preset.action.knock_s:g} s)")
+        print(f"| key | | {names} |")
+        print("|---|---|" + "---|" * len(THUMP_BANDS_HZ))
+        for key in top:
+            real = np.mean([thump_spectrum_db(_load_real(folder, key, v)) for v, _ in THUMP_PAIRS], axis=0)
+            model = thump_spectrum_db(r.note(key, 80, 0.3))
+            print(f"| {key} | recording (v4-v14 mean) | " + " | ".join(f"{x:.1f}" for x in real) + " |")
+            print(f"| {key} | model, velocity 80 | " + " | ".join(f"{x:.1f}" for x in model) + " |")
 
 
 def una_corda(args) -> None:

@@ -389,6 +389,11 @@ class GrandPianoInstrument(Voice):
         .. 1 (the treble end, bus 1): linear in the key."""
         return (int(key) - self.KEY_LOW) / (self.KEY_HIGH - self.KEY_LOW)
 
+    def knock_duration_s(self) -> float:
+        """Duration (s) of the knock's force pulse, ``action.knock_s``
+        (:func:`synth.physics.soundboard.knock_pulse`)."""
+        return float(self.preset.action.knock_s)
+
     def knock_impulse_ns(self, key, velocity: float, speed_m_per_s: float | None = None) -> float:
         """The action's knock at a note-on (:func:`synth.physics.soundboard.
         knock_impulse_ns`: ``action.knock`` of the whole hammer's momentum

@@ -117,6 +117,7 @@ class ActionSpec:
     voicing: str = "thesis"      # constants of the three-parameter laws (synth.physics.piano.VOICINGS)
     knock: float | None = None   # the knock's impulse re the hammer's momentum (0: none)
     hardness: float = 1.0        # factor on every key's felt stiffness (voicing: lacquer > 1, needles < 1)
+    knock_s: float = 0.005       # duration of the knock's force pulse (s)
 
 
 @dataclass(frozen=True)

@@ -299,6 +299,9 @@ SECTIONS: tuple[Section, ...] = (
         Field("hardness", "float", "factor on every key's felt stiffness (Q0 or F0): above 1 "
               "hammers voiced harder (lacquered, brighter), below 1 softer (needled)", 0.25, 4.0,
               default=1.0),
+        Field("knock_s", "float", "duration of the knock's force pulse, s (the shorter, the "
+              "higher its thump reaches: 5 ms up to ~400 Hz, 1.5 ms ~1.3 kHz)", 2e-4, 0.02,
+              default=0.005),
     ), when=When("voice", ("grand",)), checks=(
         OrderCheck("speed_min_m_per_s", "<", "speed_max_m_per_s"),)),
     Section("strings", "per-key piano strings (scale factors on synth.physics.piano)", StringsSpec, (
