@@ -514,7 +514,7 @@ def test_the_thump_under_the_attack_is_a_recorded_grands():
     """Issue 11, the action's knock at a recorded grand's level (a Yamaha
     C5, ``tools/study_partials.py thump``): the power below the note (20 Hz
     to 1 kHz or f0 / 2) over the first 100 ms, re C4's partial 1, reads
-    -14.2 to -20.4 dB under C4 and -21.8 to -23.5 dB under C7 in the
+    -14.2 to -20.4 dB under C4 and -21.7 to -23.4 dB under C7 in the
     recording's three layers.  With ``action.knock`` = 3.9 the model reads
     about -24 and -21 dB at velocity 80; with the old 0.25, -42.8 and
     -44.1 dB."""

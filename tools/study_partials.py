@@ -97,7 +97,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from voicing_report import FS, Renderer, attack_centroid_hz, max_momentary  # noqa: E402
 
-from synth.analysis import estimate_f0, track_partials  # noqa: E402
+from synth.analysis import band_levels_db, estimate_f0, track_partials  # noqa: E402
 from synth.physics.piano import et_f0_hz, grand_string, prompt_ratio  # noqa: E402
 
 N_PARTIALS = 8
@@ -152,14 +152,11 @@ THUMP_PAIRS = ((4, 40), (10, 80), (14, 110))
 
 
 def _band_power_db(y, lo_hz, hi_hz, window_s=THUMP_WINDOW_S):
-    """Power (dB) of ``y``'s first ``window_s`` (Hann, mean removed, 8x
-    zero-padded) in ``lo_hz`` < f < ``hi_hz``."""
+    """Power (dB) of ``y``'s first ``window_s`` (mean removed) in ``lo_hz``
+    < f < ``hi_hz`` (:func:`synth.analysis.band_levels_db`, Hann window)."""
     seg = np.array(y[:int(round(window_s * FS))], dtype=np.float64)
     seg -= seg.mean()
-    n = 8 * len(seg)
-    P = np.abs(np.fft.rfft(seg * np.hanning(len(seg)), n)) ** 2
-    fr = np.fft.rfftfreq(n, 1.0 / FS)
-    return 10.0 * math.log10(P[(fr > lo_hz) & (fr < hi_hz)].sum() + 1e-300)
+    return float(band_levels_db(seg, FS, 0.5 * (lo_hz + hi_hz), 0.5 * (hi_hz - lo_hz))[0])
 
 
 def thump_db(y, key, c4):
@@ -204,6 +201,12 @@ def _load_real(folder: Path, key: int, layer: int = 10):
     if p is None:
         raise SystemExit(f"study_partials: error: no sample {name} under {folder}")
     return load(p)
+
+
+def _scaled_renderers(args, path: str) -> list:
+    """(scale, Renderer) for each of ``--scales``, the preset with ``--set``
+    and ``path`` at that scale."""
+    return [(sc, Renderer("grand-piano", tuple(args.set) + (f"{path}={sc:g}",))) for sc in args.scales]
 
 
 def _row(label, values, fmt="{:5.1f}"):
@@ -381,8 +384,7 @@ def beats(args) -> None:
     from synth.physics.piano import UNISON_SPREAD_CENTS
 
     folder = _real_folder(args, args.keys)
-    rs = [(sc, Renderer("grand-piano", tuple(args.set) + (f"strings.detune_scale={sc:g}",)))
-          for sc in args.scales]
+    rs = _scaled_renderers(args, "strings.detune_scale")
     print(f"Beating of partials 2-8, 0.1-3 s: RMS (dB) about the best two-segment line, median over "
           f"the partials (the law's spread: {UNISON_SPREAD_CENTS:g} cent)\n")
     print("| key | real v4 / v10 / v14 | median | " + " | ".join(f"model x{sc:g}" for sc, _ in rs) + " |")
@@ -491,8 +493,7 @@ def _tail_curves(args, folder):
 
 def tail(args) -> None:
     folder = _real_folder(args, args.keys)
-    rs = [(sc, Renderer("grand-piano", tuple(args.set) + (f"strings.t60_scale={sc:g}",)))
-          for sc in args.scales]
+    rs = _scaled_renderers(args, "strings.t60_scale")
     print(f"The aftersound: T60 (s) of the note's level over {TAIL_SPAN_S[0]:g}-{TAIL_SPAN_S[1]:g} s "
           f"and its level (dB re the loudest 50 ms) over the first {TAIL_LEVEL_S:g} s of it\n")
     print("| key | real T60 v4 / v10 / v14 | real level | "
@@ -520,8 +521,13 @@ def thump(args) -> None:
     print("| key | recording v4 / v10 / v14 | model 40 / 80 / 110 | model 80, knock 0 | gap at 80 |")
     print("|---|---|---|---|---|")
     gaps = {m: [] for _, m in THUMP_PAIRS}
+    top = [k for k in args.keys if et_f0_hz(k) / 2 >= THUMP_BANDS_HZ[-1][1]]
+    kept = {}                     # the top keys' samples, for the spectrum table
     for key in args.keys:
-        real = [thump_db(_load_real(folder, key, v), key, c4r[v]) for v, _ in THUMP_PAIRS]
+        samples = [_load_real(folder, key, v) for v, _ in THUMP_PAIRS]
+        if key in top:
+            kept[key] = samples
+        real = [thump_db(y, key, c4r[v]) for y, (v, _) in zip(samples, THUMP_PAIRS)]
         model = [thump_db(r.note(key, m, 0.3), key, c4m[m]) for _, m in THUMP_PAIRS]
         bare = thump_db(r0.note(key, 80, 0.3), key, c40)
         for (a, b), (_, m) in zip(zip(real, model), THUMP_PAIRS):
@@ -535,7 +541,6 @@ def thump(args) -> None:
     g80 = float(np.median(gaps[80]))
     if knock > 0:
         print(f"the knock that closes the median gap at velocity 80: {knock * 10 ** (g80 / 20):.2f}")
-    top = [k for k in args.keys if et_f0_hz(k) / 2 >= THUMP_BANDS_HZ[-1][1]]
     if top:
         names = " | ".join(f"{lo:.0f}-{hi:.0f} Hz" for lo, hi in THUMP_BANDS_HZ)
         print(f"\nthe thump's spectrum, power per Hz re 90-360 Hz, dB (action.knock_s = "
@@ -543,7 +548,7 @@ def thump(args) -> None:
         print(f"| key | | {names} |")
         print("|---|---|" + "---|" * len(THUMP_BANDS_HZ))
         for key in top:
-            real = np.mean([thump_spectrum_db(_load_real(folder, key, v)) for v, _ in THUMP_PAIRS], axis=0)
+            real = np.mean([thump_spectrum_db(y) for y in kept[key]], axis=0)
             model = thump_spectrum_db(r.note(key, 80, 0.3))
             print(f"| {key} | recording (v4-v14 mean) | " + " | ".join(f"{x:.1f}" for x in real) + " |")
             print(f"| {key} | model, velocity 80 | " + " | ".join(f"{x:.1f}" for x in model) + " |")
