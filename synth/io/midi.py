@@ -14,11 +14,15 @@ kind            key     value
 ``pitch_bend``  -1      bend in [-1, 1] (-8192 -> -1, 0 -> 0, +8191 -> +1)
 ==============  ======  ============================================================
 
-Other messages (aftertouch, SysEx, meta events) are dropped. Times are in
+Other channel messages (aftertouch, and system messages: SysEx, clock,
+...) are dropped, and counted by :func:`read_midi_file` when asked (the
+render's report lists them); meta events carry no sound. Times are in
 seconds from the start of the file and follow every tempo change (and SMPTE
-time division). Events are sorted by time; at equal times note-offs come
-before all other events, which otherwise keep their file order (track order
-for simultaneous events of different tracks).
+time division). Events are sorted by time; simultaneous events keep their
+file order (track order for simultaneous events of different tracks),
+except note-offs and note-ons of one key, which follow
+:func:`synth.engine.order.order_events`: the note-off of an earlier note
+first, the note-off of a zero-length note after its note-on.
 
 The byte-level framing (RIFF RMID wrapper, MThd header, track chunks, unknown
 chunks, truncation) is done here; the event data of each track is decoded by
@@ -35,6 +39,7 @@ from dataclasses import dataclass
 
 import mido
 
+from synth.engine.order import order_events
 from synth.io.errors import MidiFileError, display_path
 
 __all__ = [
@@ -45,6 +50,8 @@ __all__ = [
     "midi_to_events",
     "midi_file_duration_s",
     "normalise_message",
+    "dropped_name",
+    "DRUM_CHANNEL",
 ]
 
 #: Files longer than this (seconds) are rejected as implausible (broken delta times).
@@ -234,18 +241,39 @@ def normalise_message(msg: mido.Message) -> tuple[str, int, int, float] | None:
     return None
 
 
-def read_midi_file(path: str | os.PathLike[str]) -> list[MidiEvent]:
+#: names of the messages dropped by :func:`normalise_message`, for reports
+DROPPED_NAMES = {
+    "aftertouch": "channel pressure (aftertouch)",
+    "polytouch": "polyphonic key pressure",
+    "sysex": "system exclusive",
+}
+
+
+def dropped_name(msg) -> str | None:
+    """How a message that :func:`normalise_message` drops is named in the
+    list of ignored messages, or None for meta messages (tempo, names, end
+    of track: they carry no sound to ignore)."""
+    if getattr(msg, "is_meta", False):
+        return None
+    return DROPPED_NAMES.get(msg.type, msg.type.replace("_", " "))
+
+
+def read_midi_file(path: str | os.PathLike[str], dropped: dict | None = None) -> list[MidiEvent]:
     """Read a Standard MIDI File (format 0 or 1, optionally RIFF RMID-wrapped).
 
     Parameters
     ----------
     path : str or path-like
         The ``.mid``/``.rmi`` file.
+    dropped : dict or None
+        If given, the channel and system messages that are not returned are
+        counted in it by name (:func:`dropped_name`: ``{"channel pressure
+        (aftertouch)": 12}``).
 
     Returns
     -------
     list of MidiEvent
-        Channel events sorted by time (note-offs first at equal times). A file
+        Channel events in playing order (see the module docstring). A file
         without notes yields whatever events it has (possibly none); notes
         without a note-off are kept as they are (the caller releases them).
 
@@ -293,30 +321,65 @@ def read_midi_file(path: str | os.PathLike[str]) -> list[MidiEvent]:
         norm = normalise_message(msg)
         if norm is not None:
             events.append(MidiEvent(t, *norm))
+        elif dropped is not None:
+            name = dropped_name(msg)
+            if name is not None:
+                dropped[name] = dropped.get(name, 0) + 1
     length_s = seg_s + (tick - seg_tick) * sec_per_tick  # includes trailing meta events
     if length_s > MAX_DURATION_S:
         raise _fail(shown, f"implausible length {length_s:.1f} s ({length_s / 3600:.1f} h), "
                            f"more than the {MAX_DURATION_S / 3600:g} h limit (broken delta times?)")
-    # Stable sort: times are already non-decreasing; this moves note-offs first at equal times.
-    events.sort(key=lambda e: (e.time_s, e.kind != "note_off"))
-    return events
+    # times are already non-decreasing; simultaneous notes in the engine's order
+    return order_events(events)
 
 
-def midi_to_events(midi_events):
-    """Normalised MIDI file events -> engine events (notes, controllers).
+#: General MIDI's percussion channel (channel 10, 0-based 9)
+DRUM_CHANNEL = 9
 
-    The one place where a file's MIDI becomes the engine's
+
+def midi_to_events(midi_events, channels=None, drums: bool = False, ignored: dict | None = None):
+    """Normalised MIDI events -> engine events (notes, controllers, pitch bend).
+
+    The one place where MIDI becomes the engine's
     :class:`synth.engine.engine.Event` (velocity and controller values
-    already in [0, 1] from :func:`read_midi_file`); other messages are
-    dropped."""
+    already in [0, 1] from :func:`normalise_message`), for a file
+    (:func:`read_midi_file`) and for the live player alike.
+
+    Parameters
+    ----------
+    midi_events : iterable of MidiEvent
+    channels : collection of int or None
+        The MIDI channels (0-15) that play; None: every channel.
+    drums : bool
+        Play channel 10 (:data:`DRUM_CHANNEL`), General MIDI's percussion
+        channel, as pitched notes too; by default its messages are skipped,
+        as a General MIDI file means drums there.
+    ignored : dict or None
+        If given, what is not played is counted in it by name: the skipped
+        channels' messages and program changes (a render plays one preset).
+
+    Returns
+    -------
+    list of Event
+    """
     from synth.engine.engine import Event
+
+    def skip(what: str) -> None:
+        if ignored is not None:
+            ignored[what] = ignored.get(what, 0) + 1
 
     out = []
     for m in midi_events:
-        if m.kind in ("note_on", "note_off"):
+        if channels is not None and m.channel not in channels:
+            skip(f"channel {m.channel + 1} messages (not in --channels)")
+            continue
+        if m.channel == DRUM_CHANNEL and not drums:
+            skip("channel 10 messages (General MIDI drums; --drums plays them)")
+            continue
+        if m.kind in ("note_on", "note_off", "control", "pitch_bend"):
             out.append(Event(m.time_s, m.kind, m.key, m.value, m.channel))
-        elif m.kind == "control":
-            out.append(Event(m.time_s, "control", m.key, m.value, m.channel))
+        elif m.kind == "program":
+            skip("program change (a render plays one preset)")
     return out
 
 
