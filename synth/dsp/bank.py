@@ -21,8 +21,9 @@ from ..kernels import felt_layer as FL
 from ..kernels import strings as K
 
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
-#: per-slot columns of ``ipar`` that a template does not carry
-_SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF)
+#: per-slot columns of ``ipar`` that a template does not carry (the output
+#: row is the slot's until :meth:`StringBank.set_output_row` changes it)
+_SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF, K.I_ROW)
 #: ``ipar`` columns a slot keeps when it changes grid (:meth:`StringBank.hand_over`)
 _HAND_OVER_KEEP = _SLOT_COLS + (K.I_PROBE, K.I_TELEM, K.I_CPL, K.I_CPLN, K.I_CPLNX)
 #: ``fst`` columns it keeps as they are: the peak, the bridge, the telemetry's
@@ -130,6 +131,18 @@ class HammerTemplate:
     values: np.ndarray        # fpar values at _HAMMER_COLS
     e_end: int                # samples of flight at most
     dt_s: float
+
+
+def _index(name: str, v, hi: int) -> int:
+    """v as an int in 0 .. hi, else a ValueError naming ``name``."""
+    try:
+        i = int(v)
+        ok = i == v and 0 <= i <= hi
+    except (TypeError, ValueError):
+        ok = False
+    if not ok:
+        raise ValueError(f"{name} = {v!r} is out of range (integer, 0 <= value <= {hi})")
+    return i
 
 
 def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side: int = 1,
@@ -278,6 +291,16 @@ class StringBank:
     (:meth:`set_loss`); the kernel glides to it with a time constant of
     ``LOSS_GLIDE_S``.
 
+    Output rows: each slot writes its buses into a block of rows of the
+    mix, from its output row r (:meth:`set_output_row`, default 0): bus 0
+    to row r, bus 1 (a string configured with ``pan``) to row r + 1 when
+    the mix has it (else all of it to row r, as a one-row mix takes every
+    string).  The row is a property of the slot, not of its string: a new
+    string in the slot (:meth:`configure_from`, :meth:`hand_over`) and
+    :meth:`deactivate` keep it; only :meth:`set_output_row` changes it (the
+    engine sets it per note-on).  :meth:`render` wants a mix of at least
+    :attr:`mix_rows` rows.
+
     Parameters
     ----------
     capacity : int
@@ -337,9 +360,12 @@ class StringBank:
         self.scratch = np.zeros(K.scratch_length(self.max_block, self.max_region, self.max_bend,
                                                  self.max_group))
         self.iwork = np.zeros(self.capacity + K.IWORK_EXTRA, dtype=np.int64)
-        # staging mix of strings on a finer grid (two buses); an external
-        # bridge's displacement when the caller gives none (all zero)
+        # staging mix of strings on a finer grid (two buses; more rows for a
+        # coupled group across rows, _fit_sub); an external bridge's
+        # displacement when the caller gives none (all zero)
         self.sub = np.zeros((2, K.sub_length(self.max_block)))
+        # the highest output row of any slot (:meth:`set_output_row`)
+        self._row_top = 0
         self._still = np.zeros(0)
         # steps per sample of the strings on the external bridge (ubx holds
         # that many values per sample; :meth:`set_external_bridge`)
@@ -426,6 +452,44 @@ class StringBank:
     def grid_of(self, s: int) -> int:
         """Steps per engine sample of slot s (1: the engine's grid)."""
         return int(self.ipar[s, K.I_SUB])
+
+    #: highest output row a slot may have (:meth:`set_output_row`)
+    MAX_ROW = 255
+
+    def set_output_row(self, s: int, row: int) -> None:
+        """Write slot s's output from mix row ``row`` on (0 .. ``MAX_ROW``):
+        bus 0 to that row, bus 1 to the next (see the class docstring), from
+        its next rendered sample.  The row stays with the slot through
+        reconfiguration and deactivation."""
+        s = _index("s", s, self.capacity - 1)
+        r = _index("row", row, self.MAX_ROW)
+        old = int(self.ipar[s, K.I_ROW])
+        self.ipar[s, K.I_ROW] = r
+        if r > self._row_top:
+            self._row_top = r
+        elif old == self._row_top and r < old:
+            self._row_top = int(self.ipar[:, K.I_ROW].max())
+        if self._leader[s] >= 0:
+            self._fit_sub(int(self._leader[s]))
+
+    def output_row(self, s: int) -> int:
+        """Slot s's output row (its bus 0; bus 1 is the next row)."""
+        return int(self.ipar[s, K.I_ROW])
+
+    @property
+    def mix_rows(self) -> int:
+        """The fewest rows of a mix that :meth:`render` takes: one more than
+        the highest output row of any slot (active or not)."""
+        return self._row_top + 1
+
+    def _fit_sub(self, lead: int) -> None:
+        """Enough rows in the finer grid's staging mix for the group led by
+        ``lead``: the rows from its members' lowest output row to their
+        highest plus one (the kernel stages a group's rows there)."""
+        rows = self.ipar[self._members[lead], K.I_ROW]
+        span = int(rows.max()) + 2 - int(rows.min())
+        if span > self.sub.shape[0]:
+            self.sub = np.zeros((span, self.sub.shape[1]))
 
     # -- configuration ----------------------------------------------------------
     def configure(self, s: int, *, cells: int, k: int, dt_s: float,
@@ -1018,6 +1082,7 @@ class StringBank:
             self.ipar[m, K.I_CPLNX] = mem[i + 1] if i + 1 < G else -1
             self._leader[m] = lead
         self.fpar[lead, K.F_BTDX] = float(np.sum(self.fpar[mem, K.F_TDX]))
+        self._fit_sub(lead)
 
     # -- leaving a finer grid ---------------------------------------------------
     #: rows of the least-squares fit of the far-end filter's state (samples
@@ -1221,19 +1286,22 @@ class StringBank:
     # -- rendering --------------------------------------------------------------
     def render(self, mix: np.ndarray, o0: int, n: int, ubx: np.ndarray | None = None) -> None:
         """Render n internal samples of all active strings into
-        mix[o0:o0+n] (1-D: one bus) or mix[:, o0:o0+n] (2-D: a row per
-        output bus, C-contiguous; strings set to two buses split their
-        output between rows 0 and 1).  ``ubx``: the displacement (m) of the
+        mix[o0:o0+n] (1-D: one row) or mix[:, o0:o0+n] (2-D, C-contiguous,
+        at least :attr:`mix_rows` rows: each slot adds to the rows from its
+        output row on, :meth:`set_output_row`; strings set to two buses
+        split their output between that row and the next, when the mix has
+        it).  ``ubx``: the displacement (m) of the
         external bridge that strings set by :meth:`set_external_bridge`
         hang on, per sample, indexed like ``mix`` (None: it stays still);
         strings on a finer grid (``sub`` M > 1) read M values per sample,
         ``ubx[(o0 + i) M + m]`` at step m of sample i."""
         if mix.ndim == 1:
             mix = mix.reshape(1, -1)
-        if mix.shape[0] > 2:
-            raise ValueError(f"mix rows = {mix.shape[0]} is out of range (1 or 2 buses)")
         # the kernel does not check its bounds (numba): a short mix would be
         # written past its end (found by tools/stress.py: heap corruption)
+        if mix.shape[0] < self._row_top + 1:
+            raise ValueError(f"mix rows = {mix.shape[0]} is out of range (value >= "
+                             f"{self._row_top + 1}: the slots' output rows)")
         if mix.dtype != np.float64 or not mix.flags.c_contiguous:
             raise ValueError("mix must be a C-contiguous float64 array")
         if not (0 <= int(o0) and 0 <= int(n) and int(o0) + int(n) <= mix.shape[1]):
@@ -1254,9 +1322,9 @@ class StringBank:
     def render_unchecked(self, mix: np.ndarray, o0: int, n: int, ubx: np.ndarray) -> None:
         """:meth:`render` without its argument checks, for a caller whose
         arrays meet them by construction (the sympathetic strings' stage,
-        once per block): ``mix`` 2-D, C-contiguous float64 with 1 or 2 rows
-        and at least o0 + n columns, ``ubx`` at least (o0 + n) M samples,
-        no probes.  (The kernel does not check bounds.)"""
+        once per block): ``mix`` 2-D, C-contiguous float64 with at least
+        :attr:`mix_rows` rows and o0 + n columns, ``ubx`` at least (o0 + n)
+        M samples, no probes.  (The kernel does not check bounds.)"""
         done = 0
         while done < n:
             c = min(n - done, self.max_block)

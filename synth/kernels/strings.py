@@ -97,7 +97,8 @@ state: the rings, every ``fst`` column, the ``ipar`` state columns
 ``I_POS``, ``I_EXC`` (an excitation ending: ``EXC_ENDED``, then
 ``EXC_NONE``), ``I_EXC_M`` and ``I_HLAST``, and the ``fpar`` column ``F_B0``
 (the loss gain gliding towards ``F_B0T``); :func:`scan_silence` also resets
-``fst[:, S_PEAK]`` and writes its own outputs.
+``fst[:, S_PEAK]`` and writes its own outputs.  (:func:`render_bank`
+lowers a finer-grid string's ``I_ROW`` while it stages it, and restores it.)
 """
 
 from __future__ import annotations
@@ -142,7 +143,8 @@ I_CPLN = 25      # strings in the coupled group (its leader's row counts them)
 I_SUB = 26       # steps per engine sample (a finer grid: the string runs at I_SUB x the rate)
 I_CPLNX = 27     # the next member of the coupled group after this one (-1: the last);
                  #   a group is the chain leader -> ... (any slots, not only consecutive)
-I_NI = 28
+I_ROW = 28       # first mix row of the string's buses: bus 0 to row I_ROW, bus 1 to I_ROW + 1
+I_NI = 29
 
 CPL_NONE = -1
 CPL_EXTERNAL = -2
@@ -1206,9 +1208,10 @@ def _subcell_delta(ut, up, U1, G):
 @njit(**JIT_OPTS)
 def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, cf, po0, psub):
     """Plain per-sample scheme for string s over n samples, mixing into
-    mix[:, o0:o0+n].  Reference for the fast path; also used when the
-    excitation lies inside or next to the region (I_CHUNK = 0, e.g. the top
-    keys' hammers on the capo bar) and for probes.
+    mix[:, o0:o0+n] (row ``I_ROW``, and the next for a second bus).
+    Reference for the fast path; also used when the excitation lies inside
+    or next to the region (I_CHUNK = 0, e.g. the top keys' hammers on the
+    capo bar) and for probes.
 
     A string on a bridge (``I_CPL`` not ``CPL_NONE``) has the bridge's
     displacement ubx[uo + i] subtracted from its outgoing wave at x = L at
@@ -1262,7 +1265,9 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
     hlast = ipar[s, I_HLAST]
     g = st[S_G]
     peak = st[S_PEAK]
-    two = ipar[s, I_BUS] == 1 and mix.shape[0] > 1
+    r0 = ipar[s, I_ROW]
+    r1 = r0 + 1
+    two = ipar[s, I_BUS] == 1 and mix.shape[0] > r1
     pan = fp[F_PAN]
     cpl = ipar[s, I_CPL]
     telem = ipar[s, I_TELEM]
@@ -1421,10 +1426,10 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
                 cf[0] += sig
         v = gain * sig
         if two:
-            mix[0, o0 + i] += v - pan * v
-            mix[1, o0 + i] += pan * v
+            mix[r0, o0 + i] += v - pan * v
+            mix[r1, o0 + i] += pan * v
         else:
-            mix[0, o0 + i] += v
+            mix[r0, o0 + i] += v
         a = abs(v)
         if a > peak:
             peak = a
@@ -2540,8 +2545,9 @@ def _force_one(yo, yp, un, up, has_ub, m0, m1, g0, g1):
 def _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, has_ub):
     """Step 4, second half: write the far end's outputs yb[1:C+1] back into
     the ring and, for the bridge-force output (``I_OUT`` 1), add the output
-    to the mix's buses (mix[:, o0:o0+C], split by ``F_PAN`` as
-    :func:`_bus_add`), in the same pass.  Returns the chunk's peak output.
+    to the mix's buses (rows ``I_ROW`` and ``I_ROW`` + 1 of mix[:, o0:o0+C],
+    split by ``F_PAN`` as :func:`_bus_add`), in the same pass.  Returns the
+    chunk's peak output.
 
     The force on the bridge.  The loop filter (loss, dispersion, tuning)
     stands for the whole string but acts at x = L; read as sitting just
@@ -2565,12 +2571,13 @@ def _far_write(s, ring, ipar, fpar, C, yb, mix, o0, ubw, has_ub):
     peak = 0.0
     if ipar[s, I_OUT] == 1:
         sc = fpar[s, F_GAIN] * fpar[s, F_TDX]
-        two = ipar[s, I_BUS] == 1 and mix.shape[0] > 1
+        r0 = ipar[s, I_ROW]
+        two = ipar[s, I_BUS] == 1 and mix.shape[0] > r0 + 1
         pan = fpar[s, F_PAN]
         g0 = sc * (1.0 - pan) if two else sc
         g1 = sc * pan
-        m0 = mix[0, o0:o0 + C]
-        m1 = mix[1 if two else 0, o0:o0 + C]
+        m0 = mix[r0, o0:o0 + C]
+        m1 = mix[r0 + 1 if two else r0, o0:o0 + C]
         peak = _force_out(yb[1:1 + C], yb[0:C], ubw[1:1 + C], ubw[0:C], has_ub, m0, m1, two,
                           g0, g1, C)
         peak *= abs(sc)
@@ -2610,13 +2617,14 @@ def _far_chunk(s, ring, ipar, fpar, fst, U, C, xb, yb, hb, mix, ubx, o0):
 
 
 @njit(**JIT_OPTS)
-def _bus_add(mix, o0, C, ob, two, pan):
-    """Add a string's chunk output ob[0:C] to the mix: all of it to bus 0,
-    or (with ``two``) (1 - pan) of it to bus 0 and pan to bus 1."""
-    m0 = mix[0, o0:o0 + C]
+def _bus_add(mix, o0, C, ob, r0, two, pan):
+    """Add a string's chunk output ob[0:C] to the mix: all of it to bus 0
+    (mix row r0), or (with ``two``) (1 - pan) of it to bus 0 and pan to
+    bus 1 (row r0 + 1)."""
+    m0 = mix[r0, o0:o0 + C]
     o = ob[0:C]
     if two:
-        m1 = mix[1, o0:o0 + C]
+        m1 = mix[r0 + 1, o0:o0 + C]
         g0 = 1.0 - pan
         for i in range(C):
             m0[i] += g0 * o[i]
@@ -2879,7 +2887,9 @@ def _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gbuf, plucking,
                 peak = a if a > peak else peak
         out = True
     if out:
-        _bus_add(mix, o0, C, w3, ipar[s, I_BUS] == 1 and mix.shape[0] > 1, fpar[s, F_PAN])
+        r0 = ipar[s, I_ROW]
+        _bus_add(mix, o0, C, w3, r0, ipar[s, I_BUS] == 1 and mix.shape[0] > r0 + 1,
+                 fpar[s, F_PAN])
     fst[s, S_PEAK] = peak
     m1 = m0 + C
     if m1 >= P:
@@ -3828,7 +3838,7 @@ def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, on
     if mu != 0.0:
         den = 1.0 / (1.0 + mu + r)
     ra = r * (a - 1.0)
-    two = mix.shape[0] > 1
+    rows = mix.shape[0]
     for i in range(n):
         ubm = fst[lead, S_UBM]
         if mu == 0.0:
@@ -3856,12 +3866,13 @@ def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, on
             ring[ipar[s, I_OFF] + jn] -= dU
             fst[s, S_UBP] = ub
             v = -fpar[s, F_GAIN] * fpar[s, F_TDX] * dU
-            if two and ipar[s, I_BUS] == 1:
+            r0 = ipar[s, I_ROW]
+            if ipar[s, I_BUS] == 1 and rows > r0 + 1:
                 pan = fpar[s, F_PAN]
-                mix[0, o0 + i] += v - pan * v
-                mix[1, o0 + i] += pan * v
+                mix[r0, o0 + i] += v - pan * v
+                mix[r0 + 1, o0 + i] += pan * v
             else:
-                mix[0, o0 + i] += v
+                mix[r0, o0 + i] += v
             s = ipar[s, I_CPLNX]
         fst[lead, S_UBM] = ub
         fst[lead, S_UBW] = ub - a * ubm
@@ -3916,14 +3927,38 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
 
 
 @njit(**JIT_OPTS)
-def _fold_sub(mix, o0, n, sub, M, rows):
+def _unit_rows(s, G, ipar, rows):
+    """The mix rows [lo, hi) that the G strings of the chain from s (one
+    string: G = 1) write in a mix of ``rows`` rows."""
+    lo = ipar[s, I_ROW]
+    hi = lo + 1
+    for m in range(G):
+        r0 = ipar[s, I_ROW]
+        r1 = r0 + 2 if ipar[s, I_BUS] == 1 and rows > r0 + 1 else r0 + 1
+        lo = r0 if r0 < lo else lo
+        hi = r1 if r1 > hi else hi
+        s = ipar[s, I_CPLNX]
+    return lo, hi
+
+
+@njit(**JIT_OPTS)
+def _shift_rows(s, G, ipar, d):
+    """Add d to ``I_ROW`` of the G strings of the chain from s."""
+    for m in range(G):
+        ipar[s, I_ROW] += d
+        s = ipar[s, I_CPLNX]
+
+
+@njit(**JIT_OPTS)
+def _fold_sub(mix, o0, n, sub, M, lo, hi):
     """Add the staging mix of a string on a finer grid (n engine samples of
-    M steps each in sub[:, 0:n M]) to mix[:, o0:o0+n] as the mean of each
-    engine sample's M steps (a boxcar before the engine's decimator)."""
+    M steps each in sub[:, 0:n M], its row j for mix row lo + j) to
+    mix[lo:hi, o0:o0+n] as the mean of each engine sample's M steps (a
+    boxcar before the engine's decimator)."""
     w = 1.0 / M
-    for r in range(rows):
+    for r in range(lo, hi):
         mo = mix[r, o0:o0 + n]
-        sb = sub[r]
+        sb = sub[r - lo]
         if M == 2:
             # (the grand's top keys; the same sums: 0 + a + b)
             for i in range(n):
@@ -3944,8 +3979,10 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                 probe, scratch, iwork, ubx, sub):
     """Render ``n`` internal samples of every active string into
     ``mix[:, o0:o0+n]`` (accumulating).  ``mix`` is 2-D: one row per output
-    bus; a string with ``I_BUS`` 1 splits its output between rows 0 and 1
-    (by ``F_PAN``) when there are two, every other string adds to row 0.
+    bus; string s adds its output to row r0 = ``ipar[s, I_ROW]``, or, with
+    ``I_BUS`` 1, splits it between rows r0 and r0 + 1 (by ``F_PAN``) when
+    the mix has row r0 + 1 (else all of it to r0).  No bounds are checked:
+    ``mix`` must have more than the largest ``I_ROW`` of an active string.
 
     ring : float64[:]        all rings, concatenated
     ipar, fpar, fst : 2-D     parameter and state tables (columns above)
@@ -3961,7 +3998,10 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                               string on a finer grid reads M values per
                               sample, ubx[(o0 + i) M + m]
     sub : float64[:, :]       staging mix for strings on a finer grid
-                              (rows as ``mix``, :func:`sub_length` columns)
+                              (:func:`sub_length` columns; rows: at least
+                              the span of rows any one of them, or any
+                              coupled group of them, writes; 2 when every
+                              member of a group has the same ``I_ROW``)
 
     Strings whose hammer is running on the fast path render GROUP at a
     time (:func:`_render_group`); a coupled group (a piano key's unison on
@@ -3970,7 +4010,10 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     (:func:`_render_coupled`; the leader must be active while it has
     members, and ``scratch`` must hold :func:`coupled_scratch` of its size);
     a string or group on a finer grid (``I_SUB`` = M > 1) renders n M steps
-    into ``sub`` and is added as the mean of each sample's M steps; the
+    into ``sub`` and is added as the mean of each sample's M steps (the
+    rows it writes, lo .. hi - 1, staged in sub rows 0 .. hi - lo - 1:
+    its members' ``I_ROW`` are lowered by lo while they render and then
+    restored, the one write of this function to a parameter column); the
     others render one by one.
     """
     L = iwork.shape[0]
@@ -3986,11 +4029,17 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
         M = ipar[s, I_SUB]
         if M > 1:
             nm = n * M
-            for r in range(rows):
+            G = ipar[s, I_CPLN] if cpl >= 0 else 1
+            lo, hi = _unit_rows(s, G, ipar, rows)
+            for r in range(hi - lo):
                 sr = sub[r]
                 for i in range(nm):
                     sr[i] = 0.0
-            sm = sub[0:rows]
+            # sub row j stands for mix row lo + j (the same buses split:
+            # hi - lo > r0 - lo + 1 exactly when rows > r0 + 1)
+            sm = sub[0:hi - lo]
+            if lo != 0:
+                _shift_rows(s, G, ipar, -lo)
             if cpl >= 0:
                 _render_coupled(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch, iw, ist,
                                 o0, M)
@@ -3998,7 +4047,9 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                 # (an external bridge's M steps per sample, from this segment's)
                 _render_string(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch,
                                ubx[o0 * M:], o0, M)
-            _fold_sub(mix, o0, n, sub, M, rows)
+            if lo != 0:
+                _shift_rows(s, G, ipar, lo)
+            _fold_sub(mix, o0, n, sub, M, lo, hi)
         elif cpl >= 0:
             _render_coupled(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
                             o0, 1)
