@@ -240,6 +240,34 @@ def _write_hammer_log(path: str, inst, eng) -> None:
           f"(first to last sample with F > 0), peak force {F.max():.2f} N")
 
 
+def parse_channels(text: str) -> tuple[int, ...]:
+    """``--channels``: MIDI channels as users number them, 1-16, with
+    ranges (``1,3-4``) -> 0-based channels (0, 2, 3)."""
+    out = set()
+    for part in text.split(","):
+        part = part.strip()
+        try:
+            lo, _, hi = part.partition("-")
+            a, b = int(lo), int(hi or lo)
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"--channels = {text!r}: {part!r} is not a channel or a range (e.g. 1,3-4)") from None
+        if not (1 <= a <= b <= 16):
+            raise argparse.ArgumentTypeError(
+                f"--channels = {text!r}: {part!r} is out of range (channels 1 <= value <= 16)")
+        out.update(range(a - 1, b))
+    return tuple(sorted(out))
+
+
+def _add_channels(p) -> None:
+    p.add_argument("--channels", type=parse_channels, metavar="LIST",
+                   help="MIDI channels that play, 1-16, e.g. 1,3-4 (default: every channel; "
+                        "the others' messages are skipped and counted)")
+    p.add_argument("--drums", action="store_true",
+                   help="play channel 10 too: General MIDI keeps it for drums, so by default "
+                        "its notes are skipped (and counted)")
+
+
 def cmd_render(args) -> int:
     """A MIDI file through a preset into a WAV file (synth.apps.render: the
     30-minute warning, --max-seconds, the progress bar, Ctrl-C and SIGTERM)."""
@@ -249,7 +277,8 @@ def cmd_render(args) -> int:
     args.set = list(args.set) + _quality_overrides(args)
     req = RenderRequest(midi_file=args.midi_file, preset=args.preset, output=args.output,
                         overrides=tuple(args.set), internal_rate=args.internal_rate,
-                        pcm24=args.pcm24, max_seconds=args.max_seconds)
+                        pcm24=args.pcm24, max_seconds=args.max_seconds,
+                        channels=args.channels, drums=args.drums)
     print(render_midi(req).summary)
     return 0
 
@@ -269,7 +298,8 @@ def cmd_play(args) -> int:
     player = live.Player(args.preset, programs, block=args.block,
                          latency_s=None if args.latency_ms is None else args.latency_ms / 1e3,
                          audio_device=args.audio_device, midi_port=args.midi_port,
-                         stats=args.stats, overrides=args.set)
+                         stats=args.stats, overrides=args.set, channels=args.channels,
+                         drums=args.drums)
     player.start()
     player.run()
     return 0
@@ -542,6 +572,7 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--max-seconds", type=float, metavar="S",
                    help="render at most the first S seconds of audio (0 < S <= 21600): later notes "
                         "are left out, the sound is cut at S with a 10 ms fade-out")
+    _add_channels(r)
     r.set_defaults(func=cmd_render)
 
     a = sub.add_parser("analyze", help="partials, inharmonicity, T60s, centroid and loudness of a "
@@ -658,6 +689,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="override a value of --preset, e.g. --set play.polyphony=32 "
                          "(repeatable)")
     _add_quality(pl)
+    _add_channels(pl)
     pl.add_argument("--stats", action="store_true",
                     help="show block time, voices and underruns once a second, and the "
                          "latest note's contacts per string (hammer, termination)")

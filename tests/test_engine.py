@@ -93,10 +93,13 @@ def test_sustain_pedal_holds_released_notes():
     assert all(e.bank.fpar[vo.slots[0], K.F_B0T] < su.b0 for vo in e.voices.values())
 
 
-def test_all_sound_off_frees_everything():
-    """CC 120 frees every sounding voice at once: two notes sound before it,
-    nothing after it, and the output falls silent (the decimator's few
-    samples of latency flush within the block of the event)."""
+def test_all_sound_off_fades_and_frees_everything():
+    """CC 120 fades every sounding string out in 5 ms (a cut clicks), then
+    frees them: two notes sound before it, nothing from the fade's end on,
+    and no voice or string is left (the taraf and chikari on their bridge
+    too)."""
+    from synth.engine.engine import HUSH_T60_S
+
     e = engine("sitar")
     e.schedule(note(50) + note(55) + [Event(0.05, "control", 120, 0.0)])
     block = 512
@@ -105,11 +108,19 @@ def test_all_sound_off_frees_everything():
     # the two played strings, and the taraf and chikari on their bridge
     assert e.n_voices == 2 and e.bank.n_active == 2 + e.taraf.n_active == 2 + 13
     assert np.all(np.isfinite(before)) and 20 * np.log10(np.max(np.abs(before[-block:]))) > -40.0
-    e.render_block(block)                              # the block with the CC
+    # the block with the CC, and the one the 5 ms fade may reach into
+    assert HUSH_T60_S * e.fs_out < block
+    during = np.concatenate([e.render_block(block).copy() for _ in range(2)])
     assert e.n_voices == 0 and e.bank.n_active == 0
     after = np.concatenate([e.render_block(block).copy() for _ in range(10)])
     assert e.n_voices == 0 and e.bank.n_active == 0
-    assert np.max(np.abs(after)) < 1e-7             # below -140 dBFS
+    assert np.max(np.abs(after)) == 0.0
+    # the fade adds no step larger than the notes' own largest (the same
+    # notes without the CC, over the same blocks)
+    ref = engine("sitar")
+    ref.schedule(note(50) + note(55))
+    own = np.concatenate([ref.render_block(block).copy() for _ in range(n_before + 2)])
+    assert np.max(np.abs(np.diff(during))) <= np.max(np.abs(np.diff(own)))
 
 
 def _strongest_peak_hz(y, fs, f_min):

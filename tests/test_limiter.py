@@ -139,15 +139,16 @@ def test_the_engine_limits_its_output_and_keeps_the_timing():
 
 
 def test_all_sound_off_empties_the_limiters_delay_line():
-    """CC 120: from the next block on nothing of the earlier sound comes out
-    of the limiter's 71-sample delay line (nor out of the body)."""
+    """CC 120: once its 5 ms fade is over (by the block after the CC's)
+    nothing of the earlier sound comes out of the limiter's 71-sample delay
+    line (nor out of the body)."""
     from helpers import engine, note
     from synth.engine.engine import Event
 
     e = engine("biwa", ["output.limiter=on"])
     e.schedule(note(55, vel=1.0) + [Event(0.05, "control", 120, 0.0)])
     block = 512
-    for _ in range(int(0.05 * e.fs_out) // block + 1):  # up to the block with the CC
+    for _ in range(int(0.05 * e.fs_out) // block + 2):  # up to the block after the CC's
         e.render_block(block)
     after = np.concatenate([e.render_block(block).copy() for _ in range(4)])
     assert np.max(np.abs(after)) < 1e-7

@@ -49,6 +49,7 @@ __all__ = [
     "plan_render",
     "render_midi",
     "render_midi_file",
+    "ignored_lines",
     "format_length",
     "LONG_RENDER_S",
     "PROGRESS_DELAY_S",
@@ -90,6 +91,12 @@ class RenderRequest:
     max_seconds : float or None
         ``--max-seconds``: the longest audio to render (s), 0 < value <=
         :data:`~synth.io.midi.MAX_DURATION_S`; None: the whole file.
+    channels : tuple of int or None
+        ``--channels``: the MIDI channels that play, 0-based (0 .. 15);
+        None: every channel.
+    drums : bool
+        ``--drums``: play channel 10 (General MIDI's drums) as pitched
+        notes too; by default it is skipped.
     """
 
     midi_file: str
@@ -99,6 +106,8 @@ class RenderRequest:
     internal_rate: float | None = None
     pcm24: bool = False
     max_seconds: float | None = None
+    channels: tuple[int, ...] | None = None
+    drums: bool = False
 
 
 @dataclass(frozen=True)
@@ -156,12 +165,26 @@ class RenderResult:
         Time the render took (s), without reading and writing.
     summary : str
         The one-line report for stdout.
+    stolen : int
+        Voices given up to new notes (the pool was full).
+    ignored : dict
+        Messages the file holds and the render did not play, by name, with
+        their counts (:func:`ignored_lines` prints them).
     """
 
     seconds: float
     notes: int
     elapsed_s: float
     summary: str
+    stolen: int = 0
+    ignored: dict = field(default_factory=dict)
+
+
+def ignored_lines(ignored: dict) -> list[str]:
+    """``note: ignored ...`` lines for the messages a render did not play,
+    one per kind with its count, in order of count (most first)."""
+    return [f"note: ignored {n} x {what}"
+            for what, n in sorted(ignored.items(), key=lambda kv: (-kv[1], kv[0]))]
 
 
 def format_length(seconds: float) -> str:
@@ -390,7 +413,10 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
     from ..io.wav import wav_max_frames, write_wav_stream
 
     shown = display_path(req.midi_file)
-    events = midi_to_events(read_midi_file(req.midi_file))
+    ignored: dict = {}
+    events = midi_to_events(read_midi_file(req.midi_file, dropped=ignored),
+                            channels=None if req.channels is None else set(req.channels),
+                            drums=req.drums, ignored=ignored)
     plan = plan_render(events, req.max_seconds, shown)
     for line in plan.notes:
         log(line)
@@ -434,7 +460,12 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
             f"(--max-seconds {req.max_seconds:g}), before it has died away")
     clip = f", {res.n_clipped} samples clipped" if res.n_clipped else ""
     dur = res.frames / fs
-    summary = (f"{req.output}: {dur:.1f} s, {len(plan.keys)} notes on {req.preset}, "
+    for what, n in eng.ignored.items():
+        ignored[what] = ignored.get(what, 0) + n
+    for line in ignored_lines(ignored):
+        log(line)
+    stolen = f", {eng.n_stolen} voices stolen (polyphony {eng.polyphony})" if eng.n_stolen else ""
+    summary = (f"{req.output}: {dur:.1f} s, {len(plan.keys)} notes on {req.preset}{stolen}, "
                f"peak {res.peak_dbfs:.1f} dBFS{clip}, "
                f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)")
-    return RenderResult(dur, len(plan.keys), el, summary)
+    return RenderResult(dur, len(plan.keys), el, summary, eng.n_stolen, dict(ignored))

@@ -205,6 +205,12 @@ class Decimator:
         self._state[1] = 1  # the first output needs one input
         self._state[2] = self.taps_per_phase - 1  # first input goes to slot 0
 
+    def clear(self):
+        """Forget the input history but keep the phase: the next outputs
+        come at the same input samples as they would have (the engine's
+        all sound off: its clock runs on)."""
+        self._hist[:] = 0.0
+
     @property
     def latency_samples(self):
         """Group delay in output samples (float)."""

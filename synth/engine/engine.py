@@ -24,6 +24,8 @@ from ..dsp.limiter import Limiter
 from ..dsp.decimator import Decimator
 from ..kernels import strings as K
 from ..physics.soundboard import knock_pulse
+from .mixing import RAMP_S, ChannelGroup, OutputPath
+from .order import order_events
 from .sympathetic import Sympathetic
 from .taraf import Taraf
 
@@ -35,7 +37,48 @@ CC_SUSTAIN = 64
 CC_SOSTENUTO = 66
 CC_SOFT = 67
 CC_ALL_SOUND_OFF = 120
+CC_RESET_ALL = 121
 CC_ALL_NOTES_OFF = 123
+CC_DATA_MSB = 6
+CC_DATA_LSB = 38
+CC_RPN_LSB = 100
+CC_RPN_MSB = 101
+CC_NRPN_LSB = 98
+CC_NRPN_MSB = 99
+#: the channel-mode messages that also end every note (MIDI 1.0: omni
+#: off/on, mono, poly)
+CC_MODE = (124, 125, 126, 127)
+CC_VOLUME = 7
+CC_PAN = 10
+CC_EXPRESSION = 11
+#: MIDI channels
+CHANNELS = 16
+#: the names of the controllers (MIDI 1.0, General MIDI 2), for reports
+CC_NAMES = {
+    0: "bank select", 1: "modulation", 2: "breath", 4: "foot controller",
+    5: "portamento time", 6: "data entry", 7: "volume", 8: "balance", 10: "pan",
+    11: "expression", 12: "effect control 1", 13: "effect control 2",
+    32: "bank select LSB", 38: "data entry LSB", 64: "sustain pedal",
+    65: "portamento", 66: "sostenuto", 67: "soft pedal", 68: "legato footswitch",
+    69: "hold 2", 71: "resonance", 72: "release time", 73: "attack time",
+    74: "brightness", 75: "decay time", 76: "vibrato rate", 77: "vibrato depth",
+    78: "vibrato delay", 84: "portamento control", 91: "reverb send",
+    92: "tremolo depth", 93: "chorus send", 94: "detune depth", 95: "phaser depth",
+    96: "data increment", 97: "data decrement", 98: "NRPN LSB", 99: "NRPN MSB",
+    100: "RPN LSB", 101: "RPN MSB", 120: "all sound off", 121: "reset all controllers",
+    122: "local control", 123: "all notes off", 124: "omni off", 125: "omni on",
+    126: "mono on", 127: "poly on",
+}
+#: General MIDI's default channel volume (CC7): the level at which a
+#: channel plays the preset's own level
+VOLUME_DEFAULT = 100 / 127
+#: CC10's centre, 64 / 127
+PAN_CENTRE = 64 / 127
+#: how long all sound off (CC120) takes to fade the strings out (s): 60 dB
+#: in this time, no click
+HUSH_T60_S = 0.005
+#: the voice-stealing rules a preset may choose (``play.steal``)
+STEAL_RULES = ("quietest", "oldest")
 
 
 @dataclass(frozen=True)
@@ -69,6 +112,10 @@ class _Voice:
     f0_hz: float | None
     released: bool = False
     dying: bool = False    # stolen or shed: fading out, no longer counted
+
+    @property
+    def channel(self) -> int:
+        return self.key[0]
 
 
 class Engine:
@@ -148,13 +195,56 @@ class Engine:
         self.time_in = 0                     # internal samples rendered so far
         self.voices: dict[int, _Voice] = {}  # voice index -> voice
         self.by_key: dict[object, int] = {}  # (channel, key) -> voice index
-        self.pedal = 0.0                     # sustain pedal CC64, 0..1 (half pedal between)
-        self.soft = 0.0                      # soft pedal CC67, 0..1
-        self.sostenuto = False               # sostenuto pedal CC66 (down at 0.5 and above)
+        # -- per MIDI channel: pedals, controllers and bend act on their own
+        # channel's notes (index: channel 0 .. 15)
+        self.pedal = np.zeros(CHANNELS)      # sustain pedal CC64, 0..1 (half pedal between)
+        self.soft = np.zeros(CHANNELS)       # soft pedal CC67, 0..1
+        self.sostenuto = np.zeros(CHANNELS, dtype=bool)   # CC66 (down at 0.5 and above)
         # voice indices whose dampers the sostenuto holds off (held when it went down)
         self._latched = np.zeros(self.n_index, dtype=bool)
-        self._latched_keys: set = set()      # their keys (the strings stay free while it is down)
-        self.bend = {}                       # pitch bend per channel, -1..1
+        self._latched_keys: set = set()      # their (channel, key) (the strings stay free while it is down)
+        self.bend = {}                       # pitch bend per channel, -1..1 of its range
+        #: pitch-bend range per channel as a share of the preset's
+        #: ``play.pitch_bend_semitones`` (RPN 0 sets it; 1: the preset's)
+        self.bend_range = np.ones(CHANNELS)
+        #: the registered parameter selected by CC101/100 per channel
+        #: ((msb, lsb); (127, 127): none) and whether it is an NRPN
+        self._rpn = [(127, 127)] * CHANNELS
+        self._nrpn = [False] * CHANNELS
+        #: the channel of each voice index (its notes' channel)
+        self._chan = np.zeros(self.n_index, dtype=np.int64)
+        #: volume (CC7), expression (CC11) and pan (CC10) per channel, MIDI
+        #: values / 127 (:meth:`channel_gain`, :meth:`channel_pan_gains`)
+        self.volume = np.full(CHANNELS, VOLUME_DEFAULT)
+        self.expression = np.ones(CHANNELS)
+        self.pan = np.full(CHANNELS, PAN_CENTRE)
+        #: the voice's own controls (CC -> value at load) and each channel's
+        #: values of them; the instrument holds one value per control for the
+        #: notes to come (``_inst_ctl``), set to a note's channel's value at
+        #: its note-on
+        self._ctl_default = dict(instrument.controls())
+        self._ctl = [dict(self._ctl_default) for _ in range(CHANNELS)]
+        self._inst_ctl = dict(self._ctl_default)
+        #: how a new note finds a voice when all are sounding (``play.steal``)
+        play = getattr(instrument.preset, "play", None)
+        self.steal = getattr(play, "steal", "quietest") or "quietest"
+        if self.steal not in STEAL_RULES:
+            raise ValueError(f"play.steal = {self.steal!r} is not one of {', '.join(STEAL_RULES)}")
+        #: messages the engine received and did not play, by description
+        #: (``"CC 5 (portamento time)"``: count), for the render summary and
+        #: the live report
+        self.ignored: dict[str, int] = {}
+        #: the channels whose volume, expression or pan left their defaults:
+        #: rows of the mix of their own (:mod:`synth.engine.mixing`)
+        self.groups: dict[int, ChannelGroup] = {}
+        #: the channel whose rows the bridge's own strings (taraf) follow
+        self._bridge_channel = 0
+        #: all sound off: the voices it fades, freed once the output has faded
+        self._hushed: dict = {}
+        #: all sound off's output fade: (its first output sample in the
+        #: next block rendered, samples of it done), or None
+        self._hush_out = None
+        self._hush_len = max(1, int(round(HUSH_T60_S * self.fs_out)))
         # voice indices whose key is up and which are not fading out: the
         # sustain pedal damps exactly these (one array operation per CC64)
         self._released = np.zeros(self.n_index, dtype=bool)
@@ -185,7 +275,6 @@ class Engine:
         self._knock_tail = self._knock_lag + len(self._knock_unit)
         self._knock = np.zeros((self.n_dec, self.MAX_BLOCK_OUT + self._knock_tail))
         self._knocking = False
-        self._hush = False                   # all sound off: reset the output stages after this block
         #: the output's peak limiter (``[output] limiter = "on"``), the last stage
         lim = instrument.limiter()
         self.limiter = None if lim is None else Limiter(self.fs_out, *lim, channels=self.channels)
@@ -203,21 +292,44 @@ class Engine:
         return int(round(time_s * self.fs_in_exact))
 
     def schedule(self, events) -> None:
-        """Queue events (any order); they act at their own internal sample."""
-        for ev in events:
-            self._pending.append((self.sample_of(ev.time_s), self._seq, ev))
-            self._seq += 1
-        self._pending.sort(key=lambda t: (t[0], t[2].kind != NOTE_OFF, t[1]))
+        """Queue events (any order); they act at their own internal sample,
+        simultaneous ones in the order of :func:`synth.engine.order.order_events`
+        (the file reader's and the live player's: a note-on before the
+        note-off of a zero-length note, the note-off of an earlier note
+        before a new note-on of its key)."""
+        new = list(events)
+        if not new:
+            return
+        items = [ev for _, _, ev in self._pending] + new
+        held = {vo.key for vo in self.voices.values() if not vo.released and not vo.dying}
+        ordered = order_events(items, time_of=lambda ev: self.sample_of(ev.time_s), sounding=held)
+        self._pending = [(self.sample_of(ev.time_s), self._seq + i, ev)
+                         for i, ev in enumerate(ordered)]
+        self._seq += len(ordered)
 
     def _alloc(self) -> int:
-        """A free voice index.  With ``polyphony`` voices sounding, the
-        quietest released voice (else the quietest voice) is faded out in
-        about 10 ms (never cut: that clicks) and keeps its index until
-        silent; the new note takes a spare index."""
+        """A free voice index.  With ``polyphony`` voices sounding, one of
+        them is faded out in about 10 ms (never cut: that clicks) and keeps
+        its index until silent; the new note takes a spare index.  The voice
+        given up is chosen among those sounding before this block (a note
+        struck in this block has no level yet: a chord on a full pool must
+        not steal its own notes), released ones first, then by ``play.steal``:
+        the quietest (last block's peak) or the oldest note.  Only when
+        every sounding voice began in this block (a chord larger than the
+        pool) is the oldest of them given up."""
         live = [v for v, vo in self.voices.items() if not vo.dying]
         if len(live) >= self.polyphony:
-            rel = [v for v in live if self.voices[v].released]
-            self._fade(self._quietest(rel or live))
+            before = [v for v in live if self.voices[v].start < self.time_in]
+            if before:
+                rel = [v for v in before if self.voices[v].released]
+                pool = rel or before
+                if self.steal == "oldest":
+                    victim = min(pool, key=lambda v: self.voices[v].start)
+                else:
+                    victim = self._quietest(pool)
+            else:
+                victim = min(live, key=lambda v: self.voices[v].start)
+            self._fade(victim)
             self.n_stolen += 1
         for v in range(self.n_index):
             if v not in self.voices:
@@ -278,121 +390,302 @@ class Engine:
         return (ev.channel, ev.key if ev.f0_hz is None else ("f0", ev.f0_hz))
 
     def _extra(self, ev: Event) -> dict:
-        x = {"soft": self.soft}
+        x = {"soft": float(self.soft[ev.channel])}
         if ev.speed_m_per_s is not None:
             x["speed_m_per_s"] = ev.speed_m_per_s
         return x
+
+    def _ignore(self, what: str) -> None:
+        """Count a message the engine received and does not play."""
+        self.ignored[what] = self.ignored.get(what, 0) + 1
+
+    def _channel_voices(self, channel: int):
+        """The sounding (not fading) voices of ``channel``: (index, voice)."""
+        return [(v, vo) for v, vo in self.voices.items() if vo.channel == channel and not vo.dying]
+
+    def _bend_value(self, channel: int) -> float:
+        """The channel's bend as a share of the preset's range (RPN 0 may narrow it)."""
+        return float(self.bend.get(channel, 0.0)) * float(self.bend_range[channel])
+
+    def _voice_controls_for(self, channel: int) -> None:
+        """Before a note-on: the instrument's controls for the notes to come
+        (a plucked voice's buzz depth) set to this channel's values."""
+        for cc, val in self._ctl[channel].items():
+            if self._inst_ctl.get(cc) != val:
+                self.inst.control_change(self.bank, cc, val, ())
+                self._inst_ctl[cc] = val
+
+    def _note_on(self, ev: Event, at: int, vk) -> None:
+        key = None if ev.key is None or ev.key < 0 else ev.key
+        if self.taraf is not None:
+            if self.taraf.is_trigger(ev.channel, key):
+                # a stroke across the drones (no played note)
+                self.taraf.strum(at, float(ev.value))
+                return
+            self.taraf.wake()
+            if self._bridge_channel != ev.channel:
+                # the bridge's own strings sound at the latest note's channel's volume
+                self._bridge_channel = ev.channel
+                self._set_rows(self.taraf.slots, self._row_of(ev.channel))
+        if self._ctl_default:
+            self._voice_controls_for(ev.channel)
+        v = self.by_key.get(vk)
+        if v is not None and any(self.bank.is_active(s) for s in self._slots(v)):
+            # a sounding key is struck again on the same strings
+            vo = self.voices[v]
+            self.inst.note_on(self.bank, vo.slots, key, ev.value, f0_hz=ev.f0_hz,
+                              restrike=True, **self._extra(ev))
+            if self.taraf is not None:
+                self.taraf.join(vo.slots)
+            vo.start, vo.released = at, False
+            self._released[v] = False
+        else:
+            v = self._alloc()
+            slots = self._slots(v)
+            try:
+                self.inst.note_on(self.bank, slots, key, ev.value, f0_hz=ev.f0_hz,
+                                  probe_row=0 if (self.probe and not self.voices) else -1,
+                                  **self._extra(ev))
+            except ValueError:
+                # a pitch this instrument cannot build (a study string far
+                # off its own pitch, say): the note is dropped, not the block
+                self.n_dropped += 1
+                for s in slots:
+                    self.bank.deactivate(s)
+                return
+            self.voices[v] = _Voice(vk, at, slots, key, ev.f0_hz)
+            self._chan[v] = ev.channel
+            self._set_rows(slots, self._row_of(ev.channel))
+            if self.taraf is not None:
+                self.taraf.join(slots)
+            self._released[v] = False
+            self.by_key[vk] = v
+            b = self._bend_value(ev.channel)
+            if b:
+                self.inst.pitch_bend(self.bank, slots, key, ev.f0_hz, b)
+        self._add_knock(key, ev, at)
+        self._schedule_hand_over(v, key, at)
+        for s in self._slots(v):
+            # the block's samples before the note are not its silence
+            self.bank.reset_quiet(s, max(at - self.time_in, 0))
+        if self.telemetry:
+            self._track(v, ev.key if ev.f0_hz is None else None)
 
     def _apply(self, ev: Event, at: int) -> None:
         vk = self._voice_key(ev)
         if ev.kind in (NOTE_ON, NOTE_OFF, CONTROL):
             self._sym_dirty = True
         if ev.kind == NOTE_ON and ev.value > 0:
-            key = None if ev.key is None or ev.key < 0 else ev.key
-            if self.taraf is not None:
-                if self.taraf.is_trigger(ev.channel, key):
-                    # a stroke across the drones (no played note)
-                    self.taraf.strum(at, float(ev.value))
-                    return
-                self.taraf.wake()
-            v = self.by_key.get(vk)
-            if v is not None and any(self.bank.is_active(s) for s in self._slots(v)):
-                # a sounding key is struck again on the same strings
-                vo = self.voices[v]
-                self.inst.note_on(self.bank, vo.slots, key, ev.value, f0_hz=ev.f0_hz,
-                                  restrike=True, **self._extra(ev))
-                if self.taraf is not None:
-                    self.taraf.join(vo.slots)
-                vo.start, vo.released = at, False
-                self._released[v] = False
-            else:
-                v = self._alloc()
-                slots = self._slots(v)
-                try:
-                    self.inst.note_on(self.bank, slots, key, ev.value, f0_hz=ev.f0_hz,
-                                      probe_row=0 if (self.probe and not self.voices) else -1,
-                                      **self._extra(ev))
-                except ValueError:
-                    # a pitch this instrument cannot build (a study string far
-                    # off its own pitch, say): the note is dropped, not the block
-                    self.n_dropped += 1
-                    for s in slots:
-                        self.bank.deactivate(s)
-                    return
-                self.voices[v] = _Voice(vk, at, slots, key, ev.f0_hz)
-                if self.taraf is not None:
-                    self.taraf.join(slots)
-                self._released[v] = False
-                self.by_key[vk] = v
-                if self.bend.get(ev.channel):
-                    self.inst.pitch_bend(self.bank, slots, key, ev.f0_hz, self.bend[ev.channel])
-            self._add_knock(key, ev, at)
-            self._schedule_hand_over(v, key, at)
-            for s in self._slots(v):
-                # the block's samples before the note are not its silence
-                self.bank.reset_quiet(s, max(at - self.time_in, 0))
-            if self.telemetry:
-                self._track(v, ev.key if ev.f0_hz is None else None)
+            self._note_on(ev, at, vk)
         elif ev.kind in (NOTE_OFF, NOTE_ON):
             v = self.by_key.get(vk)
             if v is not None:
                 self._release(v)
         elif ev.kind == PITCH_BEND:
             self.bend[ev.channel] = float(ev.value)
-            for vo in self.voices.values():
-                if vo.key[0] == ev.channel and not vo.dying:
-                    self.inst.pitch_bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, ev.value)
-        elif ev.kind == CONTROL:
-            cc = int(ev.key)
-            if cc == CC_SUSTAIN:
-                self.pedal = float(ev.value)
-                # every released voice's dampers at once (a continuous pedal
-                # sends many of these; a loop over voices cost ~5 us each);
-                # the sostenuto keeps its voices' dampers off
-                idx = np.flatnonzero(self._released & ~self._latched)
-                if idx.size:
-                    slots = (idx[:, None] * self.spv + self._spv_range).ravel()
-                    self.bank.apply_dampers(slots, self.inst.damper_lift(self.pedal))
-            elif cc == CC_SOFT:
-                self.soft = float(ev.value)
-            elif cc == CC_SOSTENUTO:
-                down = float(ev.value) >= 0.5
-                if down and not self.sostenuto:
-                    # the notes held now keep their dampers off until it comes up
-                    for v, vo in self.voices.items():
-                        self._latched[v] = not vo.released and not vo.dying
-                        if self._latched[v] and vo.key_arg is not None:
-                            self._latched_keys.add(int(round(vo.key_arg)))
-                elif not down and self.sostenuto:
-                    held = np.flatnonzero(self._latched)
-                    self._latched[:] = False
-                    self._latched_keys.clear()
-                    for v in held:
-                        vo = self.voices.get(int(v))
-                        if vo is not None and vo.released and not vo.dying:
-                            self._damp(vo)     # as far as the sustain pedal lets it
-                self.sostenuto = down
-            elif cc == CC_ALL_NOTES_OFF:
-                for v in list(self.voices):
-                    self._release(v)
-            elif cc == CC_ALL_SOUND_OFF:
-                for v in list(self.voices):
-                    self._free(v)
-                if self.taraf is not None:
-                    self.taraf.silence()
-                # the output stages after the strings fall silent too: no
-                # knock is left to come, and the body's ring and the
-                # limiter's delay line are cleared from the next block on
-                # (this block's output is already under way)
-                self._knock[:] = 0.0
-                self._knocking = False
-                self._hush = True
+            if self.inst.bends:
+                b = self._bend_value(ev.channel)
+                for _, vo in self._channel_voices(ev.channel):
+                    self.inst.pitch_bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, b)
             else:
-                # the voice's own controls (the plucked voices' buzz depth, CC1);
-                # the sounding notes as a generator: built only by a voice that uses the CC
-                self.inst.control_change(
-                    self.bank, cc, float(ev.value),
-                    ((vo.slots, vo.key_arg, vo.f0_hz) for vo in self.voices.values()))
+                self._ignore("pitch bend (the preset does not bend)")
+        elif ev.kind == CONTROL:
+            self._control(int(ev.key), float(ev.value), int(ev.channel), at)
+        else:
+            self._ignore(str(ev.kind))
+
+    def _sustain(self, c: int, value: float) -> None:
+        """CC64 on channel c: its released voices' dampers at once (a
+        continuous pedal sends many of these; a loop over voices cost ~5 us
+        each); the sostenuto keeps its voices' dampers off."""
+        self.pedal[c] = value
+        idx = np.flatnonzero(self._released & ~self._latched & (self._chan == c))
+        if idx.size:
+            slots = (idx[:, None] * self.spv + self._spv_range).ravel()
+            self.bank.apply_dampers(slots, self.inst.damper_lift(value))
+
+    def _sostenuto(self, c: int, down: bool) -> None:
+        if down and not self.sostenuto[c]:
+            # the notes held now keep their dampers off until it comes up
+            for v, vo in self._channel_voices(c):
+                self._latched[v] = not vo.released
+                if self._latched[v] and vo.key_arg is not None:
+                    self._latched_keys.add((c, int(round(vo.key_arg))))
+        elif not down and self.sostenuto[c]:
+            held = np.flatnonzero(self._latched & (self._chan == c))
+            self._latched[held] = False
+            self._latched_keys = {k for k in self._latched_keys if k[0] != c}
+            for v in held:
+                vo = self.voices.get(int(v))
+                if vo is not None and vo.released and not vo.dying:
+                    self._damp(vo)     # as far as the sustain pedal lets it
+        self.sostenuto[c] = down
+
+    def _all_notes_off(self, c: int) -> None:
+        """CC123 (and the mode messages 124-127): channel c's keys up (the
+        sustain pedal still holds them, as MIDI 1.0 asks)."""
+        for v, _ in self._channel_voices(c):
+            self._release(v)
+
+    def _all_sound_off(self, at: int) -> None:
+        """CC120: every string of the instrument fades out, 60 dB in
+        :data:`HUSH_T60_S` (a cut clicks: the strings, the body's ring and
+        the limiter go on from where they are, only fading); the bridge's
+        own strings too; the sympathetic strings start again from rest once
+        silent.  The knocks already under way (5 ms) finish."""
+        for v in list(self.voices):
+            if not self.voices[v].dying:
+                self._fade(v, HUSH_T60_S)
+        self._hushed = {v: vo for v, vo in self.voices.items()}
+        if self.taraf is not None:
+            self.taraf.fade(HUSH_T60_S, self.fs_in_exact)
+        if self.sym is not None:
+            self.sym.fade_all(HUSH_T60_S)
+        # the output fades with them; once it has, what is left of them (a
+        # damper still landing, the body's ring, the limiter's delay line)
+        # is cleared (:meth:`_hush_block`); the knocks still to come go
+        # (the fade covers their cut)
+        j = min(max(self._out_sample(at), 0), self.MAX_BLOCK_OUT - 1)
+        self._hush_out = (j, 0)
+        self._knock[:, j + self._knock_lag:] = 0.0
+
+    def _reset_controllers(self, c: int, at: int) -> None:
+        """CC121, as General MIDI 2 and RP-015 ask: channel c's pedals up,
+        expression full, bend centred, no parameter selected; the voice's
+        own controls (a plucked voice's buzz depth, CC1) back to the
+        preset's values.  Volume, pan and the bend range stay."""
+        self._sustain(c, 0.0)
+        self._sostenuto(c, False)
+        self.soft[c] = 0.0
+        if self.bend.get(c):
+            self.bend[c] = 0.0
+            if self.inst.bends:
+                for _, vo in self._channel_voices(c):
+                    self.inst.pitch_bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, 0.0)
+        self._rpn[c] = (127, 127)
+        self._nrpn[c] = False
+        self._set_expression(c, 1.0, at)
+        for cc, val in self._ctl_default.items():
+            if self._ctl[c].get(cc) != val:
+                self._voice_control(c, cc, val)
+
+    def _voice_control(self, c: int, cc: int, value: float) -> None:
+        self._ctl[c][cc] = value
+        self._inst_ctl[cc] = value
+        # the channel's sounding notes as a generator: built only by a voice that uses the CC
+        self.inst.control_change(self.bank, cc, value,
+                                 ((vo.slots, vo.key_arg, vo.f0_hz)
+                                  for _, vo in self._channel_voices(c)))
+
+    def _data_entry(self, c: int, cc: int, value: float) -> None:
+        """CC6 / CC38 for the parameter CC101/100 (RPN) or CC99/98 (NRPN)
+        selected: RPN 0, the pitch-bend range, is played (up to the preset's
+        ``play.pitch_bend_semitones``); the others are counted as ignored."""
+        raw = int(round(value * 127))
+        if self._nrpn[c]:
+            self._ignore("NRPN data entry")
+            return
+        rpn = self._rpn[c]
+        if rpn == (127, 127):
+            self._ignore("data entry with no parameter selected")
+            return
+        if rpn != (0, 0):
+            names = {(0, 1): "fine tuning", (0, 2): "coarse tuning", (0, 5): "modulation depth range"}
+            msb, lsb = rpn
+            self._ignore(f"RPN {msb * 128 + lsb}" + (f" ({names[rpn]})" if rpn in names else ""))
+            return
+        top = float(self.inst.bend_range_semitones)
+        if top <= 0.0:
+            self._ignore("RPN 0 (pitch-bend range): the preset does not bend")
+            return
+        old = self.bend_range[c] * top
+        semis, cents = math.floor(old + 1e-9), (old - math.floor(old + 1e-9)) * 100.0
+        if cc == CC_DATA_MSB:
+            semis, cents = raw, 0.0          # an MSB resets the cents (RP-018)
+        else:
+            cents = float(raw)
+        want = semis + cents / 100.0
+        if want > top:
+            self._ignore(f"RPN 0 (pitch-bend range) above the preset's {top:g} semitones: held at {top:g}")
+            want = top
+        self.bend_range[c] = want / top
+        if self.bend.get(c) and self.inst.bends:
+            b = self._bend_value(c)
+            for _, vo in self._channel_voices(c):
+                self.inst.pitch_bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, b)
+
+    # -- mixing controls: volume, expression, pan ------------------------------
+    def channel_gain(self, c: int) -> float:
+        """Channel c's gain from volume (CC7) and expression (CC11), on
+        General MIDI 2's curve: (volume / 100)^2 (expression / 127)^2 in
+        MIDI values, so the default volume 100 plays the preset's level
+        (volume 127: +4.2 dB; 0: silence)."""
+        return (self.volume[c] / VOLUME_DEFAULT) ** 2 * self.expression[c] ** 2
+
+    def channel_pan_gains(self, c: int) -> tuple[float, float]:
+        """Channel c's (left, right) gains from CC10 on a stereo output:
+        General MIDI 2's sine/cosine law, scaled so that the centre (64)
+        plays both sides at unity (0: hard left, +3 dB; 127: hard right)."""
+        p = self.pan[c]
+        if p == PAN_CENTRE:
+            return 1.0, 1.0
+        th = 0.5 * math.pi * min(max((p * 127.0 - 1.0) / 126.0, 0.0), 1.0)
+        return math.sqrt(2.0) * math.cos(th), math.sqrt(2.0) * math.sin(th)
+
+    def _set_volume(self, c: int, value: float, at: int) -> None:
+        self.volume[c] = value
+        self._mixing_changed(c, at)
+
+    def _set_expression(self, c: int, value: float, at: int) -> None:
+        if self.expression[c] != value:
+            self.expression[c] = value
+            self._mixing_changed(c, at)
+
+    def _set_pan(self, c: int, value: float, at: int) -> None:
+        if self.channels != 2:
+            self._ignore("CC 10 (pan): the preset's output is mono")
+            return
+        self.pan[c] = value
+        self._mixing_changed(c, at)
+
+    def _control(self, cc: int, value: float, c: int, at: int) -> None:
+        """A control change on channel c (every message acts on its own
+        channel; docs/midi.md lists them)."""
+        if cc == CC_SUSTAIN:
+            self._sustain(c, value)
+        elif cc == CC_SOFT:
+            self.soft[c] = value
+        elif cc == CC_SOSTENUTO:
+            self._sostenuto(c, value >= 0.5)
+        elif cc == CC_ALL_NOTES_OFF:
+            self._all_notes_off(c)
+        elif cc == CC_ALL_SOUND_OFF:
+            self._all_sound_off(at)
+        elif cc == CC_RESET_ALL:
+            self._reset_controllers(c, at)
+        elif cc in CC_MODE:
+            self._all_notes_off(c)
+            self._ignore(f"CC {cc} ({CC_NAMES[cc]}): the mode is not changed, its notes end")
+        elif cc == CC_VOLUME:
+            self._set_volume(c, value, at)
+        elif cc == CC_EXPRESSION:
+            self._set_expression(c, value, at)
+        elif cc == CC_PAN:
+            self._set_pan(c, value, at)
+        elif cc in (CC_RPN_MSB, CC_RPN_LSB):
+            msb, lsb = self._rpn[c]
+            raw = int(round(value * 127))
+            self._rpn[c] = (raw, lsb) if cc == CC_RPN_MSB else (msb, raw)
+            self._nrpn[c] = False
+        elif cc in (CC_NRPN_MSB, CC_NRPN_LSB):
+            self._nrpn[c] = True               # (its data entries are listed too)
+            self._ignore(f"CC {cc} ({CC_NAMES[cc]})")
+        elif cc in (CC_DATA_MSB, CC_DATA_LSB):
+            self._data_entry(c, cc, value)
+        elif cc in self._ctl_default:
+            self._voice_control(c, cc, value)
+        elif not self.inst.control_change(self.bank, cc, value, ()):
+            self._ignore(f"CC {cc}" + (f" ({CC_NAMES[cc]})" if cc in CC_NAMES else ""))
 
     @property
     def latency_samples(self) -> int:
@@ -422,14 +715,22 @@ class Engine:
         j = self._out_sample(at)
         j = min(max(int(j), 0), self.MAX_BLOCK_OUT - 1) + self._knock_lag
         g = J * self.inst.preset.output.gain
+        grp = self.groups.get(ev.channel)
+        kb = self._knock
+        if grp is not None:
+            g *= grp.gain.at(at)               # the channel's volume
+            if grp.path is not None:
+                kb = grp.path.knock
+                grp.path.knocking = True
         p = self.inst.pan(int(round(key)))
         u = self._knock_unit
         if self.n_dec == 2:
-            self._knock[0, j:j + len(u)] += (1.0 - p) * g * u
-            self._knock[1, j:j + len(u)] += p * g * u
+            kb[0, j:j + len(u)] += (1.0 - p) * g * u
+            kb[1, j:j + len(u)] += p * g * u
         else:
-            self._knock[0, j:j + len(u)] += g * u
-        self._knocking = True
+            kb[0, j:j + len(u)] += g * u
+        if kb is self._knock:
+            self._knocking = True
 
     def _track(self, v: int, key) -> None:
         """Count the contacts of voice v's strings from now on (and stop
@@ -454,7 +755,7 @@ class Engine:
         return {"key": key, "strings": strings}
 
     def _damp(self, vo: _Voice) -> None:
-        self.inst.note_off(self.bank, vo.slots, vo.key_arg, vo.f0_hz, self.pedal)
+        self.inst.note_off(self.bank, vo.slots, vo.key_arg, vo.f0_hz, float(self.pedal[vo.channel]))
 
     def _release(self, v: int) -> None:
         """Key up: the instrument damps the strings as far as the sustain
@@ -527,24 +828,30 @@ class Engine:
         self.time_in = end
         if self.probe:
             self._probe.append(bank.probe[:, :, :n_in].copy())
+        mix = self.mix[:, :n_in]              # (a channel's own rows may have been added)
+        paths = self._mix_groups(mix, start, n_in) if self.groups else ()
         if self.n_dec < self.buses:
             mix[0] += mix[1]                  # a mono body: the bridge's two ends summed
-        if self.sym is not None or self._knocking or self.n_dec > self.channels:
+        if self.sym is not None or self._knocking or self.n_dec > self.channels or paths:
             d = self._dout[:, :n_out]
             for c in range(self.n_dec):
                 self.decs[c].process(mix[c], d[c])
             if self._knocking:
                 # the knocks' force joins the bridge (it drives the board,
                 # and the sympathetic strings hear it)
-                kb = self._knock
-                d += kb[:, :n_out]
-                L = self._knock_tail
-                kb[:, :L] = kb[:, n_out:n_out + L]
-                kb[:, L:] = 0.0
-                self._knocking = bool(kb[:, :L].any())
+                self._knocking = self._knock_into(self._knock, d, n_out)
+            for g in paths:
+                self._path_decimate(g, mix, n_out)
             if self.sym is not None:
+                # the panned channels' strings drive the sympathetic strings too
+                for g in paths:
+                    d += g.path.d[:, :n_out]
                 self._sympathetic_block(d, n_out)
+                for g in paths:
+                    d -= g.path.d[:, :n_out]
             y = self._finish(d, n_out, out)
+            for g in paths:
+                self._path_out(g, y, n_out)
         elif self.channels == 1:
             y = self.dec.process(mix[0], self._out[0] if out is None else out)
             if self.body is not None:
@@ -561,14 +868,164 @@ class Engine:
                 self.body.process(d, out=y)
         if self.limiter is not None:
             self.limiter.process(y, out=y)
-        if self._hush:
-            for stage in (self.body, self.limiter):
-                if stage is not None:
-                    stage.reset()
-            self._hush = False
+        if self._hush_out is not None:
+            self._hush_block(y, n_out)
         self._reap(n_in)
         self.time_out += n_out
         return y
+
+    # -- the mixer: channel volume, expression, pan (synth.engine.mixing) -------
+    def _row_of(self, c: int) -> int:
+        g = self.groups.get(c)
+        return 0 if g is None else g.row
+
+    def _set_rows(self, slots, row: int) -> None:
+        bank = self.bank
+        for s in slots:
+            if bank.output_row(s) != row:
+                bank.set_output_row(s, row)
+
+    def _mixing_changed(self, c: int, at: int) -> None:
+        """Channel c's volume, expression or pan changed at internal sample
+        ``at``: its gain (and pan) ramp to the new values over
+        :data:`~synth.engine.mixing.RAMP_S`; a channel leaving its defaults
+        the first time gets rows of its own (and, once panned, an output
+        path of its own)."""
+        gain = self.channel_gain(c)
+        pan = self.channel_pan_gains(c)
+        grp = self.groups.get(c)
+        if grp is None:
+            if gain == 1.0 and pan == (1.0, 1.0):
+                return
+            grp = self._new_group(c)
+        # a channel that sounds ramps (no zipper, no click); a silent one
+        # takes the new values at once (its next note must not ramp)
+        sounding = any(vo.channel == c for vo in self.voices.values()) or (
+            self.taraf is not None and self._bridge_channel == c and self.taraf.awake)
+        grp.gain.set(at, gain, int(round(RAMP_S * self.fs_in)) if sounding else 0)
+        if pan != (1.0, 1.0) and grp.path is None:
+            grp.path = OutputPath(self)
+        if grp.path is not None:
+            j = self.time_out + min(max(self._out_sample(at), 0), self.MAX_BLOCK_OUT)
+            n = int(round(RAMP_S * self.fs_out)) if sounding else 0
+            grp.path.left.set(j, pan[0], n)
+            grp.path.right.set(j, pan[1], n)
+
+    def _new_group(self, c: int) -> ChannelGroup:
+        """Rows of the mix for channel c alone; its sounding strings (and the
+        bridge's own, when they follow it) move there."""
+        row = self.buses * (1 + len(self.groups))
+        need = self.buses * (1 + CHANNELS)
+        if self.mix.shape[0] < need:
+            m = np.zeros((need, self.mix.shape[1]))
+            m[:self.mix.shape[0]] = self.mix
+            self.mix = m
+        grp = ChannelGroup(c, row)
+        self.groups[c] = grp
+        for vo in self.voices.values():
+            if vo.channel == c:
+                self._set_rows(vo.slots, row)
+        if self.taraf is not None and self._bridge_channel == c:
+            self._set_rows(self.taraf.slots, row)
+        return grp
+
+    def _mix_groups(self, mix: np.ndarray, start: int, n_in: int) -> list:
+        """Each channel's rows times its gain; added to the instrument's
+        rows, or left for its own output path.  Returns the groups with a
+        path."""
+        paths = []
+        b = self.buses
+        end = start + n_in
+        for grp in sorted(self.groups.values(), key=lambda g: g.row):
+            rows = mix[grp.row:grp.row + b]
+            g = grp.gain.constant_over(start, end)
+            if g is None:
+                rows *= grp.gain.envelope(start, n_in)
+            elif g != 1.0:
+                rows *= g
+            grp.gain.forget_before(end)
+            if grp.path is None:
+                mix[:b] += rows
+            else:
+                if self.n_dec < b:
+                    rows[0] += rows[1]
+                paths.append(grp)
+        return paths
+
+    def _path_decimate(self, grp: ChannelGroup, mix: np.ndarray, n_out: int) -> None:
+        p = grp.path
+        d = p.d[:, :n_out]
+        for c in range(self.n_dec):
+            p.decs[c].process(mix[grp.row + c], d[c])
+        if p.knocking:
+            p.knocking = self._knock_into(p.knock, d, n_out)
+
+    def _path_out(self, grp: ChannelGroup, y: np.ndarray, n_out: int) -> None:
+        """A panned channel through its body, its pan's gains, into ``y``."""
+        p = grp.path
+        d = p.d[:, :n_out]
+        yp = p.y[:, :n_out]
+        if p.body is not None:
+            p.body.process(d, out=yp)
+        else:
+            yp[:] = d
+        t0 = self.time_out
+        for side, ramp in ((0, p.left), (1, p.right)):
+            g = ramp.constant_over(t0, t0 + n_out)
+            if g is None:
+                y[side] += ramp.envelope(t0, n_out) * yp[side]
+            else:
+                y[side] += g * yp[side]
+            ramp.forget_before(t0 + n_out)
+
+    def _knock_into(self, kb: np.ndarray, d: np.ndarray, n_out: int) -> bool:
+        """Add the knock buffer's next ``n_out`` samples to ``d`` and shift
+        it on; returns whether knocks remain."""
+        d += kb[:, :n_out]
+        L = self._knock_tail
+        kb[:, :L] = kb[:, n_out:n_out + L]
+        kb[:, L:] = 0.0
+        return bool(kb[:, :L].any())
+
+    def _hush_block(self, y: np.ndarray, n_out: int) -> None:
+        """All sound off's output fade over this block: a raised cosine from
+        the event's output sample, :data:`HUSH_T60_S` long, then silence to
+        the block's end; once it is over, the body's ring and the limiter's
+        delay line are cleared (nothing of the earlier sound comes out
+        again).  A note begun within the fade is heard from the next block."""
+        j, done = self._hush_out
+        n_f = self._hush_len
+        if j >= n_out:                        # (the fade starts in a later block)
+            self._hush_out = (j - n_out, done)
+            return
+        k = min(n_f - done, n_out - j)
+        ramp = 0.5 * (1.0 + np.cos(np.pi * (np.arange(done + 1, done + k + 1) / n_f)))
+        y[..., j:j + k] *= ramp
+        done += k
+        if done < n_f:
+            self._hush_out = (0, done)
+            return
+        y[..., j + k:n_out] = 0.0
+        for v, vo in self._hushed.items():
+            if self.voices.get(v) is vo:
+                self._free(v)
+        self._hushed = {}
+        if self.taraf is not None:
+            self.taraf.silence()
+        if self.sym is not None:
+            self.sym.restart()
+            self._sym_dirty = True
+        for stage in (self.body, self.limiter):
+            if stage is not None:
+                stage.reset()
+        for d in self.decs:
+            d.clear()
+        for grp in self.groups.values():
+            if grp.path is not None:
+                grp.path.reset()
+        self._knock[:] = 0.0
+        self._knocking = False
+        self._hush_out = None
 
     def _schedule_hand_over(self, v: int, key, at: int) -> None:
         """After a strike: if the instrument plays this key's strike on a
@@ -633,8 +1090,10 @@ class Engine:
         a key held down), its string silent while the key sounds as a
         played note.  Returns (lift, muted), one value per string."""
         sym = self.sym
-        lift = np.full(sym.n, self.inst.damper_lift(self.pedal))
-        for k in self._latched_keys:
+        # the strings no key holds share the instrument's dampers: any
+        # channel's pedal lifts them
+        lift = np.full(sym.n, self.inst.damper_lift(float(self.pedal.max())))
+        for _, k in self._latched_keys:
             i = sym.slot_of.get(k)
             if i is not None:
                 lift[i] = 1.0

@@ -111,6 +111,9 @@ class Realtime:
         if overload is not None and not (0.0 < overload <= 2.0):
             raise ValueError(f"overload = {overload!r} is out of range (0 < value <= 2, or None)")
         self.engines = [engine]
+        #: every engine that has played in this stream (program changes
+        #: add one), for the report's counts
+        self.engines_seen = [engine]
         self.fs = engine.fs_out
         self.block = int(block)
         self.latency_s = 2.0 * self.block / self.fs if latency_s is None else float(latency_s)
@@ -211,8 +214,11 @@ class Realtime:
                 for d in new.decs:
                     d.reset()
                 for e in self.engines:
-                    e.schedule([Event(self.n_out / self.fs, "control", 123, 0.0)])
+                    # all notes off on every channel: the old instrument's keys up
+                    e.schedule([Event(self.n_out / self.fs, "control", 123, 0.0, c)
+                                for c in range(16)])
                 self.engines.append(new)
+                self.engines_seen.append(new)
             self._drain()
             acc = self._acc[:, :frames]
             acc[:] = 0.0
@@ -292,7 +298,8 @@ class Realtime:
                 f"{st.percentile_fraction(99, self.budget_s) * 100:.1f}%, mean "
                 f"{st.mean_fraction * 100:.1f}% of the budget; {st.underruns} underruns, "
                 f"{st.overloads} overloaded blocks, {st.shed_voices} voices shed, "
-                f"{st.late_events} late events, {st.errors} errors")
+                f"{st.late_events} late events, {st.errors} errors, "
+                f"{sum(e.n_stolen for e in self.engines_seen)} voices stolen")
 
 
 def contact_meter(tel: dict | None, prev: dict | None = None) -> str:

@@ -127,6 +127,25 @@ class Sympathetic:
                 self.bank.join_bridge(int(i), float(self.state[0]))
                 self.bank.activate(int(i))
 
+    def fade_all(self, t60_s: float) -> None:
+        """All sound off: every sounding string fades out, 60 dB in
+        ``t60_s`` (s); :meth:`restart` then brings them back from rest."""
+        for i in np.flatnonzero(self.bank._is_active[:self.n]):
+            self.bank.fade(int(i), t60_s, self.fs)
+
+    def restart(self) -> None:
+        """After :meth:`fade_all`, once they are silent: every string starts
+        again from rest, and the next :meth:`set_dampers` lifts (and
+        starts) those its dampers leave free."""
+        for i in np.flatnonzero(self.bank._is_active[:self.n]):
+            self.bank.deactivate(int(i))
+            self._configure(int(i))
+        self.state[:] = 0.0                        # the bridge at rest too
+        self.lift = np.full(self.n, -1.0)
+        self.muted[:] = False
+        self._stop_at[:] = _NEVER
+        self._update_next_stop()
+
     def _update_next_stop(self) -> None:
         st = self._stop_at[self.muted]
         self._next_stop = int(st.min()) if st.size else _NEVER

@@ -139,6 +139,14 @@ class Taraf:
             bank.reset_quiet(s, before)
 
     # -- silence -------------------------------------------------------------------
+    def fade(self, t60_s: float, fs_hz: float) -> None:
+        """All sound off: every sounding string fades out, 60 dB in
+        ``t60_s`` (s) at the rate ``fs_hz`` (Hz); pending strokes go.  The
+        strings are freed, silent, as usual and start again from rest."""
+        self._plucks.clear()
+        for s in self.slots:
+            self.bank.fade(s, t60_s, fs_hz)
+
     def silence(self) -> None:
         """All sound off: every string stops and rests; pending strokes go."""
         self._plucks.clear()

@@ -273,13 +273,35 @@ class Voice:
         """Pitch bend of a sounding note, ``value`` in [-1, 1] of the voice's
         range.  Default: the voice does not bend (a piano)."""
 
+    def controls(self) -> dict:
+        """The MIDI controllers the voice plays itself (through
+        :meth:`control_change`) and their values when the preset loads,
+        ``{cc: value in [0, 1]}``: the engine keeps them per MIDI channel,
+        sets a note's channel's values before its note-on, and restores
+        these at CC121 (reset all controllers).  Default: none."""
+        return {}
+
+    @property
+    def bend_range_semitones(self) -> float:
+        """The widest pitch bend the voice plays (semitones), its
+        :meth:`pitch_bend` value 1: ``play.pitch_bend_semitones`` (0: none)."""
+        play = getattr(self.preset, "play", None)
+        return float(getattr(play, "pitch_bend_semitones", 0.0) or 0.0)
+
+    @property
+    def bends(self) -> bool:
+        """Whether the voice plays pitch bend at all."""
+        return self.bend_range_semitones > 0.0
+
     def control_change(self, bank: StringBank, cc: int, value: float, sounding) -> bool:
         """A MIDI control change the engine does not handle itself (it
         takes the pedals 64, 66, 67 and the channel-mode messages).
 
         cc : controller number, 0 .. 127.  value : normalised, 0 .. 1.
-        sounding : the notes sounding now, an iterable of (slots, key, f0_hz)
-            tuples (read it at most once, during the call).
+        sounding : the notes sounding now on the message's channel, an
+            iterable of (slots, key, f0_hz) tuples (read it at most once,
+            during the call); the value also holds for the notes to come
+            (the engine sets each note's channel's value before its note-on).
         Returns True when the voice used the control.  Default: ignored.
         """
         return False

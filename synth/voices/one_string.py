@@ -443,6 +443,14 @@ class OneStringVoice(Voice):
                 if su.bend_len:
                     bank.set_tune_out_gain(slots[0], self.buzz ** self.RISE_EXPONENT)
 
+    def controls(self) -> dict:
+        """The buzz depth on ``play.buzz_cc`` (CC1 by default), at the
+        preset's ``termination.buzz``; none for a voice without a
+        termination or without the control."""
+        if self.buzz_cc is None or self.termination is None:
+            return {}
+        return {int(self.buzz_cc): float(self.buzz)}
+
     def control_change(self, bank: StringBank, cc: int, value: float, sounding) -> bool:
         """``play.buzz_cc`` (default CC1, the modulation wheel) sets the buzz
         depth, 0 .. 127 to 0 .. 1 (:meth:`set_buzz`)."""

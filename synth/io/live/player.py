@@ -29,7 +29,7 @@ import threading
 import time
 
 from synth.io.errors import SynthError
-from synth.io.midi import normalise_message
+from synth.io.midi import MidiEvent, dropped_name, midi_to_events, normalise_message
 from synth.io.live.devices import (FS_OUT, _one_line, _quiet_c_stderr, check_audio, check_midi,
                                    pick_audio_device, pick_midi_port)
 from synth.io.live.engines import ready_engine
@@ -48,7 +48,7 @@ SWITCH_INTERVAL_S = 0.0001
 # --------------------------------------------------------------------------
 
 
-def normalise(msg):
+def normalise(msg, channels=None, drums: bool = False, ignored: dict | None = None):
     """A live mido message as an engine :class:`~synth.engine.engine.Event`.
 
     The values are those of the MIDI file reader (one shared function,
@@ -63,14 +63,23 @@ def normalise(msg):
     Event or None
         None for program changes (the player handles those) and for
         messages that are dropped (aftertouch, clock, SysEx, ...).
-    """
-    from synth.engine.engine import Event
 
+    The channels that play (``channels``, 0-based; None: all) and the
+    General MIDI drum channel (skipped unless ``drums``) are chosen by the
+    same function as a render's (:func:`synth.io.midi.midi_to_events`);
+    what is not played is counted in ``ignored``.
+    """
     n = normalise_message(msg)
-    if n is None or n[0] == "program":
+    if n is None:
+        if ignored is not None:
+            name = dropped_name(msg)
+            if name is not None:
+                ignored[name] = ignored.get(name, 0) + 1
         return None
-    kind, channel, key, value = n
-    return Event(0.0, kind, key, value, channel)
+    if n[0] == "program":
+        return None
+    evs = midi_to_events([MidiEvent(0.0, *n)], channels=channels, drums=drums, ignored=ignored)
+    return evs[0] if evs else None
 
 
 # --------------------------------------------------------------------------
@@ -113,12 +122,16 @@ class Player:
     overrides : sequence of str
         ``PATH=VALUE`` overrides (``--set``) of ``preset``, wherever the
         program map plays it (e.g. ``play.polyphony=32``).
+    channels : collection of int or None
+        MIDI channels that play (0-based); None: every channel.
+    drums : bool
+        Play channel 10 (General MIDI's drums) too.
     """
 
     def __init__(self, preset: str, program_map: ProgramMap | None = None, block: int = 128,
                  latency_s: float | None = None, audio_device: str | None = None,
                  midi_port: str | None = None, midi: bool = True, stats: bool = False,
-                 out=None, overrides=()):
+                 out=None, overrides=(), channels=None, drums: bool = False):
         from synth.engine.engine import Engine
         from synth.io.presets import load_preset
 
@@ -132,6 +145,10 @@ class Player:
                              f"value <= 1000: at least one block of {self.block} samples)")
         self.latency_s = latency_s
         self.overrides = tuple(overrides)
+        self.channels = None if channels is None else frozenset(int(c) for c in channels)
+        self.drums = bool(drums)
+        #: messages received and not played, by name (the report lists them)
+        self.ignored: dict = {}
         self._first = preset
         load_preset(preset, self.overrides)                  # a bad name or --set fails now
         self.program_map = program_map or ProgramMap({0: preset})
@@ -301,9 +318,18 @@ class Player:
         ready = f"ready in {self.ready_s:.2f} s; " if self.ready_s is not None else ""
         ahead = (f"; the device played blocks up to {self.device_ahead_s * 1e3:.1f} ms after "
                  "their callback (PortAudio's timestamps)" if self.device_ahead_s > 0 else "")
+        ignored = dict(self.ignored)
+        stolen = 0
+        for e in self.rt.engines_seen:
+            stolen += e.n_stolen
+            for what, n in e.ignored.items():
+                ignored[what] = ignored.get(what, 0) + n
+        rest = "".join(f"\nignored {n} x {what}"
+                       for what, n in sorted(ignored.items(), key=lambda kv: (-kv[1], kv[0])))
         return (f"{self.rt.report()}\n{ready}{self.n_messages} MIDI messages, {self.n_notes} notes, "
                 f"{self.n_program_changes} program changes, at most {self.max_voices} voices, "
-                f"peak {peak}{clip}, {self.handler_errors} message errors{ahead}")
+                f"{stolen} voices stolen, peak {peak}{clip}, {self.handler_errors} message "
+                f"errors{ahead}{rest}")
 
     def _say(self, text: str) -> None:
         print(text, file=self.out, flush=True)
@@ -341,7 +367,7 @@ class Player:
             if msg.type == "program_change":
                 self.program_change(msg.program)
                 return
-            ev = normalise(msg)
+            ev = normalise(msg, self.channels, self.drums, self.ignored)
             if ev is None or self.rt is None:
                 return
             if ev.kind == "note_on":

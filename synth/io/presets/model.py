@@ -267,6 +267,7 @@ class PlaySpec:
     pitch_bend_semitones: float
     buzz_cc: int | None = None
     quality: str = "standard"
+    steal: str = "quietest"
 
 
 @dataclass(frozen=True)

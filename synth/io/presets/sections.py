@@ -378,7 +378,11 @@ SECTIONS: tuple[Section, ...] = (
         Field("velocity_exponent", "float",
               "amplitude = amplitude_m * (velocity/127)**velocity_exponent", 0.2, 5.0),
         Field("polyphony", "int", "maximum simultaneous voices", 1, 512),
-        Field("pitch_bend_semitones", "float", "pitch-bend range, semitones", 0.0, 12.0),
+        Field("pitch_bend_semitones", "float", "pitch-bend range, semitones (the widest RPN 0 "
+              "may set)", 0.0, 12.0),
+        Field("steal", "str", "which voice a note takes when every voice sounds: the quietest "
+              "or the oldest of those sounding before it, released ones first",
+              choices=("quietest", "oldest"), default="quietest"),
         Field("buzz_cc", "int", "MIDI controller that sets termination.buzz live (1: the "
               "modulation wheel; the pedals 64, 66, 67 stay the engine's)", 1, 119,
               when=_ONE_STRING, default=1),
