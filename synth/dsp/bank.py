@@ -19,6 +19,7 @@ import numpy as np
 
 from ..kernels import felt_layer as FL
 from ..kernels import strings as K
+from ..kernels.energy import ring_energy
 
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
 #: per-slot columns of ``ipar`` that a template does not carry (the output
@@ -445,6 +446,22 @@ class StringBank:
         self.ipar[s, K.I_EXC] = K.EXC_NONE
         self.ipar[s, K.I_EXC_M] = 0
         self.ipar[s, K.I_HLAST] = -1
+
+    def energy(self, slots) -> np.ndarray:
+        """The wave energy each of ``slots`` stores now: the sum of the
+        squares of its ring's travelling waves (both rails, the whole
+        string; 0 for an inactive slot), one value per slot
+        (:func:`synth.kernels.energy.ring_energy`).  A measure of how loud
+        a note still is that does not depend on block boundaries."""
+        idx = np.asarray(slots, dtype=np.int64)
+        if idx.size and (idx.min() < 0 or idx.max() >= self.capacity):
+            raise ValueError(f"slots out of range (0 <= value <= {self.capacity - 1})")
+        offs = np.ascontiguousarray(self.ipar[idx, K.I_OFF], dtype=np.int64)
+        lens = 2 * np.ascontiguousarray(self.ipar[idx, K.I_N], dtype=np.int64)
+        lens[~self._is_active[idx]] = 0
+        out = np.zeros(idx.size)
+        ring_energy(self.ring, offs, lens, out)
+        return out
 
     def is_active(self, s: int) -> bool:
         return bool(self._is_active[s])

@@ -77,6 +77,9 @@ PAN_CENTRE = 64 / 127
 #: how long all sound off (CC120) takes to fade the strings out (s): 60 dB
 #: in this time, no click
 HUSH_T60_S = 0.005
+#: a note struck less than this long ago (s) is not given up to a new one
+#: while older ones sound (a chord's notes, a fast run's last notes)
+STEAL_MIN_AGE_S = 0.02
 #: the voice-stealing rules a preset may choose (``play.steal``)
 STEAL_RULES = ("quietest", "oldest")
 
@@ -237,7 +240,9 @@ class Engine:
         #: the channels whose volume, expression or pan left their defaults:
         #: rows of the mix of their own (:mod:`synth.engine.mixing`)
         self.groups: dict[int, ChannelGroup] = {}
-        #: the channel whose rows the bridge's own strings (taraf) follow
+        #: the channel whose rows the bridge's own strings (taraf) and whose
+        #: sustain pedal the undamped strings (sympathetic) follow: the
+        #: latest note's
         self._bridge_channel = 0
         #: all sound off: the voices it fades, freed once the output has faded
         self._hushed: dict = {}
@@ -265,7 +270,8 @@ class Engine:
         self.sym = None if sd is None else Sympathetic(sd, self.fs_out, self.n_dec,
                                                        self.MAX_BLOCK_OUT, self.silence_level)
         self._sym_dirty = True
-        self._sym_events: list = []          # (output sample, lift, muted) within this block
+        self._sym_events: list = []          # (output sample, lift, muted, hush) within this block
+        self._sym_hush = False               # all sound off: fade them at the next such event
         #: the action's knocks: a unit pulse (its shape), and the force still
         #: to add to the buses (output samples from the block's start)
         self._knock_unit = knock_pulse(self.fs_out, 1.0, instrument.knock_duration_s())
@@ -307,28 +313,31 @@ class Engine:
                          for i, ev in enumerate(ordered)]
         self._seq += len(ordered)
 
-    def _alloc(self) -> int:
-        """A free voice index.  With ``polyphony`` voices sounding, one of
-        them is faded out in about 10 ms (never cut: that clicks) and keeps
-        its index until silent; the new note takes a spare index.  The voice
-        given up is chosen among those sounding before this block (a note
-        struck in this block has no level yet: a chord on a full pool must
-        not steal its own notes), released ones first, then by ``play.steal``:
-        the quietest (last block's peak) or the oldest note.  Only when
-        every sounding voice began in this block (a chord larger than the
-        pool) is the oldest of them given up."""
+    def _alloc(self, at: int) -> int:
+        """A free voice index for a note-on at internal sample ``at``.  With
+        ``polyphony`` voices sounding, one of them is faded out in about 10
+        ms (never cut: that clicks) and keeps its index until silent; the
+        new note takes a spare index.  The voice given up is one struck at
+        least :data:`STEAL_MIN_AGE_S` before (a chord on a full pool must
+        not steal its own notes), released ones first, then by
+        ``play.steal``: the quietest (the least wave energy in its strings
+        at this sample, :meth:`StringBank.energy`: the same choice whatever
+        the block size, live or offline) or the oldest note.  Only when
+        every sounding voice is younger (a chord larger than the pool) is
+        the oldest of them given up."""
         live = [v for v, vo in self.voices.items() if not vo.dying]
         if len(live) >= self.polyphony:
-            before = [v for v in live if self.voices[v].start < self.time_in]
+            age = int(STEAL_MIN_AGE_S * self.fs_in)
+            before = [v for v in live if at - self.voices[v].start >= age]
             if before:
                 rel = [v for v in before if self.voices[v].released]
                 pool = rel or before
                 if self.steal == "oldest":
-                    victim = min(pool, key=lambda v: self.voices[v].start)
+                    victim = min(pool, key=lambda v: (self.voices[v].start, v))
                 else:
                     victim = self._quietest(pool)
             else:
-                victim = min(live, key=lambda v: self.voices[v].start)
+                victim = min(live, key=lambda v: (self.voices[v].start, v))
             self._fade(victim)
             self.n_stolen += 1
         for v in range(self.n_index):
@@ -339,15 +348,17 @@ class Engine:
         self._free(v)
         return v
 
+    def _quietest(self, candidates: list) -> int:
+        """The candidate voice whose strings store the least wave energy."""
+        slots = [s for v in candidates for s in self._slots(v)]
+        e = self.bank.energy(slots).reshape(len(candidates), self.spv).sum(axis=1)
+        return candidates[int(np.argmin(e))]
+
     def _levels(self) -> np.ndarray:
         """Last block's peak output of every voice index (the loudest of its
         strings), in one array operation (a note-on with the pool full must
         not cost Python work per voice)."""
         return self.bank.last_peak[:self.n_index * self.spv].reshape(self.n_index, self.spv).max(axis=1)
-
-    def _quietest(self, candidates: list) -> int:
-        lv = self._levels()
-        return min(candidates, key=lv.__getitem__)
 
     def _fade(self, v: int, t60_s: float = 0.01) -> None:
         """Fade voice v out (its strings' loss rises to T60 = ``t60_s``)."""
@@ -423,9 +434,11 @@ class Engine:
                 self.taraf.strum(at, float(ev.value))
                 return
             self.taraf.wake()
-            if self._bridge_channel != ev.channel:
-                # the bridge's own strings sound at the latest note's channel's volume
-                self._bridge_channel = ev.channel
+        if self._bridge_channel != ev.channel:
+            # the strings no key holds (taraf, undamped strings) follow the
+            # latest note's channel: its volume, its sustain pedal
+            self._bridge_channel = ev.channel
+            if self.taraf is not None:
                 self._set_rows(self.taraf.slots, self._row_of(ev.channel))
         if self._ctl_default:
             self._voice_controls_for(ev.channel)
@@ -440,7 +453,7 @@ class Engine:
             vo.start, vo.released = at, False
             self._released[v] = False
         else:
-            v = self._alloc()
+            v = self._alloc(at)
             slots = self._slots(v)
             try:
                 self.inst.note_on(self.bank, slots, key, ev.value, f0_hz=ev.f0_hz,
@@ -540,7 +553,7 @@ class Engine:
         if self.taraf is not None:
             self.taraf.fade(HUSH_T60_S, self.fs_in_exact)
         if self.sym is not None:
-            self.sym.fade_all(HUSH_T60_S)
+            self._sym_hush = True     # at the event's output sample (:meth:`_sympathetic_block`)
         # the output fades with them; once it has, what is left of them (a
         # damper still landing, the body's ring, the limiter's delay line)
         # is cleared (:meth:`_hush_block`); the knocks still to come go
@@ -821,8 +834,10 @@ class Engine:
                 # the sympathetic strings' new state, from the output sample
                 # of this event's internal sample (block-size independent)
                 j = self._out_sample(start + off)
-                self._sym_events.append((min(max(j, 0), n_out), *self._sympathetic_state()))
+                self._sym_events.append((min(max(j, 0), n_out), *self._sympathetic_state(),
+                                         self._sym_hush))
                 self._sym_dirty = False
+                self._sym_hush = False
         if cursor < n_in:
             bank.render(self.mix, cursor, n_in - cursor)
         self.time_in = end
@@ -1054,8 +1069,10 @@ class Engine:
         change at the events' output samples."""
         sym = self.sym
         c0 = 0
-        for j, lift, muted in self._sym_events:
+        for j, lift, muted, hush in self._sym_events:
             sym.process(d, c0, j - c0)
+            if hush:
+                sym.fade_all(HUSH_T60_S)       # all sound off
             sym.set_dampers(lift, muted)
             c0 = j
         self._sym_events.clear()
@@ -1090,9 +1107,9 @@ class Engine:
         a key held down), its string silent while the key sounds as a
         played note.  Returns (lift, muted), one value per string."""
         sym = self.sym
-        # the strings no key holds share the instrument's dampers: any
-        # channel's pedal lifts them
-        lift = np.full(sym.n, self.inst.damper_lift(float(self.pedal.max())))
+        # the strings no key holds share the instrument's dampers: the pedal
+        # of the channel that played last lifts them
+        lift = np.full(sym.n, self.inst.damper_lift(float(self.pedal[self._bridge_channel])))
         for _, k in self._latched_keys:
             i = sym.slot_of.get(k)
             if i is not None:

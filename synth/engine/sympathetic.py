@@ -223,6 +223,12 @@ class Sympathetic:
             for s in done.tolist():
                 self.bank.deactivate(int(s))
                 self._configure(int(s))
+                # the next :meth:`set_dampers` starts it again if it is free
+                # (it stayed silent for good while its lift did not change:
+                # the top keys' undamped strings no longer answered a note
+                # played after a pause, and a render depended on whether a
+                # block had ended within that pause)
+                self.lift[int(s)] = -1.0
 
     @property
     def n_active(self) -> int:
