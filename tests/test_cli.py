@@ -310,8 +310,8 @@ def test_render_malformed_file_renders_or_fails_cleanly(capsys, monkeypatch, tmp
         read = synth.io.midi.read_midi_file
         seen = []
 
-        def first_seconds(p):
-            ev = read(p)
+        def first_seconds(p, dropped=None):
+            ev = read(p, dropped=dropped)
             first = [e for e in ev if e.time_s < limit]
             seen.append((sum(1 for e in ev if e.kind == "note_on"),
                          sum(1 for e in first if e.kind == "note_on")))

@@ -221,6 +221,23 @@ def test_channels_and_the_drum_channel_are_chosen(tmp_path):
     assert ign["channel 1 messages (not in --channels)"] == 2
 
 
+def test_the_live_player_chooses_channels_as_a_render_does():
+    from synth.io.live.player import normalise
+    from synth.io.midi import plays_channel
+
+    ign = {}
+    assert normalise(mido.Message("note_on", note=36, velocity=90, channel=9), ignored=ign) is None
+    assert normalise(mido.Message("note_on", note=36, velocity=90, channel=9), drums=True) is not None
+    assert normalise(mido.Message("note_on", note=60, velocity=90, channel=2), channels={0},
+                     ignored=ign) is None
+    normalise(mido.Message("aftertouch", value=3), ignored=ign)
+    assert ign == {"channel 10 messages (General MIDI drums; --drums plays them)": 1,
+                   "channel 3 messages (not in --channels)": 1,
+                   "channel pressure (aftertouch)": 1}
+    assert plays_channel(0) and not plays_channel(9) and plays_channel(9, drums=True)
+    assert not plays_channel(1, {0, 2}) and plays_channel(2, {0, 2})
+
+
 def test_channels_option_parses_as_users_number_channels():
     import argparse
 

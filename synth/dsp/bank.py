@@ -12,6 +12,7 @@ kernel's tables.  Nothing is allocated per block.
 
 from __future__ import annotations
 
+import heapq
 import math
 from dataclasses import dataclass
 
@@ -412,6 +413,11 @@ class StringBank:
         self._ho_fp = np.zeros(K.F_NF)
         self._ho_one = np.zeros(1)
         self._free_dirs: dict[tuple, np.ndarray] = {}
+        #: internal samples rendered since the bank was built (:meth:`after`)
+        self.time = 0
+        # the calls :meth:`after` holds: (due sample, order, function), a heap
+        self._timers: list = []
+        self._timer_seq = 0
 
     # -- slot management ------------------------------------------------------
     def activate(self, s: int) -> None:
@@ -662,6 +668,38 @@ class StringBank:
         """New loss filter gain b0 for slot s (a damper falling or lifting):
         reached smoothly within a few ``LOSS_GLIDE_S``."""
         self.fpar[s, K.F_B0T] = b0
+
+    def set_loss_filter(self, s: int, b0: float, a1: float) -> None:
+        """Give slot s the loss filter b0 / (1 + a1 z^-1) from its next
+        sample: ``b0`` its undamped gain (the damper row's, :meth:`set_damper`),
+        ``a1`` its feedback coefficient.  The damper's share and a glide
+        under way are kept (the gain now and its target scale by ``b0``
+        over the old undamped gain) and :meth:`apply_dampers` damps the new
+        one.  Given the same gain at DC as before, b0 / (1 + a1), a sounding
+        string's low partials do not step; only its upper ones lose more
+        (or less) per round trip, and the filter's phase delay changes with
+        the pole (the caller's to take back, e.g. with :meth:`set_bend_delay`).
+
+        Parameters
+        ----------
+        b0 : float
+            Gain, 0 < value < 1 - |a1|: below 1 at every frequency (the
+            loop must not grow).
+        a1 : float
+            Feedback coefficient, -1 < value < 1 (a lowpass for a1 < 0).
+        """
+        b0, a1 = float(b0), float(a1)
+        if not (-1.0 < a1 < 1.0):
+            raise ValueError(f"a1 = {a1!r} is out of range (-1 < value < 1)")
+        if not (0.0 < b0 < 1.0 - abs(a1)):
+            raise ValueError(f"b0 = {b0!r} is out of range (0 < value < 1 - |a1| = "
+                             f"{1.0 - abs(a1):g}: a loop gain below 1 at every frequency)")
+        old = float(self.damper[s, 0])
+        for c in (K.F_B0, K.F_B0T):
+            share = float(self.fpar[s, c]) / old
+            self.fpar[s, c] = b0 if share == 1.0 else b0 * share     # (undamped: exactly b0)
+        self.fpar[s, K.F_A1] = a1
+        self.damper[s, 0] = b0
 
     def set_damper(self, s: int, row) -> None:
         """Slot s's damper: ``row`` = (b0 undamped, f1_hz, t60_damped_s,
@@ -1300,6 +1338,30 @@ class StringBank:
         if self.probe.shape[2] < n:
             self.probe = np.zeros((self.probe.shape[0], K.P_NCH, n))
 
+    # -- timed changes ----------------------------------------------------------
+    def after(self, n: int, fn) -> None:
+        """Call ``fn()`` (no arguments) once the bank has rendered ``n`` more
+        internal samples, before it renders the next one: a render call is
+        split there, so the call falls on that sample whatever blocks the
+        caller renders in (a live stream and an offline render agree).
+        Calls due at one sample run in the order they were asked for.  For
+        a voice's timed changes of a sounding string (the buzz's drain,
+        :class:`synth.voices.one_string.OneStringVoice`).
+
+        Parameters
+        ----------
+        n : int
+            Internal samples from now, 1 <= value <= 2**40.
+        fn : callable
+            Called with no arguments; it may ask for another call.
+        """
+        if int(n) != n or not (1 <= int(n) <= 1 << 40):
+            raise ValueError(f"n = {n!r} is out of range (integer, 1 <= value <= 2**40 samples)")
+        if not callable(fn):
+            raise ValueError(f"fn = {fn!r} is not callable")
+        self._timer_seq += 1
+        heapq.heappush(self._timers, (self.time + int(n), self._timer_seq, fn))
+
     # -- rendering --------------------------------------------------------------
     def render(self, mix: np.ndarray, o0: int, n: int, ubx: np.ndarray | None = None) -> None:
         """Render n internal samples of all active strings into
@@ -1341,14 +1403,23 @@ class StringBank:
         arrays meet them by construction (the sympathetic strings' stage,
         once per block): ``mix`` 2-D, C-contiguous float64 with at least
         :attr:`mix_rows` rows and o0 + n columns, ``ubx`` at least (o0 + n)
-        M samples, no probes.  (The kernel does not check bounds.)"""
+        M samples, no probes.  (The kernel does not check bounds.)  Calls
+        asked for by :meth:`after` run at their sample."""
         done = 0
+        timers = self._timers
         while done < n:
             c = min(n - done, self.max_block)
+            if timers:
+                due = timers[0][0] - self.time
+                if due <= 0:
+                    heapq.heappop(timers)[2]()
+                    continue
+                c = min(c, due)
             K.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
                           self.active, self.n_active, c, o0 + done, mix,
                           self.probe, self.scratch, self.iwork, ubx, self.sub)
             done += c
+            self.time += c
 
     # -- inspection (tests, analysis) ----------------------------------------
     def rails(self, s: int):

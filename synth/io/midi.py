@@ -51,6 +51,7 @@ __all__ = [
     "midi_file_duration_s",
     "normalise_message",
     "dropped_name",
+    "plays_channel",
     "DRUM_CHANNEL",
 ]
 
@@ -335,6 +336,14 @@ def read_midi_file(path: str | os.PathLike[str], dropped: dict | None = None) ->
 
 #: General MIDI's percussion channel (channel 10, 0-based 9)
 DRUM_CHANNEL = 9
+
+
+def plays_channel(channel: int, channels=None, drums: bool = False) -> bool:
+    """Whether MIDI ``channel`` (0-15) plays: among ``channels`` (None:
+    all), and not General MIDI's drum channel unless ``drums``."""
+    if channels is not None and channel not in channels:
+        return False
+    return drums or channel != DRUM_CHANNEL
 
 
 def midi_to_events(midi_events, channels=None, drums: bool = False, ignored: dict | None = None):

@@ -33,6 +33,11 @@ at x = 0 (``[termination]``: any registered profile of
   plectrum's stroke on that body (``pluck.bachi_impulse_ns``, the biwa's
   bachi): a short force pulse into the body at every note-on, scaled with
   velocity as the pluck (:meth:`OneStringVoice.knock_impulse_ns`).
+* The buzz depth (``termination.buzz``, live on ``play.buzz_cc``) moves the
+  obstacle of the sounding notes at once (a glide of 1 ms); lowered, it
+  also drains the energy the buzz has put into their upper partials
+  (:meth:`OneStringVoice.set_buzz`): the linear string would keep it,
+  ringing about as long as the buzz itself would have.
 
 The voice names are the preset schema's: ``plucked`` presets carry
 ``[pluck]``, ``piano`` presets (the A7 study of Publication I) ``[hammer]``.
@@ -42,6 +47,7 @@ The playable 88-key piano is :mod:`synth.voices.grand`.
 from __future__ import annotations
 
 import math
+import weakref
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -49,7 +55,7 @@ import numpy as np
 from ..dsp.bank import StringBank, slot_template
 from ..kernels import strings as K
 from ..physics.dispersion import tune_stiff_loop
-from ..physics.losses import allpass_for_phase_delay, tune_loop
+from ..physics.losses import allpass_for_phase_delay, one_pole_phase_delay, tune_loop
 from ..physics.profiles import (Termination, buzz_profile, jawari, termination_from_spec,
                                 trim_unreachable)
 from ..physics.string import IdealString, fretted_string, midi_key_to_hz
@@ -79,6 +85,22 @@ class StringSetup:
     n_disp: int = 0            # stiffness: first-order dispersion allpasses ...
     a_disp: float = 0.0        # ... and their coefficient
     subcell: float = 0.0       # the first cell's sub-cell contact (Termination.subcell), 0: off
+
+
+@dataclass
+class _Drain:
+    """A sounding note's drain (:meth:`OneStringVoice.set_buzz`): its setup,
+    the attenuation still to come (dB at ``DRAIN_HZ``), the loss pole's
+    phase delay at f0 now and the first of the two lags that lead it to
+    its target (samples), and the delay the bend line gives back (samples);
+    ``token`` tells this note's drain from a later one's in the same slot."""
+
+    su: StringSetup
+    token: int
+    db: float
+    tau: float
+    mid: float
+    comp: float = 0.0
 
 
 @register_voice("plucked", "piano")
@@ -125,6 +147,16 @@ class OneStringVoice(Voice):
         self._setups: dict = {}
         #: per bank slot: the pitch bend of its note, -1 .. 1
         self._bend: dict = {}
+        #: per bank slot: its note's drain (:meth:`set_buzz`), while it runs
+        self._drains: dict = {}
+        self._drain_tokens = 0
+        self._drain_ticking = False
+        #: per bank slot: its note's obstacle, [setup, depth now, depth it
+        #: goes to, glide steps done of BUZZ_GLIDE_STEPS] (:meth:`set_buzz`)
+        self._depth: dict = {}
+        self._glide_ticking = False
+        #: the bank (a weak reference) the drains and the glide are in
+        self._buzz_bank = None
 
     def warm(self, keys=range(128)) -> None:
         """Derive every key's string now, so that no note-on has to."""
@@ -429,19 +461,251 @@ class OneStringVoice(Voice):
                            max_region)
 
     # -- voice contract ------------------------------------------------------------
+    #: lowering the buzz depth by 1 (from 1 to 0) drains DRAIN_DB (dB) from
+    #: a sounding note's partials at DRAIN_HZ (Hz), less below (a one-pole's
+    #: loss: ~ f^2, a quarter of it an octave down, under 1 dB below 1 kHz)
+    #: and more above; a smaller fall in proportion.  30 dB: CC1 127 -> 0 at
+    #: 1 s takes the band above 4 kHz 7.2-22.0 dB below the note's own over
+    #: 1.0-1.2 s, 13.8-29.9 over 1.1-1.2 s, on keys 43-74 of the sitar, biwa
+    #: and hammered sitar at velocity 100 (without the drain: +4.0 to -8.3
+    #: and +3.3 to -8.1), the band below 500 Hz within 0.3 dB (the hammered
+    #: sitar's key 67: -1.0, -0.9 without the drain); tests/test_buzz_control.py
+    DRAIN_DB = 30.0
+    DRAIN_HZ = 5000.0
+    #: the drain's rate falls as exp(-t / DRAIN_TAU_S): half of it in 49 ms
+    DRAIN_TAU_S = 0.07
+    #: the drain's loss is set anew every DRAIN_STEP_S (s), by
+    #: :meth:`StringBank.after` (the same samples in any blocks): every 2
+    #: ms, each step of the coefficients left a spike in the output's
+    #: second difference up to twice the note's own (key 50: 17.7 dB on
+    #: analysis.clicks' scan, the note's own 12.3); every 0.5 ms none, at
+    #: no cost to see (a six-note chord's render as fast as without).  It
+    #: ends when less than DRAIN_END_DB (dB) is left to come
+    DRAIN_STEP_S = 0.0005
+    DRAIN_END_DB = 0.3
+    #: the drain's loss pole at most (its phase delay: 99 samples)
+    DRAIN_POLE_MAX = 0.99
+    #: a sounding note's obstacle moves to its new depth over BUZZ_GLIDE_S
+    #: (s) in BUZZ_GLIDE_STEPS equal steps of the depth (ten internal
+    #: samples each): moved in one step, the string let go of the jawari
+    #: (or met it) within a sample, a click on some keys (analysis.clicks'
+    #: scan: the hammered sitar's key 43 at CC1 127 -> 0 a jump of 24.9 dB,
+    #: 16.2 in the note before it; the sitar's key 62 at 0 -> 127, 24.8 dB);
+    #: so gliding, 16.2 and 15.8.  (In 8 steps the sitar's key 43 read 19.1
+    #: dB where one step read 13.0; in 32, 13.0.)  Within 1 ms: after it the
+    #: string is clear of the obstacle at 0 (tests/test_buzz.py)
+    BUZZ_GLIDE_S = 0.001
+    BUZZ_GLIDE_STEPS = 32
+
     def set_buzz(self, bank: StringBank, value: float, sounding=()) -> None:
-        """Buzz depth ``value`` (0 .. 1) for the notes to come and, from the
-        next sample, for the ``sounding`` ones ((slots, key, f0_hz) tuples):
-        their obstacle moves to U / value (:func:`buzz_profile`)."""
+        """Buzz depth ``value`` (0 .. 1; clamped) for the notes to come and,
+        from the next sample, for the ``sounding`` ones ((slots, key,
+        f0_hz) tuples): their obstacle moves to U / value
+        (:func:`buzz_profile`; 0: out of reach, the linear string),
+        gliding there over ``BUZZ_GLIDE_S`` (1 ms).  Each note keeps its
+        own depth: notes left out of ``sounding`` (another MIDI channel's)
+        stay where they are, and a value a note has already is no change.
+
+        Lowered, the sounding notes also lose what the buzz has put into
+        their upper partials.  A linear string keeps it: it rings at the
+        loop's own loss (T60 1.2 s at 6 kHz on the sitar), about as slowly
+        as the buzzing note's band falls by itself, so that CC1 127 -> 0
+        left the band above 4 kHz within +4.0 and -8.3 dB of the note's
+        own for a second (louder on the top keys, whose contact had been
+        taking some of the band's energy; tests/test_buzz_control.py).  A
+        fall of a note's depth by d drains ``DRAIN_DB`` x d dB at
+        ``DRAIN_HZ`` from it: its loss filter's pole moves up
+        (:meth:`StringBank.set_loss_filter`), the gain at DC kept (the low
+        partials do not step), at a rate falling as exp(-t /
+        ``DRAIN_TAU_S``), stepped every ``DRAIN_STEP_S`` by
+        :meth:`StringBank.after`, and the bend line takes back the delay
+        the pole adds at f0 (the note stays in tune: within 0.4 cent of the
+        same change without the drain).  Falls add up; a rise ends the
+        drain (the buzz comes back from the contact alone); a restrike, a
+        new note in the slot or the drain's end give the note its own loss
+        filter back, exactly.  A preset without pitch bend has no line to
+        take the delay back: its drain adds at most 1 cent's delay.
+        """
+        self._own(bank)
+        old = self.buzz
         self.buzz = min(max(float(value), 0.0), 1.0)
         if self.termination is None:
             return
+        glide = False
         for slots, key, f0 in sounding:
             su = self.setup(key, f0)
-            if su.U is not None:
-                bank.set_region(slots[0], self._region(su))
-                if su.bend_len:
-                    bank.set_tune_out_gain(slots[0], self.buzz ** self.RISE_EXPONENT)
+            if su.U is None:
+                continue
+            slot = slots[0]
+            ob = self._depth.get(slot)
+            if ob is None or ob[0] is not su:
+                ob = self._depth[slot] = [su, old, old, self.BUZZ_GLIDE_STEPS]
+            fall = ob[2] - self.buzz            # this note's own (a channel's notes may differ)
+            if su.bend_len:
+                bank.set_tune_out_gain(slot, self.buzz ** self.RISE_EXPONENT)
+            if fall > 0.0:
+                self._drain(bank, slot, su, self.DRAIN_DB * fall)
+            elif fall < 0.0 and slot in self._drains:
+                self._drains[slot].db = 0.0
+            if ob[1] != self.buzz:
+                # steps of at most 1 / BUZZ_GLIDE_STEPS of the depth: a
+                # wheel's small moves go in one, as they come
+                n = self.BUZZ_GLIDE_STEPS
+                ob[2], ob[3] = self.buzz, n - math.ceil(abs(ob[1] - self.buzz) * n)
+                self._glide_step(bank, slot, ob)
+                glide = glide or ob[3] < n
+            else:
+                ob[2], ob[3] = self.buzz, self.BUZZ_GLIDE_STEPS
+        if glide and not self._glide_ticking and self._glide_samples() >= 1:
+            self._glide_ticking = True
+            bank.after(self._glide_samples(), lambda: self._glide_tick(bank))
+
+    def _own(self, bank: StringBank) -> None:
+        """The drains and the glides run in one bank (one engine's); a voice
+        played by another engine (the warm-up's scratch one, or a program
+        change back to a cached voice) starts that one's afresh."""
+        if self._buzz_bank is None or self._buzz_bank() is not bank:
+            self._buzz_bank = weakref.ref(bank)
+            self._drains = {}
+            self._drain_ticking = False
+            self._depth = {}
+            self._glide_ticking = False
+
+    def _glide_samples(self) -> int:
+        """Internal samples a step of the obstacles' glide (floor: all the
+        steps within ``BUZZ_GLIDE_S``; 0: no glide)."""
+        return int(self.BUZZ_GLIDE_S * self.fs / max(1, int(self.BUZZ_GLIDE_STEPS)))
+
+    def _glide_step(self, bank: StringBank, slot: int, ob: list) -> None:
+        """The next step of a note's obstacle to its new depth: equal
+        steps of at most 1 / ``BUZZ_GLIDE_STEPS`` of the depth, as many as
+        the change needs (``ob[3]``, the steps done, starts at
+        ``BUZZ_GLIDE_STEPS`` less them)."""
+        su, b, to, i = ob
+        n = max(1, int(self.BUZZ_GLIDE_STEPS))
+        k = n - i                                   # steps left, this one's included
+        b = to if (k <= 1 or self._glide_samples() < 1) else b + (to - b) / k
+        ob[1], ob[3] = b, (n if b == to else i + 1)
+        bank.set_region(slot, su.U if b == 1.0 else buzz_profile(su.U, b, su.side))
+
+    def _glide_tick(self, bank: StringBank) -> None:
+        """Every glide step: each gliding note's next step."""
+        if self._buzz_bank is None or self._buzz_bank() is not bank:
+            return                          # an engine the voice has left
+        n = max(1, int(self.BUZZ_GLIDE_STEPS))
+        more = False
+        for slot, ob in self._depth.items():
+            if ob[3] < n and bank.is_active(slot):
+                self._glide_step(bank, slot, ob)
+                more = more or ob[3] < n
+        if more:
+            bank.after(self._glide_samples(), lambda: self._glide_tick(bank))
+        else:
+            self._glide_ticking = False
+
+    def _drain(self, bank: StringBank, slot: int, su: StringSetup, db: float) -> None:
+        """Start (or add ``db`` dB to) the drain of the note in ``slot``."""
+        if self.study or not su.lossy or su.a1 > 0.0 or su.b0 / (1.0 + su.a1) >= 1.0:
+            return                  # the thesis's lossless strings: nothing to drain into
+        d = self._drains.get(slot)
+        if d is None or d.su is not su:
+            self._drain_tokens += 1
+            tau0 = self._pole_delay(su, -su.a1)
+            d = _Drain(su, self._drain_tokens, 0.0, tau0, tau0)
+            self._drains[slot] = d
+        d.db += db
+        self._drain_step(bank, slot, d)
+        if not self._drain_ticking:
+            self._drain_ticking = True
+            bank.after(self._drain_samples(), lambda: self._drain_tick(bank))
+
+    def _drain_samples(self) -> int:
+        return max(1, int(round(self.DRAIN_STEP_S * self.fs)))
+
+    def _drain_tick(self, bank: StringBank) -> None:
+        """Every ``DRAIN_STEP_S``: each running drain's next step."""
+        if self._buzz_bank is None or self._buzz_bank() is not bank:
+            return                          # an engine the voice has left
+        for slot, d in list(self._drains.items()):
+            if not bank.is_active(slot):
+                del self._drains[slot]          # freed (its next note configures anew)
+            else:
+                self._drain_step(bank, slot, d)
+        if self._drains:
+            bank.after(self._drain_samples(), lambda: self._drain_tick(bank))
+        else:
+            self._drain_ticking = False
+
+    def _drain_step(self, bank: StringBank, slot: int, d: _Drain) -> None:
+        """The loss of the drain ``d`` for its next ``DRAIN_STEP_S``: the
+        pole that adds db / DRAIN_TAU_S dB/s at DRAIN_HZ (db / (DRAIN_TAU_S
+        f0) dB a round trip), as far as the bend line can take its delay
+        back; then db decays.  The pole's phase delay at f0 follows that
+        pole's through two lags of half the bend line's glide (10 ms: the
+        pole sets off without a jump in its rate), and the bend line, whose
+        own glide is one lag of 20 ms, is given 2 m - D (m the first lag, D
+        the second), so that its delay follows D itself.  At the end the
+        note's own loss filter comes back exactly."""
+        su = d.su
+        p = -su.a1
+        w0 = 2.0 * math.pi * su.f0_hz / self.fs
+        tau0 = self._pole_delay(su, p)
+        room = self._drain_room(slot, su)
+        if d.db < self.DRAIN_END_DB:
+            d.db = 0.0                  # what is left to come: nothing to hear
+        q = self._drain_pole(p, d.db / (self.DRAIN_TAU_S * su.f0_hz))
+        tau_t = min(self._pole_delay(su, q), tau0 + room)
+        a = 1.0 - math.exp(-2.0 * self.DRAIN_STEP_S / StringBank.BEND_GLIDE_S)
+        d.mid += a * (tau_t - d.mid)
+        d.tau += a * (d.mid - d.tau)
+        d.db *= math.exp(-self.DRAIN_STEP_S / self.DRAIN_TAU_S)
+        if d.db == 0.0 and abs(d.tau - tau0) < 1e-3 and abs(d.mid - tau0) < 1e-3:
+            # over: the note's own filter, and its bend line as the bend says
+            bank.set_loss_filter(slot, su.b0, su.a1)
+            del self._drains[slot]
+            self._retune(bank, slot, su)
+            return
+        t = math.tan(d.tau * w0)
+        q = t / (math.sin(w0) + t * math.cos(w0))     # the pole of phase delay d.tau at w0
+        bank.set_loss_filter(slot, su.b0 * (1.0 - q) / (1.0 - p), -q)
+        if su.bend_len:
+            d.comp = min(2.0 * d.mid - d.tau - tau0, room)
+            self._retune(bank, slot, su)
+
+    def _pole_delay(self, su: StringSetup, q: float) -> float:
+        """Phase delay (samples) at the note's f0 of the loss pole ``q``."""
+        return one_pole_phase_delay(-q, 2.0 * math.pi * su.f0_hz / self.fs)
+
+    def _drain_pole(self, p: float, loss_db: float) -> float:
+        """The pole q >= p of the one-pole (1 - q) / (1 - p) b0 / (1 - q
+        z^-1), whose gain at DC is the loss filter's (pole p), that loses
+        ``loss_db`` (dB a round trip) more than it at ``DRAIN_HZ``: with c =
+        1 - cos w, K = 1 + 2 p c / (1 - p)^2 and the power ratio r, q = B -
+        sqrt(B^2 - 1), B = 1 + r c / (K - r).  At most ``DRAIN_POLE_MAX``."""
+        if loss_db <= 0.0:
+            return p
+        c = 1.0 - math.cos(2.0 * math.pi * self.DRAIN_HZ / self.fs)
+        r = 10.0 ** (-loss_db / 10.0)
+        B = 1.0 + r * c / (1.0 + 2.0 * p * c / (1.0 - p) ** 2 - r)
+        q = B - math.sqrt(B * B - 1.0)
+        return min(max(q, p), max(p, self.DRAIN_POLE_MAX))
+
+    def _drain_room(self, slot: int, su: StringSetup) -> float:
+        """Samples of delay the note's bend line can give back now: its
+        bend's delay above 2 samples (the line's shortest is 1; the
+        tune-out only lengthens it); without a bend line the drain's pole
+        may add 1 cent's worth."""
+        loop = self.fs / su.f0_hz
+        if not su.bend_len:
+            return loop * (2.0 ** (1.0 / 1200.0) - 1.0)
+        r = self.preset.play.pitch_bend_semitones * self._bend.get(slot, 0.0)
+        return max(0.0, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0) - 2.0)
+
+    def _end_drain(self, bank: StringBank, slot: int) -> None:
+        """The note in ``slot`` is restruck: its own loss filter at once."""
+        d = self._drains.pop(slot, None)
+        if d is not None:
+            bank.set_loss_filter(slot, d.su.b0, d.su.a1)
 
     def controls(self) -> dict:
         """The buzz depth on ``play.buzz_cc`` (CC1 by default), at the
@@ -483,7 +747,9 @@ class OneStringVoice(Voice):
             return
         r = self.preset.play.pitch_bend_semitones * self._bend.get(slot, 0.0)
         loop = self.fs / su.f0_hz
-        bank.set_bend_delay(slot, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0))
+        d = self._drains.get(slot)
+        comp = d.comp if d is not None else 0.0     # a drain's pole's delay, given back
+        bank.set_bend_delay(slot, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0) - comp)
 
     def _tune_out(self, bank: StringBank, slot: int, su: StringSetup, velocity: float) -> None:
         """Start the note's decaying tune-out (``StringBank.set_tune_out``):
@@ -509,6 +775,7 @@ class OneStringVoice(Voice):
         the string's loop is shortened or lengthened (as a player deflecting
         the string raises its tension) through the bend line's delay."""
         su = self.setup(key, f0_hz)
+        self._own(bank)
         for slot in slots:
             self._bend[slot] = min(max(float(value), -1.0), 1.0)
             self._retune(bank, slot, su)
@@ -520,10 +787,17 @@ class OneStringVoice(Voice):
         ``restrike``: a sounding string is excited again where it is)."""
         slot = slots[0]
         su = self.setup(key, f0_hz)
+        self._own(bank)
         if restrike:
+            self._end_drain(bank, slot)
             bank.set_loss(slot, su.b0)           # undo a release damping
         else:
+            # a new string in the slot: no drain, no glide of the old one's
+            self._drains.pop(slot, None)
+            self._depth.pop(slot, None)
             self._configure(bank, slot, su, probe_row)
+            if su.U is not None:
+                self._depth[slot] = [su, self.buzz, self.buzz, self.BUZZ_GLIDE_STEPS]
         ls = su.string.length_m / self.open_string.length_m
         self.exciter.start(bank, slot, su, velocity, amplitude_scale=ls,
                            speed_m_per_s=speed_m_per_s, length_scale=ls)

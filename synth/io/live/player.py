@@ -29,7 +29,8 @@ import threading
 import time
 
 from synth.io.errors import SynthError
-from synth.io.midi import MidiEvent, dropped_name, midi_to_events, normalise_message
+from synth.io.midi import (MidiEvent, dropped_name, midi_to_events, normalise_message,
+                           plays_channel)
 from synth.io.live.devices import (FS_OUT, _one_line, _quiet_c_stderr, check_audio, check_midi,
                                    pick_audio_device, pick_midi_port)
 from synth.io.live.engines import ready_engine
@@ -365,6 +366,12 @@ class Player:
         try:
             self.n_messages += 1
             if msg.type == "program_change":
+                # a channel that does not play switches nothing (--channels,
+                # General MIDI's drum channel)
+                if not plays_channel(msg.channel, self.channels, self.drums):
+                    self.ignored["program change on a channel that does not play"] = (
+                        self.ignored.get("program change on a channel that does not play", 0) + 1)
+                    return
                 self.program_change(msg.program)
                 return
             ev = normalise(msg, self.channels, self.drums, self.ignored)
