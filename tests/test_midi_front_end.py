@@ -445,3 +445,18 @@ def test_live_play_gives_the_offline_samples(tmp_path, scene):
         # end, about -110 dBFS, leave their last whisper at another sample)
         top = 2 * np.spacing(np.float32(np.max(np.abs(offline))))
         assert np.max(np.abs(live - offline)) <= max(top, tol), blk
+
+
+def test_all_sound_off_on_another_channel_leaves_a_note_sounding(tmp_path):
+    """CC120 on channel 2 fades channel 2's note and leaves channel 1's as it
+    was; sent on every channel (a panic) it silences everything."""
+    base = [on(0.0, 60, ch=0), on(0.0, 67, ch=1)]
+    y = engine("grand-piano").render(file_events(tmp_path, base + [cc(0.3, 120, 0, ch=1)]),
+                                     duration_s=1.0)
+    ref = engine("grand-piano").render(file_events(tmp_path, base), duration_s=1.0)
+    assert abs(band_db(y, 0.5, 1.0, hz(60)) - band_db(ref, 0.5, 1.0, hz(60))) < 1.0
+    assert band_db(ref, 0.5, 1.0, hz(67)) - band_db(y, 0.5, 1.0, hz(67)) > 30.0
+    panic = [cc(0.3, 120, 0, ch=c) for c in range(16)]
+    e = engine("grand-piano")
+    y = e.render(file_events(tmp_path, base + panic, drums=True), duration_s=1.0)
+    assert np.max(np.abs(y[int(0.32 * FS):])) == 0.0 and e.n_voices == 0

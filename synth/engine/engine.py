@@ -540,12 +540,18 @@ class Engine:
         for v, _ in self._channel_voices(c):
             self._release(v)
 
-    def _all_sound_off(self, at: int) -> None:
-        """CC120: every string of the instrument fades out, 60 dB in
-        :data:`HUSH_T60_S` (a cut clicks: the strings, the body's ring and
-        the limiter go on from where they are, only fading); the bridge's
-        own strings too; the sympathetic strings start again from rest once
-        silent.  The knocks already under way (5 ms) finish."""
+    def _all_sound_off(self, c: int, at: int) -> None:
+        """CC120 on channel c: its notes fade out, 60 dB in
+        :data:`HUSH_T60_S` (a cut clicks), and are freed once silent.  When
+        no other channel's note sounds (a panic sends it on every channel:
+        the last one), the whole instrument goes quiet: every string, the
+        bridge's own, the sympathetic strings, and the output itself fades
+        out in :data:`HUSH_T60_S`, after which the body's ring and the
+        limiter are cleared (:meth:`_hush_block`)."""
+        if any(vo.channel != c and not vo.dying for vo in self.voices.values()):
+            for v, _ in self._channel_voices(c):
+                self._fade(v, HUSH_T60_S)
+            return
         for v in list(self.voices):
             if not self.voices[v].dying:
                 self._fade(v, HUSH_T60_S)
@@ -673,7 +679,7 @@ class Engine:
         elif cc == CC_ALL_NOTES_OFF:
             self._all_notes_off(c)
         elif cc == CC_ALL_SOUND_OFF:
-            self._all_sound_off(at)
+            self._all_sound_off(c, at)
         elif cc == CC_RESET_ALL:
             self._reset_controllers(c, at)
         elif cc in CC_MODE:
