@@ -560,6 +560,14 @@ class OneStringVoice(Voice):
             self._glide_ticking = True
             bank.after(self._glide_samples(), lambda: self._glide_tick(bank))
 
+    def __getstate__(self):
+        """A pickled voice (a batch worker's, a cache's) carries no bank's
+        drains or glides: they belong to the engine that plays it."""
+        st = self.__dict__.copy()
+        st.update(_buzz_bank=None, _drains={}, _depth={}, _drain_ticking=False,
+                  _glide_ticking=False)
+        return st
+
     def _own(self, bank: StringBank) -> None:
         """The drains and the glides run in one bank (one engine's); a voice
         played by another engine (the warm-up's scratch one, or a program
