@@ -229,8 +229,7 @@ class Engine:
         self._ctl = [dict(self._ctl_default) for _ in range(CHANNELS)]
         self._inst_ctl = dict(self._ctl_default)
         #: how a new note finds a voice when all are sounding (``play.steal``)
-        play = getattr(instrument.preset, "play", None)
-        self.steal = getattr(play, "steal", "quietest") or "quietest"
+        self.steal = instrument.steal_rule
         if self.steal not in STEAL_RULES:
             raise ValueError(f"play.steal = {self.steal!r} is not one of {', '.join(STEAL_RULES)}")
         #: messages the engine received and did not play, by description

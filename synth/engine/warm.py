@@ -37,11 +37,15 @@ def warm_up(voice, *, fs_out: int, block: int, **engine_kw) -> None:
     """Design every note of ``voice`` (:meth:`Voice.warm`), then play
     :func:`warm_phrase` block by block (``block`` output samples at
     ``fs_out`` Hz, about 50 ms) on a throwaway :class:`Engine` built with
-    ``engine_kw``, shedding a voice on the way (the overload path)."""
+    ``engine_kw``, measuring the voices as a full pool does (the
+    stealing's kernel) and shedding a voice on the way (the overload
+    path)."""
     voice.warm()
     scratch = Engine(voice, fs_out=fs_out, **engine_kw)
     scratch.schedule(warm_phrase(voice))
     for _ in range(int(0.05 * fs_out / block) + 1):
         scratch.render_block(block)
+    if scratch.voices:
+        scratch._quietest(list(scratch.voices))     # the voice stealing's measure
     scratch.shed(1)
     scratch.render_block(block)

@@ -190,6 +190,13 @@ class Voice:
         return play.polyphony if play is not None else 8
 
     @property
+    def steal_rule(self) -> str:
+        """Which sounding voice a note takes when the pool is full
+        (``play.steal``): ``"quietest"`` (the default) or ``"oldest"``."""
+        play = getattr(self.preset, "play", None)
+        return getattr(play, "steal", None) or "quietest"
+
+    @property
     def key_range(self) -> tuple[int, int] | None:
         """Playable MIDI keys (lowest, highest), or None (a study string
         that plays its own pitch)."""

@@ -146,7 +146,7 @@ class Player:
                              f"value <= 1000: at least one block of {self.block} samples)")
         self.latency_s = latency_s
         self.overrides = tuple(overrides)
-        self.channels = None if channels is None else frozenset(int(c) for c in channels)
+        self.midi_channels = None if channels is None else frozenset(int(c) for c in channels)
         self.drums = bool(drums)
         #: messages received and not played, by name (the report lists them)
         self.ignored: dict = {}
@@ -368,13 +368,13 @@ class Player:
             if msg.type == "program_change":
                 # a channel that does not play switches nothing (--channels,
                 # General MIDI's drum channel)
-                if not plays_channel(msg.channel, self.channels, self.drums):
+                if not plays_channel(msg.channel, self.midi_channels, self.drums):
                     self.ignored["program change on a channel that does not play"] = (
                         self.ignored.get("program change on a channel that does not play", 0) + 1)
                     return
                 self.program_change(msg.program)
                 return
-            ev = normalise(msg, self.channels, self.drums, self.ignored)
+            ev = normalise(msg, self.midi_channels, self.drums, self.ignored)
             if ev is None or self.rt is None:
                 return
             if ev.kind == "note_on":
