@@ -115,6 +115,7 @@ def test_zero_length_note_sounds_and_stops_in_a_render(tmp_path):
 
 
 # -- voice allocation -------------------------------------------------------------
+@pytest.mark.slow
 def test_a_triad_on_the_sitars_full_pool_keeps_every_new_note(tmp_path):
     """Keys 43-58 ring from 0 s on the sitar's 16 voices, a triad comes at
     1 s: each of its notes at least 8 dB above the same band without it
