@@ -174,7 +174,15 @@ class Realtime:
         """Queue an event that arrived at clock time ``arrival_s`` (default:
         now).  Thread-safe; ``event.time_s`` is ignored."""
         t = self.clock() if arrival_s is None else float(arrival_s)
-        self._queue.append((t, event))
+        self._queue.append((t, None, event))
+
+    def push_at(self, event: Event, t_s: float) -> None:
+        """Queue an event that acts at stream time ``t_s`` (s from output
+        sample 0), exactly: for a server that stamps each message with its
+        frame in the audio cycle (JACK), so no clock and no latency margin
+        enter.  A time already rendered is played at once and counted late.
+        Thread-safe; ``event.time_s`` is ignored."""
+        self._queue.append((None, float(t_s), event))
 
     def swap(self, engine: Engine) -> None:
         """Program change: ``engine`` (built and warmed by the caller) takes
@@ -188,8 +196,8 @@ class Realtime:
         q = self._queue
         now_s = self.n_out / self.fs
         while q:
-            t_arr, ev = q.popleft()
-            t = (t_arr - self.t0) + self.latency_s
+            t_arr, t_at, ev = q.popleft()
+            t = (t_arr - self.t0) + self.latency_s if t_at is None else t_at
             if t < now_s:
                 self.stats.late_events += 1
                 t = now_s

@@ -150,6 +150,8 @@ class Player:
         self.drums = bool(drums)
         #: messages received and not played, by name (the report lists them)
         self.ignored: dict = {}
+        #: why the audio stopped by itself (:meth:`run`), or None
+        self.stopped = None
         self._first = preset
         load_preset(preset, self.overrides)                  # a bad name or --set fails now
         self.program_map = program_map or ProgramMap({0: preset})
@@ -157,14 +159,9 @@ class Player:
         self.stats = stats
         self.out = out if out is not None else sys.stdout
         self.clock = time.monotonic
-        # -- what the outside world offers, checked before any slow work
-        self.sd = check_audio()
-        self.device, self.device_name, self.channels = pick_audio_device(self.sd, audio_device)
         self.midi_backend = None
         self.midi_port_name = None
-        if midi:
-            self.midi_backend = check_midi()
-            self.midi_port_name = pick_midi_port(self.midi_backend, midi_port)
+        self._check_outside(audio_device, midi_port, midi)
         # -- state
         self.rt = None
         self.stream = None
@@ -185,6 +182,16 @@ class Player:
         self._target = preset
         self._builders: list[threading.Thread] = []
         self._switch = None
+
+    def _check_outside(self, audio_device, midi_port, midi: bool) -> None:
+        """What the outside world offers, checked before any slow work:
+        PortAudio's output device and rtmidi's input port (the JACK player,
+        :class:`synth.io.live.jack.JackPlayer`, checks its server instead)."""
+        self.sd = check_audio()
+        self.device, self.device_name, self.channels = pick_audio_device(self.sd, audio_device)
+        if midi:
+            self.midi_backend = check_midi()
+            self.midi_port_name = pick_midi_port(self.midi_backend, midi_port)
 
     # -- start and stop -------------------------------------------------------------
     def _overrides_for(self, name: str) -> tuple:
@@ -295,8 +302,8 @@ class Player:
                 gc.collect(0)          # the young generation only, from this thread
                 if self.stats:
                     print("\r" + self.rt.meter(), end="", file=self.out, flush=True)
-                if not self.stream.active:
-                    stopped = "the audio stream stopped (device gone?)"
+                stopped = self._stopped()
+                if stopped:
                     break
                 if t_end is not None and time.monotonic() >= t_end:
                     break
@@ -306,11 +313,16 @@ class Player:
             self.close()
         if self.stats:
             print(file=self.out)
+        self.stopped = stopped
         rep = self.report()
         if stopped:
             rep += f"\n{stopped}"
         self._say(rep)
         return rep
+
+    def _stopped(self) -> str | None:
+        """Why the audio stopped by itself, or None while it plays."""
+        return None if self.stream.active else "the audio stream stopped (device gone?)"
 
     def report(self) -> str:
         """:meth:`Realtime.report` and what the player saw."""
@@ -358,11 +370,13 @@ class Player:
             pass
 
     # -- the MIDI thread --------------------------------------------------------------
-    def handle(self, msg, arrival_s: float | None = None) -> None:
+    def handle(self, msg, arrival_s: float | None = None, at_s: float | None = None) -> None:
         """A MIDI message arrived (the input port's callback): stamp it now
-        (or at ``arrival_s``, ``time.monotonic`` seconds) and queue it;
-        a program change swaps the instrument.  Never raises."""
-        t = self.clock() if arrival_s is None else float(arrival_s)
+        (or at ``arrival_s``, ``time.monotonic`` seconds) and queue it, or,
+        with ``at_s``, queue it for that stream time exactly (a JACK
+        message's frame); a program change swaps the instrument.  Never
+        raises."""
+        t = (self.clock() if arrival_s is None else float(arrival_s)) if at_s is None else 0.0
         try:
             self.n_messages += 1
             if msg.type == "program_change":
@@ -379,7 +393,10 @@ class Player:
                 return
             if ev.kind == "note_on":
                 self.n_notes += 1
-            self.rt.push(ev, t)
+            if at_s is None:
+                self.rt.push(ev, t)
+            else:
+                self.rt.push_at(ev, at_s)
         except Exception:
             self.handler_errors += 1
 
