@@ -295,14 +295,25 @@ def cmd_play(args) -> int:
         _fail("play needs --preset PRESET (see `synth presets`), or --list-ports")
     args.set = list(args.set) + _quality_overrides(args)
     programs = live.ProgramMap.parse(args.program_map, args.preset)
-    player = live.Player(args.preset, programs, block=args.block,
-                         latency_s=None if args.latency_ms is None else args.latency_ms / 1e3,
-                         audio_device=args.audio_device, midi_port=args.midi_port,
-                         stats=args.stats, overrides=args.set, channels=args.channels,
-                         drums=args.drums)
+    if args.seconds is not None and not (0.0 < args.seconds <= 86400.0):
+        _fail(f"--seconds = {args.seconds:g} is out of range (0 < value <= 86400)")
+    if args.jack:
+        from .io.live.jack import JackPlayer
+
+        player = JackPlayer(args.preset, programs, name=args.jack_name, connect=args.connect,
+                            stats=args.stats, overrides=args.set, channels=args.channels,
+                            drums=args.drums)
+    else:
+        if args.connect:
+            _fail("--connect needs --jack (PortAudio plays to --audio-device)")
+        player = live.Player(args.preset, programs, block=args.block,
+                             latency_s=None if args.latency_ms is None else args.latency_ms / 1e3,
+                             audio_device=args.audio_device, midi_port=args.midi_port,
+                             stats=args.stats, overrides=args.set, channels=args.channels,
+                             drums=args.drums)
     player.start()
-    player.run()
-    return 0
+    player.run(seconds=args.seconds)
+    return 1 if player.stopped else 0
 
 
 def cmd_compare(args) -> int:
@@ -690,6 +701,17 @@ def build_parser() -> argparse.ArgumentParser:
                          "(repeatable)")
     _add_quality(pl)
     _add_channels(pl)
+    pl.add_argument("--jack", action="store_true",
+                    help="play as a JACK client (jackd, or PipeWire's JACK): a MIDI input port "
+                         "and the audio outputs, every MIDI event on its frame; the server's "
+                         "rate must be 48 kHz, its period sets the block")
+    pl.add_argument("--jack-name", default="synth", metavar="NAME",
+                    help="the JACK client's name (default: synth)")
+    pl.add_argument("--connect", action="store_true",
+                    help="with --jack: connect the outputs to the system's playback ports and "
+                         "the first physical MIDI capture port to the input")
+    pl.add_argument("--seconds", type=float, metavar="S",
+                    help="stop after S seconds and print the report (default: play until Ctrl-C)")
     pl.add_argument("--stats", action="store_true",
                     help="show block time, voices and underruns once a second, and the "
                          "latest note's contacts per string (hammer, termination)")

@@ -14,6 +14,9 @@ play is asked for, never by ``import synth.io.live``):
   built and warmed for live play.
 * :mod:`~synth.io.live.player`: :class:`Player` (stream, callback, program
   changes, report) and :func:`normalise` (MIDI message -> engine event).
+* :mod:`~synth.io.live.jack`: :class:`~synth.io.live.jack.JackPlayer`, the
+  player as a JACK client (``synth play --jack``: each MIDI event on its
+  frame); not imported here (it loads JACK-Client when asked for).
 
 The names below are re-exported, so ``synth.io.live.X`` works for all of
 them.  To monkeypatch one, patch the module that looks it up (e.g.

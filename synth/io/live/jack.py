@@ -1,0 +1,282 @@
+"""Live play as a JACK client (``synth play --jack``): frame-accurate MIDI in,
+audio out, on any JACK server (``jackd``, or PipeWire's JACK).
+
+The client (named ``synth``, ``--jack-name``) has one MIDI input port,
+``midi_in``, and an audio output port per channel of the preset, ``out_1``
+(and ``out_2`` for a stereo one).  JACK hands the process callback every
+MIDI event of the cycle with its frame offset in the cycle; the event is
+queued for exactly that frame (:meth:`synth.engine.realtime.Realtime.push_at`)
+and the engine renders the cycle's block with it, so each note lands on its
+sample: no clock, no jitter, no scheduling margin.  The delay from a MIDI
+event to its sound is the server's output latency (its periods) plus the
+decimator's (0.9 ms at 48 kHz) and, for a preset with a limiter, its
+look-ahead (1.5 ms); :meth:`JackPlayer.latency_budget_s` says which.
+
+The process callback renders through the same :class:`Realtime` driver as
+the PortAudio player (voice shedding under overload, program changes built
+in a background thread and swapped in), into preallocated buffers; it waits
+on no lock.  JACK's xruns are counted in the report, beside the engine's
+figures.  When the server goes away, :meth:`JackPlayer.run` says so in one
+line and the command exits non-zero.
+
+Needs the ``JACK-Client`` package (``[live]`` extra) and the JACK library
+(Debian: ``apt-get install jackd2``, or PipeWire's ``pipewire-jack``).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from synth.io.errors import SynthError
+from synth.io.live.devices import FS_OUT, _one_line
+from synth.io.live.player import Player
+
+__all__ = ["JackPlayer", "check_jack", "INSTALL_JACK"]
+
+INSTALL_JACK = ('JACK support needs the JACK-Client package and the JACK library: pip install '
+                'JACK-Client (Debian: apt-get install jackd2, or PipeWire\'s pipewire-jack)')
+
+
+def check_jack():
+    """The ``jack`` module (JACK-Client), or a :class:`SynthError` saying
+    in one line how to get it."""
+    try:
+        import jack
+    except ImportError:
+        raise SynthError(INSTALL_JACK) from None
+    except OSError as e:              # JACK-Client without libjack
+        raise SynthError(f"{INSTALL_JACK} ({_one_line(e)})") from None
+    return jack
+
+
+class JackPlayer(Player):
+    """Play a preset live as a JACK client.
+
+    Parameters
+    ----------
+    preset, program_map, stats, out, overrides, channels, drums
+        As :class:`synth.io.live.player.Player`.
+    name : str
+        The client's name (``--jack-name``; JACK may add a suffix when it is
+        taken).
+    connect : bool
+        Connect the audio outputs to the server's physical playback ports
+        and the first physical MIDI capture port to the MIDI input
+        (``--connect``).
+    server : str or None
+        The JACK server's name (None: the default, or ``$JACK_DEFAULT_SERVER``).
+    """
+
+    def __init__(self, preset: str, program_map=None, *, name: str = "synth",
+                 connect: bool = False, server: str | None = None, stats: bool = False,
+                 out=None, overrides=(), channels=None, drums: bool = False):
+        self._jack_name = str(name)
+        self._connect = bool(connect)
+        self._server = server
+        self.client = None
+        self.xruns = 0
+        self._shutdown = None           # why the server closed us, from its thread
+        super().__init__(preset, program_map, block=128, midi=False, stats=stats, out=out,
+                         overrides=overrides, channels=channels, drums=drums)
+
+    def _check_outside(self, audio_device, midi_port, midi: bool) -> None:
+        """The JACK library, and a server to join: the client is opened now
+        (inactive until :meth:`start`), so that a missing server is one line
+        before any slow work; its rate and period set the block."""
+        jack = check_jack()
+        self.jack = jack
+        try:
+            self.client = jack.Client(self._jack_name, no_start_server=True,
+                                      servername=self._server)
+        except jack.JackOpenError:
+            where = f" {self._server!r}" if self._server else ""
+            raise SynthError(f"no JACK server{where} is running: start one (jackd -d alsa, or "
+                             "jackd -d dummy -r 48000 -p 128 without a sound card; PipeWire "
+                             "runs one as pipewire-jack)") from None
+        if self.client.samplerate != FS_OUT:
+            rate = self.client.samplerate
+            self.client.close()
+            self.client = None
+            raise SynthError(f"the JACK server runs at {rate} Hz; synth play --jack plays at "
+                             f"{FS_OUT} Hz (start the server with -r {FS_OUT})")
+        self.block = int(self.client.blocksize)
+        self.device_name = f"JACK {self.client.name}"
+        self.midi_port_name = f"{self.client.name}:midi_in"
+
+    # -- start and stop -------------------------------------------------------------
+    def start(self) -> None:
+        """Build and warm the engine for the server's period, register the
+        ports, activate the client (and connect it with ``connect``)."""
+        from synth.engine.realtime import Realtime
+        from synth.io.live.engines import ready_engine
+
+        t_call = time.perf_counter()
+        client = self.client
+        try:
+            eng = ready_engine(self.preset_name, self.block, self.instruments,
+                               self._overrides_for(self.preset_name))
+            self.warm_s = time.perf_counter() - t_call
+            eng.telemetry = self.stats
+            self.channels = eng.channels
+            self.rt = Realtime(eng, block=self.block, latency_s=self.block / FS_OUT)
+            self.midi_in = client.midi_inports.register("midi_in")
+            self.outs = [client.outports.register(f"out_{i + 1}") for i in range(self.channels)]
+            self._buf = np.zeros((4096, self.channels), dtype=np.float32)
+            client.set_process_callback(self._process)
+            client.set_xrun_callback(self._xrun)
+            client.set_shutdown_callback(self._closed)
+            client.set_blocksize_callback(self._blocksize)
+            self.rt.start()
+            client.activate()
+            self.stream = client
+            if self._connect:
+                self._connect_ports()
+        except BaseException:
+            self.close()
+            raise
+        self.ready_s = time.perf_counter() - t_call
+        self._say(self.describe())
+        self._say(f"ready in {self.ready_s:.2f} s (engine built and warmed in {self.warm_s:.2f} s)"
+                  "; Ctrl-C stops")
+
+    def _connect_ports(self) -> None:
+        client = self.client
+        play = client.get_ports(is_audio=True, is_input=True, is_physical=True)
+        for i, port in enumerate(self.outs):
+            if play:
+                client.connect(port, play[min(i, len(play) - 1)])
+        cap = client.get_ports(is_midi=True, is_output=True, is_physical=True)
+        if cap:
+            client.connect(cap[0], self.midi_in)
+
+    def close(self) -> None:
+        """Deactivate and close the client (idempotent)."""
+        client, self.client = self.client, None
+        self.stream = None
+        if client is not None:
+            try:
+                client.deactivate()
+            except Exception:
+                pass
+            try:
+                client.close()
+            except Exception:
+                pass
+        with self._lock:
+            self._gen += 1
+        for th in self._builders:
+            th.join(timeout=10.0)
+        self._builders = []
+        if self.rt is not None:
+            self.rt.stop()
+
+    def _stopped(self) -> str | None:
+        if self._shutdown is not None:
+            return f"the JACK server closed the client ({self._shutdown})"
+        return None
+
+    def _playback_latency_frames(self) -> int:
+        """The largest playback latency (frames) the server reports for the
+        ports our outputs feed (its physical outputs: the periods it
+        buffers), 0 when they feed none.  JACK-Client does not wrap
+        ``jack_port_get_latency_range``: it is called through ctypes."""
+        import ctypes
+        import ctypes.util
+
+        class _Range(ctypes.Structure):
+            _fields_ = [("min", ctypes.c_uint32), ("max", ctypes.c_uint32)]
+
+        try:
+            lib = ctypes.CDLL(ctypes.util.find_library("jack") or "libjack.so.0")
+            f = lib.jack_port_get_latency_range
+            f.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.POINTER(_Range)]
+            worst = 0
+            for own in self.outs:
+                for port in self.client.get_all_connections(own):
+                    r = _Range()
+                    f(int(self.jack._ffi.cast("uintptr_t", port._ptr)), 1, ctypes.byref(r))
+                    worst = max(worst, int(r.max))        # 1: JackPlaybackLatency
+            return worst
+        except Exception:
+            return 0
+
+    def latency_budget_s(self) -> dict:
+        """The delay from a MIDI event to its sound (s): the server's
+        playback latency (of the ports the outputs feed), the decimator's,
+        the limiter's look-ahead; no scheduling margin (events act at their
+        frame)."""
+        dev = 0.0
+        if self.client is not None and getattr(self, "outs", None):
+            dev = self._playback_latency_frames() / FS_OUT
+        eng = self.rt.engine
+        dec = float(eng.dec.latency_s)
+        lim = (eng.limiter.latency_samples / FS_OUT) if eng.limiter is not None else 0.0
+        return {"schedule_s": 0.0, "device_s": dev, "decimator_s": dec + lim,
+                "total_s": dev + dec + lim}
+
+    def describe(self) -> str:
+        lat = self.latency_budget_s()
+        ports = ", ".join(p.name for p in self.outs)
+        return (f"{self.preset_name}: JACK client {self.client.name!r} ({self.midi_in.name} -> "
+                f"{ports}; {FS_OUT} Hz, period {self.block} = {1e3 * self.block / FS_OUT:.1f} ms); "
+                f"latency {lat['total_s'] * 1e3:.1f} ms = server {lat['device_s'] * 1e3:.1f} + "
+                f"decimator and limiter {lat['decimator_s'] * 1e3:.1f}")
+
+    def report(self) -> str:
+        return super().report() + f"\n{self.xruns} JACK xruns"
+
+    # -- the server's threads ---------------------------------------------------------
+    def _process(self, frames: int) -> None:
+        """The process callback: this cycle's MIDI at its frames, then the
+        cycle's audio."""
+        rt = self.rt
+        t0 = rt.n_out / FS_OUT
+        mido = _mido()
+        for offset, data in self.midi_in.incoming_midi_events():
+            try:
+                msg = mido.Message.from_bytes(bytes(data))
+            except Exception:
+                self.handler_errors += 1
+                continue
+            self.handle(msg, at_s=t0 + offset / FS_OUT)
+        buf = self._buf[:frames]
+        rt.render(buf if self.channels > 1 else buf[:, 0], frames)
+        for i, port in enumerate(self.outs):
+            port.get_array()[:] = buf[:, i]
+        hi = float(buf.max())
+        lo = -float(buf.min())
+        p = hi if hi > lo else lo
+        if p > self.peak:
+            self.peak = p
+        if p > 1.0:
+            self.clipped_blocks += 1
+        n = rt.engine.n_voices
+        if n > self.max_voices:
+            self.max_voices = n
+
+    def _xrun(self, delay_usecs: float) -> None:
+        self.xruns += 1
+
+    def _closed(self, status, reason: str) -> None:
+        self._shutdown = reason or "shutdown"
+
+    def _blocksize(self, blocksize: int) -> None:
+        """The server's period changed: the driver renders whatever the
+        callback asks (up to 4096 frames), so play goes on."""
+        if blocksize > self._buf.shape[0]:
+            raise self.jack.CallbackExit
+
+
+_MIDO = None
+
+
+def _mido():
+    global _MIDO
+    if _MIDO is None:
+        import mido
+
+        _MIDO = mido
+    return _MIDO
+
