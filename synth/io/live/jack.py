@@ -136,10 +136,7 @@ class JackPlayer(Player):
         except BaseException:
             self.close()
             raise
-        self.ready_s = time.perf_counter() - t_call
-        self._say(self.describe())
-        self._say(f"ready in {self.ready_s:.2f} s (engine built and warmed in {self.warm_s:.2f} s)"
-                  "; Ctrl-C stops")
+        self._ready(t_call)
 
     def _connect_ports(self) -> None:
         client = self.client
@@ -156,21 +153,12 @@ class JackPlayer(Player):
         client, self.client = self.client, None
         self.stream = None
         if client is not None:
-            try:
-                client.deactivate()
-            except Exception:
-                pass
-            try:
-                client.close()
-            except Exception:
-                pass
-        with self._lock:
-            self._gen += 1
-        for th in self._builders:
-            th.join(timeout=10.0)
-        self._builders = []
-        if self.rt is not None:
-            self.rt.stop()
+            for step in (client.deactivate, client.close):
+                try:
+                    step()
+                except Exception:
+                    pass
+        self._stop_threads()
 
     def _stopped(self) -> str | None:
         if self._shutdown is not None:

@@ -238,6 +238,10 @@ class Player:
         except BaseException:
             self.close()
             raise
+        self._ready(t_call)
+
+    def _ready(self, t_call: float) -> None:
+        """Say what plays where, with the latency, and ``ready in X s``."""
         self.ready_s = time.perf_counter() - t_call
         self._say(self.describe())
         self._say(f"ready in {self.ready_s:.2f} s (engine built and warmed in {self.warm_s:.2f} s)"
@@ -275,6 +279,11 @@ class Player:
                 stream.stop()
             with contextlib.suppress(Exception):
                 stream.close()
+        self._stop_threads()
+
+    def _stop_threads(self) -> None:
+        """Drop a program change still being built, restore the switch
+        interval and the garbage collector."""
         with self._lock:
             self._gen += 1                  # a program change still building is dropped
         for th in self._builders:
