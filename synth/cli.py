@@ -302,7 +302,7 @@ def cmd_play(args) -> int:
 
         player = JackPlayer(args.preset, programs, name=args.jack_name, connect=args.connect,
                             stats=args.stats, overrides=args.set, channels=args.channels,
-                            drums=args.drums)
+                            drums=args.drums, record=args.record)
     else:
         if args.connect:
             _fail("--connect needs --jack (PortAudio plays to --audio-device)")
@@ -310,7 +310,7 @@ def cmd_play(args) -> int:
                              latency_s=None if args.latency_ms is None else args.latency_ms / 1e3,
                              audio_device=args.audio_device, midi_port=args.midi_port,
                              stats=args.stats, overrides=args.set, channels=args.channels,
-                             drums=args.drums)
+                             drums=args.drums, record=args.record)
     player.start()
     player.run(seconds=args.seconds)
     return 1 if player.stopped else 0
@@ -710,6 +710,9 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--connect", action="store_true",
                     help="with --jack: connect the outputs to the system's playback ports and "
                          "the first physical MIDI capture port to the input")
+    pl.add_argument("--record", metavar="OUT.wav",
+                    help="also write the performance, as it goes to the device, to a WAV file "
+                         "(32-bit float; complete whatever stops the play)")
     pl.add_argument("--seconds", type=float, metavar="S",
                     help="stop after S seconds and print the report (default: play until Ctrl-C)")
     pl.add_argument("--stats", action="store_true",

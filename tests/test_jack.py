@@ -137,7 +137,7 @@ class _JackProbe:
         self.client.close()
 
 
-def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server):
+def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_path):
     """24 notes sent through JACK MIDI at chosen frames to ``synth play
     --jack --preset grand-piano``, its audio captured through JACK: each
     note correlates with the same note rendered offline (at least 0.9 once
@@ -146,7 +146,8 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server):
     from synth.engine.engine import Event
     from synth.io.factory import build_engine
 
-    proc = _synth_play(server, "--preset", "grand-piano", "--jack-name", "synthtest")
+    proc = _synth_play(server, "--preset", "grand-piano", "--jack-name", "synthtest",
+                       "--record", str(tmp_path / "live.wav"))
     tester = None
     try:
         probe = jack.Client("waiter", no_start_server=True, servername=server)
@@ -197,6 +198,13 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server):
     # own delay (the decimator and the grand's limiter, which an offline
     # render removes)
     assert good[0] == 128 + build_engine("grand-piano", ()).latency_samples, lags
+    # --record holds what the client sent: the captured audio, one period earlier
+    import soundfile
+
+    y, fs = soundfile.read(str(tmp_path / "live.wav"), dtype="float32")
+    assert fs == FS and y.shape[1] == 2 and "recorded " in out
+    peak = np.max(np.abs(rec))
+    assert np.max(np.abs(y)) == pytest.approx(peak, rel=1e-6)
     # the report counts the server's xruns (any client's: this test's own
     # activation may make some; issue 36's "no xrun" is not yet met)
     import re
@@ -213,12 +221,17 @@ def test_no_server_is_one_line(server):
     assert "no JACK server is running" in last and "Traceback" not in p.stderr, p.stderr
 
 
-def test_the_server_going_away_is_one_line_and_non_zero(server):
-    """The server stops while synth plays: one line, exit 1."""
+def test_the_server_going_away_is_one_line_and_non_zero(server, tmp_path):
+    """The server stops while synth plays: one line, exit 1, and the
+    recording of what it played (``--record``) is a complete WAV file."""
+    import soundfile
+
+    rec = tmp_path / "gone.wav"
     name = f"synth-test-gone-{os.getpid()}"
     srv = _start_jackd(name)
     try:
-        proc = _synth_play(name, "--preset", "biwa", "--jack-name", "gone", seconds=60)
+        proc = _synth_play(name, "--preset", "biwa", "--jack-name", "gone", "--record",
+                           str(rec), seconds=60)
         probe = jack.Client("waiter", no_start_server=True, servername=name)
         _wait_ports(probe, "gone", 2, proc)
         probe.close()
@@ -229,6 +242,9 @@ def test_the_server_going_away_is_one_line_and_non_zero(server):
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 1, (out, err)
     assert "the JACK server closed the client" in out and "Traceback" not in err, (out, err)
+    info = soundfile.info(str(rec))
+    assert info.samplerate == FS and info.channels == 1 and info.frames >= int(0.3 * FS)
+    assert f"recorded {info.frames / FS:.1f} s to" in out
 
 
 def test_connect_needs_jack():

@@ -399,7 +399,8 @@ import json, sys, time
 import mido
 from synth.io.live import Player, ProgramMap
 
-p = Player("sitar", ProgramMap.parse("1=biwa", "sitar"), block=128, midi=False)
+p = Player("sitar", ProgramMap.parse("1=biwa", "sitar"), block=128, midi=False,
+           record=sys.argv[1] if len(sys.argv) > 1 else None)
 p.start()
 h = p.handle                                     # the MIDI input port's callback
 for k in (50, 57, 62):
@@ -425,8 +426,11 @@ print("JSON " + json.dumps(dict(blocks=st.blocks, errors=st.errors, underruns=st
 
 
 @needs_portaudio
-def test_real_stream_on_the_null_device_plays_messages(null_home):
-    p = subprocess.run([sys.executable, "-c", STREAM_SCRIPT], env=_env(null_home),
+def test_real_stream_on_the_null_device_plays_messages(null_home, tmp_path):
+    import soundfile
+
+    rec = tmp_path / "live.wav"
+    p = subprocess.run([sys.executable, "-c", STREAM_SCRIPT, str(rec)], env=_env(null_home),
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
     assert "Traceback" not in p.stderr, p.stderr
@@ -441,6 +445,10 @@ def test_real_stream_on_the_null_device_plays_messages(null_home):
     assert 1e-3 < r["peak"] < 1.0                             # it sounded, unclipped
     assert r["preset"] == "biwa" and r["programs"] == 1
     assert r["closed"]
+    # --record: what went to the device, as a complete WAV file
+    info = soundfile.info(str(rec))
+    assert info.channels == 2 and info.frames >= r["blocks"] * 128 * 0.9
+    assert f"recorded {info.frames / 48000:.1f} s to" in out
 
 
 def _seq_reason():

@@ -56,7 +56,7 @@ class JackPlayer(Player):
 
     Parameters
     ----------
-    preset, program_map, stats, out, overrides, channels, drums
+    preset, program_map, stats, out, overrides, channels, drums, record
         As :class:`synth.io.live.player.Player`.
     name : str
         The client's name (``--jack-name``; JACK may add a suffix when it is
@@ -71,7 +71,8 @@ class JackPlayer(Player):
 
     def __init__(self, preset: str, program_map=None, *, name: str = "synth",
                  connect: bool = False, server: str | None = None, stats: bool = False,
-                 out=None, overrides=(), channels=None, drums: bool = False):
+                 out=None, overrides=(), channels=None, drums: bool = False,
+                 record: str | None = None):
         self._jack_name = str(name)
         self._connect = bool(connect)
         self._server = server
@@ -79,7 +80,7 @@ class JackPlayer(Player):
         self.xruns = 0
         self._shutdown = None           # why the server closed us, from its thread
         super().__init__(preset, program_map, block=128, midi=False, stats=stats, out=out,
-                         overrides=overrides, channels=channels, drums=drums)
+                         overrides=overrides, channels=channels, drums=drums, record=record)
 
     def _check_outside(self, audio_device, midi_port, midi: bool) -> None:
         """The JACK library, and a server to join: the client is opened now
@@ -128,6 +129,7 @@ class JackPlayer(Player):
             client.set_xrun_callback(self._xrun)
             client.set_shutdown_callback(self._closed)
             client.set_blocksize_callback(self._blocksize)
+            self._start_recording(self.channels)
             self.rt.start()
             client.activate()
             self.stream = client
@@ -233,16 +235,7 @@ class JackPlayer(Player):
         rt.render(buf if self.channels > 1 else buf[:, 0], frames)
         for i, port in enumerate(self.outs):
             port.get_array()[:] = buf[:, i]
-        hi = float(buf.max())
-        lo = -float(buf.min())
-        p = hi if hi > lo else lo
-        if p > self.peak:
-            self.peak = p
-        if p > 1.0:
-            self.clipped_blocks += 1
-        n = rt.engine.n_voices
-        if n > self.max_voices:
-            self.max_voices = n
+        self._after_block(buf)
 
     def _xrun(self, delay_usecs: float) -> None:
         self.xruns += 1

@@ -127,12 +127,17 @@ class Player:
         MIDI channels that play (0-based); None: every channel.
     drums : bool
         Play channel 10 (General MIDI's drums) too.
+    record : str or None
+        A WAV file that receives the performance as it goes to the device
+        (:class:`synth.io.live.record.Recorder`), complete whatever stops
+        the play.
     """
 
     def __init__(self, preset: str, program_map: ProgramMap | None = None, block: int = 128,
                  latency_s: float | None = None, audio_device: str | None = None,
                  midi_port: str | None = None, midi: bool = True, stats: bool = False,
-                 out=None, overrides=(), channels=None, drums: bool = False):
+                 out=None, overrides=(), channels=None, drums: bool = False,
+                 record: str | None = None):
         from synth.engine.engine import Engine
         from synth.io.presets import load_preset
 
@@ -152,6 +157,13 @@ class Player:
         self.ignored: dict = {}
         #: why the audio stopped by itself (:meth:`run`), or None
         self.stopped = None
+        self.record_path = None
+        if record is not None:
+            from synth.io.live.record import check_record_path
+
+            self.record_path = check_record_path(record)
+        self.recorder = None
+        self.record_line = None
         self._first = preset
         load_preset(preset, self.overrides)                  # a bad name or --set fails now
         self.program_map = program_map or ProgramMap({0: preset})
@@ -223,6 +235,7 @@ class Player:
             except Exception as e:
                 raise SynthError(f"cannot open audio device {self.device_name!r}: "
                                  f"{_one_line(e)}") from None
+            self._start_recording(self.channels)
             # the cyclic collector off while playing (Realtime.start), and the
             # stream's sample 0 stamped now
             self.rt.start()
@@ -239,6 +252,12 @@ class Player:
             self.close()
             raise
         self._ready(t_call)
+
+    def _start_recording(self, channels: int) -> None:
+        if self.record_path is not None:
+            from synth.io.live.record import Recorder
+
+            self.recorder = Recorder(self.record_path, channels, FS_OUT)
 
     def _ready(self, t_call: float) -> None:
         """Say what plays where, with the latency, and ``ready in X s``."""
@@ -283,7 +302,11 @@ class Player:
 
     def _stop_threads(self) -> None:
         """Drop a program change still being built, restore the switch
-        interval and the garbage collector."""
+        interval and the garbage collector, and finish the recording (once
+        the audio has stopped)."""
+        rec, self.recorder = self.recorder, None
+        if rec is not None:
+            self.record_line = rec.close()
         with self._lock:
             self._gen += 1                  # a program change still building is dropped
         for th in self._builders:
@@ -348,6 +371,8 @@ class Player:
                 ignored[what] = ignored.get(what, 0) + n
         rest = "".join(f"\nignored {n} x {what}"
                        for what, n in sorted(ignored.items(), key=lambda kv: (-kv[1], kv[0])))
+        if self.record_line:
+            rest += f"\n{self.record_line}"
         return (f"{self.rt.report()}\n{ready}{self.n_messages} MIDI messages, {self.n_notes} notes, "
                 f"{self.n_program_changes} program changes, at most {self.max_voices} voices, "
                 f"{stolen} voices stolen, peak {peak}{clip}, {self.handler_errors} message "
@@ -357,12 +382,13 @@ class Player:
         print(text, file=self.out, flush=True)
 
     # -- the audio thread -----------------------------------------------------------
-    def _callback(self, outdata, frames, time_info, status) -> None:
-        """The stream's callback: the real-time driver, then the peak and
+    def _after_block(self, block) -> None:
+        """After each block sent to the device: the recording, the peak and
         voice meters (scalar reductions, no allocation)."""
-        self.rt.callback(outdata, frames, time_info, status)
-        hi = float(outdata.max())
-        lo = -float(outdata.min())
+        if self.recorder is not None:
+            self.recorder.push(block)
+        hi = float(block.max())
+        lo = -float(block.min())
         p = hi if hi > lo else lo
         if p > self.peak:
             self.peak = p
@@ -371,6 +397,12 @@ class Player:
         n = self.rt.engine.n_voices
         if n > self.max_voices:
             self.max_voices = n
+
+    def _callback(self, outdata, frames, time_info, status) -> None:
+        """The stream's callback: the real-time driver, then the peak and
+        voice meters (scalar reductions, no allocation)."""
+        self.rt.callback(outdata, frames, time_info, status)
+        self._after_block(outdata)
         try:
             ahead = time_info.outputBufferDacTime - time_info.currentTime
             if 0.0 < ahead < 1.0 and ahead > self.device_ahead_s:
