@@ -300,6 +300,12 @@ def cmd_play(args) -> int:
     if args.jack:
         from .io.live.jack import JackPlayer
 
+        for opt, val in (("--midi-port", args.midi_port), ("--audio-device", args.audio_device),
+                         ("--latency-ms", args.latency_ms)):
+            if val is not None:
+                _fail(f"{opt} is not used with --jack (connect the client's ports on the server; "
+                      "each MIDI event plays on its own frame)")
+
         player = JackPlayer(args.preset, programs, name=args.jack_name, connect=args.connect,
                             stats=args.stats, overrides=args.set, channels=args.channels,
                             drums=args.drums, record=args.record)

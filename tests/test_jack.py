@@ -247,7 +247,11 @@ def test_the_server_going_away_is_one_line_and_non_zero(server, tmp_path):
     assert f"recorded {info.frames / FS:.1f} s to" in out
 
 
-def test_connect_needs_jack():
+def test_connect_needs_jack_and_jack_needs_no_device_options():
     p = subprocess.run([sys.executable, "-m", "synth.cli", "play", "--preset", "sitar",
                         "--connect"], capture_output=True, text=True, timeout=120)
     assert p.returncode != 0 and "--connect needs --jack" in p.stderr
+    for opt in (["--midi-port", "x"], ["--audio-device", "1"], ["--latency-ms", "5"]):
+        p = subprocess.run([sys.executable, "-m", "synth.cli", "play", "--preset", "sitar",
+                            "--jack", *opt], capture_output=True, text=True, timeout=120)
+        assert p.returncode != 0 and f"{opt[0]} is not used with --jack" in p.stderr, p.stderr
