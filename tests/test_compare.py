@@ -686,7 +686,10 @@ def test_browser_abx_session_score_p_value_mushra_csv_and_screenshot(browser, cm
 
     # the CSV download (Blob + link) is the same text
     _click(browser, "download-csv")
-    got = _wait(lambda: [p for p in browser.downloads.glob("synth-compare-*.csv")], what="the download")
+    # (Chromium may show the file under its final name before its bytes are
+    # all written: wait for them, then compare)
+    got = _wait(lambda: [p for p in browser.downloads.glob("synth-compare-*.csv")
+                         if p.stat().st_size >= len(text.encode())], what="the download")
     assert got[0].read_text() == text
 
     shot = tmp_path / "compare.png"
