@@ -103,17 +103,21 @@ def test_excitation_kinds_are_named_once():
 
 
 def test_the_engine_uses_no_hasattr_and_indexes_no_kernel_table():
-    """Outside synth/dsp/bank.py and the kernels, no synth module indexes
-    ipar/fpar/fst, and the engine does not probe its instrument."""
+    """Outside the string bank (synth/dsp/bank.py and its mixins
+    excitation.py and bridges.py) and the kernels, no synth module indexes
+    ipar/fpar/fst, and the engine (with its channels' mixin) does not probe
+    its instrument."""
+    bank = {"dsp/bank.py", "dsp/excitation.py", "dsp/bridges.py"}
     for path in sorted(SYNTH.rglob("*.py")):
         rel = path.relative_to(SYNTH).as_posix()
-        if rel.startswith("kernels/") or rel == "dsp/bank.py":
+        if rel.startswith("kernels/") or rel in bank:
             continue
         src = path.read_text()
         for col in (".ipar[", ".fpar[", ".fst["):
             assert col not in src, f"{rel} indexes {col[1:-1]}"
-    eng = (SYNTH / "engine" / "engine.py").read_text()
-    assert "hasattr(" not in eng and "getattr(" not in eng
+    for name in ("engine.py", "channels.py"):
+        eng = (SYNTH / "engine" / name).read_text()
+        assert "hasattr(" not in eng and "getattr(" not in eng, name
 
 
 class _Sine(Voice):
