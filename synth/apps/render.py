@@ -86,6 +86,8 @@ class RenderRequest:
         ``--set PATH=VALUE`` overrides of the preset.
     internal_rate : float or None
         Internal rate of the strings (Hz); None: the preset's.
+    rate : int or None
+        Output sample rate of the WAV file (Hz, ``--rate``); None: 48 kHz.
     pcm24 : bool
         24-bit PCM instead of 32-bit float.
     max_seconds : float or None
@@ -108,6 +110,7 @@ class RenderRequest:
     max_seconds: float | None = None
     channels: tuple[int, ...] | None = None
     drums: bool = False
+    rate: int | None = None
 
 
 @dataclass(frozen=True)
@@ -421,7 +424,8 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
     for line in plan.notes:
         log(line)
     eng = build_engine(req.preset, req.overrides, fs_internal=req.internal_rate,
-                       extra_low_key=min(plan.keys))
+                       extra_low_key=min(plan.keys),
+                       **({} if req.rate is None else {"fs_out": int(req.rate)}))
     preset = eng.inst.preset
     if preset.kind == "musical":
         lo, hi = preset.play.key_low, preset.play.key_high

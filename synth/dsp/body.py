@@ -23,7 +23,11 @@ mix,
 
 so the output's white-noise power equals the input's at every ``wet`` and a
 preset can switch the body on without a level jump. A stereo body gives the
-same loudness (BS.1770 sums the channels' powers) as a mono one.
+same loudness (BS.1770 sums the channels' powers) as a mono one.  These
+gains are those of the board at 48 kHz
+(:data:`synth.physics.soundboard.REFERENCE_FS`) whatever rate it runs at:
+its response in Hz, not its white-noise gain up to the rate's Nyquist
+frequency, stays the same at 44.1, 88.2 or 96 kHz.
 
 Cost (default 96 modes at 48 kHz in 128-sample blocks, one core of a
 2.6 GHz AVX-512 Xeon shared with other jobs): ~36 ns per output sample for
@@ -49,6 +53,7 @@ from synth.kernels.body import body_process_mimo as _kernel_mimo
 from synth.physics.soundboard import (
     DEFAULT_N_MODES,
     DEFAULT_SEED,
+    REFERENCE_FS,
     resonator_coefs,
     section_response,
     soundboard_modes,
@@ -144,8 +149,12 @@ class Body:
             self._state = np.zeros((2, K + 2))
         #: energies of the parts (white noise): the modal Gram matrix (B, B)
         #: summed over outputs, and X = mean_b sum_c dry_cb m_cb[0]
+        #: both at the reference rate (the board's level and balance do not
+        #: depend on the rate it runs at: soundboard.REFERENCE_FS)
         self._gram_modal = np.zeros((B, B))
-        banks = [[self._bank(c, b) for b in range(B)] for c in range(C)]
+        ref = self.coefs if self.fs == REFERENCE_FS else resonator_coefs(
+            REFERENCE_FS, m.freqs_hz, m.t60_s, np.ones(self.n_modes))
+        banks = [[self._bank(c, b, ref) for b in range(B)] for c in range(C)]
         for c in range(C):
             for b in range(B):
                 for b2 in range(B):
@@ -162,9 +171,10 @@ class Body:
                    size=design.size, brightness=design.brightness,
                    inputs=design.inputs, outputs=design.outputs, peaks=design.peaks)
 
-    def _bank(self, c, b):
-        """Coefficients (3, K) of the modal path from input b to output c."""
-        k = self.coefs.copy()
+    def _bank(self, c, b, coefs=None):
+        """Coefficients (3, K) of the modal path from input b to output c
+        (``coefs``: the unit sections, by default the body's own)."""
+        k = (self.coefs if coefs is None else coefs).copy()
         k[0] *= self.modes.pickup[c] * self.modes.drive[b]
         return k
 

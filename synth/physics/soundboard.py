@@ -236,6 +236,16 @@ F_RIB_HZ = 1100.0
 #: Top of the mode range of a size-1 board (Hz), capped at NYQUIST_FRACTION fs.
 F_HIGH_HZ = 10000.0
 NYQUIST_FRACTION = 0.45
+#: Rate (Hz) at which a board is laid out and its level normalised,
+#: whatever rate it runs at: the mode range is capped at
+#: ``NYQUIST_FRACTION REFERENCE_FS`` (at ``NYQUIST_FRACTION fs`` below
+#: 44.1 kHz) and the white-noise gains are
+#: those of the modes realised at this rate, so a board run at 44.1, 88.2 or
+#: 96 kHz has the response in Hz (modes, levels, dry/wet balance) of the
+#: same board at 48 kHz.  (Normalised at its own rate, a board at 96 kHz
+#: came out 1.5-2 dB louder in every band: a resonator's white-noise power
+#: gain is its bandwidth over the rate.)
+REFERENCE_FS = 48000.0
 #: Fewest modes per octave above F_RIB_HZ before the uniform part is shortened.
 MIN_PER_OCTAVE = 6.0
 #: Loss factor at the lowest mode and the ceiling it rises to.
@@ -355,6 +365,13 @@ def _fs_param(fs):
     return float(fs)
 
 
+def _layout_fs(fs):
+    """The rate whose Nyquist frequency caps the modes: :data:`REFERENCE_FS`
+    at every card rate from 44.1 kHz up (a mode at up to 0.45 x 48 kHz =
+    21.6 kHz is still below 44.1 kHz's Nyquist frequency), else ``fs``."""
+    return REFERENCE_FS if fs >= 44100.0 else fs
+
+
 def _layout(fs, n_modes, size):
     """Mode range and density: (f_low, f_high, spacing, f_c, a) in Hz (a per e-fold).
 
@@ -362,7 +379,7 @@ def _layout(fs, n_modes, size):
     docstring, "The laws").
     """
     f_low = F_LOW_HZ / size
-    f_high = min(F_HIGH_HZ / size, NYQUIST_FRACTION * fs)
+    f_high = min(F_HIGH_HZ / size, NYQUIST_FRACTION * _layout_fs(fs))
     spacing = SPACING_HZ / size
     if f_high <= f_low * 1.5:
         raise ValueError(f"fs = {fs:g} Hz is too low for a board of size {size:g} "
@@ -441,8 +458,11 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
     Parameters
     ----------
     fs : float
-        Sample rate in Hz at which the modes will run (>= 8000); sets the top
-        of the mode range (``NYQUIST_FRACTION fs``) and the normalisation.
+        Sample rate in Hz at which the modes will run (>= 8000); below
+        44.1 kHz it caps the mode range at ``NYQUIST_FRACTION fs``.  The
+        layout at and above 44.1 kHz and the normalisation are those of
+        :data:`REFERENCE_FS` (48 kHz), so the board's response in Hz does
+        not depend on the rate it runs at.
     n_modes : int
         Number of modes K, 1 .. 1024 (default 96).
     seed : int
@@ -480,9 +500,10 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
         The K diffuse modes and the P peaks sorted by frequency (without
         peaks the lowest is exactly ``50 / size`` Hz), decay times, drive
         (B, K) > 0, pickup (C, K) >= 0 and dry (C, B) >= 0, scaled so that the
-        modal part realised by :func:`resonator_coefs` at ``fs`` and the
-        direct part each have a white-noise power gain of 1, averaged over
-        the inputs and summed over the outputs.
+        modal part realised by :func:`resonator_coefs` at
+        :data:`REFERENCE_FS` and the direct part each have a white-noise
+        power gain of 1 at that rate, averaged over the inputs and summed
+        over the outputs.
     """
     fs = _fs_param(fs)
     n_modes = _int_param("n_modes", n_modes, MIN_N_MODES, MAX_N_MODES)
@@ -540,7 +561,7 @@ def soundboard_modes(fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, size=1.0, b
         drive, pickup = drive[:, order], pickup[:, order]
         K = freqs.size
     pickup = pickup * g
-    unit = resonator_coefs(fs, freqs, t60, np.ones(K))
+    unit = resonator_coefs(REFERENCE_FS, freqs, t60, np.ones(K))
     gram = _modal_gram(unit, drive, pickup)
     scale = 1.0 / math.sqrt(np.trace(gram) / B)
     pickup = pickup * scale
@@ -562,7 +583,7 @@ def _peaks_param(peaks, fs):
         raise ValueError(f"peaks has shape {a.shape}; must be (P, 3) rows of (f_hz, q, level_db)")
     if a.shape[0] > MAX_PEAKS:
         raise ValueError(f"peaks has {a.shape[0]} rows; at most {MAX_PEAKS}")
-    f_hi = min(PEAK_HZ_RANGE[1], NYQUIST_FRACTION * fs)
+    f_hi = min(PEAK_HZ_RANGE[1], NYQUIST_FRACTION * _layout_fs(fs))
     for i, (f, q, level) in enumerate(a):
         if not (math.isfinite(f) and PEAK_HZ_RANGE[0] <= f <= f_hi):
             raise ValueError(f"peaks[{i}] f_hz = {f:g} Hz is out of range "
