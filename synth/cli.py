@@ -9,9 +9,11 @@
                  [--quality LEVEL | --max-error CENTS,DB] -o OUT.wav
     synth check SPEC.toml [...] [--shipped] [--junit OUT.xml]
     synth analyze AUDIO.wav|PRESET [--key K | --f0 HZ] [--velocity V] [--json] [--plot OUT.png]
-    synth play --preset PRESET [--midi-port NAME] [--audio-device NAME] [--block N]
-               [--latency-ms X] [--program-map 0=PRESET,...] [--set PATH=VALUE ...]
-               [--stats] | --list-ports
+    synth play --preset PRESET [--midi-api auto|alsa|jack] [--midi-port NAME]
+               [--audio-device NAME] [--rate HZ] [--block N] [--latency-ms X]
+               [--program-map 0=PRESET,...] [--set PATH=VALUE ...] [--record OUT.wav] [--stats]
+    synth play --jack --preset PRESET [--jack-name NAME] [--connect] [--reconnect] [...]
+    synth play --list-ports
     synth batch SPEC.toml -o DIR [--scheduler tcp://HOST:8786 | --workers N] [--csv] [--dry-run]
     synth compare STIMULUS STIMULUS [...] [--midi FILE | --key K --velocity V --seconds S]
                [--lufs X] [--trials N] -o DIR [--serve [--port P]]
@@ -86,11 +88,13 @@ def _quality_overrides(args) -> list:
     return [] if q is None else [f"play.quality={q}"]
 
 
-def _engine_for(preset_name: str, overrides, internal_rate=None, probe=False, low_key=None):
+def _engine_for(preset_name: str, overrides, internal_rate=None, probe=False, low_key=None,
+                rate=None):
     from .io.factory import build_engine
 
+    kw = {} if rate is None else {"fs_out": rate}
     eng = build_engine(preset_name, overrides, fs_internal=internal_rate, probe=probe,
-                       extra_low_key=low_key)
+                       extra_low_key=low_key, **kw)
     return eng.inst.preset, eng.inst, eng
 
 
@@ -133,6 +137,7 @@ def cmd_note(args) -> int:
         _fail(f"--seconds = {args.seconds} is out of range (0 < value <= 600)")
     if args.internal_rate is not None and not (20_000 <= args.internal_rate <= 2_000_000):
         _fail(f"--internal-rate = {args.internal_rate} is out of range (20000 <= value <= 2000000 Hz)")
+    rate = _rate(args)
     _check_output(args.output, "-o")
     if args.probe is not None:
         _check_output(args.probe, "--probe")
@@ -149,7 +154,7 @@ def cmd_note(args) -> int:
     preset, inst, eng = _engine_for(args.preset, args.set, args.internal_rate,
                                     probe=(args.probe is not None or args.hammer_log is not None
                                            or args.contact_log is not None),
-                                    low_key=low)
+                                    low_key=low, rate=rate)
     if args.hammer_speed is not None and preset.voice == "plucked":
         _fail(f"--hammer-speed: {args.preset} is a plucked preset (voice = plucked): it has no hammer")
     if args.hammer_log is not None and preset.voice == "plucked":
@@ -268,6 +273,18 @@ def _add_channels(p) -> None:
                         "its notes are skipped (and counted)")
 
 
+def _rate(args):
+    """``--rate`` checked (None when not given)."""
+    if args.rate is None:
+        return None
+    from .io.rates import check_rate
+
+    try:
+        return check_rate(args.rate)
+    except SynthError as e:
+        _fail(str(e))
+
+
 def cmd_render(args) -> int:
     """A MIDI file through a preset into a WAV file (synth.apps.render: the
     30-minute warning, --max-seconds, the progress bar, Ctrl-C and SIGTERM)."""
@@ -278,7 +295,7 @@ def cmd_render(args) -> int:
     req = RenderRequest(midi_file=args.midi_file, preset=args.preset, output=args.output,
                         overrides=tuple(args.set), internal_rate=args.internal_rate,
                         pcm24=args.pcm24, max_seconds=args.max_seconds,
-                        channels=args.channels, drums=args.drums)
+                        channels=args.channels, drums=args.drums, rate=_rate(args))
     print(render_midi(req).summary)
     return 0
 
@@ -301,22 +318,25 @@ def cmd_play(args) -> int:
         from .io.live.jack import JackPlayer
 
         for opt, val in (("--midi-port", args.midi_port), ("--audio-device", args.audio_device),
-                         ("--latency-ms", args.latency_ms)):
+                         ("--latency-ms", args.latency_ms), ("--midi-api", args.midi_api),
+                         ("--rate", args.rate)):
             if val is not None:
-                _fail(f"{opt} is not used with --jack (connect the client's ports on the server; "
-                      "each MIDI event plays on its own frame)")
+                _fail(f"{opt} is not used with --jack (connect the client's ports on the server, "
+                      "whose rate and period it plays at; each MIDI event plays on its own frame)")
 
         player = JackPlayer(args.preset, programs, name=args.jack_name, connect=args.connect,
                             stats=args.stats, overrides=args.set, channels=args.channels,
-                            drums=args.drums, record=args.record)
+                            drums=args.drums, record=args.record, reconnect=args.reconnect)
     else:
-        if args.connect:
-            _fail("--connect needs --jack (PortAudio plays to --audio-device)")
+        for opt, val in (("--connect", args.connect), ("--reconnect", args.reconnect)):
+            if val:
+                _fail(f"{opt} needs --jack (PortAudio plays to --audio-device)")
         player = live.Player(args.preset, programs, block=args.block,
                              latency_s=None if args.latency_ms is None else args.latency_ms / 1e3,
                              audio_device=args.audio_device, midi_port=args.midi_port,
                              stats=args.stats, overrides=args.set, channels=args.channels,
-                             drums=args.drums, record=args.record)
+                             drums=args.drums, record=args.record, rate=args.rate,
+                             midi_api=args.midi_api or "auto")
     player.start()
     player.run(seconds=args.seconds)
     return 1 if player.stopped else 0
@@ -560,7 +580,10 @@ def build_parser() -> argparse.ArgumentParser:
     n.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
                    help="override a preset value, e.g. --set pluck.position=0.7 (repeatable)")
     _add_quality(n)
-    n.add_argument("-o", "--output", required=True, help="output WAV file (48 kHz)")
+    n.add_argument("--rate", type=float, metavar="HZ",
+                   help="output sample rate in Hz (default 48000; 44100, 88200, 96000, any "
+                        "22050-192000)")
+    n.add_argument("-o", "--output", required=True, help="output WAV file (48 kHz, or --rate)")
     n.add_argument("--probe", help="also save u(l, t) at the pluck point (m, internal rate, float64 .npy)")
     n.add_argument("--pcm24", action="store_true", help="write 24-bit PCM instead of 32-bit float")
     n.add_argument("--hammer-speed", type=float, metavar="M_PER_S",
@@ -583,6 +606,9 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--preset", required=True)
     r.add_argument("--set", action="append", default=[], metavar="PATH=VALUE")
     r.add_argument("--internal-rate", type=float)
+    r.add_argument("--rate", type=float, metavar="HZ",
+                   help="output sample rate in Hz (default 48000; 44100, 88200, 96000, any "
+                        "22050-192000)")
     _add_quality(r)
     r.add_argument("-o", "--output", required=True)
     r.add_argument("--pcm24", action="store_true")
@@ -695,8 +721,16 @@ def build_parser() -> argparse.ArgumentParser:
                     help="MIDI input port: exact name or part of it (default: the first keyboard)")
     pl.add_argument("--audio-device", metavar="NAME",
                     help="audio output device: index, exact name or part of it (default: the system's)")
+    pl.add_argument("--midi-api", choices=("auto", "alsa", "jack"),
+                    help="the MIDI system --midi-port is on: the ALSA sequencer or JACK MIDI "
+                         "(default auto: JACK when a JACK server runs, else ALSA)")
     pl.add_argument("--block", type=int, default=128,
-                    help="audio block in samples at 48 kHz (default 128 = 2.7 ms)")
+                    help="audio block in samples at the output rate (default 128 = 2.7 ms at "
+                         "48 kHz)")
+    pl.add_argument("--rate", type=float, metavar="HZ",
+                    help="output rate in Hz: 44100, 48000, 88200 or 96000 (any 22050-192000); "
+                         "the decimator is designed for it (default 48000, or the device's own "
+                         "rate when it cannot play 48 kHz)")
     pl.add_argument("--latency-ms", type=float, metavar="X",
                     help="delay from key to stream in ms, at least one block (default: two blocks)")
     pl.add_argument("--program-map", metavar="P=PRESET,...",
@@ -710,12 +744,15 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--jack", action="store_true",
                     help="play as a JACK client (jackd, or PipeWire's JACK): a MIDI input port "
                          "and the audio outputs, every MIDI event on its frame; the server's "
-                         "rate must be 48 kHz, its period sets the block")
+                         "rate and period are played at and may change while playing")
     pl.add_argument("--jack-name", default="synth", metavar="NAME",
                     help="the JACK client's name (default: synth)")
     pl.add_argument("--connect", action="store_true",
                     help="with --jack: connect the outputs to the system's playback ports and "
                          "the first physical MIDI capture port to the input")
+    pl.add_argument("--reconnect", action="store_true",
+                    help="with --jack: when the server stops, wait for it and play on "
+                         "(default: say so and exit with status 1)")
     pl.add_argument("--record", metavar="OUT.wav",
                     help="also write the performance, as it goes to the device, to a WAV file "
                          "(32-bit float; complete whatever stops the play)")
@@ -725,7 +762,8 @@ def build_parser() -> argparse.ArgumentParser:
                     help="show block time, voices and underruns once a second, and the "
                          "latest note's contacts per string (hammer, termination)")
     pl.add_argument("--list-ports", action="store_true",
-                    help="list MIDI input ports and audio output devices, then exit")
+                    help="list MIDI input ports (ALSA and JACK) and audio output devices, then "
+                         "exit")
     pl.set_defaults(func=cmd_play)
 
     c = sub.add_parser(

@@ -25,9 +25,10 @@ them.  To monkeypatch one, patch the module that looks it up (e.g.
 
 from __future__ import annotations
 
-from synth.io.live.devices import (FS_OUT, INSTALL_LIVE, NO_MIDI_PORT, PORTAUDIO_MISSING,
-                                   check_audio, check_midi, list_ports, match_name,
-                                   midi_input_names, pick_audio_device, pick_midi_port)
+from synth.io.live.devices import (FS_OUT, INSTALL_LIVE, NO_MIDI_PORT, NO_MIDI_SYSTEM,
+                                   PORTAUDIO_MISSING, check_audio, check_midi, list_ports,
+                                   match_name, midi_input_names, pick_audio_device, pick_midi_api,
+                                   pick_midi_port)
 from synth.io.live.engines import ready_engine
 from synth.io.live.player import SWITCH_INTERVAL_S, Player, normalise
 from synth.io.live.programs import ProgramMap
@@ -38,6 +39,8 @@ __all__ = [
     "INSTALL_LIVE",
     "PORTAUDIO_MISSING",
     "NO_MIDI_PORT",
+    "NO_MIDI_SYSTEM",
+    "pick_midi_api",
     "check_audio",
     "check_midi",
     "midi_input_names",

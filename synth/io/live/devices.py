@@ -23,14 +23,21 @@ import sys
 import tempfile
 
 from synth.io.errors import SynthError
+from synth.io.rates import CARD_RATES_HZ, check_rate
 
 __all__ = [
     "FS_OUT",
+    "CARD_RATES_HZ",
+    "check_rate",
     "INSTALL_LIVE",
     "PORTAUDIO_MISSING",
     "NO_MIDI_PORT",
     "check_audio",
     "check_midi",
+    "pick_midi_api",
+    "jack_server_running",
+    "MIDI_APIS",
+    "NO_MIDI_SYSTEM",
     "midi_input_names",
     "pick_midi_port",
     "pick_audio_device",
@@ -38,7 +45,7 @@ __all__ = [
     "list_ports",
 ]
 
-#: Output rate of the live stream (Hz): the engine's.
+#: Default output rate of the live stream (Hz).
 FS_OUT = 48_000
 
 INSTALL_LIVE = 'pip install -e ".[live]"'
@@ -46,7 +53,14 @@ PORTAUDIO_MISSING = ("PortAudio library not found: install it (Debian/Ubuntu: ap
                      "libportaudio2; Fedora: dnf install portaudio; macOS: brew install portaudio)")
 NO_MIDI_PORT = ("no MIDI input port found; connect a keyboard, or on Linux check that the ALSA "
                 "sequencer (/dev/snd/seq) is available")
+NO_MIDI_SYSTEM = ("no MIDI system: neither the ALSA sequencer (/dev/snd/seq) nor a JACK server is "
+                  "available; connect a keyboard (ALSA), start a JACK server (jackd, or PipeWire's "
+                  "pipewire-jack), or play as a JACK client with --jack")
 _RTMIDI_BACKEND = "mido.backends.rtmidi"
+#: ``--midi-api`` names and rtmidi's API names (mido's ``rtmidi/API`` backends)
+MIDI_APIS = {"alsa": "LINUX_ALSA", "jack": "UNIX_JACK"}
+#: the name the MIDI input shows on the ALSA sequencer or the JACK server
+MIDI_CLIENT_NAME = "synth"
 
 
 # --------------------------------------------------------------------------
@@ -107,18 +121,27 @@ def check_audio():
     return sounddevice
 
 
-def check_midi():
+def check_midi(api: str | None = None):
     """mido's ``rtmidi`` backend (a :class:`mido.Backend`, loaded), or a
     :class:`SynthError` saying how to install python-rtmidi.
+
+    Parameters
+    ----------
+    api : {"alsa", "jack"} or None
+        The MIDI system (``--midi-api``): the ALSA sequencer or JACK MIDI;
+        None: rtmidi's default (ALSA on Linux).
 
     The backend is not made mido's global default; use its
     ``get_input_names()`` and ``open_input()``.
     """
     import mido
 
+    if api is not None and api not in MIDI_APIS:
+        raise SynthError(f"--midi-api = {api!r} is not one of {', '.join(MIDI_APIS)} (or auto)")
+    name = _RTMIDI_BACKEND if api is None else f"{_RTMIDI_BACKEND}/{MIDI_APIS[api]}"
     try:
         with _quiet_c_stderr():
-            return mido.Backend(_RTMIDI_BACKEND, load=True)
+            return mido.Backend(name, load=True)
     except ImportError as e:
         if e.name == "rtmidi":
             raise SynthError(f"python-rtmidi is not installed (MIDI input of synth play): "
@@ -131,6 +154,46 @@ def check_midi():
 # --------------------------------------------------------------------------
 # Ports and devices
 # --------------------------------------------------------------------------
+
+
+def jack_server_running() -> bool:
+    """Whether a JACK server answers (the default one, or
+    ``$JACK_DEFAULT_SERVER``), asked through rtmidi's JACK MIDI, without
+    starting one."""
+    try:
+        import rtmidi
+    except ImportError:
+        return False
+    if rtmidi.API_UNIX_JACK not in rtmidi.get_compiled_api():
+        return False
+    try:
+        with _quiet_c_stderr():
+            probe = rtmidi.MidiIn(rtmidi.API_UNIX_JACK, name=f"{MIDI_CLIENT_NAME}-probe")
+            probe.delete()
+    except Exception:
+        return False
+    return True
+
+
+def pick_midi_api(api: str | None = "auto") -> str:
+    """``--midi-api``: ``"alsa"`` or ``"jack"`` as given, or for ``"auto"``
+    (None) JACK MIDI when a JACK server runs, else the ALSA sequencer.
+
+    Raises
+    ------
+    SynthError
+        An unknown name, or ``auto`` with neither system available
+        (:data:`NO_MIDI_SYSTEM`).
+    """
+    if api in (None, "auto"):
+        if jack_server_running():
+            return "jack"
+        if sys.platform.startswith("linux") and not os.path.exists("/dev/snd/seq"):
+            raise SynthError(NO_MIDI_SYSTEM)
+        return "alsa"
+    if api not in MIDI_APIS:
+        raise SynthError(f"--midi-api = {api!r} is not one of auto, {', '.join(MIDI_APIS)}")
+    return api
 
 
 def midi_input_names(backend) -> list[str]:
@@ -227,7 +290,8 @@ def _default_output(sd) -> int:
         return -1
 
 
-def pick_audio_device(sd, wanted: str | None = None) -> tuple[int, str, int]:
+def pick_audio_device(sd, wanted: str | None = None, fs: int | None = None
+                      ) -> tuple[int, str, int, int]:
     """The audio output device and its channel count for the live stream.
 
     Parameters
@@ -237,18 +301,22 @@ def pick_audio_device(sd, wanted: str | None = None) -> tuple[int, str, int]:
     wanted : str or None
         ``--audio-device``: a device index, an exact name or a
         case-insensitive part of one; None: PortAudio's default output.
+    fs : int or None
+        ``--rate``: the output rate (Hz) asked for; None: 48 kHz, or the
+        device's own default rate when it cannot play 48 kHz and that rate
+        is one of :data:`CARD_RATES_HZ`.
 
     Returns
     -------
-    (index, name, channels)
-        ``channels`` is 2 when the device takes stereo at 48 kHz float32
+    (index, name, channels, fs)
+        ``channels`` is 2 when the device takes stereo at ``fs`` float32
         (a mono instrument then sounds the same on both), else 1 (left and
-        right mixed).
+        right mixed); ``fs`` the rate (Hz) the stream opens at.
 
     Raises
     ------
     SynthError
-        No output device, no match, or a device that cannot play 48 kHz.
+        No output device, no match, or a device that cannot play the rate.
     """
     outs = _output_devices(sd)
     if not outs:
@@ -265,33 +333,46 @@ def pick_audio_device(sd, wanted: str | None = None) -> tuple[int, str, int]:
     else:
         name = match_name(wanted, [d["name"] for d in outs], "--audio-device", "audio output device")
         dev = next(d for d in outs if d["name"] == name)
+    rates = [int(fs)] if fs is not None else [FS_OUT]
+    own = int(round(float(dev.get("default_samplerate") or 0)))
+    if fs is None and own in CARD_RATES_HZ and own != FS_OUT:
+        rates.append(own)              # a card that cannot play 48 kHz plays its own rate
     errors = []
-    for ch in (2, 1):                  # stereo (left, right), else the two mixed
-        if ch > dev["max_output_channels"]:
-            continue
-        try:
-            with _quiet_c_stderr():
-                sd.check_output_settings(device=dev["index"], channels=ch, dtype="float32",
-                                         samplerate=FS_OUT)
-            return dev["index"], dev["name"], ch
-        except Exception as e:
-            errors.append(_one_line(e))
-    raise SynthError(f"audio device {dev['name']!r} cannot play {FS_OUT} Hz float32 mono or "
-                     f"stereo ({'; '.join(errors) or 'no output channels'})")
+    for rate in rates:
+        for ch in (2, 1):              # stereo (left, right), else the two mixed
+            if ch > dev["max_output_channels"]:
+                continue
+            try:
+                with _quiet_c_stderr():
+                    sd.check_output_settings(device=dev["index"], channels=ch, dtype="float32",
+                                             samplerate=rate)
+                return dev["index"], dev["name"], ch, rate
+            except Exception as e:
+                errors.append(_one_line(e))
+    shown = " or ".join(f"{r} Hz" for r in rates)
+    raise SynthError(f"audio device {dev['name']!r} cannot play {shown} float32 mono or "
+                     f"stereo ({'; '.join(dict.fromkeys(errors)) or 'no output channels'}); "
+                     "--rate picks another rate")
 
 
 def list_ports() -> str:
-    """MIDI input ports and audio output devices (``synth play --list-ports``).
+    """MIDI input ports (ALSA sequencer and JACK MIDI) and audio output
+    devices (``synth play --list-ports``).
 
-    Works with either part missing: what cannot be listed says why.
+    Works with any part missing: what cannot be listed says why.
     """
-    lines = ["MIDI input ports (--midi-port):"]
-    try:
-        names = midi_input_names(check_midi())
-    except SynthError as e:
-        lines.append(f"  unavailable: {e}")
-    else:
-        lines += [f"  {n}" for n in names] or [f"  none: {NO_MIDI_PORT}"]
+    lines = []
+    for api, title in (("alsa", "ALSA sequencer"), ("jack", "JACK MIDI")):
+        lines.append(f"MIDI input ports, {title} (--midi-api {api} --midi-port NAME):")
+        if api == "jack" and not jack_server_running():
+            lines.append("  unavailable: no JACK server is running")
+            continue
+        try:
+            names = midi_input_names(check_midi(api))
+        except SynthError as e:
+            lines.append(f"  unavailable: {e}")
+        else:
+            lines += [f"  {n}" for n in names] or ["  none"]
     lines.append("Audio output devices (--audio-device; * = default):")
     try:
         sd = check_audio()

@@ -15,7 +15,7 @@ __all__ = ["ready_engine"]
 
 
 def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = None,
-                 overrides=()):
+                 overrides=(), fs_out: int = FS_OUT):
     """Build the engine for a preset, warmed for live play
     (:func:`synth.io.factory.build_engine` with ``warm=True``: every key
     designed, the kernels compiled or loaded on a throwaway engine, so the
@@ -32,6 +32,8 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
         reuses its designs).
     overrides : sequence of str
         ``PATH=VALUE`` preset overrides (``--set``), validated like the file.
+    fs_out : int
+        Output rate (Hz): the card's or the JACK server's.
 
     Raises
     ------
@@ -47,5 +49,5 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
             instruments[preset_name] = voice
     # a keyboard may send any key: size the strings for key 0 (study presets
     # otherwise only hold their own string's length; musical ones already do)
-    return build_engine(preset_name, voice=voice, fs_out=FS_OUT, extra_low_key=0, warm=True,
+    return build_engine(preset_name, voice=voice, fs_out=fs_out, extra_low_key=0, warm=True,
                         block=block)

@@ -30,7 +30,8 @@ import time
 import numpy as np
 
 from synth.io.errors import SynthError
-from synth.io.live.devices import FS_OUT, _one_line
+from synth.io.live.devices import _one_line, _quiet_c_stderr
+from synth.io.rates import check_rate
 from synth.io.live.player import Player
 
 __all__ = ["JackPlayer", "check_jack", "INSTALL_JACK"]
@@ -67,17 +68,33 @@ class JackPlayer(Player):
         (``--connect``).
     server : str or None
         The JACK server's name (None: the default, or ``$JACK_DEFAULT_SERVER``).
+    reconnect : bool
+        When the server stops, wait for it to come back (polling twice a
+        second) and play on, with the same engine, recording and port
+        connections (``--reconnect``); without it :meth:`run` stops and the
+        command exits non-zero.
+
+    Faults survived: the server's period may change while playing (JACK's
+    buffer-size callback; the driver renders any cycle up to 4096 frames);
+    a MIDI source that disconnects from ``midi_in`` is reported once and
+    play goes on; the server stopping is one line (and, with
+    ``reconnect``, a wait).  The ``record`` file is complete after each.
     """
 
     def __init__(self, preset: str, program_map=None, *, name: str = "synth",
                  connect: bool = False, server: str | None = None, stats: bool = False,
                  out=None, overrides=(), channels=None, drums: bool = False,
-                 record: str | None = None):
+                 record: str | None = None, reconnect: bool = False):
         self._jack_name = str(name)
         self._connect = bool(connect)
         self._server = server
+        self._reconnect = bool(reconnect)
         self.client = None
         self.xruns = 0
+        self.reconnects = 0             # times the server came back (--reconnect)
+        self.period_changes = 0         # buffer-size callbacks after the first cycle
+        self._links: set = set()        # (own port's short name, other port's name)
+        self._notes: list = []          # messages from the server's threads, said by run()
         self._shutdown = None           # why the server closed us, from its thread
         super().__init__(preset, program_map, block=128, midi=False, stats=stats, out=out,
                          overrides=overrides, channels=channels, drums=drums, record=record)
@@ -86,23 +103,28 @@ class JackPlayer(Player):
         """The JACK library, and a server to join: the client is opened now
         (inactive until :meth:`start`), so that a missing server is one line
         before any slow work; its rate and period set the block."""
-        jack = check_jack()
-        self.jack = jack
+        self.jack = check_jack()
         try:
-            self.client = jack.Client(self._jack_name, no_start_server=True,
-                                      servername=self._server)
-        except jack.JackOpenError:
+            self._open_client()
+        except self.jack.JackOpenError:
             where = f" {self._server!r}" if self._server else ""
             raise SynthError(f"no JACK server{where} is running: start one (jackd -d alsa, or "
                              "jackd -d dummy -r 48000 -p 128 without a sound card; PipeWire "
                              "runs one as pipewire-jack)") from None
-        if self.client.samplerate != FS_OUT:
-            rate = self.client.samplerate
+        try:
+            self.fs = check_rate(self.client.samplerate, "the JACK server's rate")
+        except SynthError:
             self.client.close()
             self.client = None
-            raise SynthError(f"the JACK server runs at {rate} Hz; synth play --jack plays at "
-                             f"{FS_OUT} Hz (start the server with -r {FS_OUT})")
+            raise
         self.block = int(self.client.blocksize)
+
+    def _open_client(self) -> None:
+        """Open the (inactive) client; raises ``jack.JackOpenError`` when no
+        server answers."""
+        with _quiet_c_stderr():
+            self.client = self.jack.Client(self._jack_name, no_start_server=True,
+                                           servername=self._server)
         self.device_name = f"JACK {self.client.name}"
         self.midi_port_name = f"{self.client.name}:midi_in"
 
@@ -117,28 +139,65 @@ class JackPlayer(Player):
         client = self.client
         try:
             eng = ready_engine(self.preset_name, self.block, self.instruments,
-                               self._overrides_for(self.preset_name))
+                               self._overrides_for(self.preset_name), fs_out=self.fs)
             self.warm_s = time.perf_counter() - t_call
             eng.telemetry = self.stats
             self.channels = eng.channels
-            self.rt = Realtime(eng, block=self.block, latency_s=self.block / FS_OUT)
-            self.midi_in = client.midi_inports.register("midi_in")
-            self.outs = [client.outports.register(f"out_{i + 1}") for i in range(self.channels)]
+            self.rt = Realtime(eng, block=self.block, latency_s=self.block / self.fs)
             self._buf = np.zeros((4096, self.channels), dtype=np.float32)
-            client.set_process_callback(self._process)
-            client.set_xrun_callback(self._xrun)
-            client.set_shutdown_callback(self._closed)
-            client.set_blocksize_callback(self._blocksize)
             self._start_recording(self.channels)
             self.rt.start()
-            client.activate()
-            self.stream = client
-            if self._connect:
-                self._connect_ports()
+            self._attach()
         except BaseException:
             self.close()
             raise
         self._ready(t_call)
+
+    def _attach(self) -> None:
+        """Register the ports and callbacks on the open client, activate
+        it, and connect it (``connect``: to the physical ports; after a
+        reconnect: as it was)."""
+        client = self.client
+        self.midi_in = client.midi_inports.register("midi_in")
+        self.outs = [client.outports.register(f"out_{i + 1}") for i in range(self.channels)]
+        client.set_process_callback(self._process)
+        client.set_xrun_callback(self._xrun)
+        client.set_shutdown_callback(self._closed)
+        client.set_blocksize_callback(self._blocksize)
+        client.set_port_connect_callback(self._connected)
+        self._started = False
+        client.activate()
+        self.stream = client
+        if self._links:
+            self._restore_links()
+        elif self._connect:
+            self._connect_ports()
+
+    def _own_ports(self) -> dict:
+        return {p.shortname: p for p in [self.midi_in, *self.outs]}
+
+    def _note_links(self) -> None:
+        """Remember the connections of our ports (restored after a reconnect)."""
+        links = set()
+        try:
+            for short, port in self._own_ports().items():
+                for other in self.client.get_all_connections(port):
+                    links.add((short, other.name))
+        except Exception:
+            return
+        self._links = links
+
+    def _restore_links(self) -> None:
+        own = self._own_ports()
+        for short, other in sorted(self._links):
+            port = own.get(short)
+            try:
+                if port is self.midi_in:
+                    self.client.connect(other, port)
+                else:
+                    self.client.connect(port, other)
+            except Exception:
+                self._notes.append(f"could not reconnect {port.name} and {other} (gone?)")
 
     def _connect_ports(self) -> None:
         client = self.client
@@ -162,9 +221,44 @@ class JackPlayer(Player):
                     pass
         self._stop_threads()
 
+    def _watch_port(self) -> None:
+        """About once a second: say what the server's threads noted (a MIDI
+        source gone, the period changed), and remember the connections."""
+        notes, self._notes = self._notes, []
+        for text in notes:
+            self._say(f"\n{text}")
+        if self.client is not None and self._shutdown is None:
+            self._note_links()
+
     def _stopped(self) -> str | None:
-        if self._shutdown is not None:
-            return f"the JACK server closed the client ({self._shutdown})"
+        if self._shutdown is None:
+            return None
+        gone = f"the JACK server closed the client ({self._shutdown})"
+        if not self._reconnect:
+            return gone
+        self._say(f"\n{gone}; waiting for it to come back (--reconnect; Ctrl-C stops)")
+        old, self.client, self.stream = self.client, None, None
+        for step in (old.deactivate, old.close):
+            try:
+                step()
+            except Exception:
+                pass
+        while True:
+            try:
+                self._open_client()
+                break
+            except self.jack.JackOpenError:
+                time.sleep(0.5)
+        if self.client.samplerate != self.fs or self.client.blocksize > self._buf.shape[0]:
+            return (f"the JACK server came back at {self.client.samplerate} Hz, period "
+                    f"{self.client.blocksize}; this engine plays at {self.fs} Hz, periods up to "
+                    f"{self._buf.shape[0]}: start synth play again")
+        self._shutdown = None
+        self.block = int(self.client.blocksize)
+        self._attach()
+        self.reconnects += 1
+        self._say(f"the JACK server is back: playing again ({self.fs} Hz, period {self.block}, "
+                  f"{len(self._links)} connections restored)")
         return None
 
     def _playback_latency_frames(self) -> int:
@@ -199,10 +293,10 @@ class JackPlayer(Player):
         frame)."""
         dev = 0.0
         if self.client is not None and getattr(self, "outs", None):
-            dev = self._playback_latency_frames() / FS_OUT
+            dev = self._playback_latency_frames() / self.fs
         eng = self.rt.engine
         dec = float(eng.dec.latency_s)
-        lim = (eng.limiter.latency_samples / FS_OUT) if eng.limiter is not None else 0.0
+        lim = (eng.limiter.latency_samples / self.fs) if eng.limiter is not None else 0.0
         return {"schedule_s": 0.0, "device_s": dev, "decimator_s": dec + lim,
                 "total_s": dev + dec + lim}
 
@@ -210,19 +304,26 @@ class JackPlayer(Player):
         lat = self.latency_budget_s()
         ports = ", ".join(p.name for p in self.outs)
         return (f"{self.preset_name}: JACK client {self.client.name!r} ({self.midi_in.name} -> "
-                f"{ports}; {FS_OUT} Hz, period {self.block} = {1e3 * self.block / FS_OUT:.1f} ms); "
+                f"{ports}; {self.fs} Hz, period {self.block} = {1e3 * self.block / self.fs:.1f} ms); "
                 f"latency {lat['total_s'] * 1e3:.1f} ms = server {lat['device_s'] * 1e3:.1f} + "
                 f"decimator and limiter {lat['decimator_s'] * 1e3:.1f}")
 
     def report(self) -> str:
-        return super().report() + f"\n{self.xruns} JACK xruns"
+        extra = ""
+        if self.reconnects:
+            extra += f", the server came back {self.reconnects} times"
+        if self.period_changes:
+            extra += f", the period changed {self.period_changes} times"
+        return super().report() + f"\n{self.xruns} JACK xruns{extra}"
 
     # -- the server's threads ---------------------------------------------------------
     def _process(self, frames: int) -> None:
         """The process callback: this cycle's MIDI at its frames, then the
         cycle's audio."""
+        self._started = True
         rt = self.rt
-        t0 = rt.n_out / FS_OUT
+        fs = self.fs
+        t0 = rt.n_out / fs
         mido = _mido()
         for offset, data in self.midi_in.incoming_midi_events():
             try:
@@ -230,7 +331,7 @@ class JackPlayer(Player):
             except Exception:
                 self.handler_errors += 1
                 continue
-            self.handle(msg, at_s=t0 + offset / FS_OUT)
+            self.handle(msg, at_s=t0 + offset / fs)
         buf = self._buf[:frames]
         rt.render(buf if self.channels > 1 else buf[:, 0], frames)
         for i, port in enumerate(self.outs):
@@ -246,8 +347,25 @@ class JackPlayer(Player):
     def _blocksize(self, blocksize: int) -> None:
         """The server's period changed: the driver renders whatever the
         callback asks (up to 4096 frames), so play goes on."""
+        if self._started:
+            self.period_changes += 1
+            self._notes.append(f"the JACK period is now {blocksize} frames "
+                               f"({1e3 * blocksize / self.fs:.1f} ms); play goes on")
+        self.block = int(blocksize)
         if blocksize > self._buf.shape[0]:
+            self._notes.append(f"the JACK period {blocksize} is above the {self._buf.shape[0]} "
+                               "frames this player renders: stopping")
             raise self.jack.CallbackExit
+
+    def _connected(self, a, b, connect: bool) -> None:
+        """A connection made or broken (the server's notification thread):
+        a MIDI source leaving ``midi_in`` is reported, play goes on."""
+        try:
+            if not connect and b.name == self.midi_in.name:
+                self._notes.append(f"warning: MIDI source {a.name!r} disconnected from "
+                                   f"{self.midi_in.name}; play goes on")
+        except Exception:
+            pass
 
 
 _MIDO = None

@@ -31,8 +31,10 @@ import time
 from synth.io.errors import SynthError
 from synth.io.midi import (MidiEvent, dropped_name, midi_to_events, normalise_message,
                            plays_channel)
+from synth.io.rates import check_rate
 from synth.io.live.devices import (FS_OUT, _one_line, _quiet_c_stderr, check_audio, check_midi,
-                                   pick_audio_device, pick_midi_port)
+                                   midi_input_names, pick_audio_device, pick_midi_api,
+                                   pick_midi_port)
 from synth.io.live.engines import ready_engine
 from synth.io.live.programs import ProgramMap
 
@@ -104,7 +106,7 @@ class Player:
     program_map : ProgramMap or None
         Presets for program changes; default: program 0 -> ``preset``.
     block : int
-        Audio block size (samples at 48 kHz), 16 .. 4096.
+        Audio block size (samples at the output rate), 16 .. 4096.
     latency_s : float or None
         Constant delay from a message's arrival to its place in the stream
         (s), at least one block; default two blocks.
@@ -112,6 +114,11 @@ class Player:
         Output device index or name (part); None: the default output.
     midi_port : str or None
         MIDI input port name (part); None: the first real input port.
+    midi_api : {"auto", "alsa", "jack"}
+        The MIDI system the port is on (``--midi-api``): the ALSA
+        sequencer, JACK MIDI, or ``auto``: JACK when a JACK server runs,
+        else ALSA.  A port that disappears while playing is reported once
+        and play goes on; it is reopened when it comes back.
     midi : bool
         Open a MIDI input port (False: messages only via :meth:`handle`).
     stats : bool
@@ -131,13 +138,24 @@ class Player:
         A WAV file that receives the performance as it goes to the device
         (:class:`synth.io.live.record.Recorder`), complete whatever stops
         the play.
+    rate : int or None
+        Output rate (Hz, ``--rate``), 22050 .. 192000; None: 48 kHz, or
+        the device's own rate when it cannot play 48 kHz (a JACK server's
+        rate is the server's).  The decimator is designed for this rate
+        (:class:`synth.dsp.decimator.Decimator`: 20 kHz flat, 110 dB down
+        from the Nyquist frequency).
+
+    Attributes
+    ----------
+    fs : int
+        The output rate (Hz) the stream plays at.
     """
 
     def __init__(self, preset: str, program_map: ProgramMap | None = None, block: int = 128,
                  latency_s: float | None = None, audio_device: str | None = None,
                  midi_port: str | None = None, midi: bool = True, stats: bool = False,
                  out=None, overrides=(), channels=None, drums: bool = False,
-                 record: str | None = None):
+                 record: str | None = None, rate: int | None = None, midi_api: str = "auto"):
         from synth.engine.engine import Engine
         from synth.io.presets import load_preset
 
@@ -145,11 +163,8 @@ class Player:
             raise SynthError(f"--block = {block} is out of range (16 <= value <= "
                              f"{Engine.MAX_BLOCK_OUT})")
         self.block = int(block)
-        lo_ms = 1e3 * self.block / FS_OUT
-        if latency_s is not None and not (self.block / FS_OUT <= latency_s <= 1.0):
-            raise SynthError(f"--latency-ms = {latency_s * 1e3:g} is out of range ({lo_ms:.2f} <= "
-                             f"value <= 1000: at least one block of {self.block} samples)")
-        self.latency_s = latency_s
+        self._rate = None if rate is None else check_rate(rate)
+        self.fs = self._rate
         self.overrides = tuple(overrides)
         self.midi_channels = None if channels is None else frozenset(int(c) for c in channels)
         self.drums = bool(drums)
@@ -173,7 +188,13 @@ class Player:
         self.clock = time.monotonic
         self.midi_backend = None
         self.midi_port_name = None
+        self.midi_api = midi_api
+        self.midi_port_lost = 0        # times the MIDI input port disappeared
+        self._lister = None            # the rtmidi client that lists the ports (_port_names)
+        self.latency_s = latency_s
+        self._check_latency(self._rate or FS_OUT)        # before any device is looked for
         self._check_outside(audio_device, midi_port, midi)
+        self._check_latency(self.fs)
         # -- state
         self.rt = None
         self.stream = None
@@ -195,14 +216,24 @@ class Player:
         self._builders: list[threading.Thread] = []
         self._switch = None
 
+    def _check_latency(self, fs: int) -> None:
+        lat = self.latency_s
+        if lat is not None and not (self.block / fs <= lat <= 1.0):
+            raise SynthError(f"--latency-ms = {lat * 1e3:g} is out of range "
+                             f"({1e3 * self.block / fs:.2f} <= value <= 1000: at least one block of "
+                             f"{self.block} samples at {fs} Hz)")
+
     def _check_outside(self, audio_device, midi_port, midi: bool) -> None:
         """What the outside world offers, checked before any slow work:
         PortAudio's output device and rtmidi's input port (the JACK player,
         :class:`synth.io.live.jack.JackPlayer`, checks its server instead)."""
         self.sd = check_audio()
-        self.device, self.device_name, self.channels = pick_audio_device(self.sd, audio_device)
+        self.device, self.device_name, self.channels, self.fs = pick_audio_device(
+            self.sd, audio_device, self._rate)
         if midi:
-            self.midi_backend = check_midi()
+            check_midi()                            # python-rtmidi installed, else how to
+            self.midi_api = pick_midi_api(self.midi_api)
+            self.midi_backend = check_midi(self.midi_api)
             self.midi_port_name = pick_midi_port(self.midi_backend, midi_port)
 
     # -- start and stop -------------------------------------------------------------
@@ -217,7 +248,7 @@ class Player:
         t_call = time.perf_counter()
         try:
             eng = ready_engine(self.preset_name, self.block, self.instruments,
-                               self._overrides_for(self.preset_name))
+                               self._overrides_for(self.preset_name), fs_out=self.fs)
             self.warm_s = time.perf_counter() - t_call
             eng.telemetry = self.stats      # --stats: the latest note's contacts on the meter
             self.rt = Realtime(eng, block=self.block, latency_s=self.latency_s)
@@ -229,7 +260,7 @@ class Player:
             try:
                 with _quiet_c_stderr():
                     self.stream = self.sd.OutputStream(
-                        samplerate=FS_OUT, blocksize=self.block, channels=self.channels,
+                        samplerate=self.fs, blocksize=self.block, channels=self.channels,
                         dtype="float32", callback=self._callback, device=self.device,
                         latency="low")
             except Exception as e:
@@ -242,9 +273,7 @@ class Player:
             self.stream.start()
             if self.midi_port_name is not None:
                 try:
-                    with _quiet_c_stderr():
-                        self.port = self.midi_backend.open_input(self.midi_port_name,
-                                                                 callback=self.handle)
+                    self._open_port()
                 except Exception as e:
                     raise SynthError(f"cannot open MIDI input port {self.midi_port_name!r}: "
                                      f"{_one_line(e)}") from None
@@ -253,11 +282,54 @@ class Player:
             raise
         self._ready(t_call)
 
+    def _open_port(self) -> None:
+        with _quiet_c_stderr():
+            self.port = self.midi_backend.open_input(self.midi_port_name, callback=self.handle)
+
+    def _port_names(self) -> list:
+        """The MIDI input ports present now, from one rtmidi client kept
+        open for it: opening a client per look (what mido's
+        ``get_input_names`` does) costs a JACK client registration, tens
+        of ms, with the GIL held, which the audio callback would wait for."""
+        try:
+            if self._lister is None:
+                import rtmidi
+
+                api = {"alsa": rtmidi.API_LINUX_ALSA, "jack": rtmidi.API_UNIX_JACK}[self.midi_api]
+                with _quiet_c_stderr():
+                    self._lister = rtmidi.MidiIn(api, name="synth-ports")
+            return self._lister.get_ports()
+        except Exception:
+            return []
+
+    def _watch_port(self) -> None:
+        """Called about once a second while playing: a MIDI input port that
+        has disappeared (a keyboard unplugged, a JACK client gone) is
+        reported once and play goes on; when it is back it is reopened."""
+        if self.midi_port_name is None or self.midi_backend is None:
+            return
+        present = self.midi_port_name in self._port_names()
+        if self.port is not None and not present:
+            self.midi_port_lost += 1
+            port, self.port = self.port, None
+            with contextlib.suppress(Exception):
+                port.close()
+            self._say(f"\nwarning: MIDI input {self.midi_port_name!r} is gone; play goes on "
+                      "(it is reopened when it comes back)")
+        elif self.port is None and present:
+            try:
+                self._open_port()
+            except Exception as e:
+                self._say(f"\nMIDI input {self.midi_port_name!r} is back but cannot be opened: "
+                          f"{_one_line(e)}")
+                return
+            self._say(f"\nMIDI input {self.midi_port_name!r} is back")
+
     def _start_recording(self, channels: int) -> None:
         if self.record_path is not None:
             from synth.io.live.record import Recorder
 
-            self.recorder = Recorder(self.record_path, channels, FS_OUT)
+            self.recorder = Recorder(self.record_path, channels, self.fs)
 
     def _ready(self, t_call: float) -> None:
         """Say what plays where, with the latency, and ``ready in X s``."""
@@ -278,16 +350,21 @@ class Player:
 
     def describe(self) -> str:
         lat = self.latency_budget_s()
-        midi = f"MIDI in {self.midi_port_name!r}" if self.midi_port_name else "no MIDI input"
+        midi = (f"MIDI in {self.midi_port_name!r} ({self.midi_api})" if self.midi_port_name
+                else "no MIDI input")
         progs = f"; programs {self.program_map}" if len(self.program_map.programs) > 1 else ""
         return (f"{self.preset_name}: {midi} -> audio out {self.device_name!r} "
-                f"({self.channels} ch, {FS_OUT} Hz, block {self.block} = "
-                f"{1e3 * self.block / FS_OUT:.1f} ms){progs}; latency {lat['total_s'] * 1e3:.1f} ms "
+                f"({self.channels} ch, {self.fs} Hz, block {self.block} = "
+                f"{1e3 * self.block / self.fs:.1f} ms){progs}; latency {lat['total_s'] * 1e3:.1f} ms "
                 f"= schedule {lat['schedule_s'] * 1e3:.1f} + device {lat['device_s'] * 1e3:.1f} "
                 f"+ decimator {lat['decimator_s'] * 1e3:.1f}")
 
     def close(self) -> None:
         """Close the MIDI port and the stream (idempotent)."""
+        lister, self._lister = self._lister, None
+        if lister is not None:
+            with contextlib.suppress(Exception):
+                lister.delete()
         port, self.port = self.port, None
         if port is not None:
             with contextlib.suppress(Exception):
@@ -332,6 +409,7 @@ class Player:
                 if wait > 0:
                     time.sleep(wait)
                 gc.collect(0)          # the young generation only, from this thread
+                self._watch_port()
                 if self.stats:
                     print("\r" + self.rt.meter(), end="", file=self.out, flush=True)
                 stopped = self._stopped()
@@ -464,7 +542,8 @@ class Player:
     def _build_and_swap(self, program: int, name: str, gen: int) -> None:
         try:
             t = time.perf_counter()
-            eng = ready_engine(name, self.block, self.instruments, self._overrides_for(name))
+            eng = ready_engine(name, self.block, self.instruments, self._overrides_for(name),
+                               fs_out=self.fs)
         except Exception as e:
             self.handler_errors += 1
             self._say(f"\nprogram {program}: {name} failed: {_one_line(e)}")
