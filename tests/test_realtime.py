@@ -176,3 +176,36 @@ def test_late_events_are_counted_and_played_at_once():
     rt.stop()
     assert rt.stats.late_events == 1 and rt.engine.n_voices == 1
     assert "underruns 0" in rt.meter() and "late events" in rt.report()
+
+
+def test_a_cycles_events_are_scheduled_in_one_call():
+    """The events queued for a block reach the engine in one schedule call
+    (each call orders every pending event anew: one per event made a
+    32-note release O(n^2) in the audio thread), and play as offline."""
+    e = engine("sitar")
+    rt = Realtime(e, block=128, clock=FakeClock(), overload=None)
+    rt.start(0.0)
+    calls = []
+    orig = e.schedule
+    e.schedule = lambda evs: (calls.append(len(list(evs))), orig(evs))[1]
+    keys = list(range(43, 75))
+    for k in keys:
+        rt.push_at(Event(0.0, "note_on", k, 0.8), 0.001)
+    buf = np.zeros((128, 1), dtype=np.float32)
+    live = []
+    for b in range(40):
+        if b == 20:
+            for k in keys:
+                rt.push_at(Event(0.0, "note_off", k, 0.0), 20 * 128 / 48000 + 0.0005)
+        rt.callback(buf, 128, None, None)
+        live.append(buf[:, 0].copy())
+    rt.stop()
+    assert calls == [32, 32]
+    live = np.concatenate(live)
+    evs = [Event(0.001, "note_on", k, 0.8) for k in keys] + \
+          [Event(20 * 128 / 48000 + 0.0005, "note_off", k, 0.0) for k in keys]
+    ref = engine("sitar").render(evs, duration_s=len(live) / 48000, block=1000,
+                                 compensate_latency=False)
+    ref = (0.5 * (ref[:, 0] + ref[:, 1]) if ref.ndim == 2 else ref).astype(np.float32)
+    tol = np.maximum(np.spacing(np.maximum(np.abs(ref), np.abs(live))), 1e-12)
+    assert np.all(np.abs(live - ref) <= tol)

@@ -578,3 +578,17 @@ def test_bridge_force_output_four_samples_to_a_vector(has_ub, two):
         assert np.allclose(got[:, ok], want[:, ok], rtol=0, atol=1e-14)
         assert np.all(np.isnan(got[0, ~ok]))
         assert peak == pytest.approx(np.max(np.abs(v[ok])), rel=1e-15)
+
+
+def test_a_one_sample_fast_chunk_renders_per_sample():
+    """A slot whose fast path would take chunks of one sample while its
+    excitation runs (the excitation point 2 cells from the region: the
+    grand's key 97 on its strike grid) is given the per-sample path, which
+    is the faster there; a chunk of two or more keeps the fast path."""
+    from synth.dsp.bank import MIN_FAST_CHUNK, slot_template
+
+    U = np.full(10, 1e-3)
+    assert K.max_fast_chunk(100, 12, 10, 0) == 1
+    assert slot_template(cells=100, k=12, dt_s=1e-5, U=U).ipar[K.I_CHUNK] == 0
+    assert K.max_fast_chunk(100, 13, 10, 0) == MIN_FAST_CHUNK == 2
+    assert slot_template(cells=100, k=13, dt_s=1e-5, U=U).ipar[K.I_CHUNK] == 2

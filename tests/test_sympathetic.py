@@ -115,3 +115,26 @@ def test_a_played_keys_string_stops_rendering_once_muted():
         e.render_block(256)
     live = {sym.keys[int(s)] for s in sym.bank.active[:sym.n_active]}
     assert 60 not in live                 # the played note still sounds (the pedal holds it)
+
+
+def test_dampers_set_as_they_are_touch_nothing():
+    """A damper state equal to the one in place (each key of a chord let go
+    under the pedal) changes nothing: no string is damped, faded or
+    restarted and the state stays (what lets :meth:`Sympathetic.set_dampers`
+    return at once then: a release of 32 keys made 32 such calls, 0.8 ms)."""
+    e = engine("grand-piano")
+    e.render([Event(0.0, "control", 64, 1.0), Event(0.0, "note_on", 60, 0.8),
+              Event(0.01, "note_on", 64, 0.8)], duration_s=0.05)
+    sym = e.sym
+    lift, muted = e._sympathetic_state()
+    sym.set_dampers(lift, muted)
+    before = (sym.lift.copy(), sym.muted.copy(), sym._next_stop, sym.bank.fpar.copy())
+
+    def touched(*a, **k):
+        raise AssertionError("the bank was touched")
+
+    for name in ("apply_dampers", "fade", "deactivate", "activate", "join_bridge"):
+        setattr(sym.bank, name, touched)
+    sym.set_dampers(lift.copy(), muted.copy())
+    assert np.array_equal(sym.lift, before[0]) and np.array_equal(sym.muted, before[1])
+    assert sym._next_stop == before[2] and np.array_equal(sym.bank.fpar, before[3])

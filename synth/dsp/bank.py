@@ -25,6 +25,9 @@ from .excitation import (  # noqa: F401  (re-exported: the voices build their ha
     SOLVER_TOL, Excitations, HammerTemplate, hammer_template)
 
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
+#: the shortest fast-path chunk a slot is given while its excitation runs
+#: (:func:`slot_template`): a shorter one renders per sample
+MIN_FAST_CHUNK = 2
 #: per-slot columns of ``ipar`` that a template does not carry (the output
 #: row is the slot's until :meth:`StringBank.set_output_row` changes it)
 _SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF, K.I_ROW)
@@ -188,7 +191,14 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     ip[K.I_XDELAY] = int(extra_delay)
     ip[K.I_OUT] = int(out_mode)
     ip[K.I_PROBE] = -1
-    ip[K.I_CHUNK] = 0 if force_per_sample else K.max_fast_chunk(cells, k, R, out_mode)
+    chunk = 0 if force_per_sample else K.max_fast_chunk(cells, k, R, out_mode)
+    # a chunk of one sample does the fast path's per-chunk work at every
+    # sample: the per-sample path is then the faster (the same samples to
+    # round-off).  The grand's key 97 on its 1.3 MHz strike grid (hammer 1
+    # step from the capo region) at velocity 127, in each of the two
+    # 128-sample blocks its hammer is on the strings: 2.6-3.5 ms in chunks of
+    # one sample, 1.1-1.8 ms per sample (tools/bench_live.py --jack)
+    ip[K.I_CHUNK] = 0 if chunk < MIN_FAST_CHUNK else chunk
     ip[K.I_CHUNK_FREE] = 0 if force_per_sample else K.max_free_chunk(cells, k, R, out_mode,
                                                                       bool(ip[K.I_FILT]))
     ip[K.I_HLAST] = -1

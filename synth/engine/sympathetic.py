@@ -105,6 +105,10 @@ class Sympathetic:
         strings whose state changed are touched (array operations: a chord's
         note-ons each call this in the audio thread)."""
         lift = np.where(self._has_damper, lift, 1.0)
+        if np.array_equal(lift, self.lift) and np.array_equal(muted, self.muted):
+            # nothing changes (each key of a chord let go under the pedal:
+            # 32 such calls cost 0.8 ms of a 2.67 ms period)
+            return
         new_mute = muted & ~self.muted
         for i in np.flatnonzero(new_mute & self.bank._is_active[:self.n]):
             self.bank.fade(int(i), self.MUTE_T60_S, self.fs)

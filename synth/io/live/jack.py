@@ -25,14 +25,15 @@ Needs the ``JACK-Client`` package (``[live]`` extra) and the JACK library
 
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
 
 from synth.io.errors import SynthError
 from synth.io.live.devices import _one_line, _quiet_c_stderr
+from synth.io.live.player import SWITCH_INTERVAL_S, Player
 from synth.io.rates import check_rate
-from synth.io.live.player import Player
 
 __all__ = ["JackPlayer", "check_jack", "INSTALL_JACK"]
 
@@ -144,6 +145,11 @@ class JackPlayer(Player):
             eng.telemetry = self.stats
             self.channels = eng.channels
             self.rt = Realtime(eng, block=self.block, latency_s=self.block / self.fs)
+            # the process callback must get the GIL at once even while a
+            # program change is built in the background (as the PortAudio
+            # player: the default switch interval, 5 ms, is two periods at 128)
+            self._switch = sys.getswitchinterval()
+            sys.setswitchinterval(min(self._switch, SWITCH_INTERVAL_S))
             self._buf = np.zeros((4096, self.channels), dtype=np.float32)
             self._start_recording(self.channels)
             self.rt.start()
