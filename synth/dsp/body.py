@@ -247,6 +247,19 @@ class Body:
 
     # -- streaming --------------------------------------------------------------
 
+    def fresh_copy(self):
+        """A body of the same design and ``wet`` (sharing its read-only
+        coefficient arrays) at rest: built in microseconds where a new
+        design takes several milliseconds (an output path made in the audio
+        callback)."""
+        import copy
+
+        b = copy.copy(self)
+        b._state = np.zeros_like(self._state)
+        if not self._mono:
+            b._dry2 = self._dry2.copy()       # the wet setter writes it in place
+        return b
+
     def reset(self):
         """Forget all history (silence before the next sample)."""
         self._state[:] = 0.0

@@ -92,19 +92,20 @@ class OutputPath:
     """
 
     def __init__(self, engine):
-        from ..dsp.body import Body
-        from ..dsp.decimator import Decimator
-
         # the instrument's decimators' phase (the samples they still need to
         # the next output) with none of their history: the two paths then
-        # sum to what the one would give
+        # sum to what the one would give.  Copies of the engine's own
+        # designs, not new ones: the first pan controller of a live
+        # performance builds this in the audio callback (a new decimator
+        # and body took about 25 ms there, tools/bench_live.py --quick)
         self.decs = []
         for main in engine.decs:
-            d = Decimator(engine.fs_in, engine.fs_out)
+            d = main.fresh_copy()
             d._state[:] = main._state
             self.decs.append(d)
-        design = engine.inst.body()
-        self.body = None if design is None else Body.from_design(engine.fs_out, design)
+        self.body = None if engine.body is None else engine.body.fresh_copy()
+        if self.body is not None:
+            self.body.reset()
         self.d = np.zeros((engine.n_dec, engine.MAX_BLOCK_OUT))
         self.y = np.zeros((engine.channels, engine.MAX_BLOCK_OUT))
         self.knock = np.zeros_like(engine._knock)
