@@ -285,6 +285,27 @@ def _rate(args):
         _fail(str(e))
 
 
+def parse_mpe_option(text: str) -> tuple[tuple[int, int], ...]:
+    """``--mpe``: MPE zones (:func:`synth.engine.mpe.parse_mpe`)."""
+    from .engine.mpe import parse_mpe
+
+    try:
+        return parse_mpe(text)
+    except ValueError as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _add_mpe(p) -> None:
+    p.add_argument("--mpe", type=parse_mpe_option, default=(), metavar="ZONE",
+                   help="MPE zones, as if the MPE configuration message (RPN 6) had been "
+                        "received: lower (manager channel 1, notes on 2-16), upper (manager "
+                        "16, notes on 1-15), lower:N or upper:N (N member channels), or "
+                        "lower:7,upper:7; each note's channel bends (48 semitones, plus the "
+                        "manager's 2; held within the preset's range), presses (its buzz) "
+                        "and sets its pluck point (CC74) for that note alone "
+                        "(docs/midi.md, MPE)")
+
+
 def cmd_render(args) -> int:
     """A MIDI file through a preset into a WAV file (synth.apps.render: the
     30-minute warning, --max-seconds, the progress bar, Ctrl-C and SIGTERM)."""
@@ -295,7 +316,8 @@ def cmd_render(args) -> int:
     req = RenderRequest(midi_file=args.midi_file, preset=args.preset, output=args.output,
                         overrides=tuple(args.set), internal_rate=args.internal_rate,
                         pcm24=args.pcm24, max_seconds=args.max_seconds,
-                        channels=args.channels, drums=args.drums, rate=_rate(args))
+                        channels=args.channels, drums=args.drums, rate=_rate(args),
+                        mpe=args.mpe)
     print(render_midi(req).summary)
     return 0
 
@@ -326,7 +348,8 @@ def cmd_play(args) -> int:
 
         player = JackPlayer(args.preset, programs, name=args.jack_name, connect=args.connect,
                             stats=args.stats, overrides=args.set, channels=args.channels,
-                            drums=args.drums, record=args.record, reconnect=args.reconnect)
+                            drums=args.drums, record=args.record, reconnect=args.reconnect,
+                            mpe=args.mpe)
     else:
         for opt, val in (("--connect", args.connect), ("--reconnect", args.reconnect)):
             if val:
@@ -336,7 +359,7 @@ def cmd_play(args) -> int:
                              audio_device=args.audio_device, midi_port=args.midi_port,
                              stats=args.stats, overrides=args.set, channels=args.channels,
                              drums=args.drums, record=args.record, rate=args.rate,
-                             midi_api=args.midi_api or "auto")
+                             midi_api=args.midi_api or "auto", mpe=args.mpe)
     player.start()
     player.run(seconds=args.seconds)
     return 1 if player.stopped else 0
@@ -616,6 +639,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="render at most the first S seconds of audio (0 < S <= 21600): later notes "
                         "are left out, the sound is cut at S with a 10 ms fade-out")
     _add_channels(r)
+    _add_mpe(r)
     r.set_defaults(func=cmd_render)
 
     a = sub.add_parser("analyze", help="partials, inharmonicity, T60s, centroid and loudness of a "
@@ -741,6 +765,7 @@ def build_parser() -> argparse.ArgumentParser:
                          "(repeatable)")
     _add_quality(pl)
     _add_channels(pl)
+    _add_mpe(pl)
     pl.add_argument("--jack", action="store_true",
                     help="play as a JACK client (jackd, or PipeWire's JACK): a MIDI input port "
                          "and the audio outputs, every MIDI event on its frame; the server's "

@@ -336,6 +336,8 @@ def _check_events(events) -> None:
         assert e.kind in EVENT_KINDS and 0 <= e.channel <= 15
         if e.kind == "pitch_bend":
             assert -1 <= e.value <= 1
+        elif e.kind == "channel_pressure":
+            assert 0 <= e.value <= 1 and e.key == -1
         else:
             assert 0 <= e.value <= 1 and 0 <= e.key <= 127
 

@@ -133,14 +133,14 @@ def test_live_messages_normalise_like_the_file_reader(tmp_path):
     mf.tracks.append(tr)
     mf.save(tmp_path / "m.mid")
     from_file = read_midi_file(tmp_path / "m.mid")
-    played = [m for m in msgs if m.type not in ("program_change", "aftertouch")]
+    played = [m for m in msgs if m.type != "program_change"]
     from_live = [live.normalise(m) for m in played]
-    assert [live.normalise(m) for m in msgs if m.type in ("program_change", "aftertouch")] \
-        == [None, None]
+    assert [live.normalise(m) for m in msgs if m.type == "program_change"] == [None]
     assert [(e.kind, e.channel, e.key, e.value) for e in from_file if e.kind != "program"] == \
         [(e.kind, e.channel, e.key, e.value) for e in from_live]
     assert [e.value for e in from_live[:4]] == [1.0, 1 / 127, 64 / 127, 100 / 127]
-    assert [e.value for e in from_live[6:]] == [-1.0, 1.0, 0.0]
+    assert [e.value for e in from_live[6:]] == [-1.0, 1.0, 0.0, 50 / 127]
+    assert (from_live[-1].kind, from_live[-1].key) == ("channel_pressure", -1)
     assert from_live[2].kind == "note_off"
 
 

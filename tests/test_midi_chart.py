@@ -59,8 +59,9 @@ def test_each_controller_is_played_or_listed_as_the_chart_says(cc):
         listed = any(k.startswith(f"CC {cc}") or (cc in (6, 38) and "RPN" in k) for k in ign)
         if rec == "x":
             assert listed, (preset, cc, ign)
-        elif cc == 1 and preset == "grand-piano" or cc == 10 and preset == "sitar":
-            # the chart's remark: the buzz on the plucked presets, pan on stereo ones
+        elif cc in (1, 74) and preset == "grand-piano" or cc == 10 and preset == "sitar":
+            # the chart's remark: the buzz and the pluck point on the plucked
+            # presets, pan on stereo ones
             assert listed and ("listed on" in remark), (preset, cc, ign)
         elif cc in (6, 38):
             # data entry with no RPN selected is listed; RPN 0's is played
@@ -80,8 +81,6 @@ def test_the_controller_names_in_reports_are_the_charts():
 
 
 @pytest.mark.parametrize("msg, rec", [
-    (mido.Message("polytouch", note=60, value=40), "x"),
-    (mido.Message("aftertouch", value=40), "x"),
     (mido.Message("sysex", data=[1, 2, 3]), "x"),
     (mido.Message("songpos", pos=4), "x"),
     (mido.Message("clock"), "x"),
@@ -105,3 +104,22 @@ def test_pitch_bend_is_played_on_bending_presets_and_listed_on_the_others():
         e.render([Event(0.0, "note_on", 60, 0.8), Event(0.01, "pitch_bend", -1, 0.5)],
                  duration_s=0.05)
         assert ("pitch bend (the preset does not bend)" in e.ignored) != bends, preset
+
+
+def test_pressure_is_played_on_the_plucked_presets_and_listed_on_the_others():
+    """The chart's aftertouch rows ("o"): channel and polyphonic key pressure
+    reach the engine, which plays them on the presets with a buzz (the
+    note's buzz depth) and lists them on the grand and the harpsichord."""
+    rows = {msg: (rec, remark) for fn, msg, _, rec, remark in chart_rows() if fn == "Aftertouch"}
+    assert {m: r[0] for m, r in rows.items()} == {"polyphonic key pressure": "o",
+                                                  "channel pressure": "o"}
+    for msg, name in (("polytouch", "polyphonic key pressure"),
+                      ("aftertouch", "channel pressure (aftertouch)")):
+        m = mido.Message(msg, value=40, **({"note": 60} if msg == "polytouch" else {}))
+        evs = midi_to_events([MidiEvent(0.01, *normalise_message(m))])
+        assert len(evs) == 1
+        for preset, plays in (("sitar", True), ("biwa", True), ("hammered-sitar", True),
+                              ("grand-piano", False), ("harpsichord", False)):
+            e = engine(preset)
+            e.render([Event(0.0, "note_on", 60, 0.8)] + evs, duration_s=0.03)
+            assert (name in e.ignored) != plays, (preset, msg, e.ignored)

@@ -256,7 +256,7 @@ def test_value_normalisation(tmp_path):
         M("pitchwheel", pitch=-8192, time=10),
         M("pitchwheel", pitch=0, time=0),
         M("pitchwheel", pitch=8191, time=0),
-        M("aftertouch", value=50, time=0),  # dropped
+        M("aftertouch", value=50, time=0),
         M("sysex", data=[1, 2, 3], time=0),  # dropped
     ]
     ev = _read_bytes(tmp_path, _smf([track], fmt=0))
@@ -267,6 +267,7 @@ def test_value_normalisation(tmp_path):
         ("note_off", 60, 0.0), ("note_off", 61, 64 / 127), ("note_off", 62, 1.0),
         ("control", 64, 1.0), ("control", 1, 0.0), ("program", 42, 0.0),
         ("pitch_bend", -1, -1.0), ("pitch_bend", -1, 0.0), ("pitch_bend", -1, 1.0),
+        ("channel_pressure", -1, 50 / 127),
     ]
     assert ev[7].channel == 9
 

@@ -99,6 +99,11 @@ class RenderRequest:
     drums : bool
         ``--drums``: play channel 10 (General MIDI's drums) as pitched
         notes too; by default it is skipped.
+    mpe : tuple of (int, int)
+        ``--mpe``: MPE zones set before the first event, as if the MPE
+        Configuration Message had been received: (manager channel 0 or
+        15, member channels 1 .. 15) each
+        (:func:`synth.engine.mpe.parse_mpe`); () none.
     """
 
     midi_file: str
@@ -111,6 +116,7 @@ class RenderRequest:
     channels: tuple[int, ...] | None = None
     drums: bool = False
     rate: int | None = None
+    mpe: tuple[tuple[int, int], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -426,6 +432,7 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
     eng = build_engine(req.preset, req.overrides, fs_internal=req.internal_rate,
                        extra_low_key=min(plan.keys),
                        **({} if req.rate is None else {"fs_out": int(req.rate)}))
+    eng.set_mpe_zones(req.mpe)
     preset = eng.inst.preset
     if preset.kind == "musical":
         lo, hi = preset.play.key_low, preset.play.key_high

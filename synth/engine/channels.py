@@ -5,10 +5,12 @@ that plays every control change on its own channel (docs/midi.md is the
 chart): the sustain pedal, sostenuto and soft pedal, all notes off, all
 sound off (a 5 ms fade, the whole output's when no other channel sounds),
 reset all controllers, the bend range (RPN 0), the voice's own controls
-(a plucked voice's buzz), and volume, expression and pan through each
-channel's own rows of the mix (:mod:`synth.engine.mixing`).  It is a mixin:
-its methods read and write the engine's state and are not used alone;
-the split keeps the block loop and the voice pool in ``engine.py``.
+(a plucked voice's buzz and pluck point), and volume, expression and pan
+through each channel's own rows of the mix (:mod:`synth.engine.mixing`);
+MPE zones and per-note pressure come from
+:class:`synth.engine.mpe.MpeZones`.  It is a mixin: its methods read and
+write the engine's state and are not used alone; the split keeps the
+block loop and the voice pool in ``engine.py``.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ import math
 import numpy as np
 
 from .mixing import RAMP_S, ChannelGroup, OutputPath
+from .mpe import RPN_MPE, MpeZones
 
 CC_SUSTAIN = 64
 CC_SOSTENUTO = 66
@@ -65,8 +68,9 @@ PAN_CENTRE = 64 / 127
 HUSH_T60_S = 0.005
 
 
-class ChannelControls:
-    """The engine's per-channel controls (a mixin of :class:`Engine`)."""
+class ChannelControls(MpeZones):
+    """The engine's per-channel controls (a mixin of :class:`Engine`; its
+    MPE zones and per-note pressure: :class:`synth.engine.mpe.MpeZones`)."""
 
     def _ignore(self, what: str) -> None:
         """Count a message the engine received and does not play."""
@@ -77,7 +81,11 @@ class ChannelControls:
         return [(v, vo) for v, vo in self.voices.items() if vo.channel == channel and not vo.dying]
 
     def _bend_value(self, channel: int) -> float:
-        """The channel's bend as a share of the preset's range (RPN 0 may narrow it)."""
+        """The channel's bend as a share of the preset's range (RPN 0 may
+        narrow it); in an MPE zone, its own and its manager's bends in
+        semitones, held within the preset's range (:meth:`_zone_bend`)."""
+        if self.mpe_manager[channel] >= 0:
+            return self._zone_bend(channel)[0]
         return float(self.bend.get(channel, 0.0)) * float(self.bend_range[channel])
 
     def _voice_controls_for(self, channel: int) -> None:
@@ -159,9 +167,7 @@ class ChannelControls:
         self.soft[c] = 0.0
         if self.bend.get(c):
             self.bend[c] = 0.0
-            if self.inst.bends:
-                for _, vo in self._channel_voices(c):
-                    self.inst.pitch_bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, 0.0)
+            self._rebend(c)
         self._rpn[c] = (127, 127)
         self._nrpn[c] = False
         self._set_expression(c, 1.0, at)
@@ -180,7 +186,9 @@ class ChannelControls:
     def _data_entry(self, c: int, cc: int, value: float) -> None:
         """CC6 / CC38 for the parameter CC101/100 (RPN) or CC99/98 (NRPN)
         selected: RPN 0, the pitch-bend range, is played (up to the preset's
-        ``play.pitch_bend_semitones``); the others are counted as ignored."""
+        ``play.pitch_bend_semitones``; in an MPE zone, any range, the bends
+        held instead), and RPN 6, the MPE Configuration Message
+        (:mod:`synth.engine.mpe`); the others are counted as ignored."""
         raw = int(round(value * 127))
         if self._nrpn[c]:
             self._ignore("NRPN data entry")
@@ -188,6 +196,9 @@ class ChannelControls:
         rpn = self._rpn[c]
         if rpn == (127, 127):
             self._ignore("data entry with no parameter selected")
+            return
+        if rpn == RPN_MPE:
+            self._mpe_data_entry(c, cc == CC_DATA_MSB, raw)
             return
         if rpn != (0, 0):
             names = {(0, 1): "fine tuning", (0, 2): "coarse tuning", (0, 5): "modulation depth range"}
@@ -197,6 +208,9 @@ class ChannelControls:
         top = float(self.inst.bend_range_semitones)
         if top <= 0.0:
             self._ignore("RPN 0 (pitch-bend range): the preset does not bend")
+            return
+        if self.mpe_manager[c] >= 0:
+            self._mpe_bend_range(c, cc == CC_DATA_MSB, raw)
             return
         old = self.bend_range[c] * top
         semis, cents = math.floor(old + 1e-9), (old - math.floor(old + 1e-9)) * 100.0

@@ -38,6 +38,8 @@ NOTE_ON = "note_on"
 NOTE_OFF = "note_off"
 CONTROL = "control"
 PITCH_BEND = "pitch_bend"
+CHANNEL_PRESSURE = "channel_pressure"
+POLY_PRESSURE = "poly_pressure"
 #: a note struck less than this long ago (s) is not given up to a new one
 #: while older ones sound (a chord's notes, a fast run's last notes)
 STEAL_MIN_AGE_S = 0.02
@@ -50,9 +52,12 @@ class Event:
     """A normalised performance event.
 
     time_s : float        time from the start of the render (s), >= 0
-    kind : str            "note_on" | "note_off" | "control" | "pitch_bend" (others ignored)
-    key : float           MIDI key (may be fractional) or controller number
-    value : float         velocity in (0, 1] or controller value in [0, 1]
+    kind : str            "note_on" | "note_off" | "control" | "pitch_bend" |
+                          "channel_pressure" | "poly_pressure" (others ignored)
+    key : float           MIDI key (may be fractional; poly_pressure's too) or
+                          controller number (-1: pitch_bend, channel_pressure)
+    value : float         velocity in (0, 1], controller value or pressure in
+                          [0, 1], or bend in [-1, 1]
     channel : int         0..15
     f0_hz : float | None  explicit pitch instead of the key (note_on only)
     speed_m_per_s : float | None  hammer speed instead of the velocity's
@@ -175,6 +180,8 @@ class Engine(ChannelControls):
         #: ((msb, lsb); (127, 127): none) and whether it is an NRPN
         self._rpn = [(127, 127)] * CHANNELS
         self._nrpn = [False] * CHANNELS
+        #: MPE zones (none until the configuration message or --mpe)
+        self._init_mpe()
         #: the channel of each voice index (its notes' channel)
         self._chan = np.zeros(self.n_index, dtype=np.int64)
         #: volume (CC7), expression (CC11) and pan (CC10) per channel, MIDI
@@ -435,13 +442,10 @@ class Engine(ChannelControls):
             if v is not None:
                 self._release(v)
         elif ev.kind == PITCH_BEND:
-            self.bend[ev.channel] = float(ev.value)
-            if self.inst.bends:
-                b = self._bend_value(ev.channel)
-                for _, vo in self._channel_voices(ev.channel):
-                    self.inst.pitch_bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, b)
-            else:
-                self._ignore("pitch bend (the preset does not bend)")
+            self._pitch_bend(int(ev.channel), float(ev.value))
+        elif ev.kind in (CHANNEL_PRESSURE, POLY_PRESSURE):
+            self._pressure(int(ev.channel), None if ev.kind == CHANNEL_PRESSURE else ev.key,
+                           float(ev.value))
         elif ev.kind == CONTROL:
             self._control(int(ev.key), float(ev.value), int(ev.channel), at)
         else:
@@ -573,7 +577,7 @@ class Engine(ChannelControls):
                 break
             at, _, ev = pend.pop(0)
             off = max(at - start, 0)
-            if off > cursor:
+            if off > cursor and not self._inert(ev.kind):
                 bank.render(self.mix, cursor, off - cursor)
                 cursor = off
             self._apply(ev, start + off)

@@ -186,7 +186,8 @@ class Realtime:
 
     def swap(self, engine: Engine) -> None:
         """Program change: ``engine`` (built and warmed by the caller) takes
-        the notes from the next block on; the current one fades out."""
+        the notes from the next block on, with the current one's MPE zones
+        (:meth:`Engine.take_mpe_zones`); the current one fades out."""
         if engine.fs_out != self.fs:
             raise ValueError(f"engine fs_out = {engine.fs_out} differs from the stream's {self.fs}")
         self._pending_swap = engine
@@ -229,6 +230,8 @@ class Realtime:
                 new.time_in = int(round(self.n_out / self.fs * new.fs_in_exact))
                 for d in new.decs:
                     d.reset()
+                # the MPE zones a keyboard configured once (or --mpe) stay
+                new.take_mpe_zones(self.engine)
                 for e in self.engines:
                     # all notes off on every channel: the old instrument's keys up
                     e.schedule([Event(self.n_out / self.fs, "control", 123, 0.0, c)

@@ -3,20 +3,24 @@
 MIDI's 7- and 14-bit integers are normalised here, once, so that nothing
 downstream ever sees a raw MIDI value:
 
-==============  ======  ============================================================
-kind            key     value
-==============  ======  ============================================================
-``note_on``     note    velocity / 127, in (0, 1]
-``note_off``    note    release velocity / 127, in [0, 1]; a note-on with velocity 0
-                        becomes a note-off with the MIDI-spec default 64/127
-``control``     CC no.  controller value / 127, in [0, 1]
-``program``     prog.   0.0
-``pitch_bend``  -1      bend in [-1, 1] (-8192 -> -1, 0 -> 0, +8191 -> +1)
-==============  ======  ============================================================
+====================  ======  ======================================================
+kind                  key     value
+====================  ======  ======================================================
+``note_on``           note    velocity / 127, in (0, 1]
+``note_off``          note    release velocity / 127, in [0, 1]; a note-on with
+                              velocity 0 becomes a note-off with the MIDI-spec
+                              default 64/127
+``control``           CC no.  controller value / 127, in [0, 1]
+``program``           prog.   0.0
+``pitch_bend``        -1      bend in [-1, 1] (-8192 -> -1, 0 -> 0, +8191 -> +1)
+``channel_pressure``  -1      channel pressure (aftertouch) / 127, in [0, 1]
+``poly_pressure``     note    polyphonic key pressure / 127, in [0, 1]
+====================  ======  ======================================================
 
-Other channel messages (aftertouch, and system messages: SysEx, clock,
-...) are dropped, and counted by :func:`read_midi_file` when asked (the
-render's report lists them); meta events carry no sound. Times are in
+System messages (SysEx, clock, ...) are dropped, and counted by
+:func:`read_midi_file` when asked (the render's report lists them); the
+engine lists the channel messages a preset does not play (pressure on the
+grand, say).  Meta events carry no sound. Times are in
 seconds from the start of the file and follow every tempo change (and SMPTE
 time division). Events are sorted by time; simultaneous events keep their
 file order (track order for simultaneous events of different tracks),
@@ -58,7 +62,8 @@ __all__ = [
 #: Files longer than this (seconds) are rejected as implausible (broken delta times).
 MAX_DURATION_S = 6 * 3600.0
 
-EVENT_KINDS = ("note_on", "note_off", "control", "program", "pitch_bend")
+EVENT_KINDS = ("note_on", "note_off", "control", "program", "pitch_bend", "channel_pressure",
+               "poly_pressure")
 
 _DEFAULT_TEMPO_US = 500_000  # 120 BPM
 _NOTE_OFF_DEFAULT_VELOCITY = 64  # MIDI 1.0: note-on velocity 0 == note-off velocity 64
@@ -74,12 +79,15 @@ class MidiEvent:
     time_s : float
         Time from the start of the file, s (>= 0).
     kind : str
-        One of ``"note_on"``, ``"note_off"``, ``"control"``, ``"program"``, ``"pitch_bend"``.
+        One of :data:`EVENT_KINDS`: ``"note_on"``, ``"note_off"``,
+        ``"control"``, ``"program"``, ``"pitch_bend"``,
+        ``"channel_pressure"``, ``"poly_pressure"``.
     channel : int
         MIDI channel 0..15.
     key : int
-        Note number (note events), controller number (control), program
-        number (program), or -1 (pitch_bend).
+        Note number (note events, poly_pressure), controller number
+        (control), program number (program), or -1 (pitch_bend,
+        channel_pressure).
     value : float
         Normalised value, see the module docstring.
     """
@@ -222,7 +230,7 @@ def normalise_message(msg: mido.Message) -> tuple[str, int, int, float] | None:
     tuple (kind, channel, key, value) or None
         ``kind``, ``key`` and ``value`` as in the module docstring's table
         (values in [0, 1], bend in [-1, 1]); None for a message that is
-        dropped (aftertouch, SysEx, clock, meta events, ...).  The file
+        dropped (SysEx, clock, meta events, ...).  The file
         reader and ``synth play`` both use this function, so a file and a
         keyboard are normalised identically.
     """
@@ -239,13 +247,15 @@ def normalise_message(msg: mido.Message) -> tuple[str, int, int, float] | None:
         return ("program", msg.channel, msg.program, 0.0)
     if typ == "pitchwheel":
         return ("pitch_bend", msg.channel, -1, _pitch_bend_value(msg.pitch))
+    if typ == "aftertouch":
+        return ("channel_pressure", msg.channel, -1, msg.value / 127.0)
+    if typ == "polytouch":
+        return ("poly_pressure", msg.channel, msg.note, msg.value / 127.0)
     return None
 
 
 #: names of the messages dropped by :func:`normalise_message`, for reports
 DROPPED_NAMES = {
-    "aftertouch": "channel pressure (aftertouch)",
-    "polytouch": "polyphonic key pressure",
     "sysex": "system exclusive",
 }
 
@@ -268,8 +278,8 @@ def read_midi_file(path: str | os.PathLike[str], dropped: dict | None = None) ->
         The ``.mid``/``.rmi`` file.
     dropped : dict or None
         If given, the channel and system messages that are not returned are
-        counted in it by name (:func:`dropped_name`: ``{"channel pressure
-        (aftertouch)": 12}``).
+        counted in it by name (:func:`dropped_name`: ``{"system
+        exclusive": 12}``).
 
     Returns
     -------
@@ -346,13 +356,23 @@ def plays_channel(channel: int, channels=None, drums: bool = False) -> bool:
     return drums or channel != DRUM_CHANNEL
 
 
+#: the kinds that become engine events (a program change does not: a
+#: render plays one preset, the live player switches it itself)
+_PLAYED_KINDS = frozenset(k for k in EVENT_KINDS if k != "program")
+
+
 def midi_to_events(midi_events, channels=None, drums: bool = False, ignored: dict | None = None):
-    """Normalised MIDI events -> engine events (notes, controllers, pitch bend).
+    """Normalised MIDI events -> engine events (notes, controllers, pitch
+    bend, channel and polyphonic key pressure).
 
     The one place where MIDI becomes the engine's
     :class:`synth.engine.engine.Event` (velocity and controller values
     already in [0, 1] from :func:`normalise_message`), for a file
-    (:func:`read_midi_file`) and for the live player alike.
+    (:func:`read_midi_file`) and for the live player alike.  MPE (one
+    channel per note) needs nothing here: the engine plays each channel's
+    bend, pressure and controllers on that channel's notes, and its MPE
+    zones (:mod:`synth.engine.mpe`) combine a zone's manager channel with
+    its member channels, for a file and a keyboard alike.
 
     Parameters
     ----------
@@ -385,7 +405,7 @@ def midi_to_events(midi_events, channels=None, drums: bool = False, ignored: dic
         if m.channel == DRUM_CHANNEL and not drums:
             skip("channel 10 messages (General MIDI drums; --drums plays them)")
             continue
-        if m.kind in ("note_on", "note_off", "control", "pitch_bend"):
+        if m.kind in _PLAYED_KINDS:
             out.append(Event(m.time_s, m.kind, m.key, m.value, m.channel))
         elif m.kind == "program":
             skip("program change (a render plays one preset)")

@@ -289,6 +289,15 @@ class Voice:
         return {}
 
     @property
+    def pressure_cc(self) -> int | None:
+        """The control of :meth:`controls` that pressure plays on one note
+        (channel pressure on the channel's notes, polyphonic key pressure
+        on its key's: the engine calls :meth:`control_change` with those
+        notes alone, :mod:`synth.engine.mpe`), or None: the voice plays no
+        pressure (the engine lists it).  Default: None."""
+        return None
+
+    @property
     def bend_range_semitones(self) -> float:
         """The widest pitch bend the voice plays (semitones), its
         :meth:`pitch_bend` value 1: ``play.pitch_bend_semitones`` (0: none)."""

@@ -37,7 +37,15 @@ at x = 0 (``[termination]``: any registered profile of
   obstacle of the sounding notes at once (a glide of 1 ms); lowered, it
   also drains the energy the buzz has put into their upper partials
   (:meth:`OneStringVoice.set_buzz`): the linear string would keep it,
-  ringing about as long as the buzz itself would have.
+  ringing about as long as the buzz itself would have.  Pressure (channel
+  pressure, polyphonic key pressure: :attr:`OneStringVoice.pressure_cc`)
+  sets it on one note.
+* CC74 (:data:`OneStringVoice.POSITION_CC`, MPE's timbre, General MIDI 2's
+  brightness) sets the excitation point of a musical preset's notes to come
+  (:meth:`OneStringVoice.excitation_cell`): 64 the preset's own, 0 the
+  middle of the sounding string, 127 near its end (the pluck's size
+  unchanged: the level stays within 3 dB over 0.5 s on the sitar's and the
+  biwa's keys 43-74).
 
 The voice names are the preset schema's: ``plucked`` presets carry
 ``[pluck]``, ``piano`` presets (the A7 study of Publication I) ``[hammer]``.
@@ -157,6 +165,11 @@ class OneStringVoice(Voice):
         self._glide_ticking = False
         #: the bank (a weak reference) the drains and the glide are in
         self._buzz_bank = None
+        #: CC74 for the notes to come, 0 .. 1 (:meth:`excitation_cell`)
+        self.position_value = self.POSITION_CENTRE
+        #: per bank slot: the setup its note was configured with (its own
+        #: excitation point, :meth:`setup`'s ``k``)
+        self._slot_su: dict = {}
 
     def warm(self, keys=range(128)) -> None:
         """Derive every key's string now, so that no note-on has to."""
@@ -185,8 +198,60 @@ class OneStringVoice(Voice):
         """Nominal pitch of a note (Hz); a study string's own without key or f0."""
         return self.nominal_f0(key, f0_hz)
 
-    def setup(self, key: float | None = None, f0_hz: float | None = None) -> StringSetup:
-        """The string for a note (cached per pitch)."""
+    #: the controller that sets the excitation point (CC74: MPE's timbre,
+    #: General MIDI 2's brightness)
+    POSITION_CC = 74
+    #: CC74's value that plays the preset's own point (64 / 127: MPE's default)
+    POSITION_CENTRE = 64 / 127
+    #: how near CC74 127 brings the excitation point to the grid's end on
+    #: the preset's side (fraction of the sounding string)
+    POSITION_EDGE = 0.05
+
+    @staticmethod
+    def position_for(value: float, mid: float, own: float, edge: float) -> float:
+        """The excitation point for CC74 ``value`` (0 .. 1; clamped), in
+        grid points from x = 0: linear from ``mid`` (the sounding string's
+        middle) at 0 to ``own`` (the preset's point) at
+        :data:`POSITION_CENTRE` (64), and on to ``edge`` (near the end on
+        the preset's side) at 1 (127)."""
+        v = min(max(float(value), 0.0), 1.0)
+        c = OneStringVoice.POSITION_CENTRE
+        if v <= c:
+            return mid + (own - mid) * (v / c)
+        return own + (edge - own) * ((v - c) / (1.0 - c))
+
+    def excitation_cell(self, su: StringSetup, value: float) -> int:
+        """The grid point a note of setup ``su`` is excited at for CC74
+        ``value`` (:meth:`position_for`): 64 the preset's own (``su.k``);
+        0 the middle of the sounding string, whose length is half the loop,
+        fs / (2 f0) samples (the cells and, at x = L, the loop filter's and
+        the bend line's delays: a pluck there leaves out the even
+        partials); 127 :data:`POSITION_EDGE` of that length from the grid's
+        end on the preset's side of the middle (x = L for the sitar's and
+        the biwa's 0.75, x = 0 for the hammered sitar's 0.25).  At least
+        one past the termination's region (the jawari) and 3 (the sub-cell
+        contact), at most N - 1."""
+        if value == self.POSITION_CENTRE:
+            return su.k
+        half = self.fs / (2.0 * su.f0_hz)
+        lo = max(1, 0 if su.U is None else len(su.U) + 1, 3 if su.subcell > 0.0 else 1)
+        gap = max(1.0, self.POSITION_EDGE * half)
+        edge = su.cells - gap if self.exciter.position > 0.5 else gap
+        k = self.position_for(value, 0.5 * half, su.k, edge)
+        return min(max(int(round(k)), lo), su.cells - 1)
+
+    def setup(self, key: float | None = None, f0_hz: float | None = None,
+              k: int | None = None) -> StringSetup:
+        """The string for a note (cached per pitch, and per excitation
+        point: ``k``, the grid point, None: the exciter's own)."""
+        if k is not None:
+            su = self.setup(key, f0_hz)
+            if k == su.k:
+                return su
+            ck = ("k", None if key is None and f0_hz is None else round(su.f0_hz, 9), int(k))
+            if ck not in self._setups:
+                self._setups[ck] = replace(su, k=int(k))
+            return self._setups[ck]
         own = key is None and f0_hz is None
         f0 = self.nominal_f0(key, f0_hz)
         ck = (None if own else round(f0, 9))
@@ -533,10 +598,10 @@ class OneStringVoice(Voice):
             return
         glide = False
         for slots, key, f0 in sounding:
-            su = self.setup(key, f0)
+            slot = slots[0]
+            su = self._note_setup(slot, key, f0)
             if su.U is None:
                 continue
-            slot = slots[0]
             ob = self._depth.get(slot)
             if ob is None or ob[0] is not su:
                 ob = self._depth[slot] = [su, old, old, self.BUZZ_GLIDE_STEPS]
@@ -565,8 +630,16 @@ class OneStringVoice(Voice):
         drains or glides: they belong to the engine that plays it."""
         st = self.__dict__.copy()
         st.update(_buzz_bank=None, _drains={}, _depth={}, _drain_ticking=False,
-                  _glide_ticking=False)
+                  _glide_ticking=False, _slot_su={})
         return st
+
+    def _note_setup(self, slot: int, key, f0_hz) -> StringSetup:
+        """The setup the note sounding in ``slot`` was configured with (its
+        own excitation point), or the pitch's."""
+        su = self._slot_su.get(slot)
+        if su is not None and su.f0_hz == self.nominal_f0(key, f0_hz):
+            return su
+        return self.setup(key, f0_hz)
 
     def _own(self, bank: StringBank) -> None:
         """The drains and the glides run in one bank (one engine's); a voice
@@ -578,6 +651,7 @@ class OneStringVoice(Voice):
             self._drain_ticking = False
             self._depth = {}
             self._glide_ticking = False
+            self._slot_su = {}
 
     def _glide_samples(self) -> int:
         """Internal samples a step of the obstacles' glide (floor: all the
@@ -717,17 +791,33 @@ class OneStringVoice(Voice):
 
     def controls(self) -> dict:
         """The buzz depth on ``play.buzz_cc`` (CC1 by default), at the
-        preset's ``termination.buzz``; none for a voice without a
-        termination or without the control."""
-        if self.buzz_cc is None or self.termination is None:
-            return {}
-        return {int(self.buzz_cc): float(self.buzz)}
+        preset's ``termination.buzz`` (none for a voice without a
+        termination or without the control), and, on musical presets, the
+        excitation point on CC74 (:data:`POSITION_CC`, at 64 / 127: the
+        preset's own; unless ``play.buzz_cc`` is 74)."""
+        out = {}
+        if self.buzz_cc is not None and self.termination is not None:
+            out[int(self.buzz_cc)] = float(self.buzz)
+        if not self.study and self.POSITION_CC not in out:
+            out[self.POSITION_CC] = float(self.position_value)
+        return out
+
+    @property
+    def pressure_cc(self) -> int | None:
+        """Pressure sets one note's buzz depth: ``play.buzz_cc`` (None
+        without a buzz control)."""
+        return None if self.termination is None else self.buzz_cc
 
     def control_change(self, bank: StringBank, cc: int, value: float, sounding) -> bool:
         """``play.buzz_cc`` (default CC1, the modulation wheel) sets the buzz
-        depth, 0 .. 127 to 0 .. 1 (:meth:`set_buzz`)."""
+        depth, 0 .. 127 to 0 .. 1 (:meth:`set_buzz`); CC74 the excitation
+        point of the notes to come (:meth:`position_for`; a sounding
+        string was plucked where it was)."""
         if self.buzz_cc is not None and int(cc) == self.buzz_cc:
             self.set_buzz(bank, value, sounding)
+            return True
+        if int(cc) == self.POSITION_CC and not self.study:
+            self.position_value = min(max(float(value), 0.0), 1.0)
             return True
         return False
 
@@ -782,20 +872,26 @@ class OneStringVoice(Voice):
         """Pitch bend, ``value`` in [-1, 1] of ``play.pitch_bend_semitones``:
         the string's loop is shortened or lengthened (as a player deflecting
         the string raises its tension) through the bend line's delay."""
-        su = self.setup(key, f0_hz)
         self._own(bank)
         for slot in slots:
             self._bend[slot] = min(max(float(value), -1.0), 1.0)
-            self._retune(bank, slot, su)
+            self._retune(bank, slot, self._note_setup(slot, key, f0_hz))
 
     def note_on(self, bank: StringBank, slots, key: float | None, velocity: float, *,
                 f0_hz: float | None = None, probe_row: int = -1, restrike: bool = False,
                 speed_m_per_s: float | None = None, soft: float = 0.0) -> None:
-        """Excite the voice's string (configuring it for the pitch unless
-        ``restrike``: a sounding string is excited again where it is)."""
+        """Excite the voice's string (configuring it for the pitch, at the
+        excitation point CC74 sets, unless ``restrike``: a sounding string is
+        excited again where it is, at its own point)."""
         slot = slots[0]
-        su = self.setup(key, f0_hz)
         self._own(bank)
+        if restrike:
+            su = self._note_setup(slot, key, f0_hz)
+        else:
+            su = self.setup(key, f0_hz)
+            if self.position_value != self.POSITION_CENTRE and not self.study:
+                su = self.setup(key, f0_hz, self.excitation_cell(su, self.position_value))
+            self._slot_su[slot] = su
         if restrike:
             self._end_drain(bank, slot)
             bank.set_loss(slot, su.b0)           # undo a release damping

@@ -58,7 +58,7 @@ class JackPlayer(Player):
 
     Parameters
     ----------
-    preset, program_map, stats, out, overrides, channels, drums, record
+    preset, program_map, stats, out, overrides, channels, drums, record, mpe
         As :class:`synth.io.live.player.Player`.
     name : str
         The client's name (``--jack-name``; JACK may add a suffix when it is
@@ -85,7 +85,7 @@ class JackPlayer(Player):
     def __init__(self, preset: str, program_map=None, *, name: str = "synth",
                  connect: bool = False, server: str | None = None, stats: bool = False,
                  out=None, overrides=(), channels=None, drums: bool = False,
-                 record: str | None = None, reconnect: bool = False):
+                 record: str | None = None, reconnect: bool = False, mpe=()):
         self._jack_name = str(name)
         self._connect = bool(connect)
         self._server = server
@@ -98,7 +98,8 @@ class JackPlayer(Player):
         self._notes: list = []          # messages from the server's threads, said by run()
         self._shutdown = None           # why the server closed us, from its thread
         super().__init__(preset, program_map, block=128, midi=False, stats=stats, out=out,
-                         overrides=overrides, channels=channels, drums=drums, record=record)
+                         overrides=overrides, channels=channels, drums=drums, record=record,
+                         mpe=mpe)
 
     def _check_outside(self, audio_device, midi_port, midi: bool) -> None:
         """The JACK library, and a server to join: the client is opened now
@@ -143,6 +144,7 @@ class JackPlayer(Player):
                                self._overrides_for(self.preset_name), fs_out=self.fs)
             self.warm_s = time.perf_counter() - t_call
             eng.telemetry = self.stats
+            eng.set_mpe_zones(self.mpe)
             self.channels = eng.channels
             self.rt = Realtime(eng, block=self.block, latency_s=self.block / self.fs)
             # the process callback must get the GIL at once even while a

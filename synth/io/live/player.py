@@ -57,15 +57,16 @@ def normalise(msg, channels=None, drums: bool = False, ignored: dict | None = No
     The values are those of the MIDI file reader (one shared function,
     :func:`synth.io.midi.normalise_message`): note-on velocity / 127 (a
     note-on with velocity 0 is a note-off), note-off release velocity / 127,
-    ``control`` value / 127, ``pitch_bend`` in [-1, 1] (key -1; the engine
-    ignores kinds it does not play).  The event's ``time_s`` is 0: the
+    ``control`` value / 127, ``pitch_bend`` in [-1, 1] (key -1),
+    ``channel_pressure`` and ``poly_pressure`` / 127 (the engine lists the
+    kinds a preset does not play).  The event's ``time_s`` is 0: the
     player stamps the arrival time.
 
     Returns
     -------
     Event or None
         None for program changes (the player handles those) and for
-        messages that are dropped (aftertouch, clock, SysEx, ...).
+        messages that are dropped (clock, SysEx, ...).
 
     The channels that play (``channels``, 0-based; None: all) and the
     General MIDI drum channel (skipped unless ``drums``) are chosen by the
@@ -138,6 +139,10 @@ class Player:
         A WAV file that receives the performance as it goes to the device
         (:class:`synth.io.live.record.Recorder`), complete whatever stops
         the play.
+    mpe : tuple of (int, int)
+        ``--mpe``: MPE zones set on the engine before the stream opens
+        (:func:`synth.engine.mpe.parse_mpe`); a program change keeps the
+        zones the engine has then (:meth:`Realtime.swap`).
     rate : int or None
         Output rate (Hz, ``--rate``), 22050 .. 192000; None: 48 kHz, or
         the device's own rate when it cannot play 48 kHz (a JACK server's
@@ -155,7 +160,8 @@ class Player:
                  latency_s: float | None = None, audio_device: str | None = None,
                  midi_port: str | None = None, midi: bool = True, stats: bool = False,
                  out=None, overrides=(), channels=None, drums: bool = False,
-                 record: str | None = None, rate: int | None = None, midi_api: str = "auto"):
+                 record: str | None = None, rate: int | None = None, midi_api: str = "auto",
+                 mpe=()):
         from synth.engine.engine import Engine
         from synth.io.presets import load_preset
 
@@ -168,6 +174,7 @@ class Player:
         self.overrides = tuple(overrides)
         self.midi_channels = None if channels is None else frozenset(int(c) for c in channels)
         self.drums = bool(drums)
+        self.mpe = tuple(mpe)
         #: messages received and not played, by name (the report lists them)
         self.ignored: dict = {}
         #: why the audio stopped by itself (:meth:`run`), or None
@@ -251,6 +258,7 @@ class Player:
                                self._overrides_for(self.preset_name), fs_out=self.fs)
             self.warm_s = time.perf_counter() - t_call
             eng.telemetry = self.stats      # --stats: the latest note's contacts on the meter
+            eng.set_mpe_zones(self.mpe)
             self.rt = Realtime(eng, block=self.block, latency_s=self.latency_s)
             # the audio thread must get the GIL quickly even while a program
             # change is built in the background (default switch interval: 5 ms;
