@@ -2,8 +2,10 @@
 
 Usage:  python tools/bench_decimator.py [--seconds 1] [--block 64] [--runs 7]
                                        [--cpu-name {host,haswell,generic,all}]
+        python tools/bench_decimator.py --card-rates [...]
 
-For each internal rate, pushes ``--seconds`` of noise through a fresh
+For each internal rate (``--card-rates``: 325 kHz to each card rate, 44.1,
+48, 88.2 and 96 kHz), pushes ``--seconds`` of noise through a fresh
 Decimator in engine-like blocks (``inputs_needed(block)`` inputs for ``block``
 outputs at a time) and prints the median over ``--runs`` runs of: ns per
 output sample, and ms of CPU per second of audio.
@@ -23,8 +25,8 @@ import cpu_target  # tools/, on sys.path when run as a script
 from synth.dsp.decimator import Decimator
 
 
-def bench(fs_in, seconds, block, runs):
-    dec = Decimator(fs_in)
+def bench(fs_in, seconds, block, runs, fs_out=48000):
+    dec = Decimator(fs_in, fs_out)
     rng = np.random.default_rng(0)
     n_out_total = int(round(seconds * dec.fs_out))
     x = rng.standard_normal(dec.inputs_needed(n_out_total) + 1)
@@ -52,6 +54,8 @@ def main():
     ap.add_argument("--seconds", type=float, default=1.0)
     ap.add_argument("--block", type=int, default=64)
     ap.add_argument("--runs", type=int, default=7)
+    ap.add_argument("--card-rates", action="store_true",
+                    help="325 kHz to 44.1, 48, 88.2 and 96 kHz instead of the internal rates")
     cpu_target.add_cpu_option(ap)
     a = ap.parse_args()
     rc = cpu_target.dispatch(a.cpu_name)
@@ -59,9 +63,11 @@ def main():
         return rc
     print(f"# command: {' '.join(['python'] + sys.argv)}")
     print(cpu_target.describe())
-    for fs in (325000, 336000, 324800):
-        dec, ns, ms = bench(fs, a.seconds, a.block, a.runs)
-        print(f"fs_in={fs:7d}  L/M={dec.L}/{dec.M:<4d} taps/phase={dec.taps_per_phase}  "
+    pairs = ([(325000, r) for r in (44100, 48000, 88200, 96000)] if a.card_rates
+             else [(fs, 48000) for fs in (325000, 336000, 324800)])
+    for fs, fs_out in pairs:
+        dec, ns, ms = bench(fs, a.seconds, a.block, a.runs, fs_out)
+        print(f"fs_in={fs:7d}  fs_out={fs_out:6d}  L/M={dec.L}/{dec.M:<4d} taps/phase={dec.taps_per_phase}  "
               f"latency={dec.latency_s * 1e3:.3f} ms  {ns:7.1f} ns/output  "
               f"{ms:6.2f} ms per s of audio  (block {a.block} outputs)")
     return 0
