@@ -236,6 +236,27 @@ def test_a_new_note_starts_at_its_channels_cc1_after_pressure(tmp_path):
     assert buzz_later > highband_db(first, FS, 4000.0, 0.25, 0.15) + 10.0
 
 
+def test_the_manager_channels_pedal_and_buzz_act_on_the_whole_zone(tmp_path):
+    """An MPE controller sends its sustain pedal and its zone-wide controls
+    on the manager channel: the member channels' notes follow them as if
+    each member had received the message (the pedal holds a member note
+    past its note-off; CC1 on the manager plays what CC1 on every member
+    plays); outside a zone channel 1's pedal stays channel 1's."""
+    notes = [on(0.0, 57, ch=1), on(0.0, 64, ch=2)]
+    y_mgr, _ = play(tmp_path, mcm() + notes + [cc(0.2, 1, 0, ch=0)], seconds=0.8)
+    y_each, _ = play(tmp_path, mcm() + notes + [cc(0.2, 1, 0, ch=1), cc(0.2, 1, 0, ch=2)],
+                     seconds=0.8)
+    y, _ = play(tmp_path, mcm() + notes, seconds=0.8)
+    assert np.array_equal(y_mgr, y_each) and not np.array_equal(y_mgr, y)
+    released = [on(0.0, 57, ch=1), off(0.2, 57, ch=1)]
+    held, _ = play(tmp_path, mcm() + [cc(0.0, 64, 127, ch=0)] + released, seconds=1.0)
+    free, _ = play(tmp_path, mcm() + released, seconds=1.0)
+    late = slice(int(0.6 * FS), int(1.0 * FS))
+    assert np.sqrt(np.mean(held[late] ** 2)) > 10 * np.sqrt(np.mean(free[late] ** 2))
+    no_zone, _ = play(tmp_path, [cc(0.0, 64, 127, ch=0)] + released, seconds=1.0)
+    assert np.array_equal(no_zone, free)
+
+
 # -- CC74: the pluck point ---------------------------------------------------------
 def _partials(y, key, n=8):
     L = np.asarray(partial_levels_db(y[int(0.05 * FS):int(0.45 * FS)], FS, hz(key), n))

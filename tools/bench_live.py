@@ -262,19 +262,12 @@ def _jack():
 
 def start_jackd(name: str, period: int = 128):
     """``jackd -n NAME -d dummy -r 48000 -p PERIOD``, once a client can open on it."""
-    import subprocess
+    from synth.io.live.loopback import start_dummy_server
 
-    jack = _jack()
-    p = subprocess.Popen(["jackd", "-n", name, "-d", "dummy", "-r", str(FS), "-p", str(period)],
-                         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    for _ in range(100):
-        try:
-            jack.Client("probe", no_start_server=True, servername=name).close()
-            return p
-        except jack.JackOpenError:
-            time.sleep(0.1)
-    p.kill()
-    raise SystemExit(f"jackd -n {name} -d dummy did not start")
+    try:
+        return start_dummy_server(name, FS, period)
+    except RuntimeError as e:
+        raise SystemExit(str(e)) from None
 
 
 def synth_play(server: str, name: str, preset: str, seconds: float = 600.0):
@@ -288,83 +281,28 @@ def synth_play(server: str, name: str, preset: str, seconds: float = 600.0):
 
 
 def wait_ports(client, prefix: str, n: int, proc, timeout: float = 180.0):
-    t_end = time.monotonic() + timeout
-    while time.monotonic() < t_end:
-        ports = client.get_ports(prefix + ":")
-        if len(ports) >= n:
-            return ports
-        if proc.poll() is not None:
-            raise SystemExit(f"synth play --jack exited: {proc.communicate()}")
-        time.sleep(0.1)
-    raise SystemExit(f"{prefix}'s ports did not appear")
+    from synth.io.live import loopback
+
+    try:
+        return loopback.wait_ports(client, prefix, n, proc, timeout)
+    except RuntimeError as e:
+        raise SystemExit(str(e)) from None
 
 
 def connect(client, pairs, timeout: float = 30.0):
-    """Connect each (source, destination), retrying while synth's client,
-    whose ports appear before it is active, is not yet active."""
-    jack = _jack()
-    t_end = time.monotonic() + timeout
-    for a, b in pairs:
-        while True:
-            try:
-                client.connect(a, b)
-                break
-            except jack.JackError:
-                if time.monotonic() > t_end:
-                    raise
-                time.sleep(0.1)
+    from synth.io.live import loopback
+
+    loopback.connect(client, pairs, timeout)
 
 
-class JackProbe:
-    """The tool's own JACK client: plays MIDI events at given frames,
-    records what comes back, and stamps every xrun the server reports with
-    the frame time and the phase of the run it came in."""
+def JackProbe(server: str, n_in: int, seconds: float, name: str = "bench"):
+    """The tool's own JACK client (:class:`synth.io.live.loopback.Loopback`):
+    plays MIDI events at given frames, records what comes back, and stamps
+    every xrun the server reports with the frame time and the phase of the
+    run it came in."""
+    from synth.io.live.loopback import Loopback
 
-    def __init__(self, server: str, n_in: int, seconds: float, name: str = "bench"):
-        jack = _jack()
-        self.client = jack.Client(name, no_start_server=True, servername=server)
-        self.midi_out = self.client.midi_outports.register("midi_out")
-        self.ins = [self.client.inports.register(f"in_{i + 1}") for i in range(n_in)]
-        self.rec = np.zeros((int(seconds * FS), n_in), dtype=np.float32)
-        self.t0 = None              # frame time of the recording's first sample
-        self.events = []            # (frame time, bytes), sorted before activation
-        self.i = 0
-        self.phase = "activation"
-        self.xruns = []             # (phase, frame time, delay us)
-        self.client.set_process_callback(self._process)
-        self.client.set_xrun_callback(self._xrun)
-
-    def _process(self, frames):
-        ft = self.client.last_frame_time
-        if self.t0 is None:
-            self.t0 = ft
-        self.midi_out.clear_buffer()
-        ev = self.events
-        while self.i < len(ev) and ev[self.i][0] < ft + frames:
-            at, data = ev[self.i]
-            self.midi_out.write_midi_event(max(at - ft, 0), data)
-            self.i += 1
-        j = ft - self.t0
-        if j + frames <= len(self.rec):
-            for c, port in enumerate(self.ins):
-                self.rec[j:j + frames, c] = port.get_array()
-
-    def _xrun(self, delay_us):
-        try:
-            ft = self.client.frame_time
-        except Exception:
-            ft = -1
-        self.xruns.append((self.phase, ft, float(delay_us)))
-
-    def count(self, phase: str) -> int:
-        return sum(1 for p, _, _ in self.xruns if p == phase)
-
-    def close(self):
-        for step in (self.client.deactivate, self.client.close):
-            try:
-                step()
-            except Exception:
-                pass
+    return Loopback(server, n_in, seconds, rate=FS, name=name)
 
 
 def parse_report(out: str) -> dict:
@@ -461,7 +399,7 @@ def jack_run(server: str, mode: str, n_notes: int, voices: int, preset: str, set
                 + [(f"{name}:out_{c + 1}", probe.ins[c]) for c in range(n_out)])
         probe.phase = "settle"
         time.sleep(settle_s)
-        start = probe.client.frame_time + FS // 4
+        start = probe.client.last_frame_time + FS // 4
         if mode == "notes":
             onsets = []
             for at, key, vel, hold in plan:

@@ -37,6 +37,10 @@ CC_NRPN_MSB = 99
 #: the channel-mode messages that also end every note (MIDI 1.0: omni
 #: off/on, mono, poly)
 CC_MODE = (124, 125, 126, 127)
+#: controllers that an MPE zone's manager channel sends to the whole zone
+#: (besides the voice's own controls); pan stays the manager's own (a
+#: panned channel has its own decimators and body)
+ZONE_WIDE = frozenset((64, 66, 67, 120, 121, 123, 7, 11))
 CC_VOLUME = 7
 CC_PAN = 10
 CC_EXPRESSION = 11
@@ -264,7 +268,14 @@ class ChannelControls(MpeZones):
 
     def _control(self, cc: int, value: float, c: int, at: int) -> None:
         """A control change on channel c (every message acts on its own
-        channel; docs/midi.md lists them)."""
+        channel; docs/midi.md lists them).  On an MPE zone's manager
+        channel, the pedals, volume, expression, the voice's controls (the
+        buzz, the pluck point) and the notes-off and reset messages act on
+        the whole zone (:data:`ZONE_WIDE`): its member channels take them
+        as if each had received them."""
+        if (cc in ZONE_WIDE or cc in self._ctl_default) and self.mpe_manager[c] == c:
+            for ch in self._zone_members(c):
+                self._control(cc, value, ch, at)
         if cc == CC_SUSTAIN:
             self._sustain(c, value)
         elif cc == CC_SOFT:
