@@ -20,6 +20,8 @@ import time
 import numpy as np
 import pytest
 
+from synth.io.live.loopback import Loopback, connect, start_dummy_server, wait_ports
+
 FS = 48_000
 
 
@@ -36,8 +38,6 @@ jack, JACK_REASON = _jack_module()
 
 def _start_jackd(name, rate=FS, period=128):
     """``jackd -n NAME -d dummy -r RATE -p PERIOD``, once it answers."""
-    from synth.io.live.loopback import start_dummy_server
-
     try:
         return start_dummy_server(name, rate, period)
     except RuntimeError as e:
@@ -74,30 +74,12 @@ def _synth_play(server, *args, seconds=40.0):
                             stderr=subprocess.PIPE, text=True)
 
 
-def _wait_ports(client, prefix, n, proc, timeout=120.0):
-    from synth.io.live.loopback import wait_ports
-
-    return wait_ports(client, prefix, n, proc, timeout)
-
-
-def _connect(client, pairs, timeout=30.0):
-    from synth.io.live.loopback import connect
-
-    connect(client, pairs, timeout)
-
-
 def _stop(proc, tester=None):
     """Close the tester's client, Ctrl-C the synth; its (stdout, stderr)."""
     if tester is not None:
         tester.client.close()
     proc.send_signal(signal.SIGINT)
     return proc.communicate(timeout=60)
-
-
-def _loopback(server, n_in, seconds, rate=FS, name="tester"):
-    from synth.io.live.loopback import Loopback
-
-    return Loopback(server, n_in, seconds, rate=rate, name=name)
 
 
 def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_path):
@@ -114,13 +96,13 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     tester = None
     try:
         probe = jack.Client("waiter", no_start_server=True, servername=server)
-        _wait_ports(probe, "synthtest", 3, proc)
+        wait_ports(probe, "synthtest", 3, proc)
         probe.close()
         keys = [48 + (5 * i) % 36 for i in range(24)]
         spacing, hold = int(0.4 * FS), int(0.2 * FS)
-        tester = _loopback(server, 2, 24 * 0.4 + 1.5)
+        tester = Loopback(server, 2, 24 * 0.4 + 1.5)
         tester.client.activate()
-        _connect(tester.client, [(tester.midi_out, "synthtest:midi_in"),
+        connect(tester.client, [(tester.midi_out, "synthtest:midi_in"),
                                  ("synthtest:out_1", tester.ins[0]),
                                  ("synthtest:out_2", tester.ins[1])])
         time.sleep(0.2)
@@ -193,7 +175,7 @@ def test_the_server_going_away_is_one_line_and_non_zero(server, tmp_path):
         proc = _synth_play(name, "--preset", "biwa", "--jack-name", "gone", "--record",
                            str(rec), seconds=60)
         probe = jack.Client("waiter", no_start_server=True, servername=name)
-        _wait_ports(probe, "gone", 2, proc)
+        wait_ports(probe, "gone", 2, proc)
         probe.close()
         time.sleep(0.5)
     finally:
@@ -267,7 +249,7 @@ class _Tester:
     client, which also tells how a note it played sounded."""
 
     def __init__(self, server, synth_name, n_in, seconds, rate=FS, name="tester"):
-        self.lb = _loopback(server, n_in, seconds, rate=rate, name=name).attach(synth_name)
+        self.lb = Loopback(server, n_in, seconds, rate=rate, name=name).attach(synth_name)
         self.client, self.rate = self.lb.client, rate
         time.sleep(1.0)         # the graph settles after the connections (as the bench's)
 
@@ -379,7 +361,7 @@ def test_other_rates_through_jack(private_server, rate, period, tmp_path):
     tester = None
     try:
         probe = jack.Client("waiter", no_start_server=True, servername=srv.name)
-        _wait_ports(probe, "rated", 3, proc)
+        wait_ports(probe, "rated", 3, proc)
         probe.close()
         keys = (50, 57, 62, 69)
         lag = _lag("grand-piano", rate, period)
@@ -411,7 +393,7 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
     t1 = t2 = None
     try:
         probe = jack.Client("waiter", no_start_server=True, servername=srv.name)
-        _wait_ports(probe, "faulty", 3, proc)
+        wait_ports(probe, "faulty", 3, proc)
         probe.close()
         lines.wait_for("ready in")
         for k in (57, 62, 69):
@@ -460,7 +442,7 @@ def test_reconnect_waits_for_the_server_and_plays_on(private_server, tmp_path):
     tester = None
     try:
         probe = jack.Client("waiter", no_start_server=True, servername=srv.name)
-        _wait_ports(probe, "again", 2, proc)
+        wait_ports(probe, "again", 2, proc)
         probe.close()
         lines.wait_for("ready in")
         time.sleep(0.5)

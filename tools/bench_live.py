@@ -94,6 +94,7 @@ from synth.engine.engine import Event  # noqa: E402
 from synth.engine.realtime import Realtime  # noqa: E402
 from synth.io.midi import midi_to_events, read_midi_file  # noqa: E402
 from synth.io.factory import build_engine  # noqa: E402
+from synth.io.live.loopback import Loopback  # noqa: E402  (imports jack only when used)
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 if not SHARED.is_dir():
@@ -295,16 +296,6 @@ def connect(client, pairs, timeout: float = 30.0):
     loopback.connect(client, pairs, timeout)
 
 
-def JackProbe(server: str, n_in: int, seconds: float, name: str = "bench"):
-    """The tool's own JACK client (:class:`synth.io.live.loopback.Loopback`):
-    plays MIDI events at given frames, records what comes back, and stamps
-    every xrun the server reports with the frame time and the phase of the
-    run it came in."""
-    from synth.io.live.loopback import Loopback
-
-    return Loopback(server, n_in, seconds, rate=FS, name=name)
-
-
 def parse_report(out: str) -> dict:
     """The synth's exit report: its JACK xruns, block times, notes, voices."""
     import re
@@ -392,7 +383,7 @@ def jack_run(server: str, mode: str, n_notes: int, voices: int, preset: str, set
         else:
             evs, marks, length = chord_plan(voices, cycles=cycles)
             length_s = length / FS + 0.5
-        probe = JackProbe(server, n_out, length_s + settle_s + 1.5)
+        probe = Loopback(server, n_out, length_s + settle_s + 1.5, rate=FS, name="bench")
         probe.client.activate()
         probe.phase = "connection"
         connect(probe.client, [(probe.midi_out, f"{name}:midi_in")]

@@ -36,6 +36,7 @@ __all__ = [
     "check_midi",
     "pick_midi_api",
     "jack_server_running",
+    "port_lister",
     "MIDI_APIS",
     "NO_MIDI_SYSTEM",
     "midi_input_names",
@@ -156,21 +157,30 @@ def check_midi(api: str | None = None):
 # --------------------------------------------------------------------------
 
 
+def port_lister(api: str, name: str = f"{MIDI_CLIENT_NAME}-ports"):
+    """An rtmidi input client on ``api`` (``"alsa"`` or ``"jack"``) whose
+    ``get_ports()`` lists the MIDI input ports; kept open, a look costs a
+    query, not a client registration (mido's ``get_input_names`` opens one
+    per call: on JACK tens of ms with the GIL held).
+
+    Raises
+    ------
+    Exception
+        rtmidi's, when the MIDI system does not answer (or ImportError).
+    """
+    import rtmidi
+
+    with _quiet_c_stderr():
+        return rtmidi.MidiIn(getattr(rtmidi, f"API_{MIDI_APIS[api]}"), name=name)
+
+
 def jack_server_running() -> bool:
     """Whether a JACK server answers (the default one, or
     ``$JACK_DEFAULT_SERVER``), asked through rtmidi's JACK MIDI, without
     starting one."""
     try:
-        import rtmidi
-    except ImportError:
-        return False
-    if rtmidi.API_UNIX_JACK not in rtmidi.get_compiled_api():
-        return False
-    try:
-        with _quiet_c_stderr():
-            probe = rtmidi.MidiIn(rtmidi.API_UNIX_JACK, name=f"{MIDI_CLIENT_NAME}-probe")
-            probe.delete()
-    except Exception:
+        port_lister("jack", f"{MIDI_CLIENT_NAME}-probe").delete()
+    except Exception:            # no rtmidi, no JACK API compiled in, no server
         return False
     return True
 

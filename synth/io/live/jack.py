@@ -143,7 +143,6 @@ class JackPlayer(Player):
         from synth.io.live.engines import ready_engine
 
         t_call = time.perf_counter()
-        client = self.client
         try:
             eng = ready_engine(self.preset_name, self.block, self.instruments,
                                self._overrides_for(self.preset_name), fs_out=self.fs)

@@ -33,8 +33,8 @@ from synth.io.midi import (MidiEvent, dropped_name, midi_to_events, normalise_me
                            plays_channel)
 from synth.io.rates import check_rate
 from synth.io.live.devices import (FS_OUT, _one_line, _quiet_c_stderr, check_audio, check_midi,
-                                   midi_input_names, pick_audio_device, pick_midi_api,
-                                   pick_midi_port)
+                                   pick_audio_device, pick_midi_api, pick_midi_port,
+                                   port_lister)
 from synth.io.live.engines import ready_engine
 from synth.io.live.programs import ProgramMap
 
@@ -296,16 +296,10 @@ class Player:
 
     def _port_names(self) -> list:
         """The MIDI input ports present now, from one rtmidi client kept
-        open for it: opening a client per look (what mido's
-        ``get_input_names`` does) costs a JACK client registration, tens
-        of ms, with the GIL held, which the audio callback would wait for."""
+        open for it (:func:`synth.io.live.devices.port_lister`)."""
         try:
             if self._lister is None:
-                import rtmidi
-
-                api = {"alsa": rtmidi.API_LINUX_ALSA, "jack": rtmidi.API_UNIX_JACK}[self.midi_api]
-                with _quiet_c_stderr():
-                    self._lister = rtmidi.MidiIn(api, name="synth-ports")
+                self._lister = port_lister(self.midi_api)
             return self._lister.get_ports()
         except Exception:
             return []
