@@ -580,6 +580,12 @@ def cmd_batch(args) -> int:
     return 1 if res.failed else 0
 
 
+def _add_threads(p) -> None:
+    p.add_argument("--threads", type=int, metavar="N",
+                   help="threads the strings render on (default: every core this process may "
+                        "use, or SYNTH_THREADS); the samples are the same for any N")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="synth", description="Physical-modelling string synthesizer "
                                 "(waveguide strings against jawari, sawari and capo-bar terminations).")
@@ -587,6 +593,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     d = sub.add_parser("demo", help="render a short phrase on each plucked preset to demo.wav")
     d.add_argument("-o", "--output", default="demo.wav")
+    _add_threads(d)
     d.set_defaults(func=cmd_demo)
 
     ps = sub.add_parser("presets", help="list presets with a one-line description")
@@ -618,6 +625,7 @@ def build_parser() -> argparse.ArgumentParser:
     n.add_argument("--hammer-log", metavar="OUT.csv",
                    help="CSV of the strike at the internal rate: time, force, felt compression, g, "
                         "hammer position")
+    _add_threads(n)
     n.set_defaults(func=cmd_note)
 
     r = sub.add_parser("render", help="render a MIDI file with a preset to a WAV file",
@@ -640,6 +648,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "are left out, the sound is cut at S with a 10 ms fade-out")
     _add_channels(r)
     _add_mpe(r)
+    _add_threads(r)
     r.set_defaults(func=cmd_render)
 
     a = sub.add_parser("analyze", help="partials, inharmonicity, T60s, centroid and loudness of a "
@@ -665,6 +674,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--shipped", action="store_true",
                    help="also run the specs shipped with the presets (synth/presets/checks)")
     c.add_argument("--junit", metavar="OUT.xml", help="also write the results as JUnit XML")
+    _add_threads(c)
     c.set_defaults(func=cmd_check)
 
     fe = sub.add_parser("felt", help="the felt wave lab: dispersion, velocities, attenuation of "
@@ -789,6 +799,7 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--list-ports", action="store_true",
                     help="list MIDI input ports (ALSA and JACK) and audio output devices, then "
                          "exit")
+    _add_threads(pl)
     pl.set_defaults(func=cmd_play)
 
     c = sub.add_parser(
@@ -829,6 +840,7 @@ def build_parser() -> argparse.ArgumentParser:
                    "the answers the page posts to DIR/answers.csv (Ctrl-C stops); without "
                    "stimuli, serve an existing DIR")
     c.add_argument("--port", type=int, help="port for --serve (default 8765; 0: any free port)")
+    _add_threads(c)
     c.set_defaults(func=cmd_compare)
     return p
 
@@ -920,6 +932,10 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        if getattr(args, "threads", None) is not None:
+            from .io.factory import set_default_threads
+
+            set_default_threads(args.threads)
         return int(args.func(args) or 0)
     except SynthError as e:
         print(f"synth: error: {e}", file=sys.stderr)

@@ -23,7 +23,7 @@ import cpu_target  # noqa: E402
 
 RENDER = textwrap.dedent("""
     import numpy as np
-    from synth.kernels import strings as K
+    from synth.kernels import render as KR
     from synth.dsp.bank import StringBank
 
     # every fast-path stage: a region on each side, loss + dispersion, a bend line, a hammer
@@ -43,7 +43,7 @@ RENDER = textwrap.dedent("""
                    alpha_or_gamma=1e-5, tau0_s=0.0, tension_n=700.0, c_m_per_s=300.0)
     mix = np.zeros(2000)
     b.render(mix, 0, 2000)
-    asm = K.render_bank.inspect_asm(K.render_bank.signatures[0])
+    asm = KR.render_sharded.inspect_asm(KR.render_sharded.signatures[0])
     print("vmaskmov", asm.count("vmaskmov"))
     print("zmm", asm.count("zmm"))
     print("ymm", asm.count("ymm"))

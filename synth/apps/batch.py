@@ -1028,7 +1028,8 @@ def _write_manifest(out: Path, df, csv: bool) -> None:
 
 def local_cluster(n_workers: int | None = None, *, dashboard: bool = True):
     """A ``LocalCluster`` of single-threaded worker processes, one per core
-    by default, each with ``NUMBA_NUM_THREADS=1``, ``MALLOC_ARENA_MAX=1``
+    by default, each with ``NUMBA_NUM_THREADS=1`` and ``SYNTH_THREADS=1`` (one
+    render thread), ``MALLOC_ARENA_MAX=1``
     and this process's numba cache (``NUMBA_CACHE_DIR``, if set), and
     Dask's own threads slowed down (:data:`QUIET_DASK`).  Dask's nanny puts
     ``MALLOC_ARENA_MAX=1`` in this process's ``os.environ`` to spawn the
@@ -1038,8 +1039,9 @@ def local_cluster(n_workers: int | None = None, *, dashboard: bool = True):
     except ImportError:
         raise _need_batch_extra("synth batch") from None
     n = n_workers or os.cpu_count() or 1
-    env = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
-           "MKL_NUM_THREADS": "1"}
+    # one render thread per worker (synth.dsp.threads): the workers are the cores
+    env = {"NUMBA_NUM_THREADS": "1", "SYNTH_THREADS": "1", "OMP_NUM_THREADS": "1",
+           "OPENBLAS_NUM_THREADS": "1", "MKL_NUM_THREADS": "1"}
     if os.environ.get("NUMBA_CACHE_DIR"):
         env["NUMBA_CACHE_DIR"] = os.environ["NUMBA_CACHE_DIR"]
     import dask

@@ -4,7 +4,9 @@ The bank owns every array the string kernel touches (rings, parameter and
 state tables, profiles, scratch, probes).  Voices claim string slots and
 write their physics into them at note-on through the bank's methods; the
 engine renders all active slots with one call of
-:func:`synth.kernels.strings.render_bank` per segment, fades slots out
+:func:`synth.kernels.render.render_sharded` per segment (on
+:attr:`StringBank.threads` threads, the same samples for any number), fades
+slots out
 (:meth:`StringBank.fade`) and frees the silent ones
 (:meth:`StringBank.reap`).  Nothing outside this module indexes the
 kernel's tables.  Nothing is allocated per block.
@@ -18,8 +20,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..kernels import render as KR
 from ..kernels import strings as K
 from ..kernels.energy import ring_energy
+from . import threads
 from .bridges import Bridges
 from .excitation import (  # noqa: F401  (re-exported: the voices build their hammers here)
     SOLVER_TOL, Excitations, HammerTemplate, hammer_template)
@@ -295,13 +299,23 @@ class StringBank(Excitations, Bridges):
         # region profiles, g tables and pitch-bend lines, in one flat table array
         self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable + self.max_bend)))
         # fast-path chunks never exceed max_block (the kernel's scratch layout)
-        self.scratch = np.zeros(K.scratch_length(self.max_block, self.max_region, self.max_bend,
-                                                 self.max_group))
-        self.iwork = np.zeros(self.capacity + K.IWORK_EXTRA, dtype=np.int64)
+        self._slen = K.scratch_length(self.max_block, self.max_region, self.max_bend,
+                                      self.max_group)
+        # one scratch, iwork and staging row per thread (set_threads); the
+        # shards' mixes, the plan, the big groups' blocks (kernels.render)
+        self.threads = 1
+        self._scratch2 = np.zeros((1, self._slen))
+        self._iwork2 = np.zeros((1, self.capacity + K.IWORK_EXTRA), dtype=np.int64)
+        self._tw = np.zeros((1, KR.task_work_length(self.max_block, self.max_region,
+                                                    self.max_bend)))
+        self._plan = np.zeros(KR.plan_length(self.capacity), dtype=np.int64)
+        self._ib = np.zeros(KR.block_index_length(self.max_group, 1), dtype=np.int64)
+        self._pb = np.zeros(KR.block_mix_shape(self.max_group, 2))
+        self._smix = np.zeros((KR.MAX_SHARDS - 1, 1, 1))
         # staging mix of strings on a finer grid (two buses; more rows for a
         # coupled group across rows, _fit_sub); an external bridge's
         # displacement when the caller gives none (all zero)
-        self.sub = np.zeros((2, K.sub_length(self.max_block)))
+        self._sub3 = np.zeros((1, 2, K.sub_length(self.max_block)))
         # the highest output row of any slot (:meth:`set_output_row`)
         self._row_top = 0
         self._still = np.zeros(0)
@@ -447,8 +461,31 @@ class StringBank(Excitations, Bridges):
         highest plus one (the kernel stages a group's rows there)."""
         rows = self.ipar[self._members[lead], K.I_ROW]
         span = int(rows.max()) + 2 - int(rows.min())
-        if span > self.sub.shape[0]:
-            self.sub = np.zeros((span, self.sub.shape[1]))
+        if span > self._sub3.shape[1]:
+            self._sub3 = np.zeros((self._sub3.shape[0], span, self._sub3.shape[2]))
+
+    # -- threads ----------------------------------------------------------------
+    def set_threads(self, n: int) -> None:
+        """Render on ``n`` threads (1 .. :func:`synth.dsp.threads.max_threads`):
+        the same samples for any ``n`` (:mod:`synth.kernels.render`).  Sizes
+        a scratch row per thread (at most MAX_SHARDS rows for the shards)."""
+        n = threads.check_threads(n)
+        rows = min(n, KR.MAX_SHARDS)
+        if self._scratch2.shape[0] < rows:
+            self._scratch2 = np.zeros((rows, self._slen))
+            self._iwork2 = np.zeros((rows, self._iwork2.shape[1]), dtype=np.int64)
+            self._sub3 = np.zeros((rows,) + self._sub3.shape[1:])
+        if self._tw.shape[0] < n:
+            self._tw = np.zeros((n, self._tw.shape[1]))
+        m = KR.block_index_length(self.max_group, n)
+        if self._ib.shape[0] < m:
+            self._ib = np.zeros(m, dtype=np.int64)
+        self.threads = n
+
+    @property
+    def sub(self) -> np.ndarray:
+        """The (first thread's) staging mix of strings on a finer grid."""
+        return self._sub3[0]
 
     # -- configuration ----------------------------------------------------------
     def configure(self, s: int, *, cells: int, k: int, dt_s: float,
@@ -966,6 +1003,14 @@ class StringBank(Excitations, Bridges):
         asked for by :meth:`after` run at their sample."""
         done = 0
         timers = self._timers
+        nt = threads.enter(self.threads)
+        smix = self._smix
+        if smix.shape[1] != mix.shape[0] or smix.shape[2] < mix.shape[1]:
+            smix = self._smix = np.zeros((KR.MAX_SHARDS - 1, mix.shape[0], mix.shape[1]))
+        pb = self._pb
+        if pb.shape[1] < mix.shape[0] or pb.shape[1] < self._sub3.shape[1]:
+            pb = self._pb = np.zeros(KR.block_mix_shape(
+                self.max_group, max(mix.shape[0], self._sub3.shape[1])))
         while done < n:
             c = min(n - done, self.max_block)
             if timers:
@@ -974,9 +1019,10 @@ class StringBank(Excitations, Bridges):
                     heapq.heappop(timers)[2]()
                     continue
                 c = min(c, due)
-            K.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
-                          self.active, self.n_active, c, o0 + done, mix,
-                          self.probe, self.scratch, self.iwork, ubx, self.sub)
+            KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U,
+                              self.active, self.n_active, c, o0 + done, mix,
+                              self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
+                              smix, self._plan, pb, self._tw, self._ib, nt)
             done += c
             self.time += c
 

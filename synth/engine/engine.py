@@ -111,7 +111,8 @@ class Engine(ChannelControls):
     MAX_BLOCK_OUT = 4096
 
     def __init__(self, instrument, fs_out: int = 48_000, polyphony: int | None = None,
-                 probe: bool = False, silence_dbfs: float = -110.0, extra_low_key: int | None = None):
+                 probe: bool = False, silence_dbfs: float = -110.0, extra_low_key: int | None = None,
+                 threads: int = 1):
         self.inst = instrument
         self.fs_in_exact = float(instrument.fs)
         # the decimator needs an integer rate with a small ratio; the physics
@@ -237,6 +238,9 @@ class Engine(ChannelControls):
         self.sym = None if sd is None else Sympathetic(sd, self.fs_out, self.n_dec,
                                                        self.MAX_BLOCK_OUT, self.silence_level)
         self._sym_dirty = True
+        #: threads the strings render on (:meth:`set_threads`)
+        self.threads = 1
+        self.set_threads(threads)
         self._sym_events: list = []          # (output sample, lift, muted, hush) within this block
         self._sym_hush = False               # all sound off: fade them at the next such event
         #: the action's knocks: a unit pulse (its shape), and the force still
@@ -782,6 +786,15 @@ class Engine(ChannelControls):
         """(u at the excitation point (m), contact counts) per internal sample."""
         ch = self.probe_channels()
         return ch[K.P_U], ch[K.P_CONTACT]
+
+    def set_threads(self, n: int) -> None:
+        """Render the strings on ``n`` threads (1 .. the machine's,
+        :func:`synth.dsp.threads.max_threads`), the same samples for any
+        ``n``.  Call it between blocks, from any thread."""
+        self.bank.set_threads(n)
+        if self.sym is not None:
+            self.sym.bank.set_threads(n)
+        self.threads = self.bank.threads
 
     def render(self, events, duration_s: float | None = None, tail_s: float = 1.0,
                max_tail_s: float = 30.0, block: int = 1024, compensate_latency: bool = True,

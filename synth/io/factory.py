@@ -17,6 +17,7 @@ import os
 from collections.abc import Sequence
 
 from ..engine.engine import Engine
+from ..dsp import threads as threads_mod
 from ..engine.warm import warm_up
 from ..voices import voice_for
 from .errors import SynthError
@@ -50,11 +51,19 @@ def build_voice(preset: str | os.PathLike | Preset, overrides: Sequence[str] = (
         raise SynthError(f"{p.name}: {e}") from None
 
 
+def set_default_threads(threads: int | None) -> None:
+    """Make :func:`build_engine` render on ``threads`` threads when it is
+    not given ``threads`` (the command line's ``--threads``); None: back to
+    ``SYNTH_THREADS``, else every core.  ValueError (naming the value and
+    the range) if out of range."""
+    threads_mod.set_default(threads)
+
+
 def build_engine(preset: str | os.PathLike | Preset, overrides: Sequence[str] = (), *,
                  fs_out: int = 48_000, fs_internal: float | None = None,
                  polyphony: int | None = None, probe: bool = False,
                  extra_low_key: int | None = None, warm: bool = False, block: int = 128,
-                 voice=None, silence_dbfs: float = -110.0) -> Engine:
+                 voice=None, silence_dbfs: float = -110.0, threads: int | None = None) -> Engine:
     """Build the engine that plays ``preset``.
 
     Parameters
@@ -88,6 +97,10 @@ def build_engine(preset: str | os.PathLike | Preset, overrides: Sequence[str] = 
         not loaded again.
     silence_dbfs : float
         Level below which a released voice counts as silent and is freed.
+    threads : int or None
+        Threads the strings render on (the same samples for any number);
+        None: ``SYNTH_THREADS``, else every core this process may use
+        (:func:`synth.dsp.threads.default_threads`).
 
     Raises
     ------
@@ -96,8 +109,12 @@ def build_engine(preset: str | os.PathLike | Preset, overrides: Sequence[str] = 
     """
     if voice is None:
         voice = build_voice(preset, overrides, fs_internal=fs_internal)
+    try:
+        n_threads = threads_mod.resolve(threads)
+    except ValueError as e:
+        raise SynthError(str(e)) from None
     kw = dict(polyphony=polyphony, probe=probe, extra_low_key=extra_low_key,
-              silence_dbfs=silence_dbfs)
+              silence_dbfs=silence_dbfs, threads=n_threads)
     try:
         if warm:
             warm_up(voice, fs_out=fs_out, block=block, **kw)

@@ -97,8 +97,10 @@ state: the rings, every ``fst`` column, the ``ipar`` state columns
 ``I_POS``, ``I_EXC`` (an excitation ending: ``EXC_ENDED``, then
 ``EXC_NONE``), ``I_EXC_M`` and ``I_HLAST``, and the ``fpar`` column ``F_B0``
 (the loss gain gliding towards ``F_B0T``); :func:`scan_silence` also resets
-``fst[:, S_PEAK]`` and writes its own outputs.  (:func:`render_bank`
-lowers a finer-grid string's ``I_ROW`` while it stages it, and restores it.)
+``fst[:, S_PEAK]`` and writes its own outputs.
+(:func:`synth.kernels.render.render_bank` lowers a finer-grid string's
+``I_ROW`` while it stages it, and restores it.)  The bank's renderer, its
+coupled groups and its threads are :mod:`synth.kernels.render`.
 """
 
 from __future__ import annotations
@@ -2648,7 +2650,8 @@ _GROW = GROUP_CHUNK + 24
 _GIB = GROUP * _GROW + 40
 #: scratch samples before the per-chunk windows (the group's g and I1 rows)
 _SCRATCH_GROUP = _GIB + GROUP * _GROW + GROUP + 8
-#: int64 work samples :func:`render_bank` needs besides the string list
+#: int64 work samples :func:`synth.kernels.render.render_bank` needs besides the
+#: string list
 IWORK_EXTRA = 8 * GROUP
 
 
@@ -2911,17 +2914,18 @@ def coupled_scratch(max_group: int) -> int:
 
 def scratch_length(max_block: int, max_region: int, max_bend: int,
                    max_group: int = MAX_CPL) -> int:
-    """Samples of ``scratch`` that :func:`render_bank` needs for chunks of
-    at most ``max_block`` samples, regions of at most ``max_region`` points,
-    pitch-bend lines of at most ``max_bend`` samples and coupled groups of
-    at most ``max_group`` strings."""
+    """Samples of ``scratch`` that :func:`synth.kernels.render.render_bank`
+    needs for chunks of at most ``max_block`` samples, regions of at most
+    ``max_region`` points, pitch-bend lines of at most ``max_bend`` samples
+    and coupled groups of at most ``max_group`` strings."""
     return (_SCRATCH_GROUP + max_block + 3 * (max_block + max_region + 2 + 512) + max_bend
             + max_block + 8 + coupled_scratch(max_group))
 
 
 def sub_length(max_block: int) -> int:
-    """Samples per bus of the staging mix (``sub``) that :func:`render_bank`
-    needs for strings on a finer grid (``I_SUB`` > 1)."""
+    """Samples per bus of the staging mix (``sub``) that
+    :func:`synth.kernels.render.render_bank` needs for strings on a finer
+    grid (``I_SUB`` > 1)."""
     return max_block * MAX_SUB
 
 
@@ -3674,12 +3678,15 @@ def _lanes_out(buf, n, Y0, Y1, Y2, Y3, zt):
 
 
 @njit(**JIT_OPTS)
-def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
+def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf, dummy):
     """The loop filters of the G members of a coupled group (the chain from
     ``lead``) over a chunk, four at a time in lockstep (:func:`_lanes_ok`
     holds), from their far-end windows in ``cw`` (set up by
-    :func:`_far_prep`) into them, as :func:`_far_filter` computes each
-    string's; ``buf``: 4 C samples of scratch."""
+    :func:`_far_prep`; member m's at 2 m _CW) into them, as
+    :func:`_far_filter` computes each string's (each lane the same
+    operations, whatever lane a member takes); ``buf``: 4 C samples of
+    scratch; ``dummy``: C samples that the unused lanes of a last pass
+    write."""
     ns = ipar[lead, I_NDISP] + 1
     nb = ipar[lead, I_NSOS]
     # the head loop takes all the biquads while its states fit in the
@@ -3694,7 +3701,6 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
         cnt = (nb - 1) % 4 + 1
     else:
         cnt = 1 if hmax > 0 else 0
-    dummy = cw[2 * G * _CW + 1:2 * G * _CW + 1 + C]    # the bridge row: written after this
     zt = _LANES_ZERO(0.0)           # the lanes' type: four, or two in an SSE2 build
     L = width(zt)
     s = lead
@@ -3747,337 +3753,6 @@ def _far_lanes(lead, G, ipar, fpar, fst, C, cw, buf):
         if ipar[s, I_XDELAY] == 1:
             fst[s, S_XD] = cw[2 * m * _CW + C]
         s = ipar[s, I_CPLNX]
-
-
-@njit(**JIT_OPTS)
-def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist):
-    """C samples of a coupled group (the G strings of the chain from
-    ``lead`` on one bridge) in lockstep on the fast path: excitation
-    (running hammers stepped together, :func:`_excite_group`), each
-    string's region and loop filter, the bridge (:func:`_bridge`), then
-    each string's far-end write and output.  C is within every member's
-    fast-path limit, and at most GROUP members excite."""
-    # ---- 2. excitation: member m's g row at scratch[row * _GROW:]
-    # (the kinds are read before any step: a hammer that ends in this chunk
-    # is EXC_ENDED afterwards and must not be injected again)
-    nh = 0
-    s = lead
-    for m in range(G):
-        _fold_if_ended(s, ring, ipar, fst)
-        if ipar[s, I_EXC] >= EXC_HAMMER3:
-            iw[nh] = s
-            nh += 1
-        s = ipar[s, I_CPLNX]
-    row = nh
-    s = lead
-    for m in range(G):
-        exc = ipar[s, I_EXC]
-        if exc != EXC_NONE and exc < EXC_HAMMER3:
-            iw[row] = s
-            row += 1
-        s = ipar[s, I_CPLNX]
-    if nh > 0:
-        _excite_group(ring, ipar, fpar, fst, C, iw, nh, scratch, ist)
-    for r in range(nh, row):
-        _excite_chunk(iw[r], ring, ipar, fpar, fst, U, C, scratch[r * _GROW:r * _GROW + C])
-    # ---- 3. regions, and 4. the loop filters into the coupled area
-    work = scratch[_SCRATCH_GROUP:]
-    cw = scratch[scratch.shape[0] - (2 * G + 1) * _CW:]
-    lock = _lanes_ok(lead, G, ipar)
-    s = lead
-    for m in range(G):
-        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
-        _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3)
-        xw = cw[2 * m * _CW:2 * m * _CW + C + 2]
-        yw = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
-        if lock:
-            _far_prep(s, ring, ipar, fst, C, xw, yw)
-        else:
-            _far_filter(s, ring, ipar, fpar, fst, U, C, xw, yw, hb)
-        s = ipar[s, I_CPLNX]
-    if lock:
-        # the members' loop filters in lockstep (the work windows are free)
-        _far_lanes(lead, G, ipar, fpar, fst, C, cw, work[0:4 * C])
-    _bridge(lead, G, ipar, fpar, fst, C, cw)
-    s = lead
-    for m in range(G):
-        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
-        peak = fst[s, S_PEAK]
-        pk = _far_write(s, ring, ipar, fpar, C, cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1],
-                        mix, o0, cw[2 * G * _CW:2 * G * _CW + C + 1], True)
-        peak = pk if pk > peak else peak
-        # this member's g row (for a displacement pickup while it plucks)
-        r = -1
-        for q in range(row):
-            if iw[q] == s:
-                r = q
-        plucking = r >= 0
-        gb = scratch[(r if r >= 0 else 0) * _GROW:(r if r >= 0 else 0) * _GROW + C]
-        _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gb, plucking, False, peak)
-        s = ipar[s, I_CPLNX]
-
-
-@njit(**JIT_OPTS)
-def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, one, po0, psub):
-    """The plain per-sample scheme for a coupled group (the reference of
-    :func:`_coupled_chunk`; probes, telemetry and excitations inside the
-    region): every member steps one sample on the bridge as it would be
-    with the strings' force held still, U0 = (a + r) u_b(i-1) / (1 + r);
-    their summed force then gives the bridge's true u_b(i) = U0 + dU
-    (:func:`_bridge`'s step), and each member's outgoing wave, its force
-    output and its bridge reading are corrected by dU (the scheme is
-    linear in u_b; the members' peaks keep the provisional output).  With
-    the bridge's mass (``F_BRMU`` > 0) U0 = a u_b(i-1) + (mu w(i-1) - r (a
-    - 1) u_b(i-1)) / (1 + mu + r) and dU = b f / (1 + mu + r) (the same
-    step, :func:`_bridge`).  ``one``: two scratch values."""
-    a = fpar[lead, F_BRA]
-    b = fpar[lead, F_BRB]
-    r = b * fpar[lead, F_BTDX]
-    mu = fpar[lead, F_BRMU]
-    den = 1.0 / (1.0 + r)
-    if mu != 0.0:
-        den = 1.0 / (1.0 + mu + r)
-    ra = r * (a - 1.0)
-    rows = mix.shape[0]
-    for i in range(n):
-        ubm = fst[lead, S_UBM]
-        if mu == 0.0:
-            U0 = (a + r) * ubm * den
-        else:
-            U0 = a * ubm + (mu * fst[lead, S_UBW] - ra * ubm) * den
-        one[0] = U0
-        one[1] = 0.0
-        cf = one[1:2]
-        corr = 0.0
-        s = lead
-        for m in range(G):
-            corr += fpar[s, F_TDX] * (U0 - fst[s, S_UBP])
-            _render_per_sample(s, ring, ipar, fpar, fst, U, 1, o0 + i, mix, probe, one, 0,
-                               cf, po0 + i // psub, 1)
-            s = ipar[s, I_CPLNX]
-        dU = b * (one[1] + corr) * den
-        ub = U0 + dU
-        s = lead
-        for m in range(G):
-            N = ipar[s, I_N]
-            jn = ipar[s, I_POS] - N
-            if jn < 0:
-                jn += 2 * N
-            ring[ipar[s, I_OFF] + jn] -= dU
-            fst[s, S_UBP] = ub
-            v = -fpar[s, F_GAIN] * fpar[s, F_TDX] * dU
-            r0 = ipar[s, I_ROW]
-            if ipar[s, I_BUS] == 1 and rows > r0 + 1:
-                pan = fpar[s, F_PAN]
-                mix[r0, o0 + i] += v - pan * v
-                mix[r0 + 1, o0 + i] += pan * v
-            else:
-                mix[r0, o0 + i] += v
-            s = ipar[s, I_CPLNX]
-        fst[lead, S_UBM] = ub
-        fst[lead, S_UBW] = ub - a * ubm
-
-
-@njit(**JIT_OPTS)
-def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub):
-    """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
-    lockstep fast-path chunks (:func:`_coupled_chunk`) as long as every
-    member allows one and at most GROUP of them excite, else per sample
-    (:func:`_coupled_per_sample`, a member with a probe or telemetry takes
-    the whole block that way)."""
-    G = ipar[lead, I_CPLN]
-    diag = False
-    s = lead
-    for m in range(G):
-        if ipar[s, I_PROBE] >= 0 or ipar[s, I_TELEM] != 0:
-            diag = True
-        s = ipar[s, I_CPLNX]
-    one = scratch[scratch.shape[0] - 2:]
-    done = 0
-    while done < n:
-        C = n - done
-        if C > GROUP_CHUNK:
-            C = GROUP_CHUNK
-        slow = diag
-        nexc = 0
-        s = lead
-        for m in range(G):
-            exc = ipar[s, I_EXC]
-            c = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
-            if exc > EXC_NONE:
-                nexc += 1
-                left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
-                if left < c:
-                    c = left
-            if c <= 0 or exc == EXC_FELT:
-                slow = True
-            elif c < C:
-                C = c
-            s = ipar[s, I_CPLNX]
-        if nexc > GROUP:
-            slow = True                # more excitations than the chunk's g rows
-        if slow:
-            if not diag and C > 64:
-                C = 64                 # look again soon: the fast path may apply
-            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                                one, po0 + (done // psub), psub)
-        else:
-            _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw, ist)
-        done += C
-
-
-@njit(**JIT_OPTS)
-def _unit_rows(s, G, ipar, rows):
-    """The mix rows [lo, hi) that the G strings of the chain from s (one
-    string: G = 1) write in a mix of ``rows`` rows."""
-    lo = ipar[s, I_ROW]
-    hi = lo + 1
-    for m in range(G):
-        r0 = ipar[s, I_ROW]
-        r1 = r0 + 2 if ipar[s, I_BUS] == 1 and rows > r0 + 1 else r0 + 1
-        lo = r0 if r0 < lo else lo
-        hi = r1 if r1 > hi else hi
-        s = ipar[s, I_CPLNX]
-    return lo, hi
-
-
-@njit(**JIT_OPTS)
-def _shift_rows(s, G, ipar, d):
-    """Add d to ``I_ROW`` of the G strings of the chain from s."""
-    for m in range(G):
-        ipar[s, I_ROW] += d
-        s = ipar[s, I_CPLNX]
-
-
-@njit(**JIT_OPTS)
-def _fold_sub(mix, o0, n, sub, M, lo, hi):
-    """Add the staging mix of a string on a finer grid (n engine samples of
-    M steps each in sub[:, 0:n M], its row j for mix row lo + j) to
-    mix[lo:hi, o0:o0+n] as the mean of each engine sample's M steps (a
-    boxcar before the engine's decimator)."""
-    w = 1.0 / M
-    for r in range(lo, hi):
-        mo = mix[r, o0:o0 + n]
-        sb = sub[r - lo]
-        if M == 2:
-            # (the grand's top keys; the same sums: 0 + a + b)
-            for i in range(n):
-                acc = 0.0
-                acc += sb[2 * i]
-                acc += sb[2 * i + 1]
-                mo[i] += w * acc
-        else:
-            for i in range(n):
-                acc = 0.0
-                for j in range(M):
-                    acc += sb[i * M + j]
-                mo[i] += w * acc
-
-
-@njit(**JIT_OPTS)
-def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
-                probe, scratch, iwork, ubx, sub):
-    """Render ``n`` internal samples of every active string into
-    ``mix[:, o0:o0+n]`` (accumulating).  ``mix`` is 2-D: one row per output
-    bus; string s adds its output to row r0 = ``ipar[s, I_ROW]``, or, with
-    ``I_BUS`` 1, splits it between rows r0 and r0 + 1 (by ``F_PAN``) when
-    the mix has row r0 + 1 (else all of it to r0).  No bounds are checked:
-    ``mix`` must have more than the largest ``I_ROW`` of an active string.
-
-    ring : float64[:]        all rings, concatenated
-    ipar, fpar, fst : 2-D     parameter and state tables (columns above)
-    U : float64[:]            all region profiles and g tables, concatenated
-    active : int64[:]         string indices; the first ``n_active`` are used
-    probe : 3-D               per-sample diagnostics [row, channel P_*, n] for
-                              strings with ``ipar[s, I_PROBE] >= 0``
-    scratch : float64[:]      :func:`scratch_length` samples
-    iwork : int64[:]          n_active + IWORK_EXTRA samples (work space)
-    ubx : float64[:]          an external bridge's displacement per sample
-                              (m), indexed like ``mix`` (strings with
-                              ``I_CPL`` = ``CPL_EXTERNAL``; else unused); a
-                              string on a finer grid reads M values per
-                              sample, ubx[(o0 + i) M + m]
-    sub : float64[:, :]       staging mix for strings on a finer grid
-                              (:func:`sub_length` columns; rows: at least
-                              the span of rows any one of them, or any
-                              coupled group of them, writes; 2 when every
-                              member of a group has the same ``I_ROW``)
-
-    Strings whose hammer is running on the fast path render GROUP at a
-    time (:func:`_render_group`); a coupled group (a piano key's unison on
-    its bridge; a sitar's taraf with its played strings: the chain of
-    ``I_CPLNX`` from the leader) renders as a unit from its leader
-    (:func:`_render_coupled`; the leader must be active while it has
-    members, and ``scratch`` must hold :func:`coupled_scratch` of its size);
-    a string or group on a finer grid (``I_SUB`` = M > 1) renders n M steps
-    into ``sub`` and is added as the mean of each sample's M steps (the
-    rows it writes, lo .. hi - 1, staged in sub rows 0 .. hi - lo - 1:
-    its members' ``I_ROW`` are lowered by lo while they render and then
-    restored, the one write of this function to a parameter column); the
-    others render one by one.
-    """
-    L = iwork.shape[0]
-    ist = iwork[L - 6 * GROUP:]
-    iw = iwork[L - 8 * GROUP:L - 6 * GROUP]
-    rows = mix.shape[0]
-    nh = 0
-    for a in range(n_active):
-        s = active[a]
-        cpl = ipar[s, I_CPL]
-        if cpl >= 0 and cpl != s:
-            continue                  # rendered with its group's leader
-        M = ipar[s, I_SUB]
-        if M > 1:
-            nm = n * M
-            G = ipar[s, I_CPLN] if cpl >= 0 else 1
-            lo, hi = _unit_rows(s, G, ipar, rows)
-            for r in range(hi - lo):
-                sr = sub[r]
-                for i in range(nm):
-                    sr[i] = 0.0
-            # sub row j stands for mix row lo + j (the same buses split:
-            # hi - lo > r0 - lo + 1 exactly when rows > r0 + 1)
-            sm = sub[0:hi - lo]
-            if lo != 0:
-                _shift_rows(s, G, ipar, -lo)
-            if cpl >= 0:
-                _render_coupled(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch, iw, ist,
-                                o0, M)
-            else:
-                # (an external bridge's M steps per sample, from this segment's)
-                _render_string(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch,
-                               ubx[o0 * M:], o0, M)
-            if lo != 0:
-                _shift_rows(s, G, ipar, lo)
-            _fold_sub(mix, o0, n, sub, M, lo, hi)
-        elif cpl >= 0:
-            _render_coupled(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
-                            o0, 1)
-        elif (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_EXC] != EXC_FELT
-                and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
-                and ipar[s, I_CHUNK] > 0 and cpl == CPL_NONE):
-            iwork[nh] = s
-            nh += 1
-        else:
-            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0, 1)
-    # strings with similar chunk lengths together (a group's chunk is the
-    # shortest any member allows): insertion sort by I_CHUNK
-    for a in range(1, nh):
-        s = iwork[a]
-        c = ipar[s, I_CHUNK]
-        b = a - 1
-        while b >= 0 and ipar[iwork[b], I_CHUNK] > c:
-            iwork[b + 1] = iwork[b]
-            b -= 1
-        iwork[b + 1] = s
-    g0 = 0
-    while g0 < nh:
-        G = nh - g0
-        if G > GROUP:
-            G = GROUP
-        _render_group(iwork[g0:g0 + G], G, ring, ipar, fpar, fst, U, n, o0, mix, probe,
-                      scratch, ist, ubx)
-        g0 += G
 
 
 def max_fast_chunk(N: int, k: int, R: int, out_mode: int) -> int:

@@ -1,0 +1,781 @@
+"""Rendering a bank of strings: coupled groups on their bridges, and the
+bank on every core.
+
+The per-string machinery (the fast path's steps, the hammer solver, the
+loop filters, the bridge's step) is :mod:`synth.kernels.strings`; this
+module puts it together for a whole bank, one segment at a time:
+
+* :func:`render_bank` renders a list of strings (singles, hammered strings
+  four at a time, coupled groups from their leaders, finer grids staged)
+  into one mix, on the calling thread, except that a coupled group of
+  more than :data:`BLOCK` members may step its blocks on ``nt`` threads.
+* :func:`render_sharded` is what the bank calls: it splits the active
+  strings into shards, renders the shards on ``nt`` threads, and adds
+  their mixes in shard order.
+
+Same samples for any number of threads
+--------------------------------------
+Which thread runs which piece never changes an operation:
+
+* the shards are a function of the active strings alone (a coupled group
+  is one unit and never spans shards; units go, in the active list's
+  order, to the shard with the least cost so far, :func:`unit_cost`;
+  at most :data:`MAX_SHARDS`); shard 0 renders into the caller's mix, each
+  other shard into its own, added in shard order after all have rendered;
+* a coupled group of more than :data:`BLOCK` members (all of a sitar's
+  strings hang on its one bridge: 45 for 32 voices) is its own shard, and
+  steps its members in blocks of :data:`BLOCK` consecutive members of its
+  chain; the bridge, which needs every member's force, is stepped between
+  the two halves of the chunk on the calling thread; each block adds its
+  members' outputs into its own mix (``pb``), and the blocks' mixes are
+  added in block order.
+
+Against the single-mix bank of before (to 2026-11-28) only the order of
+some additions changes: a bank of several units, or a group of more than
+BLOCK members, differs from it by round-off (under 1e-12 of full scale,
+``tests/test_threads.py``); a bank of one small unit is bit-identical.
+
+Threads
+-------
+The parallel loops are numba ``prange`` loops over *tasks* (one per
+thread), in functions compiled with ``parallel=True`` (``PAR_OPTS``; this
+module is the only one: the architecture's kernels are otherwise plain
+nogil functions, and a pool of Python threads cannot meet at a barrier
+twice per 140-sample chunk: 12 us a meeting measured, against 2 us for a
+numba ``prange`` on the OpenMP threading layer).  ``nt`` = 1 runs the same
+tasks in a plain loop and never touches the threading layer.  The caller
+sets numba's thread count (:func:`numba.set_num_threads`, per calling
+thread) to at least ``nt``; :mod:`synth.dsp.threads` does.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit, prange
+
+from .config import JIT_OPTS, PAR_OPTS
+from .strings import (
+    CPL_EXTERNAL, CPL_NONE, EXC_ENDED, EXC_FELT, EXC_HAMMER3, EXC_NONE, F_BRA, F_BRB, F_BRMU,
+    F_BTDX, F_GAIN, F_PAN, F_TDX, GROUP, GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL,
+    I_CPLN, I_CPLNX, I_EXC, I_EXC_END, I_EXC_M, I_N, I_NDISP, I_NSOS, I_OFF, I_POS, I_PROBE,
+    I_REG_N, I_ROW, F_CURV, I_SUB, I_TELEM, S_PEAK, S_UBM, S_UBP, S_UBW, _CW, _GROW, _SCRATCH_GROUP,
+    _bridge, _chunk_end, _excite_chunk, _excite_group, _far_filter, _far_lanes, _far_prep,
+    _far_write, _fold_if_ended, _lanes_ok, _region_step, _render_group, _render_per_sample,
+    _render_string, _work_windows,
+)
+
+#: members of a coupled group stepped together as one block (a multiple of
+#: the lanes of :func:`strings._far_lanes`, so that the lanes group the
+#: members as they would over the whole group)
+BLOCK = 4
+#: most shards of a bank's small units (the same for any thread count: a
+#: machine with more threads than this renders the small units on this many)
+MAX_SHARDS = 8
+
+
+def n_blocks(max_group: int) -> int:
+    """Blocks of a coupled group of ``max_group`` members."""
+    return max(1, -(-int(max_group) // BLOCK))
+
+
+def block_index_length(max_group: int, max_threads: int) -> int:
+    """int64 samples of ``ib``: the blocks' first members, tasks, costs
+    and sorting order, and a load per thread."""
+    return 4 * n_blocks(max_group) + max(int(max_threads), n_blocks(max_group))
+
+
+def block_mix_shape(max_group: int, rows: int) -> tuple[int, int, int]:
+    """Shape of ``pb``: a mix of ``rows`` rows and a chunk's samples per
+    block of the largest group."""
+    return (n_blocks(max_group), int(rows), GROUP_CHUNK + 8)
+
+
+def task_work_length(max_block: int, max_region: int, max_bend: int) -> int:
+    """Samples of a thread's work row (``tw``): the chunk's windows
+    (:func:`strings._work_windows`, as in ``scratch``) and C + 8 more for
+    the lanes' unused outputs."""
+    return (max_block + 3 * (max_block + max_region + 2 + 512) + max_bend + max_block + 8
+            + GROUP_CHUNK + 8)
+
+
+@njit(inline="always", **JIT_OPTS)
+def string_cost(ipar, fpar, s):
+    """The relative cost of a sample of string s (units of about 0.5 ns),
+    from what the kernel does per sample: the ring's reads and writes and
+    the output (6), the termination region's points (1 each), the sub-cell
+    contact's solve (20), the loop filter's first-order (2) and
+    second-order (4) dispersion sections, a running hammer's solve (24),
+    times the steps of a finer grid (``I_SUB``).  Used only to balance the
+    threads' work: it never changes a sample."""
+    w = 6 + ipar[s, I_REG_N] + 2 * ipar[s, I_NDISP] + 4 * ipar[s, I_NSOS]
+    if fpar[s, F_CURV] > 0.0:
+        w += 20
+    if ipar[s, I_EXC] >= EXC_HAMMER3:
+        w += 24
+    return w * ipar[s, I_SUB]
+
+
+@njit(**JIT_OPTS)
+def unit_cost(ipar, fpar, s):
+    """:func:`string_cost` summed over the unit led by s (a string, or the
+    members of its coupled group)."""
+    G = ipar[s, I_CPLN] if ipar[s, I_CPL] >= 0 else 1
+    c = 0
+    for m in range(G):
+        c += string_cost(ipar, fpar, s)
+        s = ipar[s, I_CPLNX]
+    return c
+
+
+@njit(**JIT_OPTS)
+def _balance(cost, n, T, task, load, order):
+    """Give each of n pieces (costs ``cost[0:n]``) a task of T: the
+    costliest first, each to the least loaded task (longest processing
+    time first); ``task[j]`` the result; ``load``, ``order``: work."""
+    for j in range(n):
+        order[j] = j
+    for a in range(1, n):
+        j = order[a]
+        c = cost[j]
+        b = a - 1
+        while b >= 0 and cost[order[b]] < c:
+            order[b + 1] = order[b]
+            b -= 1
+        order[b + 1] = j
+    for t in range(T):
+        load[t] = 0
+    for a in range(n):
+        j = order[a]
+        best = 0
+        for t in range(1, T):
+            if load[t] < load[best]:
+                best = t
+        task[j] = best
+        load[best] += cost[j]
+
+
+# ---- a big coupled group's blocks --------------------------------------------------
+
+@njit(**JIT_OPTS)
+def _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw):
+    """The first half of a chunk for block b of a coupled group: each
+    member's termination region and loop filter (into its far-end windows
+    in ``cw``), as :func:`_coupled_chunk` steps them; ``tw``: this
+    thread's work row."""
+    m0 = b * BLOCK
+    g = G - m0 if G - m0 < BLOCK else BLOCK
+    work = tw[0:tw.shape[0] - _CW]
+    s = ib[b]
+    for j in range(g):
+        m = m0 + j
+        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
+        _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3)
+        xw = cw[2 * m * _CW:2 * m * _CW + C + 2]
+        yw = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
+        if lock:
+            _far_prep(s, ring, ipar, fst, C, xw, yw)
+        else:
+            _far_filter(s, ring, ipar, fpar, fst, U, C, xw, yw, hb)
+        s = ipar[s, I_CPLNX]
+    if lock:
+        _far_lanes(ib[b], g, ipar, fpar, fst, C, cw[2 * m0 * _CW:], work[0:4 * C],
+                   tw[tw.shape[0] - _CW:tw.shape[0] - _CW + C])
+
+
+@njit(**JIT_OPTS)
+def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pm, tw):
+    """The second half of a chunk for block b: each member's far-end
+    write and output, into the block's own mix ``pm`` (zeroed first, its
+    first C samples), as :func:`_coupled_chunk` writes them."""
+    rows = pm.shape[0]
+    for r in range(rows):
+        pr = pm[r]
+        for i in range(C):
+            pr[i] = 0.0
+    m0 = b * BLOCK
+    g = G - m0 if G - m0 < BLOCK else BLOCK
+    work = tw[0:tw.shape[0] - _CW]
+    s = ib[b]
+    for j in range(g):
+        m = m0 + j
+        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
+        peak = fst[s, S_PEAK]
+        pk = _far_write(s, ring, ipar, fpar, C, cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1],
+                        pm, 0, cw[2 * G * _CW:2 * G * _CW + C + 1], True)
+        peak = pk if pk > peak else peak
+        r = -1
+        for q in range(row):
+            if iw[q] == s:
+                r = q
+        plucking = r >= 0
+        gb = scratch[(r if r >= 0 else 0) * _GROW:(r if r >= 0 else 0) * _GROW + C]
+        _chunk_end(s, ring, ipar, fpar, fst, C, 0, pm, w1, w2, w3, gb, plucking, False, peak)
+        s = ipar[s, I_CPLNX]
+
+
+@njit(**JIT_OPTS)
+def _task_a(t, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw):
+    """Task t: the blocks b with ib[nb + b] = t (first half)."""
+    for b in range(nb):
+        if ib[nb + b] == t:
+            _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw[t])
+
+
+@njit(**JIT_OPTS)
+def _task_c(t, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw):
+    """Task t: the blocks b with ib[nb + b] = t (second half)."""
+    for b in range(nb):
+        if ib[nb + b] == t:
+            pm = pb[b]
+            _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pm[0:rows],
+                     tw[t])
+
+
+@njit(**PAR_OPTS)
+def _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw):
+    for t in prange(T):
+        _task_a(np.int64(t), nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw)
+
+
+@njit(**PAR_OPTS)
+def _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw):
+    for t in prange(T):
+        _task_c(np.int64(t), nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
+
+
+@njit(**JIT_OPTS)
+def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
+                    pb, tw, ib, nt):
+    """Steps 3 and 4 of :func:`_coupled_chunk` for a group of more than
+    BLOCK members: the blocks' first halves (:func:`_block_a`), the
+    bridge, the blocks' second halves (:func:`_block_c`) each into its
+    mix ``pb[b]``, then those mixes added to mix[:, o0:o0+C] in block
+    order.  On min(nt, blocks) threads; the same samples for any."""
+    nb = (G + BLOCK - 1) // BLOCK
+    s = lead
+    for m in range(G):
+        if m % BLOCK == 0:
+            ib[m // BLOCK] = s
+        s = ipar[s, I_CPLNX]
+    T = nt if nt < nb else nb
+    if T > 1:
+        # the blocks to the threads by cost (ib[nb:2 nb]; which thread steps
+        # a block never changes its samples)
+        cost = ib[2 * nb:3 * nb]
+        for b in range(nb):
+            cost[b] = 0
+        s = lead
+        for m in range(G):
+            cost[m // BLOCK] += string_cost(ipar, fpar, s)
+            s = ipar[s, I_CPLNX]
+        _balance(cost, nb, T, ib[nb:2 * nb], ib[3 * nb:3 * nb + T], ib[4 * nb:5 * nb])
+        _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw)
+    else:
+        for b in range(nb):
+            ib[nb + b] = 0
+        _task_a(0, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw)
+    _bridge(lead, G, ipar, fpar, fst, C, cw)
+    rows = mix.shape[0]
+    if T > 1:
+        _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
+    else:
+        _task_c(0, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
+    for b in range(nb):
+        pm = pb[b]
+        for r in range(rows):
+            mo = mix[r, o0:o0 + C]
+            pr = pm[r]
+            for i in range(C):
+                mo[i] += pr[i]
+
+
+# ---- coupled groups, and a list of strings into one mix ------------------------------
+
+@njit(**JIT_OPTS)
+def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist, pb, tw, ib,
+                   nt):
+    """C samples of a coupled group (the G strings of the chain from
+    ``lead`` on one bridge) in lockstep on the fast path: excitation
+    (running hammers stepped together, :func:`_excite_group`), each
+    string's region and loop filter, the bridge (:func:`_bridge`), then
+    each string's far-end write and output.  C is within every member's
+    fast-path limit, and at most GROUP members excite.
+
+    A group of more than BLOCK members (a sitar's bridge) steps its members
+    in blocks (:func:`_coupled_blocks`): the same samples whether the
+    blocks run on this thread or on ``nt``."""
+    # ---- 2. excitation: member m's g row at scratch[row * _GROW:]
+    # (the kinds are read before any step: a hammer that ends in this chunk
+    # is EXC_ENDED afterwards and must not be injected again)
+    nh = 0
+    s = lead
+    for m in range(G):
+        _fold_if_ended(s, ring, ipar, fst)
+        if ipar[s, I_EXC] >= EXC_HAMMER3:
+            iw[nh] = s
+            nh += 1
+        s = ipar[s, I_CPLNX]
+    row = nh
+    s = lead
+    for m in range(G):
+        exc = ipar[s, I_EXC]
+        if exc != EXC_NONE and exc < EXC_HAMMER3:
+            iw[row] = s
+            row += 1
+        s = ipar[s, I_CPLNX]
+    if nh > 0:
+        _excite_group(ring, ipar, fpar, fst, C, iw, nh, scratch, ist)
+    for r in range(nh, row):
+        _excite_chunk(iw[r], ring, ipar, fpar, fst, U, C, scratch[r * _GROW:r * _GROW + C])
+    # ---- 3. regions, and 4. the loop filters into the coupled area
+    work = scratch[_SCRATCH_GROUP:]
+    cw = scratch[scratch.shape[0] - (2 * G + 1) * _CW:]
+    lock = _lanes_ok(lead, G, ipar)
+    if G > BLOCK:
+        _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
+                        pb, tw, ib, nt)
+        return
+    s = lead
+    for m in range(G):
+        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
+        _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3)
+        xw = cw[2 * m * _CW:2 * m * _CW + C + 2]
+        yw = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
+        if lock:
+            _far_prep(s, ring, ipar, fst, C, xw, yw)
+        else:
+            _far_filter(s, ring, ipar, fpar, fst, U, C, xw, yw, hb)
+        s = ipar[s, I_CPLNX]
+    if lock:
+        # the members' loop filters in lockstep (the work windows are free)
+        _far_lanes(lead, G, ipar, fpar, fst, C, cw, work[0:4 * C],
+                   cw[2 * G * _CW + 1:2 * G * _CW + 1 + C])
+    _bridge(lead, G, ipar, fpar, fst, C, cw)
+    s = lead
+    for m in range(G):
+        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
+        peak = fst[s, S_PEAK]
+        pk = _far_write(s, ring, ipar, fpar, C, cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1],
+                        mix, o0, cw[2 * G * _CW:2 * G * _CW + C + 1], True)
+        peak = pk if pk > peak else peak
+        # this member's g row (for a displacement pickup while it plucks)
+        r = -1
+        for q in range(row):
+            if iw[q] == s:
+                r = q
+        plucking = r >= 0
+        gb = scratch[(r if r >= 0 else 0) * _GROW:(r if r >= 0 else 0) * _GROW + C]
+        _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, gb, plucking, False, peak)
+        s = ipar[s, I_CPLNX]
+
+
+@njit(**JIT_OPTS)
+def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, one, po0, psub):
+    """The plain per-sample scheme for a coupled group (the reference of
+    :func:`_coupled_chunk`; probes, telemetry and excitations inside the
+    region): every member steps one sample on the bridge as it would be
+    with the strings' force held still, U0 = (a + r) u_b(i-1) / (1 + r);
+    their summed force then gives the bridge's true u_b(i) = U0 + dU
+    (:func:`_bridge`'s step), and each member's outgoing wave, its force
+    output and its bridge reading are corrected by dU (the scheme is
+    linear in u_b; the members' peaks keep the provisional output).  With
+    the bridge's mass (``F_BRMU`` > 0) U0 = a u_b(i-1) + (mu w(i-1) - r (a
+    - 1) u_b(i-1)) / (1 + mu + r) and dU = b f / (1 + mu + r) (the same
+    step, :func:`_bridge`).  ``one``: two scratch values."""
+    a = fpar[lead, F_BRA]
+    b = fpar[lead, F_BRB]
+    r = b * fpar[lead, F_BTDX]
+    mu = fpar[lead, F_BRMU]
+    den = 1.0 / (1.0 + r)
+    if mu != 0.0:
+        den = 1.0 / (1.0 + mu + r)
+    ra = r * (a - 1.0)
+    rows = mix.shape[0]
+    for i in range(n):
+        ubm = fst[lead, S_UBM]
+        if mu == 0.0:
+            U0 = (a + r) * ubm * den
+        else:
+            U0 = a * ubm + (mu * fst[lead, S_UBW] - ra * ubm) * den
+        one[0] = U0
+        one[1] = 0.0
+        cf = one[1:2]
+        corr = 0.0
+        s = lead
+        for m in range(G):
+            corr += fpar[s, F_TDX] * (U0 - fst[s, S_UBP])
+            _render_per_sample(s, ring, ipar, fpar, fst, U, 1, o0 + i, mix, probe, one, 0,
+                               cf, po0 + i // psub, 1)
+            s = ipar[s, I_CPLNX]
+        dU = b * (one[1] + corr) * den
+        ub = U0 + dU
+        s = lead
+        for m in range(G):
+            N = ipar[s, I_N]
+            jn = ipar[s, I_POS] - N
+            if jn < 0:
+                jn += 2 * N
+            ring[ipar[s, I_OFF] + jn] -= dU
+            fst[s, S_UBP] = ub
+            v = -fpar[s, F_GAIN] * fpar[s, F_TDX] * dU
+            r0 = ipar[s, I_ROW]
+            if ipar[s, I_BUS] == 1 and rows > r0 + 1:
+                pan = fpar[s, F_PAN]
+                mix[r0, o0 + i] += v - pan * v
+                mix[r0 + 1, o0 + i] += pan * v
+            else:
+                mix[r0, o0 + i] += v
+            s = ipar[s, I_CPLNX]
+        fst[lead, S_UBM] = ub
+        fst[lead, S_UBW] = ub - a * ubm
+
+
+@njit(**JIT_OPTS)
+def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub,
+                    pb, tw, ib, nt):
+    """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
+    lockstep fast-path chunks (:func:`_coupled_chunk`) as long as every
+    member allows one and at most GROUP of them excite, else per sample
+    (:func:`_coupled_per_sample`, a member with a probe or telemetry takes
+    the whole block that way)."""
+    G = ipar[lead, I_CPLN]
+    diag = False
+    s = lead
+    for m in range(G):
+        if ipar[s, I_PROBE] >= 0 or ipar[s, I_TELEM] != 0:
+            diag = True
+        s = ipar[s, I_CPLNX]
+    one = scratch[scratch.shape[0] - 2:]
+    done = 0
+    while done < n:
+        C = n - done
+        if C > GROUP_CHUNK:
+            C = GROUP_CHUNK
+        slow = diag
+        nexc = 0
+        s = lead
+        for m in range(G):
+            exc = ipar[s, I_EXC]
+            c = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
+            if exc > EXC_NONE:
+                nexc += 1
+                left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
+                if left < c:
+                    c = left
+            if c <= 0 or exc == EXC_FELT:
+                slow = True
+            elif c < C:
+                C = c
+            s = ipar[s, I_CPLNX]
+        if nexc > GROUP:
+            slow = True                # more excitations than the chunk's g rows
+        if slow:
+            if not diag and C > 64:
+                C = 64                 # look again soon: the fast path may apply
+            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
+                                one, po0 + (done // psub), psub)
+        else:
+            _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw, ist,
+                           pb, tw, ib, nt)
+        done += C
+
+
+@njit(**JIT_OPTS)
+def _unit_rows(s, G, ipar, rows):
+    """The mix rows [lo, hi) that the G strings of the chain from s (one
+    string: G = 1) write in a mix of ``rows`` rows."""
+    lo = ipar[s, I_ROW]
+    hi = lo + 1
+    for m in range(G):
+        r0 = ipar[s, I_ROW]
+        r1 = r0 + 2 if ipar[s, I_BUS] == 1 and rows > r0 + 1 else r0 + 1
+        lo = r0 if r0 < lo else lo
+        hi = r1 if r1 > hi else hi
+        s = ipar[s, I_CPLNX]
+    return lo, hi
+
+
+@njit(**JIT_OPTS)
+def _shift_rows(s, G, ipar, d):
+    """Add d to ``I_ROW`` of the G strings of the chain from s."""
+    for m in range(G):
+        ipar[s, I_ROW] += d
+        s = ipar[s, I_CPLNX]
+
+
+@njit(**JIT_OPTS)
+def _fold_sub(mix, o0, n, sub, M, lo, hi):
+    """Add the staging mix of a string on a finer grid (n engine samples of
+    M steps each in sub[:, 0:n M], its row j for mix row lo + j) to
+    mix[lo:hi, o0:o0+n] as the mean of each engine sample's M steps (a
+    boxcar before the engine's decimator)."""
+    w = 1.0 / M
+    for r in range(lo, hi):
+        mo = mix[r, o0:o0 + n]
+        sb = sub[r - lo]
+        if M == 2:
+            # (the grand's top keys; the same sums: 0 + a + b)
+            for i in range(n):
+                acc = 0.0
+                acc += sb[2 * i]
+                acc += sb[2 * i + 1]
+                mo[i] += w * acc
+        else:
+            for i in range(n):
+                acc = 0.0
+                for j in range(M):
+                    acc += sb[i * M + j]
+                mo[i] += w * acc
+
+
+@njit(**JIT_OPTS)
+def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
+                probe, scratch, iwork, ubx, sub, pb, tw, ib, nt):
+    """Render ``n`` internal samples of every active string into
+    ``mix[:, o0:o0+n]`` (accumulating).  ``mix`` is 2-D: one row per output
+    bus; string s adds its output to row r0 = ``ipar[s, I_ROW]``, or, with
+    ``I_BUS`` 1, splits it between rows r0 and r0 + 1 (by ``F_PAN``) when
+    the mix has row r0 + 1 (else all of it to r0).  No bounds are checked:
+    ``mix`` must have more than the largest ``I_ROW`` of an active string.
+
+    ring : float64[:]        all rings, concatenated
+    ipar, fpar, fst : 2-D     parameter and state tables (columns above)
+    U : float64[:]            all region profiles and g tables, concatenated
+    active : int64[:]         string indices; the first ``n_active`` are used
+    probe : 3-D               per-sample diagnostics [row, channel P_*, n] for
+                              strings with ``ipar[s, I_PROBE] >= 0``
+    scratch : float64[:]      :func:`scratch_length` samples
+    iwork : int64[:]          n_active + IWORK_EXTRA samples (work space)
+    ubx : float64[:]          an external bridge's displacement per sample
+                              (m), indexed like ``mix`` (strings with
+                              ``I_CPL`` = ``CPL_EXTERNAL``; else unused); a
+                              string on a finer grid reads M values per
+                              sample, ubx[(o0 + i) M + m]
+    sub : float64[:, :]       staging mix for strings on a finer grid
+                              (:func:`sub_length` columns; rows: at least
+                              the span of rows any one of them, or any
+                              coupled group of them, writes; 2 when every
+                              member of a group has the same ``I_ROW``)
+    pb : float64[:, :, :]     the blocks' mixes of a coupled group of more
+                              than BLOCK members (:func:`block_mix_shape`)
+    tw : float64[:, :]        a work row per thread (:func:`task_work_length`
+                              samples each, ``nt`` rows at least)
+    ib : int64[:]             :func:`block_index_length` samples (work)
+    nt : int                  threads for the blocks of such a group (1: this
+                              thread only); the same samples for any
+
+    Strings whose hammer is running on the fast path render GROUP at a
+    time (:func:`_render_group`); a coupled group (a piano key's unison on
+    its bridge; a sitar's taraf with its played strings: the chain of
+    ``I_CPLNX`` from the leader) renders as a unit from its leader
+    (:func:`_render_coupled`; the leader must be active while it has
+    members, and ``scratch`` must hold :func:`coupled_scratch` of its size);
+    a string or group on a finer grid (``I_SUB`` = M > 1) renders n M steps
+    into ``sub`` and is added as the mean of each sample's M steps (the
+    rows it writes, lo .. hi - 1, staged in sub rows 0 .. hi - lo - 1:
+    its members' ``I_ROW`` are lowered by lo while they render and then
+    restored, the one write of this function to a parameter column); the
+    others render one by one.
+    """
+    L = iwork.shape[0]
+    ist = iwork[L - 6 * GROUP:]
+    iw = iwork[L - 8 * GROUP:L - 6 * GROUP]
+    rows = mix.shape[0]
+    nh = 0
+    for a in range(n_active):
+        s = active[a]
+        cpl = ipar[s, I_CPL]
+        if cpl >= 0 and cpl != s:
+            continue                  # rendered with its group's leader
+        M = ipar[s, I_SUB]
+        if M > 1:
+            nm = n * M
+            G = ipar[s, I_CPLN] if cpl >= 0 else 1
+            lo, hi = _unit_rows(s, G, ipar, rows)
+            for r in range(hi - lo):
+                sr = sub[r]
+                for i in range(nm):
+                    sr[i] = 0.0
+            # sub row j stands for mix row lo + j (the same buses split:
+            # hi - lo > r0 - lo + 1 exactly when rows > r0 + 1)
+            sm = sub[0:hi - lo]
+            if lo != 0:
+                _shift_rows(s, G, ipar, -lo)
+            if cpl >= 0:
+                _render_coupled(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch, iw, ist,
+                                o0, M, pb, tw, ib, nt)
+            else:
+                # (an external bridge's M steps per sample, from this segment's)
+                _render_string(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch,
+                               ubx[o0 * M:], o0, M)
+            if lo != 0:
+                _shift_rows(s, G, ipar, lo)
+            _fold_sub(mix, o0, n, sub, M, lo, hi)
+        elif cpl >= 0:
+            _render_coupled(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
+                            o0, 1, pb, tw, ib, nt)
+        elif (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_EXC] != EXC_FELT
+                and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
+                and ipar[s, I_CHUNK] > 0 and cpl == CPL_NONE):
+            iwork[nh] = s
+            nh += 1
+        else:
+            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0, 1)
+    # strings with similar chunk lengths together (a group's chunk is the
+    # shortest any member allows): insertion sort by I_CHUNK
+    for a in range(1, nh):
+        s = iwork[a]
+        c = ipar[s, I_CHUNK]
+        b = a - 1
+        while b >= 0 and ipar[iwork[b], I_CHUNK] > c:
+            iwork[b + 1] = iwork[b]
+            b -= 1
+        iwork[b + 1] = s
+    g0 = 0
+    while g0 < nh:
+        G = nh - g0
+        if G > GROUP:
+            G = GROUP
+        _render_group(iwork[g0:g0 + G], G, ring, ipar, fpar, fst, U, n, o0, mix, probe,
+                      scratch, ist, ubx)
+        g0 += G
+
+
+# ---- the bank on every core ------------------------------------------------------
+
+def plan_length(capacity: int) -> int:
+    """int64 samples of ``plan`` (:func:`render_sharded`) for a bank of
+    ``capacity`` slots."""
+    return 3 * int(capacity) + 3 * MAX_SHARDS + 8
+
+
+@njit(**JIT_OPTS)
+def _shard_task(t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
+                iwork2, ubx, sub3, smix, pb, tw, ib):
+    """Task t of T: shards t, t + T, ... of the S small shards (their
+    strings: lists[so[j]:so[j + 1]]), shard 0 into ``mix``, shard j > 0
+    into smix[j - 1] (zeroed first, samples o0 .. o0 + n - 1), with this
+    task's scratch rows."""
+    j = t
+    while j < S:
+        lst = lists[so[j]:so[j + 1]]
+        if j == 0:
+            render_bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, mix, probe,
+                        scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, 1)
+        else:
+            sm = smix[j - 1]
+            for r in range(sm.shape[0]):
+                sr = sm[r, o0:o0 + n]
+                for i in range(n):
+                    sr[i] = 0.0
+            render_bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, sm, probe,
+                        scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, 1)
+        j += T
+
+
+@njit(**PAR_OPTS)
+def _shard_tasks_par(T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
+                     iwork2, ubx, sub3, smix, pb, tw, ib):
+    for t in prange(T):
+        _shard_task(np.int64(t), T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
+                    iwork2, ubx, sub3, smix, pb, tw, ib)
+
+
+@njit(**JIT_OPTS)
+def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch2,
+                   iwork2, ubx, sub3, smix, plan, pb, tw, ib, nt):
+    """:func:`render_bank` of the ``n_active`` strings in ``active`` on
+    ``nt`` threads, the same samples for any ``nt``.
+
+    The units (a single string, or a coupled group from its leader) are
+    split in two kinds.  A coupled group of more than :data:`BLOCK`
+    members renders alone, its blocks on ``nt`` threads, into ``mix``
+    (such groups one after the other, in the active list's order).  The
+    other units go, in the active list's order, to the shard (of
+    min(:data:`MAX_SHARDS`, their number)) with the least
+    :func:`unit_cost` so far (the first such); the shards render on
+    min(``nt``, shards) threads, shard 0 into ``mix`` and shard j into
+    ``smix[j - 1]``, which are then added to ``mix`` in shard order.
+
+    scratch2, iwork2, sub3 : one row (a :func:`render_bank` ``scratch``,
+        ``iwork``, ``sub``) per thread, min(nt, MAX_SHARDS) at least
+    smix : float64[MAX_SHARDS - 1, rows of mix, samples of mix]
+    plan : int64[:]          :func:`plan_length` samples (work space)
+    pb, tw, ib : as :func:`render_bank` (``tw``: nt rows at least)
+    """
+    cap = ipar.shape[0]
+    units = plan[0:cap]
+    lists = plan[cap:2 * cap]
+    ush = plan[2 * cap:3 * cap]
+    so = plan[3 * cap:3 * cap + MAX_SHARDS + 1]
+    cur = plan[3 * cap + MAX_SHARDS + 1:3 * cap + 2 * MAX_SHARDS + 2]
+    load = plan[3 * cap + 2 * MAX_SHARDS + 2:3 * cap + 3 * MAX_SHARDS + 2]
+    nu = 0
+    nbig = 0
+    for a in range(n_active):
+        s = active[a]
+        cpl = ipar[s, I_CPL]
+        if cpl >= 0 and cpl != s:
+            continue                  # rendered with its group's leader
+        if cpl >= 0 and ipar[s, I_CPLN] > BLOCK:
+            nbig += 1
+            ush[nu] = -1
+        else:
+            ush[nu] = 0
+        units[nu] = s
+        nu += 1
+    nsmall = nu - nbig
+    if nsmall <= 1 and (nbig == 0 or nsmall == 0):
+        # one unit (or none): as one shard
+        render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch2[0],
+                    iwork2[0], ubx, sub3[0], pb, tw, ib, nt)
+        return
+    # the big groups, one after the other, their blocks on nt threads
+    if nbig > 0:
+        k = 0
+        for u in range(nu):
+            if ush[u] < 0:
+                lists[k] = units[u]
+                k += 1
+        render_bank(ring, ipar, fpar, fst, U, lists, k, n, o0, mix, probe, scratch2[0],
+                    iwork2[0], ubx, sub3[0], pb, tw, ib, nt)
+    if nsmall == 0:
+        return
+    S = nsmall if nsmall < MAX_SHARDS else MAX_SHARDS
+    for j in range(S):
+        load[j] = 0
+        so[j] = 0
+    so[S] = 0
+    for u in range(nu):
+        if ush[u] < 0:
+            continue
+        best = 0
+        for j in range(1, S):
+            if load[j] < load[best]:
+                best = j
+        ush[u] = best
+        load[best] += unit_cost(ipar, fpar, units[u])
+        so[best + 1] += 1
+    for j in range(S):
+        so[j + 1] += so[j]
+        cur[j] = so[j]
+    for u in range(nu):
+        j = ush[u]
+        if j >= 0:
+            lists[cur[j]] = units[u]
+            cur[j] += 1
+    T = nt if nt < S else S
+    if T > 1:
+        _shard_tasks_par(T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
+                         iwork2, ubx, sub3, smix, pb, tw, ib)
+    else:
+        _shard_task(0, 1, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
+                    iwork2, ubx, sub3, smix, pb, tw, ib)
+    rows = mix.shape[0]
+    for j in range(1, S):
+        sm = smix[j - 1]
+        for r in range(rows):
+            mo = mix[r, o0:o0 + n]
+            sr = sm[r, o0:o0 + n]
+            for i in range(n):
+                mo[i] += sr[i]
