@@ -72,7 +72,10 @@ import time
 from pathlib import Path
 
 # as in the workers (synth.apps.batch.local_cluster), before numpy is imported
-os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+if "numba" not in sys.modules:
+    # one core; only before numba is imported (imported by a test, after numba
+    # started its threads, a changed NUMBA_NUM_THREADS fails the next compile)
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 # glibc read it when this process started (the local cluster sets it in
 # os.environ for its workers later)

@@ -1,9 +1,10 @@
 """Stress the real-time callback: per-block render time against the budget.
 
-    NUMBA_NUM_THREADS=1 python tools/bench_live.py [--blocks 64,128,256] [--repeats 3]
-                                                   [--seconds S] [--host-seconds S] [--host-only]
-    NUMBA_NUM_THREADS=1 python tools/bench_live.py --program-change
-    NUMBA_NUM_THREADS=1 python tools/bench_live.py --shedding
+    python tools/bench_live.py [--blocks 64,128,256] [--threads 1,2] [--repeats 3]
+                               [--perfs rac,roll,chords,cluster]
+                               [--seconds S] [--host-seconds S] [--host-only]
+    python tools/bench_live.py --program-change
+    python tools/bench_live.py --shedding
     (each also with --cpu-name {host,haswell,generic,all}; --quick: a short run for CI)
     python tools/bench_live.py --jack [--server NAME] [--notes 24] [--runs 3] [--quick]
     python tools/bench_live.py --jack --voices 32 [--cycles 3] [--runs 3]
@@ -85,8 +86,6 @@ import sys
 import time
 from pathlib import Path
 
-os.environ.setdefault("NUMBA_NUM_THREADS", "1")
-
 import numpy as np  # noqa: E402
 
 import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
@@ -109,12 +108,13 @@ class Clock:
 
 
 def drive(preset: str, events, seconds: float, block: int, polyphony: int,
-          shedding: bool = False, **rt_kw):
-    """Play ``events`` through the callback; returns (block times, most
-    voices, callback errors, voices shed).  ``shedding``: with the live
-    player's default overload rule (``rt_kw`` changing it) instead of none."""
+          shedding: bool = False, threads: int = 1, **rt_kw):
+    """Play ``events`` through the callback on ``threads`` threads; returns
+    (block times, most voices, callback errors, voices shed).
+    ``shedding``: with the live player's default overload rule (``rt_kw``
+    changing it) instead of none."""
     # warmed as the live player does before the stream opens
-    eng = build_engine(preset, polyphony=polyphony, warm=True, block=block)
+    eng = build_engine(preset, polyphony=polyphony, warm=True, block=block, threads=threads)
     clock = Clock()
     rt = Realtime(eng, block=block, clock=clock, **rt_kw) if shedding else \
         Realtime(eng, block=block, clock=clock, overload=None)
@@ -598,6 +598,11 @@ def main(argv=None) -> int:
                     help="count the voices the default overload rule sheds, block 128")
     ap.add_argument("--program-change", action="store_true",
                     help="measure a program change built in the background while playing")
+    ap.add_argument("--threads", default=None,
+                    help="thread counts to play each performance on, e.g. 1,2 (default: 1 "
+                         "up to every core this process may use)")
+    ap.add_argument("--perfs", default="rac,roll,chords,cluster",
+                    help="performances to play: rac, roll, chords, cluster (default: all)")
     ap.add_argument("--seconds", type=float, default=None,
                     help="limit each performance to this many seconds (default: whole)")
     ap.add_argument("--quick", action="store_true",
@@ -636,12 +641,28 @@ def main(argv=None) -> int:
     if rc is not None:
         return rc
 
-    print(f"# {time.strftime('%Y-%m-%d %H:%M')}  one core")
+    from synth.dsp import threads as threads_mod
+
+    n_max = threads_mod.default_threads()
+    try:
+        counts = ([int(t) for t in a.threads.split(",")] if a.threads
+                  else list(range(1, n_max + 1)))
+        for t in counts:
+            threads_mod.check_threads(t, "--threads")
+    except ValueError as e:
+        ap.error(str(e))
+    names = [p.strip() for p in a.perfs.split(",")]
+    bad = [p for p in names if p not in ("rac", "roll", "chords", "cluster")]
+    if bad:
+        ap.error(f"--perfs = {bad[0]!r} is not a performance (rac, roll, chords, cluster)")
+    print(f"# {time.strftime('%Y-%m-%d %H:%M')}  threads {','.join(map(str, counts))} "
+          f"({threads_mod.available_cores()} cores available)")
     print(f"# command: python {' '.join(sys.argv)}")
     print(cpu_target.describe())
     # warm-up: compile/load every kernel before timing
-    drive("grand-piano", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8)
-    drive("sitar", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8)
+    for t in counts:
+        drive("grand-piano", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8, threads=t)
+        drive("sitar", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8, threads=t)
     over, und, worst, worst_cpu = host_noise(a.host_seconds)
     print(f"# host: a constant loop at 50 % of a 128-sample budget, {a.host_seconds:g} s: {over} "
           f"blocks over budget, {und} underruns, worst {worst:.1f}x its median "
@@ -665,14 +686,16 @@ def main(argv=None) -> int:
         return 0
     # 128 voices in the sitar's range: its 32 keys (43-74) on 4 MIDI channels
     cluster = [Event(0.0004 * i, "note_on", 43 + i % 32, 0.8, i // 32) for i in range(128)]
-    perfs = [
-        ("rac_op23_5.mid x2, grand-piano (64 voices)", "grand-piano", piece("rac_op23_5.mid", 2.0), 64),
-        ("hp956bx4547_exp.mid x2, grand-piano (64 voices)", "grand-piano",
-         piece("hp956bx4547_exp.mid", 2.0), 64),
-        ("8-note chords every 125 ms, pedal down, grand-piano (64 voices)", "grand-piano",
-         dense_chords(), 64),
-        ("128-note cluster, sitar (128 voices)", "sitar", cluster, 128),
-    ]
+    perfs = {
+        "rac": ("rac_op23_5.mid x2, grand-piano (64 voices)", "grand-piano",
+                lambda: piece("rac_op23_5.mid", 2.0), 64),
+        "roll": ("hp956bx4547_exp.mid x2, grand-piano (64 voices)", "grand-piano",
+                 lambda: piece("hp956bx4547_exp.mid", 2.0), 64),
+        "chords": ("8-note chords every 125 ms, pedal down, grand-piano (64 voices)",
+                   "grand-piano", dense_chords, 64),
+        "cluster": ("128-note cluster, sitar (128 voices)", "sitar", lambda: cluster, 128),
+    }
+    perfs = [(lbl, pre, mk(), poly) for lbl, pre, mk, poly in (perfs[n] for n in names)]
     if a.shedding:
         print("\n| performance | voices shed, block 128, default overload rule | "
               "the same without the lateness condition (max_late=0) | blocks |")
@@ -681,26 +704,33 @@ def main(argv=None) -> int:
             dur = max(e.time_s for e in evs) + 1.0 if preset != "sitar" else 5.0
             if a.seconds:
                 dur = min(dur, a.seconds)
-            t, _, _, shed = drive(preset, evs, dur, 128, poly, shedding=True)
-            _, _, _, shed0 = drive(preset, evs, dur, 128, poly, shedding=True, max_late=0.0)
+            t, _, _, shed = drive(preset, evs, dur, 128, poly, shedding=True, threads=counts[-1])
+            _, _, _, shed0 = drive(preset, evs, dur, 128, poly, shedding=True, max_late=0.0,
+                                   threads=counts[-1])
             print(f"| {label} | {shed} | {shed0} | {len(t)} |", flush=True)
         return 0
-    print(f"\n| performance | block | worst | 99th pct | mean | blocks over budget | "
+    print(f"\n| performance | block | threads | worst | 99th pct | mean | blocks over budget | "
           f"underruns, 2-period device | per repeat ({a.repeats}) | most voices |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|")
     for label, preset, evs, poly in perfs:
         dur = max(e.time_s for e in evs) + 1.0 if preset != "sitar" else 5.0
         if a.seconds:
             dur = min(dur, a.seconds)
         for b in blocks:
-            runs = [drive(preset, evs, dur, b, poly) for _ in range(a.repeats)]
+            # the thread counts alternate within each repeat (a noisy spell
+            # of the host then falls on all of them alike)
+            runs = {t: [] for t in counts}
+            for _ in range(a.repeats):
+                for t in counts:
+                    runs[t].append(drive(preset, evs, dur, b, poly, threads=t))
             budget = b / 48000
-            r = stats(np.median([r[0] for r in runs], axis=0), budget)
-            each = ",".join(str(stats(r[0], budget)["underruns"]) for r in runs)
-            most = max(r[1] for r in runs)
-            print(f"| {label} | {b} | {r['worst'] * 100:.0f}% | {r['p99'] * 100:.0f}% | "
-                  f"{r['mean'] * 100:.0f}% | {r['over']} of {r['blocks']} | {r['underruns']} | "
-                  f"{each} | {most} |", flush=True)
+            for t in counts:
+                r = stats(np.median([r[0] for r in runs[t]], axis=0), budget)
+                each = ",".join(str(stats(r[0], budget)["underruns"]) for r in runs[t])
+                most = max(r[1] for r in runs[t])
+                print(f"| {label} | {b} | {t} | {r['worst'] * 100:.0f}% | {r['p99'] * 100:.0f}% | "
+                      f"{r['mean'] * 100:.0f}% | {r['over']} of {r['blocks']} | {r['underruns']} | "
+                      f"{each} | {most} |", flush=True)
     return 0
 
 

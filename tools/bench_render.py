@@ -101,8 +101,12 @@ target for this process and the renders (``tools/cpu_target.py``).
 from __future__ import annotations
 
 import os
+import sys
 
-os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+if "numba" not in sys.modules:
+    # one core; only before numba is imported (imported by a test, after numba
+    # started its threads, a changed NUMBA_NUM_THREADS fails the next compile)
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import datetime  # noqa: E402
@@ -110,7 +114,6 @@ import math  # noqa: E402
 import resource  # noqa: E402
 import shlex  # noqa: E402
 import subprocess  # noqa: E402
-import sys  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -306,6 +309,79 @@ def per_ns(t_s: float, count: float, samples: float) -> float:
     return t_s / (count * samples) * 1e9 if count > 0 and samples > 0 else float("nan")
 
 
+def scaling(presets, voices, counts, long_s, short_s, runs) -> int:
+    """The scaling table: ``synth render --threads T`` of the held-voice
+    cases in a subprocess for each T (numba's pool not capped: no
+    ``NUMBA_NUM_THREADS``), the long and short renders of every T
+    alternated within each run; the wall-time difference per voice-sample
+    and per string-sample (the strings counted in process at the long
+    render's start), the speed-up against the first T, and whether every
+    T wrote the same bytes.  From the speed-up S at T threads, the share
+    of the work that stayed serial, s = (T / S - 1) / (T - 1) (Amdahl),
+    and what that predicts for 4 and 8 threads, 1 / (s + (1 - s) / n)."""
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_NUM_THREADS", "SYNTH_THREADS")}
+    synth = synth_command()
+    print(f"# synth render scaling  {datetime.datetime.now().isoformat(timespec='seconds')}")
+    print(f"# command : {shlex.join([os.path.basename(sys.executable)] + sys.argv)}")
+    print(cpu_target.describe())
+    print(f"# holds {long_s:g} s and {short_s:g} s (+{TAIL_S:g} s tail), {runs} run(s), "
+          f"medians; wall-time differences, ns per voice-sample and per string-sample")
+    with tempfile.TemporaryDirectory(prefix="bench_render_") as tmp:
+        tmp = Path(tmp)
+        for p in presets:
+            pre = load_preset(p)
+            for n in voices:
+                notes = spread_keys(pre.play.key_low, pre.play.key_high, n)
+                ov = overrides_for(p, n)
+                sets = [x for o in ov for x in ("--set", o)]
+                mids = {}
+                for which, hold in (("long", long_s), ("short", short_s)):
+                    mids[which] = tmp / f"{p}-{n}-{which}.mid"
+                    write_midi(mids[which], notes, hold)
+                wavs = {t: tmp / f"out-{t}.wav" for t in counts}
+                cmds = {(t, k): synth + ["render", str(m), "--preset", p, *sets, "--threads",
+                                         str(t), "-o", str(wavs[t])]
+                        for t in counts for k, m in mids.items()}
+                print(f"\n## {p}, {n} held voices: "
+                      + shlex.join(["synth", "render", "CASE.mid", "--preset", p, *sets,
+                                    "--threads", "T", "-o", "OUT.wav"]))
+                eng = build_engine(p, ov, threads=1)
+                eng.render(midi_to_events(read_midi_file(mids["short"])), duration_s=0.3)
+                strings = eng.bank.n_active + (0 if eng.sym is None else eng.sym.bank.n_active)
+                for t in counts:                       # fill numba's cache, untimed
+                    render_once(cmds[t, "short"], env, wavs[t])
+                res = {t: {"long": [], "short": []} for t in counts}
+                frames = {}
+                for _ in range(runs):
+                    for t in counts:
+                        for which in ("long", "short"):
+                            w, _, f = render_once(cmds[t, which], env, wavs[t])
+                            res[t][which].append(w)
+                            frames[which] = f
+                same = len({wavs[t].read_bytes() for t in counts}) == 1
+                d_in = (frames["long"] - frames["short"]) * eng.fs_in / eng.fs_out
+                print("\n| threads | render wall, ns/voice-sample | ± | ns/string-sample | "
+                      "speed-up | long render, s | serial share | predicted 4 / 8 threads |")
+                print("|---:|---:|---:|---:|---:|---:|---:|---|")
+                base = None
+                for t in counts:
+                    lo, sh = np.array(res[t]["long"]), np.array(res[t]["short"])
+                    dw = float(np.median(lo) - np.median(sh))
+                    pm = (float(np.ptp(lo)) + float(np.ptp(sh))) / 2 if runs > 1 else float("nan")
+                    base = dw if base is None else base
+                    S = base / dw
+                    ser = (t / S - 1) / (t - 1) if t > 1 else float("nan")
+                    pred = "" if t == 1 else (f"{1 / (ser + (1 - ser) / 4):.2f} / "
+                                              f"{1 / (ser + (1 - ser) / 8):.2f}")
+                    print(f"| {t} | {per_ns(dw, n, d_in):.2f} | {per_ns(pm, n, d_in):.2f} | "
+                          f"{per_ns(dw, strings, d_in):.2f} | {S:.2f} | {np.median(lo):.2f} | "
+                          f"{'' if t == 1 else f'{ser:.3f}'} | {pred} |", flush=True)
+                print(f"same bytes for every thread count: {'yes' if same else 'NO'}")
+                if not same:
+                    return 1
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--voices", default=None, help="held voices per case (default 1,8,32,128)")
@@ -317,10 +393,14 @@ def main(argv=None) -> int:
                     help="in-process timed window per run (s of output, 1)")
     ap.add_argument("--quick", action="store_true",
                     help="smoke test: voices 1,8, holds 1.5 and 0.5 s, 1 run, 0.2 s window")
+    ap.add_argument("--threads", default=None,
+                    help="instead: the scaling table, synth render --threads T for each T of "
+                         "this list (e.g. 1,2; 'all': 1 up to every core), voices default 32")
     cpu_target.add_cpu_option(ap)
     a = ap.parse_args(argv)
     q = a.quick
-    voices = [int(x) for x in (a.voices or ("1,8" if q else "1,8,32,128")).split(",")]
+    voices = [int(x) for x in (a.voices or ("1,8" if q else "32" if a.threads
+                                            else "1,8,32,128")).split(",")]
     long_s = a.long_s if a.long_s is not None else (1.5 if q else 12.0)
     short_s = a.short_s if a.short_s is not None else (0.5 if q else 2.0)
     runs = a.runs if a.runs is not None else (1 if q else 3)
@@ -332,6 +412,22 @@ def main(argv=None) -> int:
         ap.error("--runs, --window-s and --voices must be positive")
     for p in presets:
         load_preset(p)                        # unknown name: fail before anything runs
+    if a.threads is not None:
+        from synth.dsp import threads as threads_mod
+
+        cores = threads_mod.available_cores()
+        try:
+            counts = (list(range(1, cores + 1)) if a.threads == "all"
+                      else [int(t) for t in a.threads.split(",")])
+        except ValueError:
+            ap.error(f"--threads = {a.threads!r} is not a list of counts (e.g. 1,2 or all)")
+        if any(not 1 <= t <= cores for t in counts):
+            ap.error(f"--threads = {a.threads!r} is out of range (1 <= each <= {cores}, the "
+                     f"cores this process may use)")
+        rc = cpu_target.dispatch(a.cpu_name, argv)
+        if rc is not None:
+            return rc
+        return scaling(presets, voices, counts, long_s, short_s, runs)
     rc = cpu_target.dispatch(a.cpu_name, argv)
     if rc is not None:
         return rc

@@ -43,13 +43,16 @@ names the CPU and the target in effect.
 from __future__ import annotations
 
 import os
+import sys
 
-os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+if "numba" not in sys.modules:
+    # one core; only before numba is imported (imported by a test, after numba
+    # started its threads, a changed NUMBA_NUM_THREADS fails the next compile)
+    os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import datetime  # noqa: E402
 import shlex  # noqa: E402
-import sys  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
