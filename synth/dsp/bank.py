@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import heapq
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -119,6 +119,32 @@ class SlotTemplate:
     fpar: np.ndarray          # float64[F_NF]
     U: np.ndarray | None      # termination profile at points 1..R (m)
     bend_delay: float
+    # ipar's sizes as ints, read once (a note-on checks them against the bank)
+    cells: int = field(init=False, repr=False)
+    region: int = field(init=False, repr=False)
+    bend_len: int = field(init=False, repr=False)
+    chunk: int = field(init=False, repr=False)
+    chunk_free: int = field(init=False, repr=False)
+
+    def __post_init__(self):
+        ip = self.ipar
+        for name, col in (("cells", K.I_N), ("region", K.I_REG_N), ("bend_len", K.I_BLEN),
+                          ("chunk", K.I_CHUNK), ("chunk_free", K.I_CHUNK_FREE)):
+            object.__setattr__(self, name, int(ip[col]))
+
+
+#: ``ipar`` columns a template writes, by the columns a slot keeps
+#: (:meth:`StringBank._write_template`): one masked copy per write
+_WRITE_MASKS: dict[tuple, np.ndarray] = {}
+
+
+def _write_mask(keep_cols: tuple) -> np.ndarray:
+    m = _WRITE_MASKS.get(keep_cols)
+    if m is None:
+        m = np.ones(K.I_NI, dtype=bool)
+        m[list(keep_cols)] = False
+        _WRITE_MASKS[keep_cols] = m
+    return m
 
 
 def _index(name: str, v, hi: int) -> int:
@@ -459,8 +485,13 @@ class StringBank(Excitations, Bridges):
         """Enough rows in the finer grid's staging mix for the group led by
         ``lead``: the rows from its members' lowest output row to their
         highest plus one (the kernel stages a group's rows there)."""
-        rows = self.ipar[self._members[lead], K.I_ROW]
-        span = int(rows.max()) + 2 - int(rows.min())
+        mem = self._members[lead]
+        if len(mem) < 8:
+            rows = [int(self.ipar[m, K.I_ROW]) for m in mem]
+            span = max(rows) + 2 - min(rows)
+        else:
+            rows = self.ipar[mem, K.I_ROW]
+            span = int(rows.max()) + 2 - int(rows.min())
         if span > self._sub3.shape[1]:
             self._sub3 = np.zeros((self._sub3.shape[0], span, self._sub3.shape[2]))
 
@@ -530,13 +561,13 @@ class StringBank(Excitations, Bridges):
 
     def configure_from(self, s: int, t: SlotTemplate, probe_row: int = -1) -> None:
         """Set up slot s from a template (zero state, no excitation)."""
-        cells = int(t.ipar[K.I_N])
+        cells = t.cells
         if cells > self.max_cells:
             raise ValueError(f"cells = {cells!r} is out of range (8 <= value <= {self.max_cells})")
-        R = int(t.ipar[K.I_REG_N])
+        R = t.region
         if R > self.max_region:
             raise ValueError(f"region points = {R} is out of range (0 <= value <= {self.max_region})")
-        blen = int(t.ipar[K.I_BLEN])
+        blen = t.bend_len
         if blen > self.max_bend:
             raise ValueError(f"bend_len = {blen!r} is out of range (0 <= value <= {self.max_bend})")
         if self._leader[s] >= 0:
@@ -553,18 +584,18 @@ class StringBank(Excitations, Bridges):
         """Slot s's parameters and profile from template t, its ``ipar``
         columns ``keep_cols`` kept; chunks within this bank's block."""
         ip = self.ipar[s]
-        keep = [int(ip[c]) for c in keep_cols]
-        ip[:] = t.ipar
-        for c, v in zip(keep_cols, keep):
-            ip[c] = v
-        ip[K.I_CHUNK] = min(int(ip[K.I_CHUNK]), self.max_block)
-        ip[K.I_CHUNK_FREE] = min(int(ip[K.I_CHUNK_FREE]), self.max_block)
+        np.copyto(ip, t.ipar, where=_write_mask(keep_cols))
+        if t.chunk > self.max_block:
+            ip[K.I_CHUNK] = self.max_block
+        if t.chunk_free > self.max_block:
+            ip[K.I_CHUNK_FREE] = self.max_block
         self.fpar[s, :] = t.fpar
         if not self.skip_unreachable:
             self.fpar[s, K.F_REACH] = 0.0
-        R = int(ip[K.I_REG_N])
+        R = t.region
         if R:
-            self.U[ip[K.I_REG_OFF]: ip[K.I_REG_OFF] + R] = t.U
+            o = int(ip[K.I_REG_OFF])
+            self.U[o: o + R] = t.U
 
     def set_region(self, s: int, U: np.ndarray) -> None:
         """Replace slot s's termination profile U(1..R) (m) from its next

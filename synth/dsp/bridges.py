@@ -134,12 +134,23 @@ class Bridges:
         """Write the group's chain into the kernel's columns."""
         mem = self._members[lead]
         G = len(mem)
+        ipar = self.ipar
         for i, m in enumerate(mem):
-            self.ipar[m, K.I_CPL] = lead
-            self.ipar[m, K.I_CPLN] = G
-            self.ipar[m, K.I_CPLNX] = mem[i + 1] if i + 1 < G else -1
+            ip = ipar[m]
+            ip[K.I_CPL] = lead
+            ip[K.I_CPLN] = G
+            ip[K.I_CPLNX] = mem[i + 1] if i + 1 < G else -1
             self._leader[m] = lead
-        self.fpar[lead, K.F_BTDX] = float(np.sum(self.fpar[mem, K.F_TDX]))
+        if G < 8:
+            # a key's unison: added in order, as numpy sums fewer than 8
+            # values (the same float), without its call's cost
+            fp = self.fpar
+            tdx = 0.0
+            for m in mem:
+                tdx += float(fp[m, K.F_TDX])
+            self.fpar[lead, K.F_BTDX] = tdx
+        else:
+            self.fpar[lead, K.F_BTDX] = float(np.sum(self.fpar[mem, K.F_TDX]))
         self._fit_sub(lead)
 
     def set_external_bridge(self, s: int, ease_s: float = 0.02) -> None:

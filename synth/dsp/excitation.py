@@ -197,7 +197,8 @@ class Excitations:
                              f"time step {fp[K.F_DT]!r}")
         if ip[K.I_EXC] != K.EXC_NONE:
             self._end_excitation(s)
-        u_now = self.displacement_at_excitation(s)
+        # a slot set up anew (clean: its ring and g zero) is at rest
+        u_now = 0.0 if self._clean[s] else self.displacement_at_excitation(s)
         fp[_HAMMER_COLS] = t.values
         fp[K.F_HV] = speed_m_per_s
         fp[K.F_HDTV] = t.dt_s * speed_m_per_s

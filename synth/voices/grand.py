@@ -162,6 +162,11 @@ class GrandPianoInstrument(Voice):
             (preset, self.fs, self.quality.dispersion_tol_cents), {})
         st = preset.strings
         self._capo = capo(st.capo_radius_m)
+        #: per key: (``action.knock``, the whole hammer's mass (kg)), validated
+        #: once (:meth:`knock_impulse_ns`)
+        self._knock: dict[int, tuple[float, float]] = {}
+        #: hammer speeds by velocity (:meth:`hammer_speed`)
+        self._speeds: dict = {}
 
     def warm(self) -> None:
         """Design every key now (about 1.5 s), so that no note-on has to:
@@ -400,12 +405,21 @@ class GrandPianoInstrument(Voice):
         at its speed; 0 for a key off the keyboard)."""
         if key is None or not (self.KEY_LOW <= int(round(key)) <= self.KEY_HIGH):
             return 0.0
-        ratio = self.preset.action.knock or 0.0
+        k = int(round(key))
+        rm = self._knock.get(k)
+        if rm is None:
+            ratio = self.preset.action.knock or 0.0
+            m = P.hammer_mass_kg(k, 1)
+            if not ratio <= 0.0:
+                knock_impulse_ns(m, 0.0, ratio)       # (validates the mass and the ratio)
+            rm = self._knock[k] = (float(ratio), float(m))
+        ratio, m = rm
         if ratio <= 0.0:
             return 0.0
-        k = int(round(key))
         V = self.hammer_speed(velocity) if speed_m_per_s is None else float(speed_m_per_s)
-        return knock_impulse_ns(P.hammer_mass_kg(k, 1), V, ratio)
+        if not (0.0 <= V <= 20.0):
+            return knock_impulse_ns(m, V, ratio)      # (raises: the speed is out of range)
+        return ratio * m * V
 
     def bridge_resistance_ns_per_m(self, key: int) -> float | None:
         """The resistance (N s/m) of the bridge the key's strings hang on
@@ -435,11 +449,20 @@ class GrandPianoInstrument(Voice):
         return P.bridge_mass_hz(int(key), float(self.preset.strings.bridge_mass_f0 or 0.0))
 
     def hammer_speed(self, velocity: float) -> float:
-        a = self.preset.action
-        v = (float(velocity) - 1.0 / 127.0) / (1.0 - 1.0 / 127.0)
-        v = min(max(v, 0.0), 1.0)
-        return a.speed_min_m_per_s + (a.speed_max_m_per_s - a.speed_min_m_per_s) * v ** (
-            self.preset.play.velocity_exponent)
+        """The hammer's speed (m/s) at ``velocity`` (0 .. 1) by the
+        velocity curve (the module docstring); remembered per velocity (a
+        note-on asks twice: the strike and the knock)."""
+        V = self._speeds.get(velocity)
+        if V is None:
+            a = self.preset.action
+            v = (float(velocity) - 1.0 / 127.0) / (1.0 - 1.0 / 127.0)
+            v = min(max(v, 0.0), 1.0)
+            V = a.speed_min_m_per_s + (a.speed_max_m_per_s - a.speed_min_m_per_s) * v ** (
+                self.preset.play.velocity_exponent)
+            if len(self._speeds) >= 4096:       # (velocities from anywhere: a bound)
+                self._speeds.clear()
+            self._speeds[velocity] = V
+        return V
 
     def _hammer(self, key: int, n_strings: int, su: GrandStringSetup) -> dict:
         """The key's felt hammer for one of its ``n_strings`` strings
