@@ -1039,7 +1039,7 @@ class StringBank(Excitations, Bridges):
         if smix.shape[1] != mix.shape[0] or smix.shape[2] < mix.shape[1]:
             smix = self._smix = np.zeros((KR.MAX_SHARDS - 1, mix.shape[0], mix.shape[1]))
         pb = self._pb
-        if pb.shape[1] < mix.shape[0] or pb.shape[1] < self._sub3.shape[1]:
+        if pb.shape[1] <= max(mix.shape[0], self._sub3.shape[1]):     # (+ the force row)
             pb = self._pb = np.zeros(KR.block_mix_shape(
                 self.max_group, max(mix.shape[0], self._sub3.shape[1])))
         while done < n:

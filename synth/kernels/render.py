@@ -43,7 +43,10 @@ module is the only one: the architecture's kernels are otherwise plain
 nogil functions, and a pool of Python threads cannot meet at a barrier
 twice per 140-sample chunk: 12 us a meeting measured, against 2 us for a
 numba ``prange`` on the OpenMP threading layer).  ``nt`` = 1 runs the same
-tasks in a plain loop and never touches the threading layer.  The caller
+tasks in a plain loop and never touches the threading layer, and so does a
+loop with less work than :data:`PAR_MIN_WORK` (up to about four sitar
+notes on their bridge, a few piano strings): the launch would cost more
+than the second thread saves.  The caller
 sets numba's thread count (:func:`numba.set_num_threads`, per calling
 thread) to at least ``nt``; :mod:`synth.dsp.threads` does.
 """
@@ -68,6 +71,13 @@ from .strings import (
 #: the lanes of :func:`strings._far_lanes`, so that the lanes group the
 #: members as they would over the whole group)
 BLOCK = 4
+#: the least work (string_cost units x samples, about 0.5 ns each) worth a
+#: parallel loop, which then runs on the calling thread (that never changes
+#: a sample).  A launch costs about 2 us (OpenMP threads still spinning from
+#: the last loop); a sitar group's chunk on 2 threads ran at 0.9x (one note,
+#: 41 000 units a chunk), 1.0x (four notes, 75 000), 1.2x (eight), 1.4x
+#: (sixteen) and 1.55x (32) of one thread's speed (2-vCPU Xeon, 2026-11-28)
+PAR_MIN_WORK = 80_000
 #: most shards of a bank's small units (the same for any thread count: a
 #: machine with more threads than this renders the small units on this many)
 MAX_SHARDS = 8
@@ -85,9 +95,10 @@ def block_index_length(max_group: int, max_threads: int) -> int:
 
 
 def block_mix_shape(max_group: int, rows: int) -> tuple[int, int, int]:
-    """Shape of ``pb``: a mix of ``rows`` rows and a chunk's samples per
-    block of the largest group."""
-    return (n_blocks(max_group), int(rows), GROUP_CHUNK + 8)
+    """Shape of ``pb``: per block of the largest group, a mix of ``rows``
+    rows and a row of the block's force on the bridge, a chunk's samples
+    each."""
+    return (n_blocks(max_group), int(rows) + 1, GROUP_CHUNK + 8)
 
 
 def task_work_length(max_block: int, max_region: int, max_bend: int) -> int:
@@ -157,11 +168,15 @@ def _balance(cost, n, T, task, load, order):
 # ---- a big coupled group's blocks --------------------------------------------------
 
 @njit(**JIT_OPTS)
-def _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw):
+def _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, fb):
     """The first half of a chunk for block b of a coupled group: each
     member's termination region and loop filter (into its far-end windows
-    in ``cw``), as :func:`_coupled_chunk` steps them; ``tw``: this
-    thread's work row."""
+    in ``cw``), as :func:`_coupled_chunk` steps them, then the block's
+    share of the strings' force on the bridge held still, fb[i] = sum over
+    its members of T/dx 2 dz(i) (the sum :func:`strings._bridge` forms over
+    the whole group; ``ubm``: the bridge's u_b before the chunk); ``tw``:
+    this thread's work row.  The members' windows stay with the thread
+    that steps them: the calling thread reads only the blocks' rows."""
     m0 = b * BLOCK
     g = G - m0 if G - m0 < BLOCK else BLOCK
     work = tw[0:tw.shape[0] - _CW]
@@ -180,13 +195,31 @@ def _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw):
     if lock:
         _far_lanes(ib[b], g, ipar, fpar, fst, C, cw[2 * m0 * _CW:], work[0:4 * C],
                    tw[tw.shape[0] - _CW:tw.shape[0] - _CW + C])
+    for i in range(C):
+        fb[i] = 0.0
+    s = ib[b]
+    for j in range(g):
+        m = m0 + j
+        yb = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
+        t2 = 2.0 * fpar[s, F_TDX]
+        s = ipar[s, I_CPLNX]
+        y_prev = yb[0]
+        yb[0] = y_prev + ubm          # z(-1), the filter's own previous output
+        zo = yb[1:1 + C]
+        zp = yb[0:C]
+        for i in range(C):
+            fb[i] += t2 * (zo[i] - zp[i])
+        yb[0] = y_prev
 
 
 @njit(**JIT_OPTS)
-def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pm, tw):
-    """The second half of a chunk for block b: each member's far-end
-    write and output, into the block's own mix ``pm`` (zeroed first, its
-    first C samples), as :func:`_coupled_chunk` writes them."""
+def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, nrow, scratch, pm, tw):
+    """The second half of a chunk for block b: each member's outgoing wave
+    (its loop filter's output less the bridge's u_b, the bridge row of
+    ``cw``), far-end write and output, into the block's own mix ``pm``
+    (zeroed first, its first C samples), as :func:`_coupled_chunk` writes
+    them (``iw[0:nrow]``: the excited strings, their g rows in
+    ``scratch``)."""
     rows = pm.shape[0]
     for r in range(rows):
         pr = pm[r]
@@ -195,16 +228,23 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pm, tw):
     m0 = b * BLOCK
     g = G - m0 if G - m0 < BLOCK else BLOCK
     work = tw[0:tw.shape[0] - _CW]
+    row = cw[2 * G * _CW:2 * G * _CW + C + 1]
+    ub = row[C]
     s = ib[b]
     for j in range(g):
         m = m0 + j
+        # the outgoing wave y = z - u_b (as strings._bridge ends)
+        yo = cw[(2 * m + 1) * _CW + 1:(2 * m + 1) * _CW + 1 + C]
+        for i in range(C):
+            yo[i] -= row[1 + i]
+        fst[s, S_UBP] = ub
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         peak = fst[s, S_PEAK]
         pk = _far_write(s, ring, ipar, fpar, C, cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1],
                         pm, 0, cw[2 * G * _CW:2 * G * _CW + C + 1], True)
         peak = pk if pk > peak else peak
         r = -1
-        for q in range(row):
+        for q in range(nrow):
             if iw[q] == s:
                 r = q
         plucking = r >= 0
@@ -214,11 +254,14 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pm, tw):
 
 
 @njit(**JIT_OPTS)
-def _task_a(t, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw):
-    """Task t: the blocks b with ib[nb + b] = t (first half)."""
+def _task_a(t, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb):
+    """Task t: the blocks b with ib[nb + b] = t (first half; block b's
+    force row: the last row of ``pb[b]``)."""
+    F = pb.shape[1] - 1
     for b in range(nb):
         if ib[nb + b] == t:
-            _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw[t])
+            pm = pb[b]
+            _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw[t], ubm, pm[F])
 
 
 @njit(**JIT_OPTS)
@@ -232,15 +275,58 @@ def _task_c(t, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, ro
 
 
 @njit(**PAR_OPTS)
-def _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw):
+def _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb):
     for t in prange(T):
-        _task_a(np.int64(t), nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw)
+        _task_a(np.int64(t), nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
 
 
 @njit(**PAR_OPTS)
 def _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw):
     for t in prange(T):
         _task_c(np.int64(t), nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
+
+
+@njit(**JIT_OPTS)
+def _bridge_blocks(lead, nb, fpar, fst, C, row, pb):
+    """:func:`strings._bridge` for a group in blocks: the strings' force
+    f(i) summed from the blocks' rows (the last row of each ``pb[b]``, in
+    block order), then the bridge's step over the chunk, u_b per sample
+    into ``row[1:C+1]`` (``row[0]``: u_b before the chunk), as
+    :func:`strings._bridge` computes it (the blocks subtract u_b from their
+    members' waves themselves, :func:`_block_c`)."""
+    a = fpar[lead, F_BRA]
+    b = fpar[lead, F_BRB]
+    r = b * fpar[lead, F_BTDX]
+    ar = a + r
+    den = 1.0 / (1.0 + r)
+    ubm = fst[lead, S_UBM]
+    F = pb.shape[1] - 1
+    fo = row[1:1 + C]
+    p0 = pb[0]
+    f0 = p0[F]
+    for i in range(C):
+        fo[i] = f0[i]
+    for k in range(1, nb):
+        pk = pb[k]
+        fk = pk[F]
+        for i in range(C):
+            fo[i] += fk[i]
+    row[0] = ubm
+    mu = fpar[lead, F_BRMU]
+    if mu == 0.0:
+        for i in range(C):
+            ubm = (ar * ubm + b * fo[i]) * den
+            fo[i] = ubm
+    else:
+        w = fst[lead, S_UBW]
+        dm = 1.0 / (1.0 + mu + r)
+        ra = r * (a - 1.0)
+        for i in range(C):
+            w = (mu * w + b * fo[i] - ra * ubm) * dm
+            ubm = a * ubm + w
+            fo[i] = ubm
+        fst[lead, S_UBW] = w
+    fst[lead, S_UBM] = ubm
 
 
 @njit(**JIT_OPTS)
@@ -252,6 +338,7 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
     mix ``pb[b]``, then those mixes added to mix[:, o0:o0+C] in block
     order.  On min(nt, blocks) threads; the same samples for any."""
     nb = (G + BLOCK - 1) // BLOCK
+    ubm = fst[lead, S_UBM]
     s = lead
     for m in range(G):
         if m % BLOCK == 0:
@@ -264,17 +351,23 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
         cost = ib[2 * nb:3 * nb]
         for b in range(nb):
             cost[b] = 0
+        total = 0
         s = lead
         for m in range(G):
-            cost[m // BLOCK] += string_cost(ipar, fpar, s)
+            c = string_cost(ipar, fpar, s)
+            cost[m // BLOCK] += c
+            total += c
             s = ipar[s, I_CPLNX]
+        if total * C < PAR_MIN_WORK:
+            T = 1
+    if T > 1:
         _balance(cost, nb, T, ib[nb:2 * nb], ib[3 * nb:3 * nb + T], ib[4 * nb:5 * nb])
-        _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw)
+        _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
     else:
         for b in range(nb):
             ib[nb + b] = 0
-        _task_a(0, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw)
-    _bridge(lead, G, ipar, fpar, fst, C, cw)
+        _task_a(0, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
+    _bridge_blocks(lead, nb, fpar, fst, C, cw[2 * G * _CW:2 * G * _CW + C + 1], pb)
     rows = mix.shape[0]
     if T > 1:
         _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
@@ -765,6 +858,11 @@ def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
             lists[cur[j]] = units[u]
             cur[j] += 1
     T = nt if nt < S else S
+    work = 0
+    for j in range(S):
+        work += load[j]
+    if work * n < PAR_MIN_WORK:
+        T = 1
     if T > 1:
         _shard_tasks_par(T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
                          iwork2, ubx, sub3, smix, pb, tw, ib)
