@@ -88,7 +88,9 @@ def resolve(threads: int | None) -> int:
 
 def enter(n: int) -> int:
     """Make numba run ``prange`` loops launched from this thread on ``n``
-    threads (numba's setting is per calling thread); returns the count to
+    threads (numba's setting is per calling thread; the first call in a
+    thread also creates its team of worker threads,
+    :func:`synth.kernels.render.prime_threads`); returns the count to
     render with: ``n``, or 1 if numba's threading layer turned out to be
     its workqueue (which costs 130 us a loop and aborts when two threads
     launch loops at once: warned once)."""
@@ -96,12 +98,20 @@ def enter(n: int) -> int:
         return 1
     if getattr(_local, "n", 0) != n:
         import numba
+        import numpy as np
+
+        from ..kernels.render import prime_threads
 
         numba.set_num_threads(n)
-        _local.n = n
         _check_layer()
         if not _layer_ok:
             return 1
+        if not getattr(_local, "primed", False):
+            # this thread's first loop creates its OpenMP team (~0.1 ms):
+            # now, not at the first big chord
+            prime_threads(n, np.zeros(n, dtype=np.int64))
+            _local.primed = True
+        _local.n = n
     return n
 
 

@@ -736,6 +736,16 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
 
 # ---- the bank on every core ------------------------------------------------------
 
+@njit(**PAR_OPTS)
+def prime_threads(T, out):
+    """A loop of T trivial tasks (``out[t] = t``).  OpenMP gives each thread
+    that launches loops its own team of worker threads, created at its
+    first loop: calling this once from a new rendering thread (the audio
+    server's) creates the team before the first note needs it."""
+    for t in prange(T):
+        out[t] = t
+
+
 def plan_length(capacity: int) -> int:
     """int64 samples of ``plan`` (:func:`render_sharded`) for a bank of
     ``capacity`` slots."""
