@@ -67,6 +67,11 @@ from .strings import (
     _render_string, _work_windows,
 )
 
+#: 0 and 1 as int64 arguments: a literal 0 or 1 in a call makes numba compile
+#: the callee (and everything below it) once more for ``Literal[int]``: the
+#: bank's renderer was compiled three times over (cold start 3 min)
+ZERO = np.int64(0)
+ONE = np.int64(1)
 #: members of a coupled group stepped together as one block (a multiple of
 #: the lanes of :func:`strings._far_lanes`, so that the lanes group the
 #: members as they would over the whole group)
@@ -241,7 +246,7 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, nrow, scratch, pm, tw):
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         peak = fst[s, S_PEAK]
         pk = _far_write(s, ring, ipar, fpar, C, cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1],
-                        pm, 0, cw[2 * G * _CW:2 * G * _CW + C + 1], True)
+                        pm, ZERO, cw[2 * G * _CW:2 * G * _CW + C + 1], True)
         peak = pk if pk > peak else peak
         r = -1
         for q in range(nrow):
@@ -249,7 +254,7 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, nrow, scratch, pm, tw):
                 r = q
         plucking = r >= 0
         gb = scratch[(r if r >= 0 else 0) * _GROW:(r if r >= 0 else 0) * _GROW + C]
-        _chunk_end(s, ring, ipar, fpar, fst, C, 0, pm, w1, w2, w3, gb, plucking, False, peak)
+        _chunk_end(s, ring, ipar, fpar, fst, C, ZERO, pm, w1, w2, w3, gb, plucking, False, peak)
         s = ipar[s, I_CPLNX]
 
 
@@ -366,13 +371,13 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
     else:
         for b in range(nb):
             ib[nb + b] = 0
-        _task_a(0, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
+        _task_a(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
     _bridge_blocks(lead, nb, fpar, fst, C, cw[2 * G * _CW:2 * G * _CW + C + 1], pb)
     rows = mix.shape[0]
     if T > 1:
         _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
     else:
-        _task_c(0, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
+        _task_c(ZERO, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
     for b in range(nb):
         pm = pb[b]
         for r in range(rows):
@@ -695,25 +700,25 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
             if lo != 0:
                 _shift_rows(s, G, ipar, -lo)
             if cpl >= 0:
-                _render_coupled(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch, iw, ist,
+                _render_coupled(s, ring, ipar, fpar, fst, U, nm, ZERO, sm, probe, scratch, iw, ist,
                                 o0, M, pb, tw, ib, nt)
             else:
                 # (an external bridge's M steps per sample, from this segment's)
-                _render_string(s, ring, ipar, fpar, fst, U, nm, 0, sm, probe, scratch,
+                _render_string(s, ring, ipar, fpar, fst, U, nm, ZERO, sm, probe, scratch,
                                ubx[o0 * M:], o0, M)
             if lo != 0:
                 _shift_rows(s, G, ipar, lo)
             _fold_sub(mix, o0, n, sub, M, lo, hi)
         elif cpl >= 0:
             _render_coupled(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
-                            o0, 1, pb, tw, ib, nt)
+                            o0, ONE, pb, tw, ib, nt)
         elif (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_EXC] != EXC_FELT
                 and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
                 and ipar[s, I_CHUNK] > 0 and cpl == CPL_NONE):
             iwork[nh] = s
             nh += 1
         else:
-            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0, 1)
+            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0, ONE)
     # strings with similar chunk lengths together (a group's chunk is the
     # shortest any member allows): insertion sort by I_CHUNK
     for a in range(1, nh):
@@ -764,7 +769,7 @@ def _shard_task(t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe,
         lst = lists[so[j]:so[j + 1]]
         if j == 0:
             render_bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, mix, probe,
-                        scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, 1)
+                        scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE)
         else:
             sm = smix[j - 1]
             for r in range(sm.shape[0]):
@@ -772,7 +777,7 @@ def _shard_task(t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe,
                 for i in range(n):
                     sr[i] = 0.0
             render_bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, sm, probe,
-                        scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, 1)
+                        scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE)
         j += T
 
 
@@ -877,7 +882,7 @@ def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
         _shard_tasks_par(T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
                          iwork2, ubx, sub3, smix, pb, tw, ib)
     else:
-        _shard_task(0, 1, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
+        _shard_task(ZERO, ONE, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
                     iwork2, ubx, sub3, smix, pb, tw, ib)
     rows = mix.shape[0]
     for j in range(1, S):
