@@ -62,7 +62,8 @@ from .strings import (
     F_BTDX, F_GAIN, F_PAN, F_TDX, GROUP, GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL,
     I_CPLN, I_CPLNX, I_EXC, I_EXC_END, I_EXC_M, I_N, I_NDISP, I_NSOS, I_OFF, I_POS, I_PROBE,
     I_REG_N, I_ROW, F_CURV, I_SUB, I_TELEM, S_PEAK, S_UBM, S_UBP, S_UBW, _CW, _GROW, _SCRATCH_GROUP,
-    _bridge, _chunk_end, _excite_chunk, _excite_group, _far_filter, _far_lanes, _far_prep,
+    _bridge, _bridge_steps, _chunk_end, _excite_chunk, _excite_group, _far_filter, _far_lanes,
+    _far_prep,
     _far_write, _fold_if_ended, _lanes_ok, _region_step, _render_group, _render_per_sample,
     _render_string, _work_windows,
 )
@@ -299,11 +300,6 @@ def _bridge_blocks(lead, nb, fpar, fst, C, row, pb):
     into ``row[1:C+1]`` (``row[0]``: u_b before the chunk), as
     :func:`strings._bridge` computes it (the blocks subtract u_b from their
     members' waves themselves, :func:`_block_c`)."""
-    a = fpar[lead, F_BRA]
-    b = fpar[lead, F_BRB]
-    r = b * fpar[lead, F_BTDX]
-    ar = a + r
-    den = 1.0 / (1.0 + r)
     ubm = fst[lead, S_UBM]
     F = pb.shape[1] - 1
     fo = row[1:1 + C]
@@ -317,21 +313,7 @@ def _bridge_blocks(lead, nb, fpar, fst, C, row, pb):
         for i in range(C):
             fo[i] += fk[i]
     row[0] = ubm
-    mu = fpar[lead, F_BRMU]
-    if mu == 0.0:
-        for i in range(C):
-            ubm = (ar * ubm + b * fo[i]) * den
-            fo[i] = ubm
-    else:
-        w = fst[lead, S_UBW]
-        dm = 1.0 / (1.0 + mu + r)
-        ra = r * (a - 1.0)
-        for i in range(C):
-            w = (mu * w + b * fo[i] - ra * ubm) * dm
-            ubm = a * ubm + w
-            fo[i] = ubm
-        fst[lead, S_UBW] = w
-    fst[lead, S_UBM] = ubm
+    _bridge_steps(lead, fpar, fst, C, fo, ubm)
 
 
 @njit(**JIT_OPTS)

@@ -3182,8 +3182,29 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
             fo[i] += t2 * (zo[i] - zp[i])
         yb[0] = y_prev
     row[0] = ubm
+    ubm = _bridge_steps(lead, fpar, fst, C, fo, ubm)
+    s = lead
+    for m in range(G):
+        yo = cw[(2 * m + 1) * _CW + 1:(2 * m + 1) * _CW + 1 + C]
+        for i in range(C):
+            yo[i] -= fo[i]
+        fst[s, S_UBP] = ubm
+        s = ipar[s, I_CPLNX]
+
+
+@njit(inline="always", **JIT_OPTS)
+def _bridge_steps(lead, fpar, fst, C, fo, ubm):
+    """The bridge's steps over a chunk (:func:`_bridge`): from the strings'
+    summed force with the bridge held still, fo[0:C], and u_b before the
+    chunk, ``ubm``, u_b per sample into fo (in place) and the bridge's
+    state (``S_UBM``, and ``S_UBW`` with a mass); returns the last u_b."""
+    a = fpar[lead, F_BRA]
+    b = fpar[lead, F_BRB]
+    r = b * fpar[lead, F_BTDX]
     mu = fpar[lead, F_BRMU]
     if mu == 0.0:
+        ar = a + r
+        den = 1.0 / (1.0 + r)
         for i in range(C):
             ubm = (ar * ubm + b * fo[i]) * den
             fo[i] = ubm
@@ -3199,13 +3220,7 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
             fo[i] = ubm
         fst[lead, S_UBW] = w
     fst[lead, S_UBM] = ubm
-    s = lead
-    for m in range(G):
-        yo = cw[(2 * m + 1) * _CW + 1:(2 * m + 1) * _CW + 1 + C]
-        for i in range(C):
-            yo[i] -= fo[i]
-        fst[s, S_UBP] = ubm
-        s = ipar[s, I_CPLNX]
+    return ubm
 
 
 @njit(**SERIAL_OPTS)
