@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 from synth.apps import batch as B
+from synth.apps import batch_worker as W
 from synth.apps.batch import BatchError, load_spec, render_job, render_many
 from synth.io.errors import display_path
 
@@ -241,7 +242,7 @@ def test_the_same_spec_gives_the_same_bytes_in_one_process(tmp_path, cluster):
     jobs = load_spec(_spec(tmp_path, SPEC_20))
     out = tmp_path / "out"
     render_many(jobs[:6], out, client=cluster, progress=False)
-    B._VOICES.clear()
+    W._VOICES.clear()
     for j in reversed(jobs[:6]):            # another order: the voice is reused differently
         assert hashlib.sha256(render_job(j)["wav"]).hexdigest() == _sha(out / j.path)
 

@@ -2,7 +2,7 @@
 
 The same jobs rendered three ways, in one run:
 
-* **one process**: :func:`synth.apps.batch.render_job` and the writes of
+* **one process**: :func:`synth.apps.batch_worker.render_job` and the writes of
   the WAV and its row, in a loop in this process, then the manifest (what
   :func:`~synth.apps.batch.render_many` does, without Dask);
 * **Dask, 1 worker**: :func:`synth.apps.batch.render_many` on a
@@ -375,6 +375,7 @@ def main(argv=None) -> int:
     from dask.distributed import Client
 
     from synth.apps import batch as B
+    from synth.apps import batch_worker as W
 
     work = Path(tempfile.mkdtemp(prefix="bench-batch-"))
     try:
@@ -404,7 +405,7 @@ def main(argv=None) -> int:
         def one_process() -> tuple[float, float]:
             out = work / "single"
             shutil.rmtree(out, ignore_errors=True)
-            B._VOICES.clear()
+            W._VOICES.clear()
             t, c = time.perf_counter(), _cpu()
             done = []
             for j in jobs:
@@ -421,7 +422,7 @@ def main(argv=None) -> int:
         def dask(client) -> tuple[float, float]:
             out = work / "dask"
             shutil.rmtree(out, ignore_errors=True)
-            client.run(B._VOICES.clear)
+            client.run(W._VOICES.clear)
             t, c = time.perf_counter(), _tree_cpu()
             res = B.render_many(jobs, out, client=client, progress=False, log=lambda s: None)
             el, cpu = time.perf_counter() - t, _tree_cpu() - c

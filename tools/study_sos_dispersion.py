@@ -57,6 +57,7 @@ import numba as nb
 import numpy as np
 
 from synth.physics import dispersion as D
+from synth.physics.dispersion.first_order import _golden
 from synth.physics.losses import loop_gain_from_t60, one_pole_from_two_gains
 from synth.physics.piano import grand_string
 
@@ -393,7 +394,7 @@ def peak_freq(xw, fs, f_guess, half_width):
 
     fg = np.linspace(f_guess - half_width, f_guess + half_width, 41)
     i = int(np.argmin([mag(f) for f in fg]))
-    return D._golden(mag, fg[max(i - 1, 0)], fg[min(i + 1, 40)], 40)[0]
+    return _golden(mag, fg[max(i - 1, 0)], fg[min(i + 1, 40)], 40)[0]
 
 
 

@@ -409,7 +409,7 @@ def render_midi_file(req: RenderRequest, *, log: Callable[[str], None] | None = 
                      stream=None) -> RenderResult:
     """:func:`render_midi` without taking over SIGINT and SIGTERM, for code
     that does not own the process's signals: a thread, or a batch worker
-    (:mod:`synth.apps.batch`), whose process its nanny stops.  The write is
+    (:mod:`synth.apps.batch_worker`), whose process its nanny stops.  The write is
     atomic all the same.  ``log`` defaults to nothing; ``stream`` to none
     (no progress bar)."""
     _check_max_seconds(req.max_seconds)
