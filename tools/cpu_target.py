@@ -20,7 +20,9 @@ generic
 Each target compiles into its own ``NUMBA_CACHE_DIR`` (``<base>/<target>``,
 the base being ``$NUMBA_CACHE_DIR`` if set, else
 ``~/.cache/synth-bench-numba``): numba's cache index keys on the CPU name and
-features too, but separate directories keep runs honest.
+features too, but separate directories keep runs honest.  The kernels'
+cache is a folder keyed on their sources within it
+(:mod:`synth.kernels.cache`).
 
 A tool runs for another target by re-executing itself in a subprocess with
 that target's environment (:func:`run_for_targets`); numba reads these

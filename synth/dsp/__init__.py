@@ -1,8 +1,10 @@
 """The public, validated face of the numba kernels: one place for every wrapper.
 
 ``synth.kernels`` holds only ``@njit`` functions and the constants they read
-(numba's cache does not see changes in other files and freezes globals, so a
-kernel and its column numbers must live in one module).  This package holds
+(numba freezes the globals a kernel reads, and its cache checks a kernel
+against its own file only, so a kernel and its column numbers must live in
+one module; :mod:`synth.kernels.cache` keys the cache's folder on every
+kernel module's bytes).  This package holds
 the Python classes that own the kernels' arrays, validate their parameters
 and call them (stumpy's split of a kernel from its public wrapper):
 

@@ -1,0 +1,237 @@
+"""numba's on-disk cache of the kernels, in a folder keyed on their sources.
+
+The kernels are ``@njit(cache=True)`` and call each other across files
+(:mod:`~synth.kernels.render` calls and inlines :mod:`~synth.kernels.strings`,
+which calls :mod:`~synth.kernels.felt_layer` and the intrinsics of
+:mod:`~synth.kernels.lanes`; all read the flags and target constants of
+:mod:`~synth.kernels.config`).  numba checks a cached function against the
+one file that defines it (its modification time and size in older numba,
+a hash of its bytes in 0.68), never against the files it calls into: an
+edit to ``strings.py`` left ``render.py``'s entries valid in numba's eyes,
+and they went on running the old ``strings`` code.  So the whole cache of
+the package goes into a folder named from a hash of the bytes (and names)
+of every module in it, ``synth-kernels-<16 hex digits of sha256>``: any edit
+to any kernel module gives a fresh folder, and no entry compiled from other
+sources can be found.  Only ``synth/kernels`` is hashed: no other module of
+``synth`` has numba code (``tests/test_kernel_cache.py`` checks that), and
+``tests/test_layers.py`` keeps the kernels from importing other layers.
+
+Where the folder goes, in numba's own order of cache locations:
+
+1. ``$NUMBA_CACHE_DIR/synth-kernels-<hash>`` when the user set
+   ``NUMBA_CACHE_DIR`` (or ``numba.config.CACHE_DIR``) before importing the
+   kernels: the CI and ``tools/cpu_target.py`` (one base per numba code
+   target) rely on it, and each gets its keyed folder under its own base.
+2. Else ``synth/kernels/__pycache__/synth-kernels-<hash>``, next to the
+   sources, where numba put the kernels' cache before: a checkout (or
+   worktree, or virtual environment) keeps its compiled kernels to itself,
+   they go when it is deleted, and pruning only sees that checkout's old
+   folders (in one user-wide folder, several checkouts in use would evict
+   each other's and recompile in turn, and deleted checkouts would leave
+   theirs behind).
+3. Else, when the package's folder is not writable (a system-wide install),
+   numba's user-wide cache folder (``~/.cache/numba`` on Linux, honouring
+   ``XDG_CACHE_HOME``; the platform's equivalent elsewhere), where numba
+   itself falls back.
+
+The first of these that can be created and written is used (numba's test: a
+temporary file in it).  If none can, or the sources are not on disk, nothing
+is changed and numba keeps its default, unkeyed, cache.
+
+How it is applied: numba builds a function's cache locator when the
+``@njit(cache=True)`` decorator runs, reading ``numba.config.CACHE_DIR``
+then; setting it later, even before the first compile, changes nothing for
+functions already decorated.  And numba re-reads its ``NUMBA_*``
+environment variables before each compile when one of them changed, which
+would reset a ``CACHE_DIR`` set in code.  So :func:`load_keyed` sets
+``numba.config.CACHE_DIR`` to the keyed folder, imports every module of the
+package at once (every decorator runs within that window), and puts the
+user's value back: code outside the kernels, and other libraries' numba
+functions, keep their own cache location.  ``synth/kernels/__init__.py``
+calls it, so importing any kernel module imports them all (about 15 ms
+beyond ``strings``, which every user of the kernels imports anyway).
+
+Old folders: each load marks its folder as used (its modification time) and
+deletes the siblings of the same name pattern beyond the :data:`KEEP` most
+recently used, never the current one and never anything else in the base
+folder; a failure to delete is ignored (numba recreates a folder deleted
+under a running process and only recompiles).  A cache of the kernels
+takes a few tens of MB (17 MB after one sitar note).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import os
+import pkgutil
+import re
+import shutil
+import tempfile
+from pathlib import Path
+
+#: name of the keyed folder of ``synth.kernels``: ``synth-kernels-<hash>``
+NAME = "synth-kernels"
+#: hex digits of the sha256 of the sources kept in the folder's name
+DIGEST_CHARS = 16
+#: keyed folders kept in one base folder, the current one included
+KEEP = 3
+
+
+def source_files(folder: str | os.PathLike) -> list[Path]:
+    """The modules hashed for ``folder``: its ``*.py`` files (one level, as
+    :func:`load_keyed` imports them), sorted by name."""
+    return sorted(Path(folder).glob("*.py"), key=lambda p: p.name)
+
+
+def source_digest(folder: str | os.PathLike) -> str:
+    """First :data:`DIGEST_CHARS` hex digits of the sha256 of the names and
+    bytes of :func:`source_files` of ``folder``; an empty string if it has
+    none."""
+    files = source_files(folder)
+    if not files:
+        return ""
+    h = hashlib.sha256()
+    for p in files:
+        data = p.read_bytes()
+        name = p.name.encode()
+        h.update(len(name).to_bytes(8, "little") + name)
+        h.update(len(data).to_bytes(8, "little") + data)
+    return h.hexdigest()[:DIGEST_CHARS]
+
+
+def folder_name(name: str, digest: str) -> str:
+    """The keyed folder's name, ``<name>-<digest>``."""
+    return f"{name}-{digest}"
+
+
+def user_cache_base() -> Path:
+    """numba's user-wide cache folder (where numba falls back when a
+    module's ``__pycache__`` is not writable)."""
+    try:
+        from numba.misc.appdirs import AppDirs
+
+        return Path(AppDirs(appname="numba", appauthor=False).user_cache_dir)
+    except Exception:  # pragma: no cover - numba without its appdirs copy
+        xdg = os.environ.get("XDG_CACHE_HOME")
+        return Path(xdg) / "numba" if xdg else Path.home() / ".cache" / "numba"
+
+
+def candidate_bases(folder: str | os.PathLike, user_base: str | os.PathLike | None) -> list[Path]:
+    """Base folders to try, in order: ``user_base`` (``NUMBA_CACHE_DIR``) if
+    set, ``folder/__pycache__``, :func:`user_cache_base`."""
+    bases = [Path(user_base)] if user_base else []
+    return bases + [Path(folder) / "__pycache__", user_cache_base()]
+
+
+def _writable(path: Path) -> bool:
+    """Create ``path`` and write a temporary file in it (numba's test)."""
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        tempfile.TemporaryFile(dir=path).close()
+    except OSError:
+        return False
+    return True
+
+
+def choose_dir(folder: str | os.PathLike, name: str = NAME,
+               user_base: str | os.PathLike | None = None) -> Path | None:
+    """The keyed cache folder for the sources in ``folder``: the first of
+    :func:`candidate_bases` ``/ <name>-<digest>`` that can be created and
+    written (it is created), or None if none can or ``folder`` has no
+    sources.
+
+    Raises
+    ------
+    ValueError
+        If ``name`` is empty or holds a path separator.
+    """
+    if not name or os.sep in name or "/" in name:
+        raise ValueError(f"name = {name!r} must be a non-empty folder name (no path separator)")
+    digest = source_digest(folder)
+    if not digest:
+        return None
+    for base in candidate_bases(folder, user_base):
+        path = base / folder_name(name, digest)
+        if _writable(path):
+            return path
+    return None
+
+
+def prune(current: str | os.PathLike, name: str = NAME, keep: int = KEEP) -> list[Path]:
+    """Delete the siblings of ``current`` named ``<name>-<digest>`` beyond the
+    ``keep`` most recently used (modification time), counting ``current``,
+    which is never deleted.  Other entries of the parent folder are left
+    alone.  Never raises for a file-system error: what cannot be listed or
+    deleted stays.
+
+    Returns
+    -------
+    list of Path
+        The folders deleted.
+
+    Raises
+    ------
+    ValueError
+        If ``keep`` < 1.
+    """
+    if keep < 1:
+        raise ValueError(f"keep = {keep!r} must be >= 1 (the current folder is always kept)")
+    current = Path(current)
+    pattern = re.compile(re.escape(name) + "-[0-9a-f]{%d}" % DIGEST_CHARS)
+    try:
+        siblings = []
+        for entry in os.scandir(current.parent):
+            if (entry.name != current.name and pattern.fullmatch(entry.name)
+                    and entry.is_dir(follow_symlinks=False)):
+                siblings.append((entry.stat(follow_symlinks=False).st_mtime, entry.path))
+    except OSError:
+        return []
+    siblings.sort(reverse=True)
+    deleted = []
+    for _, path in siblings[keep - 1:]:
+        try:
+            shutil.rmtree(path)
+        except OSError:
+            continue
+        deleted.append(Path(path))
+    return deleted
+
+
+def load_keyed(package: str, folder: str | os.PathLike, name: str = NAME,
+               keep: int = KEEP) -> Path | None:
+    """Import every module of ``package`` (its files in ``folder``) with
+    numba's cache in the folder keyed on their sources (:func:`choose_dir`,
+    the user's ``numba.config.CACHE_DIR`` as first base), then restore
+    ``numba.config.CACHE_DIR``, mark the folder used and :func:`prune` its
+    old siblings.  Call it from the package's ``__init__``, before any of
+    its modules is imported.
+
+    Returns
+    -------
+    Path or None
+        The keyed folder, or None if none could be used (the modules are
+        imported all the same, with numba's default cache).
+    """
+    from numba.core import config as nbconfig
+
+    # numba re-reads its NUMBA_* variables before a compile when one changed
+    # since it last read them; reading them now keeps that from resetting
+    # CACHE_DIR while the modules are decorated
+    nbconfig.reload_config()
+    user_base = nbconfig.CACHE_DIR
+    path = choose_dir(folder, name, user_base)
+    if path is not None:
+        nbconfig.CACHE_DIR = str(path)
+    try:
+        for mod in pkgutil.iter_modules([str(folder)]):
+            importlib.import_module(f"{package}.{mod.name}")
+    finally:
+        nbconfig.CACHE_DIR = user_base
+    if path is not None:
+        try:
+            os.utime(path)
+        except OSError:
+            pass
+        prune(path, name, keep)
+    return path

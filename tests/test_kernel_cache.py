@@ -1,0 +1,287 @@
+"""numba's cache of the kernels sits in a folder keyed on their sources
+(:mod:`synth.kernels.cache`), so an edit to a callee's file cannot leave a
+caller's stale machine code in use."""
+
+import ast
+import os
+import re
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from synth.kernels import cache as C
+
+ROOT = Path(__file__).resolve().parents[1]
+KERNELS = ROOT / "synth" / "kernels"
+KEYED = re.compile(r"synth-kernels-[0-9a-f]{16}")
+
+
+def _env(tmp_path, cache=None, **extra):
+    """This process's environment with the checkout and ``tmp_path`` on the
+    path and ``NUMBA_CACHE_DIR`` = ``cache`` (removed if None)."""
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT), str(tmp_path)]), **extra)
+    env.pop("NUMBA_CACHE_DIR", None)
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = str(cache)
+    return env
+
+
+def _run(code, env, cwd):
+    r = subprocess.run([sys.executable, "-c", textwrap.dedent(code)], env=env, cwd=str(cwd),
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    return r.stdout.strip().splitlines()
+
+
+# ---- the key ------------------------------------------------------------------------------
+def test_digest_changes_with_any_kernel_source(tmp_path):
+    """A copy of the sources has the real digest; a one-byte edit of any one
+    module, a new module or a renamed one each give another; touching a file
+    (a new mtime, the same bytes) does not."""
+    copy = tmp_path / "kernels"
+    copy.mkdir()
+    files = C.source_files(KERNELS)
+    assert {"strings.py", "render.py", "config.py", "lanes.py", "felt_layer.py",
+            "cache.py", "__init__.py"} <= {p.name for p in files}
+    for p in files:
+        shutil.copyfile(p, copy / p.name)
+    base = C.source_digest(copy)
+    assert base == C.source_digest(KERNELS)
+    assert re.fullmatch(r"[0-9a-f]{16}", base)
+    seen = {base}
+    for p in files:
+        q = copy / p.name
+        data = q.read_bytes()
+        q.write_bytes(data.replace(b"def ", b"def  ", 1) if b"def " in data else data + b"\n")
+        d = C.source_digest(copy)
+        assert d not in seen, p.name
+        seen.add(d)
+        q.write_bytes(data)
+    assert C.source_digest(copy) == base
+    os.utime(copy / "strings.py", (1, 1))
+    assert C.source_digest(copy) == base
+    (copy / "extra.py").write_text("X = 1\n")
+    assert C.source_digest(copy) != base
+    (copy / "extra.py").rename(copy / "extra2.py")
+    assert C.source_digest(copy) not in (base, C.source_digest(KERNELS))
+    (copy / "notes.txt").write_text("not a module\n")         # only modules count
+    (copy / "extra2.py").unlink()
+    assert C.source_digest(copy) == base
+
+
+COMPILERS = {"njit", "jit", "vectorize", "guvectorize", "cfunc", "stencil", "generated_jit",
+             "overload", "intrinsic"}
+
+
+def _numba_sites(path):
+    """Lines of ``path`` that call or decorate with a numba compiler."""
+    def name(node):
+        return node.attr if isinstance(node, ast.Attribute) else getattr(node, "id", None)
+
+    sites = []
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Call) and name(node.func) in COMPILERS or (
+                isinstance(node, (ast.FunctionDef, ast.ClassDef))
+                and any(name(d.func if isinstance(d, ast.Call) else d) in COMPILERS
+                        for d in node.decorator_list)):
+            sites.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    return sites
+
+
+def test_no_numba_code_outside_kernels():
+    """Only ``synth/kernels`` is hashed: no other module of ``synth`` may
+    compile numba functions (they could be cached, or call a kernel)."""
+    assert _numba_sites(KERNELS / "energy.py")            # the check sees a kernel
+    assert _numba_sites(KERNELS / "lanes.py")             # and an intrinsic
+    outside = [site for p in (ROOT / "synth").rglob("*.py") if KERNELS not in p.parents
+               for site in _numba_sites(p)]
+    assert outside == []
+
+
+def test_every_kernel_is_cached_in_the_keyed_folder():
+    """Every cached dispatcher of every kernel module (the lazily imported
+    ones too) has its locator in :func:`synth.kernels.cache_dir`."""
+    import synth.kernels as K
+    from numba.core.registry import CPUDispatcher
+
+    folder = K.cache_dir()
+    assert folder is not None and KEYED.fullmatch(folder.name)
+    assert folder.name.endswith(C.source_digest(KERNELS))
+    n = 0
+    for mod in [m for name, m in sys.modules.items() if name.startswith("synth.kernels.")]:
+        for obj in vars(mod).values():
+            if isinstance(obj, CPUDispatcher) and obj.__module__ == mod.__name__:
+                if obj._cache.__class__.__name__ == "NullCache":
+                    continue
+                assert Path(obj._cache.cache_path).parent == folder, (mod.__name__, obj)
+                n += 1
+    assert n > 50
+
+
+# ---- where it goes ------------------------------------------------------------------------
+PRINT_DIR = """
+    import numba, synth.kernels as K
+    from synth.kernels import strings
+    print(K.cache_dir())
+    print(strings.felt_layer_step._cache.cache_path)
+    print(numba.config.CACHE_DIR)
+"""
+
+
+def test_folder_stable_across_processes_and_under_numba_cache_dir(tmp_path):
+    """Two fresh processes with the same sources pick the same folder, named
+    from the sources' digest, under ``NUMBA_CACHE_DIR``; numba's setting is
+    the user's again once the kernels are imported."""
+    base = tmp_path / "nc"
+    a = _run(PRINT_DIR, _env(tmp_path, base), tmp_path)
+    b = _run(PRINT_DIR, _env(tmp_path, base), tmp_path)
+    assert a == b
+    folder = Path(a[0])
+    assert folder == base / f"synth-kernels-{C.source_digest(KERNELS)}"
+    assert folder.is_dir()
+    assert Path(a[1]).parent == folder
+    assert a[2] == str(base)
+    # a target of tools/cpu_target.py (its own NUMBA_CACHE_DIR) gets its own folder
+    c = _run(PRINT_DIR, _env(tmp_path, base / "haswell"), tmp_path)
+    assert Path(c[0]) == base / "haswell" / folder.name
+
+
+def test_default_folder_chain(tmp_path, monkeypatch):
+    """Without NUMBA_CACHE_DIR: the package's ``__pycache__``, else numba's
+    user-wide folder; NUMBA_CACHE_DIR first when set; None when nothing is
+    writable or there are no sources."""
+    pkg = tmp_path / "pkg"
+    pkg.mkdir()
+    (pkg / "m.py").write_text("X = 1\n")
+    name = "synth-kernels-" + C.source_digest(pkg)
+    user = tmp_path / "user"
+    monkeypatch.setattr(C, "user_cache_base", lambda: user)
+    assert C.choose_dir(pkg) == pkg / "__pycache__" / name
+    assert C.choose_dir(pkg, user_base=tmp_path / "nc") == tmp_path / "nc" / name
+    shutil.rmtree(pkg / "__pycache__")
+    (pkg / "__pycache__").write_text("")          # not a folder: in-tree cannot be used
+    assert C.choose_dir(pkg) == user / name
+    (tmp_path / "blocked").write_text("")
+    monkeypatch.setattr(C, "user_cache_base", lambda: tmp_path / "blocked")
+    assert C.choose_dir(pkg) is None
+    assert C.choose_dir(tmp_path / "empty") is None
+    with pytest.raises(ValueError, match="name = 'a/b'"):
+        C.choose_dir(pkg, name="a/b")
+
+
+# ---- pruning ------------------------------------------------------------------------------
+def test_prune_keeps_the_newest_and_the_current(tmp_path):
+    names = [f"synth-kernels-{i:016x}" for i in range(6)]
+    for i, n in enumerate(names):
+        (tmp_path / n).mkdir()
+        (tmp_path / n / "f.nbi").write_text("x")
+        os.utime(tmp_path / n, (1000 + i, 1000 + i))
+    others = ["synth-kernels-old", "kernels_0123", "synth-kernels-0000000000000000x"]
+    for n in others:
+        (tmp_path / n).mkdir()
+        os.utime(tmp_path / n, (1, 1))
+    (tmp_path / "synth-kernels-00000000000000ff").write_text("a file, not ours")
+    os.utime(tmp_path / "synth-kernels-00000000000000ff", (1, 1))
+    current = tmp_path / names[0]                 # the oldest: still never deleted
+    deleted = C.prune(current, keep=3)
+    assert sorted(p.name for p in deleted) == sorted(names[1:4])
+    left = sorted(p.name for p in tmp_path.iterdir())
+    assert left == sorted([names[0], names[4], names[5], *others, "synth-kernels-00000000000000ff"])
+    assert C.prune(current, keep=1) == [tmp_path / names[5], tmp_path / names[4]]
+    assert C.prune(tmp_path / "missing" / names[0]) == []    # no parent: no error
+    with pytest.raises(ValueError, match="keep = 0"):
+        C.prune(current, keep=0)
+
+
+def test_prune_ignores_what_it_cannot_delete(tmp_path, monkeypatch):
+    for i in range(3):
+        (tmp_path / f"synth-kernels-{i:016x}").mkdir()
+        os.utime(tmp_path / f"synth-kernels-{i:016x}", (1000 + i, 1000 + i))
+
+    def refuse(path):
+        raise PermissionError(path)
+
+    monkeypatch.setattr(C.shutil, "rmtree", refuse)
+    assert C.prune(tmp_path / f"synth-kernels-{2:016x}", keep=1) == []
+    assert len(list(tmp_path.iterdir())) == 3
+
+
+# ---- end to end: a caller in one file, its callee in another -------------------------------
+CALLER = """
+    from numba import njit
+    from .callee import k
+
+
+    @njit(cache=True)
+    def f():
+        return k() + 0.5
+"""
+CALLEE = """
+    from numba import njit
+
+
+    @njit(cache=True)
+    def k():
+        return {value}
+"""
+KEYED_INIT = """
+    from pathlib import Path
+    from synth.kernels.cache import load_keyed
+
+    DIR = load_keyed(__name__, Path(__file__).parent, name="toy")
+"""
+RUN = """
+    import keyed.caller, plain.caller
+    for c in (keyed.caller, plain.caller):
+        print(c.f(), sum(c.f.stats.cache_hits.values()), c.f._cache.cache_path)
+"""
+
+
+def _toy(root, pkg, init, value):
+    d = root / pkg
+    d.mkdir(exist_ok=True)
+    (d / "__init__.py").write_text(textwrap.dedent(init))
+    (d / "caller.py").write_text(textwrap.dedent(CALLER))
+    (d / "callee.py").write_text(textwrap.dedent(CALLEE).format(value=value))
+
+
+@pytest.mark.parametrize("numba_cache_dir", [True, False], ids=["NUMBA_CACHE_DIR", "default"])
+def test_callee_edit_gives_fresh_code(tmp_path, numba_cache_dir):
+    """The toy package ``keyed`` loads its modules with :func:`load_keyed`;
+    ``plain`` (the control) is the same without it.  After the callee's
+    value changes from 1.0 to 2.0, ``plain``'s caller still returns 1.5 from
+    numba's cache (the bug), ``keyed``'s compiles afresh and returns 2.5;
+    both load from the cache when nothing changed."""
+    nc = tmp_path / "nc" if numba_cache_dir else None
+    env = _env(tmp_path, nc)
+    for pkg, init in (("keyed", KEYED_INIT), ("plain", "")):
+        _toy(tmp_path, pkg, init, "1.0")
+
+    def run():
+        out = []
+        for line in _run(RUN, env, tmp_path):
+            value, hits, path = line.split()
+            out.append((float(value), int(hits), Path(path)))
+        return out
+
+    (k1, p1), (k2, p2) = run(), run()
+    assert k1[:2] == p1[:2] == (1.5, 0)                  # compiled
+    assert k2[:2] == p2[:2] == (1.5, 1)                  # loaded from the cache
+    folder = k1[2].parent
+    assert re.fullmatch(r"toy-[0-9a-f]{16}", folder.name)
+    assert folder.parent == (nc if nc else tmp_path / "keyed" / "__pycache__")
+    assert "toy-" not in str(p1[2])                      # the user's setting is back
+
+    for pkg in ("keyed", "plain"):
+        (tmp_path / pkg / "callee.py").write_text(textwrap.dedent(CALLEE).format(value="2.0"))
+    k3, p3 = run()
+    assert p3[:2] == (1.5, 1)                            # numba alone: stale
+    assert k3[:2] == (2.5, 0)                            # a fresh folder, compiled
+    assert k3[2].parent != folder and k3[2].parent.parent == folder.parent
+    k4, _ = run()
+    assert k4[:2] == (2.5, 1)
+    assert folder.is_dir()                               # kept: within KEEP
