@@ -110,6 +110,11 @@ def _write(path: str, audio: np.ndarray, fs: int, pcm24: bool) -> str:
 def cmd_presets(args) -> int:
     from .io.presets import ENV_PRESET_PATH, list_presets, preset_dirs
 
+    if getattr(args, "reference", False):
+        from .io.presets.reference import reference_markdown
+
+        sys.stdout.write(reference_markdown())
+        return 0
     items = list_presets()
     if not items:
         # an install without its package data, or an empty SYNTH_PRESET_PATH
@@ -597,6 +602,9 @@ def build_parser() -> argparse.ArgumentParser:
     d.set_defaults(func=cmd_demo)
 
     ps = sub.add_parser("presets", help="list presets with a one-line description")
+    ps.add_argument("--reference", action="store_true",
+                    help="instead: print every key a preset file may hold (meaning, unit, type, "
+                         "range, default, when it applies) as Markdown, the text of docs/presets.md")
     ps.set_defaults(func=cmd_presets)
 
     n = sub.add_parser("note", help="render one note of a preset to a WAV file")
