@@ -160,10 +160,9 @@ def cmd_note(args) -> int:
                                     probe=(args.probe is not None or args.hammer_log is not None
                                            or args.contact_log is not None),
                                     low_key=low, rate=rate)
-    if args.hammer_speed is not None and preset.voice == "plucked":
-        _fail(f"--hammer-speed: {args.preset} is a plucked preset (voice = plucked): it has no hammer")
-    if args.hammer_log is not None and preset.voice == "plucked":
-        _fail(f"--hammer-log: {args.preset} is a plucked preset (voice = plucked): it has no hammer")
+    for opt, given in (("--hammer-speed", args.hammer_speed), ("--hammer-log", args.hammer_log)):
+        if given is not None and not inst.struck:
+            _fail(f"{opt}: {args.preset} is plucked (voice = {preset.voice}): it has no hammer")
     if preset.kind == "musical" and args.key is None and args.f0 is None:
         _fail(f"{args.preset} is a musical preset: give --key or --f0")
     if preset.kind == "musical" and args.key is not None:

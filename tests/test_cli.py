@@ -238,6 +238,35 @@ def test_key_outside_the_preset_range(capsys, key, fragments):
     assert os.listdir(".") == []
 
 
+@pytest.mark.parametrize("preset,key,opt", [
+    ("harpsichord", "60", ["--hammer-log", "strike.csv"]),
+    ("harpsichord", "60", ["--hammer-speed", "3"]),
+    ("sitar", "57", ["--hammer-log", "strike.csv"]),
+    ("paper/biwa-ideal", None, ["--hammer-speed", "3"]),
+])
+def test_hammer_options_on_a_plucked_voice_fail_before_rendering(capsys, preset, key, opt):
+    """The voice says whether a hammer strikes its notes (``Voice.struck``),
+    not the preset's ``voice`` name: the harpsichord (voice "harpsichord")
+    is plucked too, and used to write its WAV and then fail with "the
+    hammer never touched the string"."""
+    argv = ["note", preset, *(["--key", key] if key else []), "--seconds", "0.1", *opt,
+            "-o", "x.wav"]
+    rc, _, err = run(capsys, *argv)
+    assert_user_error(rc, err, opt[0], preset, "no hammer")
+    assert os.listdir(".") == []
+
+
+def test_struck_voices_say_so():
+    from synth.io.factory import build_voice
+
+    assert build_voice("grand-piano", []).struck
+    assert build_voice("hammered-sitar", []).struck
+    assert build_voice("paper/piano-a7-ideal", []).struck
+    assert not build_voice("harpsichord", []).struck
+    assert not build_voice("sitar", []).struck
+    assert not build_voice("biwa", []).struck
+
+
 def test_unknown_preset_suggests_a_name(capsys):
     rc, _, err = run(capsys, "note", "sitr", "--key", "60", "--seconds", "0.1", "-o", "x.wav")
     assert_user_error(rc, err, "unknown preset 'sitr'", "did you mean 'sitar'")

@@ -172,6 +172,9 @@ class Voice:
     buses: ClassVar[int] = 1
     DEFAULT_RATE: ClassVar[float] = 325_000.0
     study: bool = False
+    #: whether a hammer strikes the notes (a hammer speed, the strike's log
+    #: and the hammer's contact telemetry apply); plucked voices: False
+    struck: bool = False
 
     def __init__(self, preset, fs_internal: float | None = None):
         if preset.voice not in self.names:

@@ -151,6 +151,7 @@ class GrandPianoInstrument(Voice):
     KEY_LOW, KEY_HIGH = 21, 108
     strings_per_voice = 3
     buses = 2
+    struck = True
 
     def __init__(self, preset, fs_internal: float | None = None):
         super().__init__(preset, fs_internal)

@@ -131,6 +131,7 @@ class OneStringVoice(Voice):
         sp = preset.string
         self.open_string = IdealString(sp.length_m, sp.tension_n, sp.linear_density_kg_per_m)
         self.study = preset.kind == "study"
+        self.struck = preset.voice == "piano"
         c = self.open_string.c_m_per_s
         if self.study:
             cells = preset.grid.cells
