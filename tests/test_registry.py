@@ -85,19 +85,39 @@ def test_a_new_profile_is_one_registration():
 
 
 def test_excitation_kinds_are_named_once():
-    """No module but the kernel defines an excitation kind: the bank, the
-    voices and the exciters use K.EXC_*; no bare 1..5 compares or stores
-    of I_EXC remain in them."""
-    kinds = {K.EXC_ENDED, K.EXC_NONE, K.EXC_SITAR, K.EXC_BIWA, K.EXC_GTABLE, K.EXC_HAMMER3,
-             K.EXC_HAMMER4}
-    assert kinds == {-1, 0, 1, 2, 3, 4, 5}
-    for path in [SYNTH / "dsp" / "bank.py", *sorted((SYNTH / "voices").glob("*.py"))]:
+    """No module but the kernel defines an excitation kind: every kind is a
+    distinct ``K.EXC_*`` value (all of them, read from the kernel, so a new
+    kind is covered), no other synth module assigns an ``EXC_*`` name, and
+    the bank, the voices and the exciters store and compare ``I_EXC`` only
+    through them: no bare literal next to ``I_EXC`` or as a hammer ``law``."""
+    kinds = {n: getattr(K, n) for n in dir(K) if n.startswith("EXC_")}
+    assert {"EXC_ENDED", "EXC_NONE", "EXC_SITAR", "EXC_BIWA", "EXC_GTABLE", "EXC_HAMMER3",
+            "EXC_HAMMER4", "EXC_FELT"} <= set(kinds)
+    assert len(set(kinds.values())) == len(kinds), f"two kinds share a value: {kinds}"
+    for path in sorted(SYNTH.rglob("*.py")):
+        rel = path.relative_to(SYNTH).as_posix()
+        if rel.startswith("kernels/"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Assign):
+                for t in node.targets:
+                    if isinstance(t, ast.Name) and t.id.startswith("EXC_"):
+                        pytest.fail(f"{rel}:{node.lineno}: defines {t.id} outside the kernel")
+    for path in [SYNTH / "dsp" / "bank.py", SYNTH / "dsp" / "excitation.py",
+                 *sorted((SYNTH / "voices").glob("*.py"))]:
+        if not path.is_file():
+            continue
         tree = ast.parse(path.read_text())
         for node in ast.walk(tree):
-            # ip[K.I_EXC] = 3, law=4, ... : a literal next to I_EXC or law
+            # ip[K.I_EXC] = 3, law=4, ip[K.I_EXC] == 4 ... : a literal next to I_EXC or law
             if isinstance(node, ast.Assign) and isinstance(node.value, ast.Constant) \
                     and "I_EXC]" in ast.unparse(node.targets[0]):
                 pytest.fail(f"{path.name}:{node.lineno}: a literal excitation kind")
+            if isinstance(node, ast.Compare):
+                sides = [node.left, *node.comparators]
+                if any("I_EXC]" in ast.unparse(x) for x in sides) and any(
+                        isinstance(x, ast.Constant) and isinstance(x.value, int) for x in sides):
+                    pytest.fail(f"{path.name}:{node.lineno}: I_EXC compared with a literal")
             if isinstance(node, ast.keyword) and node.arg == "law":
                 assert not isinstance(node.value, ast.Constant), f"{path.name}:{node.lineno}"
 

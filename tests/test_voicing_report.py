@@ -1,10 +1,13 @@
 """tools/voicing_report.py: its measures on closed-form signals, and the
 quick report end to end."""
 
+import importlib.util
 import json
+import os
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -71,8 +74,11 @@ def test_the_table_lists_every_row_and_its_details():
 @pytest.mark.slow  # ~15 s on a quiet 2-core machine: ~100 notes and 5 x 4 s of the MIDI files
 def test_the_quick_report_runs_and_prints_its_table(tmp_path):
     out = tmp_path / "r.json"
+    # the plots need the [plots] extra: without matplotlib the report runs
+    # without them (and says so when asked for them, test below)
+    plots = importlib.util.find_spec("matplotlib") is not None
     p = subprocess.run([sys.executable, str(ROOT / "tools" / "voicing_report.py"), "--quick", "--silent",
-                        "--json", str(out), "--plots", str(tmp_path / "img")],
+                        "--json", str(out)] + (["--plots", str(tmp_path / "img")] if plots else []),
                        capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert p.returncode == 0, p.stderr
     targets = ["C4 loudness, velocity 1 to 127", "partials 2-8", "adjacent keys", "smooth fit",
@@ -92,8 +98,28 @@ def test_the_quick_report_runs_and_prints_its_table(tmp_path):
     assert r["schema"] == 1 and r["quick"] is True
     assert {row["status"] for row in r["rows"]} <= {"PASS", "FAIL", "INFO", "SKIP"}
     assert len(r["data"]["keyboard"]["loudness_lufs"]["80"]) == len(vr.QUICK_KEYS)
-    pngs = sorted((tmp_path / "img").glob("*.png"))
-    assert len(pngs) == 5 and all(png.stat().st_size < 100_000 for png in pngs)
+    if plots:
+        pngs = sorted((tmp_path / "img").glob("*.png"))
+        assert len(pngs) == 5 and all(png.stat().st_size < 100_000 for png in pngs)
+
+
+def test_plots_without_matplotlib_is_one_line_before_any_work(tmp_path):
+    """--plots without the [plots] extra stops at once with the install hint
+    (a module path whose ``matplotlib`` cannot be found stands in for a
+    machine without it)."""
+    hide = tmp_path / "hide"
+    hide.mkdir()
+    (hide / "sitecustomize.py").write_text("import sys\nsys.modules['matplotlib'] = None\n")
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(hide), str(ROOT)]))
+    t = time.perf_counter()
+    p = subprocess.run([sys.executable, str(ROOT / "tools" / "voicing_report.py"), "--quick",
+                        "--plots", str(tmp_path / "img")], capture_output=True, text=True,
+                       cwd=tmp_path, env=env, timeout=120)
+    assert p.returncode == 2
+    assert p.stderr.strip().splitlines() == [
+        'error: --plots needs the [plots] extra: pip install "synth[plots]"']
+    assert time.perf_counter() - t < 60          # no notes were rendered
+    assert not (tmp_path / "img").exists()
 
 
 def test_an_earlier_report_is_a_column():

@@ -904,6 +904,13 @@ def main(argv=None) -> int:
                     "docs/voicing-before.json): its figures as a column")
     ap.add_argument("--silent", action="store_true", help="no progress on stderr")
     a = ap.parse_args(argv)
+    if a.plots:
+        try:                    # before the work, not after it
+            import matplotlib  # noqa: F401
+        except ImportError:
+            print('error: --plots needs the [plots] extra: pip install "synth[plots]"',
+                  file=sys.stderr)
+            return 2
     before = None
     if a.before:
         try:
