@@ -21,8 +21,8 @@ from synth.kernels import strings as K
 from synth.physics.profiles import buzz_profile, jawari, jawari_angle
 from synth.voices.exciters import Pluck
 
-#: the sitar on an open jawari and a stiff steel wire (docs/voicing.md, "Voicing
-#: the sitar"): the voicing measured for issue 12, as overrides of the preset
+#: the sitar on an open jawari and a stiff steel wire (docs/voicing.md, "How the
+#: buzz is made"): the voicing measured for issue 12, as overrides of the preset
 OPEN = ["termination.profile=jawari", "termination.radius_m=0.5", "termination.extent_m=0.02",
         "termination.thread_m=0.0004", "termination.region_points=48",
         "string.inharmonicity=1.5e-5"]
@@ -84,7 +84,8 @@ def _high_band_db(y, fs, t0=0.05, t1=0.5, f_cut=1000.0):
 def test_the_high_band_grows_with_the_buzz(key):
     """The energy above 1 kHz (50-500 ms, velocity 80) rises with the buzz
     until it saturates, no step down by more than 1 dB, and its share of
-    the note's energy rises at every step (docs/voicing.md, "Key 74").
+    the note's energy rises at every step (docs/lab/2026-11-voicing-notebook.md,
+    "Key 74: monotonic only within 1 dB").
 
     Key 46 rises at every step, key 62 levels off from 0.75.  Key 74
     reaches its level at 0.25 and then loses 0.6 dB from 0.5 to 1: there

@@ -59,7 +59,7 @@ EXTRA_DOCS: dict[str, dict] = {
         "play": {"key_low": 43, "key_high": 74, "velocity_exponent": 1.0, "polyphony": 16,
                  "pitch_bend_semitones": 2.0},
     },
-    # the open jawari of docs/voicing.md ("Voicing the sitar"), with every optional key
+    # the open jawari of docs/voicing.md ("How the buzz is made"), with every optional key
     "extra/sitar-open-jawari": {
         "schema": 1,
         "description": "Sitar string grazing an open jawari, stiff steel",

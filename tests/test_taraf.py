@@ -69,7 +69,7 @@ def test_each_taraf_string_touches_its_own_jawari():
     125 N s/m (coupling 4, toward the tabli's own; measured 0.35 s); a
     thread of 3 mm (a closed jawari) lifts the strings clear of it.  (On
     the one-way bridge before, at 1000 N s/m, none touched it:
-    docs/voicing.md, "Taraf".)"""
+    docs/lab/2026-11-voicing-notebook.md, "Taraf and chikari".)"""
     def contact(ov):
         eng = engine("sitar", ov)
         eng.taraf.wake()                # the strings set up, to count from the start
@@ -188,7 +188,7 @@ def test_the_cost_benchmark_runs_in_its_quick_mode():
 
 
 def test_the_bridge_study_runs_in_its_quick_mode():
-    """tools/taraf_bridge.py (docs/voicing.md, "Choosing the bridge") in
+    """tools/taraf_bridge.py (docs/voicing.md, "Taraf and chikari") in
     CI's quick mode: the shipped bridge keeps keys 60 and 72 within 1 cent
     and the halo far above the string alone's."""
     import subprocess

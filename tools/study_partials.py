@@ -1,4 +1,6 @@
-"""Studies behind docs/voicing.md's "misses that remain" (issue 11).
+"""Studies behind the grand's fit to a recorded grand (issue 11; docs/voicing.md, "Fitted to
+a recorded grand"; their history: docs/lab/2026-11-voicing-notebook.md, "The misses that
+remain, and what was tried").
 
     python tools/study_partials.py decay --real node_modules/@audio-samples [--keys 48,51,...]
     python tools/study_partials.py ratios --real node_modules/@audio-samples

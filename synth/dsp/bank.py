@@ -832,7 +832,8 @@ class StringBank(Excitations, Bridges):
         the coarser step's; the loss keeps its damper's share (b0 over the
         undamped b0).  ``tools/study_capo.py switch`` measured the scheme
         on the numpy reference string: the wave at the far end within -54
-        to -66 dB of the fine string's own continuation (docs/voicing.md)."""
+        to -66 dB of the fine string's own continuation (docs/voicing.md,
+        "The capo bar")."""
         slots = [int(s) for s in slots]
         if len(templates) != len(slots) or len(damper_rows) != len(slots):
             raise ValueError(f"slots, templates and damper_rows have lengths {len(slots)}, "

@@ -18,14 +18,14 @@ every string's end follows, sample by sample in one kernel call
 the note takes its energy from the played string (and gives it back), and
 the drones and the taraf hear each other.
 
-(Before 2026-11-25 the coupling was one-way: the taraf, at 4 x 48 kHz in a
-bank of their own, followed the bridge that the played strings' decimated
-force moved, and the played string never felt them.  A unison taraf string
-then built up, without taking the energy from the note, to a force as large
-as the note's and opposite to it, and only a bridge 10-30 times stiffer
-than the tabli kept the note in tune: docs/voicing.md, "Taraf and
-chikari".  The played string cannot feel them through a bridge a block
-behind it, and one kernel steps one rate, hence one bank.)
+(Why one bank: a one-way coupling, the taraf at 4 x 48 kHz in a bank of
+their own following a bridge moved by the played strings' decimated force,
+lets a unison taraf string build up, without taking the energy from the
+note, to a force as large as the note's and opposite to it, and only a
+bridge 10-30 times stiffer than the tabli keeps the note in tune.  The
+played string cannot feel them through a bridge a block behind it, and one
+kernel steps one rate, hence one bank; docs/voicing.md, "Taraf and
+chikari".)
 
 When they render.  A note-on (of the played string or a stroke) starts the
 resting strings, joined to the bridge where it is; the played strings join

@@ -64,10 +64,10 @@ documented design values, not from a table of 88 typed numbers:
   is fitted to a recorded grand (the Salamander Yamaha C5 of
   ``tools/real_grand.py``): how much partials 2-8 beat over 0.1-3 s, as
   the RMS of their level about the best two-segment line, on keys 39-87
-  every minor third (``python tools/study_partials.py beats``, 2026-11-27):
-  the model minus the recording reads +1.61 dB on median with 1 cent (the
-  spread until then, from Kirk 1959, who found unisons mistuned by up to
-  1-2 cents in the middle range), +0.52 with 0.7, -0.09 with 0.6 and
+  every minor third (``python tools/study_partials.py beats``): the model
+  minus the recording reads +1.61 dB on median with 1 cent (the spread
+  Kirk 1959 suggests, who found unisons mistuned by up to 1-2 cents in the
+  middle range), +0.52 with 0.7, -0.09 with 0.6 and
   -0.14 with 0.5 (mean absolute 1.45, 0.71, 0.65, 0.74 dB).
 * Decay, in two stages (Weinreich, "Coupled piano strings", JASA 62, 1977):
   the strings of a unison share the bridge, whose motion under their summed
@@ -77,9 +77,9 @@ documented design values, not from a table of 88 typed numbers:
   aftersound: a log-log quadratic in f0 through A0 = 120 s, C4 = 50 s and
   C8 = 6 s (``T60_ANCHORS``).  A0 and C4 are fitted to a recorded grand's
   tails (a Yamaha C5, the samples of ``tools/real_grand.py``; ``python
-  tools/study_partials.py tail``, 2026-11-27, docs/voicing.md "The
-  aftersound"): with the earlier 40 s and 20 s (orders of measured late
-  decay times: Martin 1947; Weinreich 1977 fig. 8; Bank, Zambon & Fontana
+  tools/study_partials.py tail``, docs/voicing.md "The aftersound"): with
+  40 s and 20 s (the literature's orders of measured late decay times:
+  Martin 1947; Weinreich 1977 fig. 8; Bank, Zambon & Fontana
   2010) the middle's notes fell 2.5-3 times too fast and 8-18 dB too low
   after 2.5 s; at C8 the lower end of the late T60s, 6-47 s, that the
   two-stage fit of ``tools/voicing_report.py`` gives the same recording's
@@ -88,7 +88,7 @@ documented design values, not from a table of 88 typed numbers:
   what one hears of its 1-2 s); monotone decreasing over the keyboard.
   ``t60_prompt_s`` is the in-phase motion's: the reference law
   ``PROMPT_REFERENCE_ANCHORS`` (A0 = 40 s, C4 = 20 s, C8 = 6 s, the strings'
-  own law until then) over ``PROMPT_RATIO`` (Weinreich's prompt decay
+  own law before that fit) over ``PROMPT_RATIO`` (Weinreich's prompt decay
   rates are 3-10 times the aftersound's; 4 for trichords, up to 7.4 in the
   middle as a recorded grand's early decay (``TRICHORD_PROMPT_ANCHORS``),
   easing to 3 over the top octave, 3 for bichords as the recording's,
@@ -105,8 +105,9 @@ documented design values, not from a table of 88 typed numbers:
   j w M) keeps the prompt decay at f0 (R_b over 1 + (f0 / f_m)^2) and takes
   less and less from the partials above f_m, so the fundamental falls fast
   and the upper partials keep their own decay, as a recorded grand's do
-  (docs/voicing.md); its reactance raises the in-phase motion, which the
-  strings' loops are tuned with (``synth.physics.dispersion.BridgeLag``).
+  (docs/voicing.md, "The bridge's mass"); its reactance raises the in-phase
+  motion, which the strings' loops are tuned with
+  (``synth.physics.dispersion.BridgeLag``).
   High frequencies: the decay-rate law of Chaigne & Askenfelt (1994),
   ``sigma(f) = b1 + b3 (2 pi f)^2`` (amplitude decay rate, 1/s; T60 = ln(1000)
   / sigma) with b1 set by T60 at f0 and b3 = 5.0e-9 s, fitted to a recorded
@@ -188,22 +189,23 @@ UNISON_SPREAD_CENTS = 0.6
 UNISON_SPREAD_HZ = 0.6
 T60_ANCHORS = ((27.5, 120.0), (261.6255653005986, 50.0), (4186.009044809578, 6.0))
 #: the law the prompt ratios divide (s at f0, the same log-log quadratic):
-#: ``t60_prompt_s = `` this ``/ prompt_ratio``.  It was the strings' own
-#: decay until 2026-11-27, when that (``T60_ANCHORS``) was fitted to a
-#: recorded grand's aftersound; the prompt ratios, fitted to the same
-#: recording's early decay against this law, keep the prompt sound as it was
+#: ``t60_prompt_s = `` this ``/ prompt_ratio``.  It is the law the strings'
+#: own decay followed before that (``T60_ANCHORS``) was fitted to a recorded
+#: grand's aftersound; the prompt ratios, fitted to the same recording's
+#: early decay against this law, keep the prompt sound where it was
 PROMPT_REFERENCE_ANCHORS = ((27.5, 40.0), (261.6255653005986, 20.0), (4186.009044809578, 6.0))
-#: reference T60 (``PROMPT_REFERENCE_ANCHORS``, the strings' own T60 until
-#: 2026-11-27) / prompt T60 at f0 (the unison's in-phase motion decays this
-#: much faster than the reference), by strings per key.  The bichords' 3 is
+#: reference T60 (``PROMPT_REFERENCE_ANCHORS``, the strings' own T60 before
+#: its fit to the recording's tails) / prompt T60 at f0 (the unison's
+#: in-phase motion decays this much faster than the reference), by strings
+#: per key.  The bichords' 3 is
 #: the recorded grand's (``python tools/study_partials.py ratios``: 2.5-3.4
 #: on keys 33-45, the running median 2.8-3.4): their prompt sound falls in
 #: 7.6-13.3 s (the recording's 4-15 s), and with the strings' own decay fitted
 #: to the same recording's tails every bichord still shows its knee
-#: (late/early 3.7-4.6).  It was 7 until 2026-11-27: with the strings' own
-#: T60 at 40 s at A0 the bichords showed no knee at the recording's ratio,
-#: and 7 made them fall in 4-5 s, their aftersound 12-18 dB under the
-#: recording's (docs/voicing.md, "The aftersound")
+#: (late/early 3.7-4.6).  With the strings' own T60 at 40 s at A0 they
+#: showed no knee at the recording's ratio, and a ratio of 7 made them fall
+#: in 4-5 s, their aftersound 12-18 dB under the recording's
+#: (docs/voicing.md, "The aftersound")
 PROMPT_RATIO = {1: 4.0, 2: 3.0, 3: 4.0}
 #: a trichord's ratio by key, where it departs from PROMPT_RATIO[3] (linear
 #: between the anchors, MIDI key -> ratio): the middle's fundamentals fall
@@ -217,9 +219,8 @@ PROMPT_RATIO = {1: 4.0, 2: 3.0, 3: 4.0}
 #: 4 from 87 (the running median 3.9 there), easing to 3 over the top
 #: octave (:func:`prompt_ratio`).  At 51, the first trichord, the
 #: recording's own 5.2 (its running median, 2.5, mixes in the bichords 45
-#: and 48; the anchor was 4 until 2026-11-27, when the unison's spread came
-#: down to 0.6 cent and key 51's late/early read 2.95 with it, 3.33 with
-#: 5.2).
+#: and 48; with the unison's spread of 0.6 cent key 51's late/early reads
+#: 2.95 at a ratio of 4, 3.33 at 5.2).
 TRICHORD_PROMPT_ANCHORS = ((51, 5.2), (54, 5.2), (57, 5.2), (60, 5.8), (63, 7.4), (66, 7.4),
                            (69, 7.3), (72, 6.9), (75, 6.9), (78, 5.2), (81, 4.9), (84, 4.9),
                            (87, 4.0))
@@ -480,9 +481,9 @@ def t60_prompt_reference_s(f0_hz: float) -> float:
 
 def prompt_ratio(midi: int) -> float:
     """Reference T60 (:func:`t60_prompt_reference_s`) / prompt T60 of the
-    key's unison (the aftersound over the prompt until 2026-11-27, when the
-    strings' own T60 was fitted to a recorded grand's tails and the prompt
-    kept where this puts it): ``PROMPT_RATIO`` by
+    key's unison (not the aftersound over the prompt: the strings' own T60
+    is fitted to a recorded grand's tails, and the prompt kept where this
+    puts it): ``PROMPT_RATIO`` by
     its strings; a trichord's along ``TRICHORD_PROMPT_ANCHORS`` (D#3 to D#6;
     up to 7.4 in the middle, as a real grand's), easing from 4 to 3 over
     the top octave (C7 to C8), whose prompt sound is most of what is heard
@@ -594,7 +595,7 @@ def bridge_mass_hz(midi: int, ratio: float) -> float:
     sound at all (early T60 of partial 1 8-125 s on keys 33-45), so the
     model's bass bridge is voiced for the two-stage decay the voicing asks
     for, which a mass there weakens (bichords' late/early 2.7-2.9 with it,
-    docs/voicing.md), not after this recording."""
+    docs/voicing.md, "The bridge's mass"), not after this recording."""
     m = _check_midi(midi)
     r = _check("ratio", ratio, 0.0, 100.0)
     if r == 0.0 or n_strings_for(m) < 3:
@@ -673,12 +674,13 @@ THESIS_VOICING = HammerVoicing(183.0, 0.045, 3.7, 0.015, 1.0, 0.0)
 #: Askenfelt 1988's 2.2-3.5 rise the same way, less steeply); the
 #: hereditary time is x0.3 at A0, x0.85 at C4, x1.4 at C#5 (its largest),
 #: x0.7 at C7 and x0.9 at C8.  From C#5 (thesis key 58) to C7 (76) the treble eases from
-#: the concert tilts (x8 stiffness, x3 hereditary time at C8 until
-#: 2026-11-27) back to those measured felts (``treble_q`` = ``treble_alpha``
+#: the concert tilts (x8 stiffness, x3 hereditary time at C8 without the
+#: easing) back to those measured felts (``treble_q`` = ``treble_alpha``
 #: = 0.3 there): with the harder, more hereditary felt the una corda's
 #: softer felt could not darken keys 90-98 (-6 % at C7 under CC67 against
-#: the 10 % asked; now 11-28 % on every key from C#5 up, docs/voicing.md
-#: "The treble's felt"), while the top keys keep their pp and loudness.
+#: the 10 % asked; with the easing 11-28 % on every key from C#5 up,
+#: docs/voicing.md "The treble's felt"), while the top keys keep their pp
+#: and loudness.
 #: Q0, p and alpha were fitted on the rendered grand (the hammer study of issue
 #: 11: C4's 35 dB from velocity 1 to 127, its partials 2-8 within 25 dB at
 #: velocity 80, the top octave alive at pp), within those measured orders;

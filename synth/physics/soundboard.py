@@ -826,7 +826,7 @@ def knock_impulse_ns(hammer_mass_kg, hammer_speed_m_per_s, ratio=KNOCK_IMPULSE_R
     mechanism, timing and spectrum of the thump, not its force); the grand
     preset's ``action.knock`` = 3.9 is fitted to a recorded grand's thump
     (``python tools/study_partials.py thump``: 20 Hz to 1 kHz or f0/2
-    over the first 100 ms, re C4's partial 1; docs/voicing.md "The thump").
+    over the first 100 ms, re C4's partial 1; docs/voicing.md, "The thump under the attack").
     For comparison, the hammer gives the string about m_h v_h, which reaches
     the bridge as the string's own wave. Linear in the hammer speed, so the
     knock keeps its level relative to the tone at every velocity

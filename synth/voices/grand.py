@@ -529,8 +529,8 @@ class GrandPianoInstrument(Voice):
         (the bank's ``F_B0S``).  A damper's felt does not stop a string in
         one step, and a pedal let up drops every lifted damper at once: with
         the bank's 5 ms, a MIDI file's pedal-up (a step from 1 to 0) under a
-        held chord read as a 30 dB click (docs/voicing.md, "Clicks at a
-        pedal let up")."""
+        held chord read as a 30 dB click (docs/voicing.md, "The dampers'
+        landing")."""
         return float(self.preset.dampers.land_s)
 
     def release_t60_s(self, key: int) -> float:

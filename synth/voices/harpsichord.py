@@ -133,9 +133,9 @@ class Harpsichord(Voice):
         f1 = self.pitch_hz(key)
         dt = 1.0 / self.fs
         # one string on the bridge: its own loss and the bridge's share (its
-        # own T60 the grand's law as it was until 2026-11-27, which this
-        # voice was voiced on: the grand's strings' own decay has since been
-        # fitted to a recorded grand's aftersound, a piano's, not this voice's)
+        # own T60 the grand's earlier law, the prompt reference, which this
+        # voice was voiced on: the grand's strings' own decay is fitted to a
+        # recorded grand's aftersound, a piano's, not this voice's)
         t_own = P.t60_prompt_reference_s(gs.f0_hz)
         t_one = P.single_string_t60_s(key, t_own)
         t_lo = t_one * sp.t60_scale

@@ -479,7 +479,7 @@ class OneStringVoice(Voice):
         fs = float(self.fs)
         # the taraf's own jawari: the clamp at grid points alone.  Their
         # swing stays far below the first point's gap (the shipped taraf
-        # never touch it, docs/voicing.md "Taraf"), where the sub-cell
+        # never touch it, docs/voicing.md "Taraf and chikari"), where the sub-cell
         # contact's delta, of the order of its square, is nothing to hear,
         # and it would have cost every taraf string a solve per sample
         own = Termination(jawari(t.radius_m, t.extent_m, t.thread_m), 1, int(t.region_points))
