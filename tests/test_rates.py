@@ -1,11 +1,11 @@
 """Output rates: 44.1, 48, 88.2 and 96 kHz cards (issue 36, item 3).
 
 The decimator is designed for the card's rate and keeps the figures of
-docs/benchmarks.md at each (20 kHz flat within 0.01 dB, at least 105 dB
-down from the card's Nyquist frequency); the body's response in Hz does not
-depend on the rate; a note rendered at any of the four rates has, below
-20 kHz, the spectrum of the same note at 48 kHz; ``--rate`` on the command
-line writes the WAV file at that rate and a bad rate is one line.
+docs/benchmarks.md ("Decimator") at each (20 kHz flat within 0.01 dB, at
+least 105 dB down from the card's Nyquist frequency); the body's response
+in Hz does not depend on the rate; a note rendered at any of the four rates
+has, below 20 kHz, the spectrum of the same note at 48 kHz; ``--rate`` on
+the command line writes the WAV file at that rate and a bad rate is one line.
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@ property cases (random presets across their allowed ranges, random scenes
 rendered in random block sizes, every internal rate from 96 kHz to 1.3 MHz,
 the lossless strings' grid energy, silence in and out), none failing.  The
 full tool runs any number of cases and prints the table of counts
-(docs/benchmarks.md)."""
+(docs/benchmarks.md, "Stability stress")."""
 
 from __future__ import annotations
 
