@@ -52,7 +52,8 @@ seconds = 0.4
 # --------------------------------------------------------------------------- the spec
 @pytest.mark.parametrize("text, msg", [
     ("[[notes]]\nname='a'\npreset='biwa'\nkeys=[50]", "missing key 'schema'"),
-    ("schema = 2\n[[notes]]\nname='a'\npreset='biwa'\nkeys=[50]", "schema = 2 is not supported"),
+    ("schema = 2\n[[notes]]\nname='a'\npreset='biwa'\nkeys=[50]",
+     "schema = 2 is not allowed (choices: 1)"),
     ("schema = 1", "no jobs"),
     ("schema = 1\n[[notes]]\nname='a'\npreset='biwa'\nkeys=[50]\nvelocity=3",
      "unknown key 'notes[0].velocity'"),

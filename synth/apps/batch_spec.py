@@ -4,9 +4,11 @@ A *spec* (versioned TOML, :data:`SPEC_SCHEMA`; ``docs/batch.md`` documents
 every key) lists entries: ``[[notes]]`` (single notes, swept over presets,
 keys, velocities, lengths, quality levels and any preset value given as a
 ``--set`` path) and ``[[midi]]`` (Standard MIDI Files played by presets).
-:func:`load_spec` validates it and expands it into :class:`Job` objects;
-an error is one line naming the file and the key (``spec.toml:
-notes[1].velocities = [0] is out of range (1 <= value <= 127)``).
+:func:`load_spec` validates it against the rows :data:`SPEC_FIELDS` and
+:data:`SPEC_SECTIONS` (the presets' schema engine, :mod:`synth.io.presets.validate`)
+and expands it into :class:`Job` objects; an error is one line naming the
+file and the key (``spec.toml: notes[1].velocities[0] = 0 is out of range
+(1 <= value <= 127)``).
 
 A job's hash covers everything that decides its samples: the entry's name,
 the kind, the preset's content (:func:`preset_sha256`, the validated values
@@ -27,16 +29,16 @@ import hashlib
 import json
 import math
 import os
-import re
 import tomllib
 from collections import OrderedDict
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ..io.errors import PresetError, SynthError, display_path
+from ..io.presets.schema import Field, Range, Section, When, _fmt_literal
+from ..io.presets.validate import check_rows, validate_table
 
 #: the spec format's version (``schema = 1`` in the file)
 SPEC_SCHEMA = 1
@@ -49,14 +51,7 @@ MAX_MIDI_S = 3600.0
 #: most jobs one spec may expand to
 MAX_JOBS = 1_000_000
 
-_NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$")
-_TOP_KEYS = ("schema", "description", "format", "notes", "midi")
-_NOTE_KEYS = ("name", "preset", "presets", "keys", "velocities", "seconds", "hold_seconds",
-              "quality", "set", "sweep", "samples", "seed")
-_MIDI_KEYS = ("name", "preset", "presets", "files", "max_seconds", "quality", "set", "sweep",
-              "samples", "seed")
 _QUALITIES = ("draft", "standard", "reference")
-_FORMATS = ("float", "pcm24")
 
 
 class BatchError(SynthError):
@@ -201,7 +196,7 @@ def find_spec(name_or_path: str) -> Path:
 
 
 class _Spec:
-    """Validation helpers that name the file and the dotted key."""
+    """Errors that name the file (the keys are checked by the schema engine)."""
 
     def __init__(self, shown: str) -> None:
         self.shown = shown
@@ -209,41 +204,56 @@ class _Spec:
     def fail(self, msg: str) -> BatchError:
         return BatchError(f"{self.shown}: {msg}")
 
-    def unknown(self, where: str, table: dict, allowed: Sequence[str]) -> None:
-        for k in table:
-            if k not in allowed:
-                full = f"{where}.{k}" if where else k
-                raise self.fail(f"unknown key '{full}' (allowed: {', '.join(allowed)})")
 
-    def number(self, where: str, v, lo: float, hi: float, *, integer: bool = False,
-               lo_open: bool = False) -> float | int:
-        ok_type = (isinstance(v, int) if integer else isinstance(v, (int, float))) and \
-            not isinstance(v, bool)
-        kind = "an integer" if integer else "a number"
-        if not ok_type:
-            raise self.fail(f"{where} = {_show(v)} must be {kind}")
-        lo_ok = v > lo if lo_open else v >= lo
-        if not (lo_ok and v <= hi):           # also NaN
-            op = "<" if lo_open else "<="
-            raise self.fail(f"{where} = {_show(v)} is out of range ({_g(lo)} {op} value <= {_g(hi)})")
-        return int(v) if integer else float(v)
+# --------------------------------------------------------------------------- rows
+def _entry(kind: str, middle: tuple) -> Section:
+    """A [[notes]] or [[midi]] entry's rows: name and presets, `middle`, then
+    quality, set and the sweep's keys."""
+    random = When(f"{kind}.sweep", ("random",))
+    return Section(kind, f"entries of {'single notes' if kind == 'notes' else 'MIDI files'}",
+                   dict, (
+        Field("name", "str", "the entry's folder in the output; unique",
+              pattern=(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}",
+                       "1-64 letters, digits, '_', '-', '.'; starting with a letter or digit")),
+        Field("preset", "line", "a preset name or .toml path (relative to the spec)",
+              optional=True),
+        Field("presets", "line", "preset names or .toml paths", many="list", excludes=("preset",)),
+    ) + middle + (
+        Field("quality", "str", "the quality level (default: the preset's)", choices=_QUALITIES,
+              many="sweep", optional=True),
+        Field("set", "any", "preset values by --set path", many="sweep", mapping=True, default=()),
+        Field("sweep", "str", "grid: every combination; random: samples drawn",
+              choices=("grid", "random"), default="grid"),
+        Field("samples", "int", "jobs drawn", 1, MAX_JOBS, when=random),
+        Field("seed", "int", "the generator's seed", 0, 2**63 - 1, when=random, default=0),
+    ), array=True, optional=True)
 
 
-def _g(x) -> str:
-    return f"{x:g}" if isinstance(x, float) else str(x)
-
-
-def _show(v) -> str:
-    if isinstance(v, str):
-        return repr(v)
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (list, tuple)):
-        inner = ", ".join(_show(x) for x in v[:6])
-        return f"[{inner}{', ...' if len(v) > 6 else ''}]"
-    if isinstance(v, dict):
-        return "{" + ", ".join(f"{k} = {_show(x)}" for k, x in v.items()) + "}"
-    return repr(v)
+#: The spec's top-level keys and its arrays of tables (values: one, a list
+#: or a range table, ``many="sweep"``).
+SPEC_FIELDS = (
+    Field("schema", "int", "the spec format's version", choices=(SPEC_SCHEMA,)),
+    Field("description", "str", "what the spec renders", default=""),
+    Field("format", "str", "the WAV's sample format", choices=("float", "pcm24"), default="float"),
+)
+SPEC_SECTIONS = (
+    _entry("notes", (
+        Field("keys", "int", "MIDI keys, or \"playable\" (leave out for a study preset)", 0, 127,
+              many="sweep", literals=("playable",), optional=True),
+        Field("velocities", "int", "MIDI velocities", 1, 127, many="sweep",
+              default=(DEFAULT_VELOCITY,)),
+        Field("seconds", "float", "the note's length, s", 0.0, MAX_NOTE_S, lo_open=True,
+              many="sweep", default=(DEFAULT_SECONDS,)),
+        Field("hold_seconds", "float", "when the key is released, s (default: held)", 0.0,
+              MAX_NOTE_S, lo_open=True, many="sweep", optional=True),
+    )),
+    _entry("midi", (
+        Field("files", "line", "MIDI files or glob patterns, relative to the spec", many="one+"),
+        Field("max_seconds", "float", "render at most this much of each file, s", 0.0,
+              MAX_MIDI_S, lo_open=True, many="sweep", optional=True),
+    )),
+)
+check_rows(SPEC_FIELDS, SPEC_SECTIONS)
 
 
 def _toml_value(v) -> str:
@@ -295,38 +305,24 @@ class _Axis:
         return float(rng.uniform(self.low, self.high))
 
 
-def _axis(sp: _Spec, where: str, v, *, random: bool, integer: bool, check) -> _Axis:
-    """Read one axis (scalar, list or range table) and check every value
-    with ``check(where, value) -> value``."""
-    if isinstance(v, dict):
-        sp.unknown(where, v, ("low", "high", "steps"))
-        if "low" not in v or "high" not in v:
-            raise sp.fail(f"{where} = {_show(v)}: a range needs low and high")
-        lo, hi = check(f"{where}.low", v["low"]), check(f"{where}.high", v["high"])
-        if hi < lo:
-            raise sp.fail(f"{where}: high = {_g(hi)} is below low = {_g(lo)}")
-        if random:
-            if "steps" in v:
-                raise sp.fail(f"{where}.steps: a random sweep draws from the range; "
-                              "steps is for sweep = \"grid\"")
-            return _Axis(low=lo, high=hi, integer=integer)
-        if integer and "steps" not in v:
-            return _Axis(values=list(range(int(lo), int(hi) + 1)))
-        if "steps" not in v:
-            raise sp.fail(f"{where}: a grid over a range of numbers needs steps (2 <= steps "
-                          f"<= 10000), or give a list")
-        n = sp.number(f"{where}.steps", v["steps"], 1, 10_000, integer=True)
-        vals = np.linspace(lo, hi, n)
+def _axis(sp: _Spec, where: str, v, *, random: bool, integer: bool) -> _Axis:
+    """An axis from a validated sweep value: a tuple of values or a :class:`Range`."""
+    if not isinstance(v, Range):
+        return _Axis(values=list(v))
+    if random:
+        if v.steps is not None:
+            raise sp.fail(f"{where}.steps: a random sweep draws from the range; "
+                          "steps is for sweep = \"grid\"")
+        return _Axis(low=v.low, high=v.high, integer=integer)
+    if v.steps is None:
         if integer:
-            out = sorted({int(round(x)) for x in vals})
-        else:
-            out = [float(x) for x in vals]
-        return _Axis(values=out)
-    if isinstance(v, list):
-        if not v:
-            raise sp.fail(f"{where} = []: give at least one value")
-        return _Axis(values=[check(f"{where}[{i}]", x) for i, x in enumerate(v)])
-    return _Axis(values=[check(where, v)])
+            return _Axis(values=list(range(v.low, v.high + 1)))
+        raise sp.fail(f"{where}: a grid over a range of numbers needs steps (2 <= steps "
+                      f"<= 10000), or give a list")
+    vals = np.linspace(v.low, v.high, v.steps)
+    if integer:
+        return _Axis(values=sorted({int(round(x)) for x in vals}))
+    return _Axis(values=[float(x) for x in vals])
 
 
 @dataclass
@@ -380,25 +376,14 @@ def load_spec(path: str | os.PathLike) -> list[Job]:
         raise BatchError(f"{shown}: cannot read ({getattr(e, 'strerror', None) or e})") from None
     except tomllib.TOMLDecodeError as e:
         raise BatchError(f"{shown}: not valid TOML ({e})") from None
-    sp.unknown("", raw, _TOP_KEYS)
-    if "schema" not in raw:
-        raise sp.fail(f"missing key 'schema' (this version reads schema = {SPEC_SCHEMA})")
-    if raw["schema"] != SPEC_SCHEMA or isinstance(raw["schema"], bool):
-        raise sp.fail(f"schema = {_show(raw['schema'])} is not supported (this version reads "
-                      f"schema = {SPEC_SCHEMA})")
-    if "description" in raw and not isinstance(raw["description"], str):
-        raise sp.fail(f"description = {_show(raw['description'])} must be a string")
-    subtype = raw.get("format", "float")
-    if subtype not in _FORMATS:
-        raise sp.fail(f"format = {_show(subtype)} is not allowed (choices: float, pcm24)")
+    v = validate_table(raw, shown, SPEC_FIELDS, SPEC_SECTIONS, error=BatchError,
+                       show=_fmt_literal)
+    subtype = v["format"]
     entries: list[_Entry] = []
     names: set[str] = set()
     for kind in ("notes", "midi"):
-        block = raw.get(kind, [])
-        if not isinstance(block, list) or not all(isinstance(t, dict) for t in block):
-            raise sp.fail(f"{kind} must be an array of tables ([[{kind}]])")
-        for i, t in enumerate(block):
-            e = _read_entry(sp, kind, i, t, spec_path.parent, load_preset)
+        for i, t in enumerate(v[kind]):
+            e = _read_entry(sp, kind, i, t, spec_path.parent)
             if e.name in names:
                 raise sp.fail(f"{e.where}.name = {e.name!r} is used twice (each entry's name "
                               "is its folder: make them unique)")
@@ -439,76 +424,40 @@ def load_spec(path: str | os.PathLike) -> list[Job]:
     return jobs
 
 
-def _read_entry(sp: _Spec, kind: str, i: int, t: dict, base: Path, load_preset) -> _Entry:
+def _read_entry(sp: _Spec, kind: str, i: int, t: dict, base: Path) -> _Entry:
+    """An entry from its validated values: presets found, MIDI files globbed, axes built."""
     where = f"{kind}[{i}]"
-    sp.unknown(where, t, _NOTE_KEYS if kind == "notes" else _MIDI_KEYS)
-    name = t.get("name")
-    if name is None:
-        raise sp.fail(f"missing key '{where}.name' (the entry's folder in the output)")
-    if not isinstance(name, str) or not _NAME_RE.match(name):
-        raise sp.fail(f"{where}.name = {_show(name)} is not allowed (1-64 letters, digits, "
-                      "'_', '-', '.'; starting with a letter or digit)")
-    if ("preset" in t) == ("presets" in t):
-        raise sp.fail(f"{where}: give one of preset or presets")
-    pl = [t["preset"]] if "preset" in t else t["presets"]
-    if not isinstance(pl, list) or not pl or not all(isinstance(p, str) and p for p in pl):
-        raise sp.fail(f"{where}.presets = {_show(pl)} must be a list of preset names or .toml paths")
     presets = []
-    for p in pl:
+    for p in ((t["preset"],) if t["preset"] is not None else t["presets"]):
         if p.endswith(".toml"):
             q = Path(p).expanduser()
             p = str(q if q.is_absolute() else (base / q))
         presets.append(p)
-    sweep = t.get("sweep", "grid")
-    if sweep not in ("grid", "random"):
-        raise sp.fail(f"{where}.sweep = {_show(sweep)} is not allowed (choices: grid, random)")
-    random = sweep == "random"
-    samples = None
-    if random:
-        if "samples" not in t:
-            raise sp.fail(f"missing key '{where}.samples' (sweep = \"random\" draws that many jobs)")
-        samples = sp.number(f"{where}.samples", t["samples"], 1, MAX_JOBS, integer=True)
-    elif "samples" in t or "seed" in t:
-        bad = "samples" if "samples" in t else "seed"
-        raise sp.fail(f"{where}.{bad} is for sweep = \"random\" (this entry's sweep is grid)")
-    seed = sp.number(f"{where}.seed", t.get("seed", 0), 0, 2**63 - 1, integer=True)
+    random = t["sweep"] == "random"
+    seed = 0 if t["seed"] is None else t["seed"]
     axes: OrderedDict[str, _Axis] = OrderedDict()
     axes["preset"] = _Axis(values=presets)
+    files = []
     if kind == "notes":
-        if "keys" in t:
-            if t["keys"] == "playable":
-                def playable(p, _w=where):
-                    pr = p
-                    if pr.play is None or pr.kind != "musical":
-                        raise sp.fail(f"{_w}.keys = 'playable': {pr.name} is not a musical "
-                                      "preset (it has no playable keys)")
-                    return list(range(pr.play.key_low, pr.play.key_high + 1))
-                axes["key"] = _Axis(dynamic=playable)
-            else:
-                axes["key"] = _axis(sp, f"{where}.keys", t["keys"], random=random, integer=True,
-                                    check=lambda w, v: sp.number(w, v, 0, 127, integer=True))
-        else:
+        if t["keys"] == "playable":
+            def playable(pr, _w=where):
+                if pr.play is None or pr.kind != "musical":
+                    raise sp.fail(f"{_w}.keys = 'playable': {pr.name} is not a musical "
+                                  "preset (it has no playable keys)")
+                return list(range(pr.play.key_low, pr.play.key_high + 1))
+            axes["key"] = _Axis(dynamic=playable)
+        elif t["keys"] is None:
             axes["key"] = _Axis(values=[None])
-        axes["velocity"] = _axis(sp, f"{where}.velocities", t.get("velocities", DEFAULT_VELOCITY),
-                                 random=random, integer=True,
-                                 check=lambda w, v: sp.number(w, v, 1, 127, integer=True))
-        axes["seconds"] = _axis(sp, f"{where}.seconds", t.get("seconds", DEFAULT_SECONDS),
-                                random=random, integer=False,
-                                check=lambda w, v: sp.number(w, v, 0.0, MAX_NOTE_S, lo_open=True))
-        axes["hold_s"] = _Axis(values=[None]) if "hold_seconds" not in t else _axis(
-            sp, f"{where}.hold_seconds", t["hold_seconds"], random=random, integer=False,
-            check=lambda w, v: sp.number(w, v, 0.0, MAX_NOTE_S, lo_open=True))
-        files = []
+        else:
+            axes["key"] = _axis(sp, f"{where}.keys", t["keys"], random=random, integer=True)
+        axes["velocity"] = _axis(sp, f"{where}.velocities", t["velocities"], random=random,
+                                 integer=True)
+        axes["seconds"] = _axis(sp, f"{where}.seconds", t["seconds"], random=random,
+                                integer=False)
+        axes["hold_s"] = _Axis(values=[None]) if t["hold_seconds"] is None else _axis(
+            sp, f"{where}.hold_seconds", t["hold_seconds"], random=random, integer=False)
     else:
-        if "files" not in t:
-            raise sp.fail(f"missing key '{where}.files' (MIDI files or glob patterns, relative "
-                          "to the spec)")
-        fl = [t["files"]] if isinstance(t["files"], str) else t["files"]
-        if not isinstance(fl, list) or not fl or not all(isinstance(f, str) and f for f in fl):
-            raise sp.fail(f"{where}.files = {_show(t['files'])} must be a file name, a glob "
-                          "pattern or a list of them")
-        files = []
-        for pat in fl:
+        for pat in t["files"]:
             full = os.path.expanduser(pat)
             full = full if os.path.isabs(full) else str(base / full)
             hits = sorted(glob.glob(full)) if glob.has_magic(full) else (
@@ -518,41 +467,15 @@ def _read_entry(sp: _Spec, kind: str, i: int, t: dict, base: Path, load_preset) 
                               f"{display_path(base)})")
             files += [h for h in hits if h not in files]
         axes["midi"] = _Axis(values=files)
-        axes["seconds"] = _Axis(values=[None]) if "max_seconds" not in t else _axis(
-            sp, f"{where}.max_seconds", t["max_seconds"], random=random, integer=False,
-            check=lambda w, v: sp.number(w, v, 0.0, MAX_MIDI_S, lo_open=True))
-    if "quality" in t:
-        axes["quality"] = _axis(sp, f"{where}.quality", t["quality"], random=random, integer=False,
-                                check=lambda w, v: _quality(sp, w, v))
-    else:
-        axes["quality"] = _Axis(values=[None])
-    st = t.get("set", {})
-    if not isinstance(st, dict):
-        raise sp.fail(f"{where}.set = {_show(st)} must be a table of PATH = value(s)")
-    for path, v in st.items():
+        axes["seconds"] = _Axis(values=[None]) if t["max_seconds"] is None else _axis(
+            sp, f"{where}.max_seconds", t["max_seconds"], random=random, integer=False)
+    axes["quality"] = _Axis(values=[None]) if t["quality"] is None else _axis(
+        sp, f"{where}.quality", t["quality"], random=random, integer=False)
+    for path, v in t["set"]:
         if path in ("play.quality",):
             raise sp.fail(f"{where}.set.{path}: give the level as {where}.quality")
-        if isinstance(v, dict) and any(isinstance(x, (str, bool)) for x in v.values()):
-            raise sp.fail(f"{where}.set.{path} = {_show(v)}: a range has numeric low and high")
-        axes["set." + path] = _axis(
-            sp, f"{where}.set.{path}", v, random=random, integer=False,
-            check=lambda w, x: sp.number(w, x, -math.inf, math.inf)
-            if isinstance(x, dict) else _set_value(sp, w, x))
-    return _Entry(kind, name, where, presets, axes, sweep, samples, seed, files)
-
-
-def _quality(sp: _Spec, where: str, v) -> str:
-    if v not in _QUALITIES:
-        raise sp.fail(f"{where} = {_show(v)} is not allowed (choices: {', '.join(_QUALITIES)})")
-    return v
-
-
-def _set_value(sp: _Spec, where: str, v):
-    if isinstance(v, (dict,)):
-        raise sp.fail(f"{where} = {_show(v)} must be a value")
-    if isinstance(v, float) and not math.isfinite(v):
-        raise sp.fail(f"{where} = {_show(v)} must be finite")
-    return v
+        axes["set." + path] = _axis(sp, f"{where}.set.{path}", v, random=random, integer=False)
+    return _Entry(kind, t["name"], where, presets, axes, t["sweep"], t["samples"], seed, files)
 
 
 def _combos(sp: _Spec, e: _Entry, preset_of):

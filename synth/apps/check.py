@@ -49,7 +49,6 @@ from __future__ import annotations
 
 import math
 import os
-import re
 import time
 import tomllib
 from dataclasses import dataclass, field
@@ -74,9 +73,11 @@ from ..analysis import (
     two_stage_summary,
 )
 from ..io.errors import SynthError
+from ..io.presets.schema import ABSENT, GIVEN, Field, OrderCheck, Section, When, _fmt_literal
+from ..io.presets.validate import check_rows, validate_table
 
 __all__ = ["SpecError", "Item", "Result", "Spec", "load_spec", "render_note", "run_spec",
-           "format_table", "write_junit", "CHECKS", "SPEC_SCHEMA"]
+           "format_table", "write_junit", "CHECKS", "SPEC_SCHEMA", "SPEC_FIELDS", "SPEC_SECTIONS"]
 
 SPEC_SCHEMA = 1
 FS_OUT = 48_000
@@ -129,104 +130,16 @@ class Spec:
 # Parsing
 # --------------------------------------------------------------------------
 
-_RENDER_KEYS = {"name", "preset", "set", "midi", "wav", "key", "keys", "velocity", "velocities",
-                "seconds", "hold_s", "sustain", "soft"}
-_KEYS_RANGE = re.compile(r"^\s*(\d+)\s*\.\.\s*(\d+)\s*(?:/\s*(\d+))?\s*$")
-
-
 def _shown(path) -> str:
     from ..io.errors import display_path
 
     return display_path(path)
 
 
-def _num(src, where, key, v, lo, hi, integer=False):
-    ok = (isinstance(v, int) if integer else isinstance(v, (int, float))) and not isinstance(v, bool)
-    if not ok or not (lo <= v <= hi) or (not integer and not math.isfinite(v)):
-        kind = "an integer" if integer else "a number"
-        raise SpecError(f"{src}: {where}.{key} = {v!r} is out of range ({kind}, {lo} <= value <= {hi})")
-    return int(v) if integer else float(v)
-
-
-def _keys(src, where, t):
-    if "key" in t and "keys" in t:
-        raise SpecError(f"{src}: {where}: give key or keys, not both")
-    if "key" in t:
-        return [_num(src, where, "key", t["key"], 0, 127, True)]
-    if "keys" not in t:
-        return []
-    v = t["keys"]
-    if isinstance(v, str):
-        m = _KEYS_RANGE.match(v)
-        if not m:
-            raise SpecError(f"{src}: {where}.keys = {v!r} is not allowed "
-                            f"(a list of MIDI keys or \"LO..HI/STEP\")")
-        lo, hi, step = int(m[1]), int(m[2]), int(m[3] or 1)
-        if not (0 <= lo <= hi <= 127 and step >= 1):
-            raise SpecError(f"{src}: {where}.keys = {v!r} is out of range (0 <= LO <= HI <= 127, STEP >= 1)")
-        return list(range(lo, hi + 1, step))
-    if not isinstance(v, list) or not v:
-        raise SpecError(f"{src}: {where}.keys = {v!r} is not allowed (a non-empty list or \"LO..HI/STEP\")")
-    return [_num(src, where, "keys", k, 0, 127, True) for k in v]
-
-
-def _velocities(src, where, t):
-    if "velocity" in t and "velocities" in t:
-        raise SpecError(f"{src}: {where}: give velocity or velocities, not both")
-    if "velocities" in t:
-        v = t["velocities"]
-        if not isinstance(v, list) or not v:
-            raise SpecError(f"{src}: {where}.velocities = {v!r} is not allowed (a non-empty list)")
-        return [_num(src, where, "velocities", x, 1, 127, True) for x in v]
-    return [_num(src, where, "velocity", t.get("velocity", 100), 1, 127, True)]
-
-
-def _parse_render(src, base, i, t):
-    where = f"render[{i}]"
-    if not isinstance(t, dict):
-        raise SpecError(f"{src}: {where} must be a table [[render]]")
-    unknown = sorted(set(t) - _RENDER_KEYS)
-    if unknown:
-        raise SpecError(f"{src}: unknown key '{where}.{unknown[0]}' "
-                        f"(allowed: {', '.join(sorted(_RENDER_KEYS))})")
-    name = t.get("name")
-    if not isinstance(name, str) or not name.strip():
-        raise SpecError(f"{src}: {where}.name is required (a non-empty string)")
-    r = {"name": name, "where": f"render '{name}'"}
-    if "wav" in t:
-        if set(t) & {"preset", "midi", "set", "key", "keys", "velocity", "velocities"}:
-            raise SpecError(f"{src}: render '{name}': wav takes no preset, midi, set, keys or velocities")
-        r["wav"] = str((base / str(t["wav"])).resolve())
-        return r
-    if not isinstance(t.get("preset"), str):
-        raise SpecError(f"{src}: render '{name}': preset is required (or wav = \"FILE.wav\")")
-    r["preset"] = t["preset"]
-    sets = t.get("set", [])
-    if not isinstance(sets, list) or not all(isinstance(s, str) for s in sets):
-        raise SpecError(f"{src}: render '{name}'.set = {sets!r} is not allowed "
-                        f"(a list of \"PATH=VALUE\" strings)")
-    r["set"] = list(sets)
-    if "midi" in t:
-        if set(t) & {"key", "keys", "velocity", "velocities"}:
-            raise SpecError(f"{src}: render '{name}': midi takes no keys or velocities")
-        r["midi"] = str((base / str(t["midi"])).resolve())
-        r["seconds"] = _num(src, r["where"], "seconds", t["seconds"], 0.1, 3600) if "seconds" in t else None
-        return r
-    r["keys"] = _keys(src, r["where"], t)
-    if not r["keys"]:
-        raise SpecError(f"{src}: render '{name}': key or keys is required for a preset note")
-    r["velocities"] = _velocities(src, r["where"], t)
-    r["seconds"] = _num(src, r["where"], "seconds", t.get("seconds", 2.0), 0.1, 60.0)
-    r["hold_s"] = (_num(src, r["where"], "hold_s", t["hold_s"], 0.0, r["seconds"])
-                   if "hold_s" in t else None)
-    # pedals held from the start (CC64 sustain, CC67 soft), 0..1
-    r["sustain"] = _num(src, r["where"], "sustain", t.get("sustain", 0.0), 0.0, 1.0)
-    r["soft"] = _num(src, r["where"], "soft", t.get("soft", 0.0), 0.0, 1.0)
-    return r
-
-
 def load_spec(path) -> Spec:
-    """Read and validate a spec file (see the module docstring).
+    """Read and validate a spec file (see the module docstring; its keys are
+    the rows :data:`SPEC_FIELDS` and :data:`SPEC_SECTIONS`, validated by the
+    presets' schema engine).
 
     Raises
     ------
@@ -243,67 +156,39 @@ def load_spec(path) -> Spec:
         raise SpecError(f"{src}: cannot read the spec ({e.__class__.__name__})") from None
     except tomllib.TOMLDecodeError as e:
         raise SpecError(f"{src}: not valid TOML ({e})") from None
-    unknown = sorted(set(raw) - {"schema", "description", "render", "expect"})
-    if unknown:
-        raise SpecError(f"{src}: unknown key '{unknown[0]}' (allowed: description, expect, render, schema)")
-    if raw.get("schema") != SPEC_SCHEMA:
-        raise SpecError(f"{src}: schema = {raw.get('schema')!r} is not allowed (choose {SPEC_SCHEMA})")
-    desc = raw.get("description", "")
-    if not isinstance(desc, str):
-        raise SpecError(f"{src}: description = {desc!r} is not allowed (a string)")
-    renders = raw.get("render", [])
-    expects = raw.get("expect", [])
-    if not isinstance(renders, list) or not renders:
-        raise SpecError(f"{src}: at least one [[render]] table is required")
-    if not isinstance(expects, list) or not expects:
-        raise SpecError(f"{src}: at least one [[expect]] table is required")
-    spec = Spec(str(p), desc)
+    v = validate_table(raw, src, SPEC_FIELDS, SPEC_SECTIONS, error=SpecError, show=_fmt_literal,
+                       base=p.parent)
+    spec = Spec(str(p), v["description"])
     names = set()
-    for i, t in enumerate(renders):
-        r = _parse_render(src, p.parent, i, t)
+    for r in v["render"]:
         if r["name"] in names:
             raise SpecError(f"{src}: render name {r['name']!r} is used twice")
         names.add(r["name"])
-        spec.renders.append(r)
-    for i, t in enumerate(expects):
-        spec.expects.append(_parse_expect(src, i, t, names))
+        spec.renders.append(_render_dict(r))
+    for i, (e, t) in enumerate(zip(v["expect"], raw["expect"])):
+        for k in ("render", "against"):
+            if e[k] is not None and e[k] not in names:
+                raise SpecError(f"{src}: expect[{i}].{k} = {e[k]!r} names no render "
+                                f"(renders: {', '.join(sorted(names))})")
+        spec.expects.append({k: e[k] for k in t})      # the keys given, in the file's order
     return spec
 
 
-def _parse_expect(src, i, t, names):
-    where = f"expect[{i}]"
-    if not isinstance(t, dict):
-        raise SpecError(f"{src}: {where} must be a table [[expect]]")
-    chk = t.get("check")
-    if chk not in CHECKS:
-        raise SpecError(f"{src}: {where}.check = {chk!r} is not allowed "
-                        f"(choose one of {', '.join(CHECKS)})")
-    c = CHECKS[chk]
-    allowed = {"render", "check", "name"} | set(c.required) | set(c.optional)
-    unknown = sorted(set(t) - allowed)
-    if unknown:
-        raise SpecError(f"{src}: unknown key '{where}.{unknown[0]}' for check = {chk!r} "
-                        f"(allowed: {', '.join(sorted(allowed))})")
-    for k in ("render",) + c.required:
-        if k not in t:
-            raise SpecError(f"{src}: {where} (check = {chk!r}) is missing key '{k}'")
-    for k in ("render", "against"):
-        if k in t and t[k] not in names:
-            raise SpecError(f"{src}: {where}.{k} = {t[k]!r} names no render "
-                            f"(renders: {', '.join(sorted(names))})")
-    e = dict(t)
-    for k, (lo, hi, integer) in c.ranges.items():
-        if k in e:
-            e[k] = _num(src, where, k, e[k], lo, hi, integer)
-    for k, choices in c.choices.items():
-        if k in e and e[k] not in choices:
-            raise SpecError(f"{src}: {where}.{k} = {e[k]!r} is not allowed "
-                            f"(choose one of {', '.join(choices)})")
-    for lo_k, hi_k in (("min_db", "max_db"), ("min_s", "max_s"), ("min", "max"),
-                       ("min_dbfs", "max_dbfs")):
-        if lo_k in e and hi_k in e and not e[lo_k] <= e[hi_k]:
-            raise SpecError(f"{src}: {where}.{lo_k} = {e[lo_k]!r} must be <= {hi_k} = {e[hi_k]!r}")
-    return e
+def _render_dict(v: dict) -> dict:
+    """A validated [[render]] table as :func:`run_spec` reads it."""
+    r = {"name": v["name"], "where": f"render '{v['name']}'"}
+    if v["wav"] is not None:
+        r["wav"] = v["wav"]
+        return r
+    r["preset"], r["set"] = v["preset"], list(v["set"])
+    if v["midi"] is not None:
+        r["midi"], r["seconds"] = v["midi"], v["seconds"]
+        return r
+    r["keys"] = [v["key"]] if v["keys"] is None else list(v["keys"])
+    r["velocities"] = [v["velocity"]] if v["velocities"] is None else list(v["velocities"])
+    for k in ("seconds", "hold_s", "sustain", "soft"):
+        r[k] = v[k]
+    return r
 
 
 # --------------------------------------------------------------------------
@@ -705,64 +590,144 @@ def _c_halo(items, e, others):
 
 @dataclass(frozen=True)
 class Check:
+    """One kind of expectation: ``run(items, e, others)`` gives its rows.
+    Its keys, ranges and defaults are rows of :data:`EXPECT`."""
+
     run: object
-    required: tuple
-    optional: tuple = ()
-    ranges: dict = field(default_factory=dict)
-    choices: dict = field(default_factory=dict)
 
 
-_DB = (-200.0, 200.0, False)
 CHECKS = {
-    "f0": Check(_per_item(_c_f0), ("cents",), ("hz",),
-                {"cents": (0.0, 1200.0, False), "hz": (1.0, 20000.0, False)}),
-    "partial": Check(_per_item(_c_partial), ("n", "cents"), ("hz",),
-                     {"n": (1, 64, True), "cents": (0.0, 1200.0, False), "hz": (1.0, 20000.0, False)}),
-    "partial_level": Check(_per_item(_c_partial_level), ("n", "min_db", "max_db"),
-                           ("hz", "start_s", "length_s"),
-                           {"n": (1, 64, True), "min_db": _DB, "max_db": _DB,
-                            "hz": (1.0, 20000.0, False), "start_s": (0.0, 60.0, False),
-                            "length_s": (0.01, 60.0, False)}),
-    "t60": Check(_per_item(_c_t60), ("min_s", "max_s"), ("n", "hz"),
-                 {"n": (1, 64, True), "min_s": (0.0, 1000.0, False), "max_s": (0.0, 1000.0, False),
-                  "hz": (1.0, 20000.0, False)}),
-    "loudness": Check(_per_item(_c_loudness), ("lufs", "lu"), (),
-                      {"lufs": (-100.0, 10.0, False), "lu": (0.0, 100.0, False)}),
-    "peak": Check(_per_item(_c_peak), ("max_dbfs",), ("min_dbfs",),
-                  {"max_dbfs": _DB, "min_dbfs": _DB}),
-    "evenness": Check(_c_evenness, ("max_step",), ("measure",), {"max_step": (0.0, 100.0, False)},
-                      {"measure": ("loudness", "momentary", "peak")}),
-    "monotonic": Check(_c_monotonic, ("measure", "over"), ("direction", "tolerance"),
-                       {"tolerance": (0.0, 1e6, False)},
-                       {"measure": ("loudness", "momentary", "peak", "centroid"),
-                        "over": ("velocity", "key"),
-                        "direction": ("increasing", "decreasing")}),
-    "centroid_ratio": Check(_c_centroid_ratio, ("against", "min", "max"), ("window_s",),
-                            {"min": (0.0, 1e3, False), "max": (0.0, 1e3, False),
-                             "window_s": (0.01, 60.0, False)}),
-    "smooth": Check(_c_smooth, ("max_db",), (),
-                    {"max_db": (0.0, 100.0, False)}),
-    "highband_diff": Check(_c_highband_diff, ("against", "above_hz", "min_db", "max_db"),
-                           ("start_s", "length_s"),
-                           {"above_hz": (1.0, 24000.0, False), "min_db": _DB, "max_db": _DB,
-                            "start_s": (0.0, 60.0, False), "length_s": (0.01, 60.0, False)}),
-    "partial_diff": Check(_c_partial_diff, ("against", "n", "min_db", "max_db"),
-                          ("hz", "start_s", "length_s"),
-                          {"n": (1, 64, True), "min_db": _DB, "max_db": _DB,
-                           "hz": (1.0, 20000.0, False), "start_s": (0.0, 60.0, False),
-                           "length_s": (0.01, 60.0, False)}),
-    "dynamic_range": Check(_c_dynamic_range, ("min_db",), ("max_db",),
-                           {"min_db": _DB, "max_db": _DB}),
-    "two_stage": Check(_per_item(_c_two_stage), ("min_ratio",),
-                       ("min_drop_db", "min_late_db", "stop_db"),
-                       {"min_ratio": (0.0, 1e3, False), "min_drop_db": (0.0, 200.0, False),
-                        "min_late_db": (0.0, 200.0, False), "stop_db": (-120.0, -10.0, False)}),
-    "partials_law": Check(_per_item(_c_partials_law), ("cents",), ("n", "max_hz", "hz"),
-                          {"cents": (0.0, 1200.0, False), "n": (2, 64, True),
-                           "max_hz": (100.0, 24000.0, False), "hz": (1.0, 20000.0, False)}),
-    "halo": Check(_c_halo, ("against", "min_db"), ("start_s", "probe_cents"),
-                  {"min_db": _DB, "start_s": (0.0, 60.0, False), "probe_cents": (1.0, 50.0, False)}),
+    "f0": Check(_per_item(_c_f0)),
+    "partial": Check(_per_item(_c_partial)),
+    "partial_level": Check(_per_item(_c_partial_level)),
+    "t60": Check(_per_item(_c_t60)),
+    "loudness": Check(_per_item(_c_loudness)),
+    "peak": Check(_per_item(_c_peak)),
+    "evenness": Check(_c_evenness),
+    "monotonic": Check(_c_monotonic),
+    "centroid_ratio": Check(_c_centroid_ratio),
+    "smooth": Check(_c_smooth),
+    "highband_diff": Check(_c_highband_diff),
+    "partial_diff": Check(_c_partial_diff),
+    "dynamic_range": Check(_c_dynamic_range),
+    "two_stage": Check(_per_item(_c_two_stage)),
+    "partials_law": Check(_per_item(_c_partials_law)),
+    "halo": Check(_c_halo),
 }
+
+
+# --------------------------------------------------------------------------
+# The spec's rows (validated by the presets' schema engine, synth.io.presets)
+# --------------------------------------------------------------------------
+
+_WAV_MIDI = ("wav", "midi")
+
+
+def _on(*checks: str) -> When:
+    return When("expect.check", checks)
+
+
+#: A [[render]] table: a WAV file, a preset playing a MIDI file, or a
+#: preset's notes (every key at every velocity), as the keys given say.
+RENDER = Section("render", "what to render", dict, (
+    Field("name", "line", "unique; expectations name it"),
+    Field("wav", "path", "a WAV file to check, relative to the spec", optional=True),
+    Field("preset", "str", "a preset name or .toml path", excludes=("wav",)),
+    Field("set", "str", "--set overrides, PATH=VALUE", many="list0", default=(),
+          excludes=("wav",)),
+    Field("midi", "path", "a MIDI file the preset plays, relative to the spec", optional=True,
+          excludes=("wav",)),
+    Field("key", "int", "a MIDI key", 0, 127, optional=True, excludes=_WAV_MIDI),
+    Field("keys", "int", "MIDI keys: a list, or \"LO..HI/STEP\" (a sweep)", 0, 127, many="list",
+          span=True, excludes=_WAV_MIDI + ("key",)),
+    Field("velocities", "int", "MIDI velocities", 1, 127, many="list", optional=True,
+          excludes=_WAV_MIDI),
+    Field("velocity", "int", "a MIDI velocity", 1, 127, default=100,
+          excludes=_WAV_MIDI + ("velocities",)),
+    Field("seconds", "float", "length of the MIDI render, s (default: the file's)", 0.1, 3600.0,
+          optional=True, when=When("render.midi", (GIVEN,)), excludes=("wav",)),
+    Field("seconds", "float", "length rendered, s", 0.1, 60.0, default=2.0,
+          when=When("render.midi", (ABSENT,)), excludes=("wav",)),
+    Field("hold_s", "float", "key up after, s (default: held)", 0.0, 60.0, optional=True,
+          excludes=_WAV_MIDI),
+    Field("sustain", "float", "sustain pedal (CC64) held from the start, 0..1", 0.0, 1.0,
+          default=0.0, excludes=_WAV_MIDI),
+    Field("soft", "float", "soft pedal (CC67, una corda) held from the start, 0..1", 0.0, 1.0,
+          default=0.0, excludes=_WAV_MIDI),
+), checks=(OrderCheck("hold_s", "<=", "seconds"),), array=True, label="name")
+
+_DB = (-200.0, 200.0)
+#: An [[expect]] table: ``check`` selects its keys (required, or optional:
+#: ``optional=True``, the check's default applies; elsewhere refused).
+EXPECT = Section("expect", "what must hold", dict, (
+    Field("name", "str", "a label for the table", optional=True),
+    Field("render", "str", "the render checked (its name)"),
+    Field("check", "str", "what is measured", choices=tuple(CHECKS)),
+    Field("against", "str", "the render compared with, item by item",
+          when=_on("centroid_ratio", "highband_diff", "partial_diff", "halo")),
+    Field("n", "int", "partial number", 1, 64,
+          when=_on("partial", "partial_level", "partial_diff")),
+    Field("n", "int", "partial number (default 1)", 1, 64, when=_on("t60"), optional=True),
+    Field("n", "int", "partials followed (default 40)", 2, 64, when=_on("partials_law"),
+          optional=True),
+    Field("cents", "float", "tolerance, cents", 0.0, 1200.0,
+          when=_on("f0", "partial", "partials_law")),
+    Field("hz", "float", "the tuned pitch, Hz (default: the voice's)", 1.0, 20000.0, optional=True,
+          when=_on("f0", "partial", "partial_level", "t60", "partial_diff", "partials_law")),
+    Field("min_db", "float", "lowest level, dB", *_DB,
+          when=_on("partial_level", "highband_diff", "partial_diff", "dynamic_range", "halo")),
+    Field("max_db", "float", "highest level, dB", *_DB,
+          when=_on("partial_level", "highband_diff", "partial_diff")),
+    Field("max_db", "float", "largest distance from the fit, dB", 0.0, 100.0, when=_on("smooth")),
+    Field("max_db", "float", "highest range, dB", *_DB, when=_on("dynamic_range"), optional=True),
+    Field("min_s", "float", "shortest T60, s", 0.0, 1000.0, when=_on("t60")),
+    Field("max_s", "float", "longest T60, s", 0.0, 1000.0, when=_on("t60")),
+    Field("lufs", "float", "target loudness, LUFS", -100.0, 10.0, when=_on("loudness")),
+    Field("lu", "float", "tolerance, LU", 0.0, 100.0, when=_on("loudness")),
+    Field("max_dbfs", "float", "highest peak, dBFS", *_DB, when=_on("peak")),
+    Field("min_dbfs", "float", "lowest peak, dBFS", *_DB, when=_on("peak"), optional=True),
+    Field("max_step", "float", "largest step between adjacent keys, LU or dB", 0.0, 100.0,
+          when=_on("evenness")),
+    Field("measure", "str", "what is measured (default loudness)", when=_on("evenness"),
+          optional=True, choices=("loudness", "momentary", "peak")),
+    Field("measure", "str", "what is measured", when=_on("monotonic"),
+          choices=("loudness", "momentary", "peak", "centroid")),
+    Field("over", "str", "along what", when=_on("monotonic"), choices=("velocity", "key")),
+    Field("direction", "str", "which way (default increasing)", when=_on("monotonic"),
+          optional=True, choices=("increasing", "decreasing")),
+    Field("tolerance", "float", "largest step against it (default 0)", 0.0, 1e6,
+          when=_on("monotonic"), optional=True),
+    Field("min", "float", "lowest ratio", 0.0, 1e3, when=_on("centroid_ratio")),
+    Field("max", "float", "highest ratio", 0.0, 1e3, when=_on("centroid_ratio")),
+    Field("window_s", "float", "the part read, s (default 1)", 0.01, 60.0,
+          when=_on("centroid_ratio"), optional=True),
+    Field("above_hz", "float", "the band's lower edge, Hz", 1.0, 24000.0,
+          when=_on("highband_diff")),
+    Field("start_s", "float", "start of the part read, s", 0.0, 60.0, optional=True,
+          when=_on("partial_level", "highband_diff", "partial_diff", "halo")),
+    Field("length_s", "float", "length of the part read, s", 0.01, 60.0, optional=True,
+          when=_on("partial_level", "highband_diff", "partial_diff")),
+    Field("min_ratio", "float", "lowest late/early T60", 0.0, 1e3, when=_on("two_stage")),
+    Field("min_drop_db", "float", "fall before the knee, dB (default 6)", 0.0, 200.0,
+          when=_on("two_stage"), optional=True),
+    Field("min_late_db", "float", "fall after the knee, dB (default 10)", 0.0, 200.0,
+          when=_on("two_stage"), optional=True),
+    Field("stop_db", "float", "end of the fit, dB (default -50)", -120.0, -10.0,
+          when=_on("two_stage"), optional=True),
+    Field("max_hz", "float", "highest partial followed, Hz (default 10000)", 100.0, 24000.0,
+          when=_on("partials_law"), optional=True),
+    Field("probe_cents", "float", "width of the probe bands, cents (default 10)", 1.0, 50.0,
+          when=_on("halo"), optional=True),
+), checks=(OrderCheck("min_db", "<=", "max_db"), OrderCheck("min_s", "<=", "max_s"),
+           OrderCheck("min", "<=", "max"), OrderCheck("min_dbfs", "<=", "max_dbfs")), array=True)
+
+#: The spec's top-level keys and its arrays of tables.
+SPEC_FIELDS = (
+    Field("schema", "int", "the spec format's version", choices=(SPEC_SCHEMA,)),
+    Field("description", "str", "what the spec checks", default=""),
+)
+SPEC_SECTIONS = (RENDER, EXPECT)
+check_rows(SPEC_FIELDS, SPEC_SECTIONS)
 
 
 # --------------------------------------------------------------------------

@@ -17,7 +17,9 @@ The package is split by role; every public name is re-exported here, so
   ...). This is the file to edit to add a voice, a profile or a key.
 * :mod:`.validate` -- the validator (:func:`validate_dict`), the import-time
   consistency check of the rows, and ``--set`` overrides
-  (:func:`parse_override`).
+  (:func:`parse_override`). Its engine validates the specs of ``synth
+  check`` and ``synth batch`` too, each against its own rows
+  (:func:`~.validate.validate_table`, :func:`~.validate.check_rows`).
 * :mod:`.loader` -- finding, listing, reading and loading presets
   (:func:`preset_dirs`, :func:`list_presets`, :func:`load_preset`).
 

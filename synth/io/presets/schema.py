@@ -1,11 +1,24 @@
 """The schema's building blocks: presence conditions, rows, sections.
 
-:class:`When` (presence condition), :class:`Field` (one key: type, range or
-choices, doc, condition), :class:`OrderCheck` (cross-key constraint) and
-:class:`Section` (one TOML table mapped onto a dataclass of :mod:`.model`),
-plus the helpers that render values and ranges for error messages. The rows
-built from them are in :mod:`.sections`; the validator that reads the rows
-is in :mod:`.validate`. This module imports neither, so both can import it.
+:class:`When` (presence condition), :class:`Field` (one key: type, shape,
+range or choices, doc, condition), :class:`OrderCheck` (cross-key
+constraint) and :class:`Section` (one TOML table, or an array of tables
+``[[name]]``, mapped onto a dataclass of :mod:`.model` or a dict), plus the
+helpers that render values and ranges for error messages. The preset rows
+built from them are in :mod:`.sections`; the validator that reads rows is in
+:mod:`.validate`. This module imports neither, so both can import it.
+
+The same engine validates three kinds of file, each from its own rows:
+presets (:mod:`.sections`), spectrum-test specs (``synth.apps.check``) and
+batch specs (``synth.apps.batch_spec``). What the specs need beyond the
+presets' rows: arrays of tables (``Section(array=True)``, items named in
+messages by ``label``), keys that may be left out without a default
+(``Field(optional=True)``, conditions on them with :data:`ABSENT` and
+:data:`GIVEN`), keys that exclude one another (``Field(excludes=...)``),
+value shapes (``Field(many=...)``: arrays, one value or an array, a sweep
+with range tables :class:`Range`; ``span`` for ``"LO..HI/STEP"``,
+``literals``, ``mapping`` for a table of free keys), the types ``"path"``
+and ``"any"`` and a ``pattern`` for strings.
 """
 
 from __future__ import annotations
@@ -15,28 +28,60 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ["When", "Field", "OrderCheck", "Section"]
+__all__ = ["When", "Field", "OrderCheck", "Section", "Range", "ABSENT", "GIVEN"]
+
+
+class _Mark:
+    """A named marker value (:data:`ABSENT`, :data:`GIVEN`)."""
+
+    def __init__(self, text: str) -> None:
+        self.text = text
+
+    def __repr__(self) -> str:
+        return self.text
+
+
+#: The value a validated key has in the context when it applies but was left
+#: out and has no default (an ``optional`` row); in ``When.values``: "left out".
+ABSENT: Any = _Mark("absent")
+#: In ``When.values``: "given, whatever its value".
+GIVEN: Any = _Mark("given")
 
 
 @dataclass(frozen=True)
 class When:
-    """Presence condition: the already-validated key ``key`` (dotted) has one of ``values``."""
+    """Presence condition: the already-validated key ``key`` (dotted) has one of ``values``.
+
+    ``values`` may hold :data:`ABSENT` (the key applies but was left out) or
+    :data:`GIVEN` (the key was given). A key that does not apply (its own
+    condition fails, or a key it excludes was given) satisfies no condition.
+    """
 
     key: str
     values: tuple
     also: "When | None" = None    # a second condition that must hold too
 
     def holds(self, ctx: Mapping[str, Any]) -> bool:
-        return (self.key in ctx and ctx[self.key] in self.values
-                and (self.also is None or self.also.holds(ctx)))
+        if self.key not in ctx:
+            return False
+        v = ctx[self.key]
+        hit = v in self.values or (v is not ABSENT and any(x is GIVEN for x in self.values))
+        return hit and (self.also is None or self.also.holds(ctx))
 
-    def describe(self) -> str:
-        vals = [_fmt_value(v) for v in self.values]
-        if len(vals) == 1:
-            text = f"{self.key} = {vals[0]}"
+    def describe(self, show=None, name=None) -> str:
+        """The condition in words; ``show`` renders values (default
+        :func:`_fmt_value`), ``name`` the keys (default: as they are)."""
+        show = show or _fmt_value
+        key = self.key if name is None else name(self.key)
+        if self.values in ((ABSENT,), (GIVEN,)):
+            text = f"{key} is {self.values[0]!r}"
         else:
-            text = f"{self.key} is one of {', '.join(vals)}"
-        return text if self.also is None else f"{text} and {self.also.describe()}"
+            vals = [show(v) for v in self.values]
+            if len(vals) == 1:
+                text = f"{key} = {vals[0]}"
+            else:
+                text = f"{key} is one of {', '.join(vals)}"
+        return text if self.also is None else f"{text} and {self.also.describe(show, name)}"
 
 
 def _when_not(key: str, choices: Sequence, excluded: Sequence) -> When:
@@ -73,6 +118,37 @@ class Field:
         With a default the key is optional where its condition holds (absent:
         the default); forbidden elsewhere still.  Keys added after a schema
         version's presets were written take one, so those presets stay valid.
+    optional : bool
+        The key may be left out where its condition holds, without a default:
+        its value is then None (:data:`ABSENT` in conditions on it).
+    many : str or None
+        The value's shape around ``type``: None one value; ``"list"`` a
+        non-empty array; ``"list0"`` an array, maybe empty; ``"one+"`` one
+        value or a non-empty array; ``"sweep"`` one value, a non-empty array
+        or (for ``int``, ``float``, ``any``) a range table ``{low, high[,
+        steps]}`` (a :class:`Range`, low <= high, steps 1 .. 10000). Each
+        value is checked against the row (``key[i]``, ``key.low``). Arrays
+        come out as tuples, one value of ``"one+"``/``"sweep"`` too.
+    span : bool
+        With ``many`` and ``type="int"``: a string ``"LO..HI/STEP"`` (``/STEP``
+        optional) is taken for the integers LO, LO + STEP, ... <= HI.
+    literals : tuple of str
+        With ``many``: strings taken as they are (``"playable"``).
+    pattern : (regex, text) or None
+        A ``str``/``line`` value must match the regex whole; ``text`` says
+        what is allowed.
+    mapping : bool
+        The value is a table of free keys (e.g. ``--set`` paths), each holding
+        a value shaped as above; it comes out as a tuple of (key, value).
+    excludes : tuple of str
+        Earlier keys of the same table this key may not be given with: when
+        one of them is given, this key does not apply (and is not required);
+        when none is, it is as its condition says (a missing required key
+        names them as the alternatives).
+
+    Types beyond the presets': ``"path"`` (a non-empty string naming a file
+    relative to the document's folder; its absolute path) and ``"any"`` (any
+    TOML value but a table; a float must be finite).
     """
 
     name: str
@@ -85,6 +161,13 @@ class Field:
     choices: tuple | None = None
     when: When | None = None
     default: Any = None
+    optional: bool = False
+    many: str | None = None
+    span: bool = False
+    literals: tuple = ()
+    pattern: tuple[str, str] | None = None
+    mapping: bool = False
+    excludes: tuple[str, ...] = ()
 
     def range_text(self) -> str:
         lo_op = "<" if self.lo_open else "<="
@@ -115,8 +198,25 @@ class OrderCheck:
 
 
 @dataclass(frozen=True)
+class Range:
+    """A range table ``{low, high[, steps]}`` of a ``many="sweep"`` key (steps: None if absent)."""
+
+    low: Any
+    high: Any
+    steps: int | None = None
+
+
+@dataclass(frozen=True)
 class Section:
-    """One TOML table of the schema, mapped onto the frozen dataclass ``cls``."""
+    """One TOML table of the schema, mapped onto ``cls`` (a frozen dataclass, or
+    ``dict``) built from its keys' values.
+
+    ``array=True``: an array of tables ``[[name]]``, a tuple of ``cls``; required
+    (no ``when``, not ``optional``) it needs at least one table, optional it
+    may be absent (an empty tuple). Items are named ``name[i]`` in messages,
+    or ``name VALUE`` once the key ``label`` (validated first) is known. Rows
+    name their own table's keys as ``name.key`` in conditions.
+    """
 
     name: str
     doc: str
@@ -129,6 +229,8 @@ class Section:
     optional: bool = False
     #: another section this one needs (absent: an error naming it)
     requires: str | None = None
+    array: bool = False
+    label: str | None = None
 
 
 
@@ -153,21 +255,29 @@ def _fmt_num(x: float) -> str:
     return format(x, "g")
 
 
-def _fmt_value(v: Any, limit: int = 60) -> str:
-    """TOML-like rendering of a value for messages, shortened to about `limit` chars."""
+def _fmt_value(v: Any, limit: int = 60, literal: bool = False) -> str:
+    """TOML-like rendering of a value for messages, shortened to about `limit` chars.
+
+    Strings are basic strings (``"sitar"``), or with ``literal`` Python's
+    repr, which reads as a TOML literal string (``'sitar'``)."""
     if isinstance(v, bool):
         s = "true" if v else "false"
     elif isinstance(v, str):
-        s = json.dumps(v, ensure_ascii=False)
+        s = repr(v) if literal else json.dumps(v, ensure_ascii=False)
     elif isinstance(v, (int, float)):
         s = repr(v)
     elif isinstance(v, (list, tuple)):
-        s = "[" + ", ".join(_fmt_value(x, limit) for x in v) + "]"
+        s = "[" + ", ".join(_fmt_value(x, limit, literal) for x in v) + "]"
     elif isinstance(v, Mapping):
-        s = "{" + ", ".join(f"{k} = {_fmt_value(x, limit)}" for k, x in v.items()) + "}"
+        s = "{" + ", ".join(f"{k} = {_fmt_value(x, limit, literal)}" for k, x in v.items()) + "}"
     else:
         s = repr(v)
     if len(s) > limit:
         s = s[: limit - 3] + "..."
     return s
 
+
+
+def _fmt_literal(v: Any) -> str:
+    """:func:`_fmt_value` with strings as literal strings (``'a'``): the specs' messages."""
+    return _fmt_value(v, literal=True)
