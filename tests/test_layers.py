@@ -7,7 +7,9 @@ absolute module names. A module's layer is the first package under synth
 
 Layers and what each may import from synth (its own layer included)::
 
-    cli       anything in synth
+    cli       commands, io                (the parser from the commands, dispatch)
+    commands  anything below: apps, testing, io, engine, voices, dsp, physics,
+              kernels, analysis           (one module per command; only cli imports them)
     apps, io  engine, voices, dsp, physics, kernels, analysis, io (apps: apps too)
     testing   as apps, and apps (synth.testing: the checks of synth check for pytest)
     engine    voices, dsp, physics, kernels
@@ -34,7 +36,10 @@ SYNTH_DIR = Path(__file__).resolve().parents[1] / "synth"
 
 _LOW = {"voices", "dsp", "physics", "kernels"}
 ALLOWED: dict[str, set[str]] = {
-    "cli": {"cli", "apps", "testing", "io", "engine", "analysis"} | _LOW,
+    # synth.cli builds the parser from synth.commands and dispatches to them
+    "cli": {"cli", "commands", "io"},
+    # synth.commands: one module per command (options, checks, output); only cli imports them
+    "commands": {"commands", "apps", "testing", "io", "engine", "analysis"} | _LOW,
     # synth.testing: the checks of synth check (apps) for pytest, beside apps
     "testing": {"testing", "apps", "io", "engine", "analysis"} | _LOW,
     # synth.batch: the Python API of synth batch (apps), beside apps, as testing is
@@ -187,7 +192,8 @@ def test_every_module_of_synth_is_parsed():
     """The walk sees the real package: its layers and a few known imports."""
     files = list(SYNTH_DIR.rglob("*.py"))
     layers = {layer_of(module_name(p, SYNTH_DIR), "synth") for p in files}
-    assert {"", "cli", "io", "engine", "voices", "dsp", "physics", "kernels", "analysis"} <= layers
+    assert {"", "cli", "commands", "io", "engine", "voices", "dsp", "physics", "kernels",
+            "analysis"} <= layers
     grand = SYNTH_DIR / "voices" / "grand.py"
     known = {module_name(p, SYNTH_DIR) for p in files}
     targets = {i.target for i in imports_of(grand.read_text(), "synth.voices.grand", False, known)}
@@ -211,7 +217,15 @@ def _package(tmp_path: Path, files: dict[str, str]) -> Path:
 def test_checker_catches_violations(tmp_path):
     root = _package(tmp_path, {
         "__init__.py": "from synth.cli import main\n",                 # exempt
-        "cli.py": "import mido\nfrom synth import engine\nimport matplotlib\n",
+        "cli.py": "import mido\nfrom synth import engine\nimport matplotlib\nfrom .commands import note\n",
+        "commands/__init__.py": "",
+        "commands/note.py": ("from .common import fail\n"                # own layer
+                             "def run(args):\n"
+                             "    from ..engine.core import Engine\n"   # commands -> engine, apps
+                             "    from synth.apps import render\n"),
+        "commands/common.py": "from synth.io.errors import SynthError\nfrom ..cli import main\n",
+        "apps/__init__.py": "",
+        "apps/render.py": "from synth.commands.common import fail\n",   # apps -> commands
         "engine/__init__.py": "from .core import Engine\n",            # resolves to synth.engine.core
         "engine/core.py": "from ..io import wav\n",                    # engine -> io
         "io/__init__.py": "",
@@ -238,6 +252,11 @@ def test_checker_catches_violations(tmp_path):
     found = sorted(str(v) for v in check_package(root))
     assert found == sorted([
         "synth.cli (synth/cli.py:3) imports matplotlib: matplotlib may only be imported inside a function",
+        "synth.cli (synth/cli.py:2) imports synth.engine: layer cli may not import layer engine",
+        "synth.apps.render (synth/apps/render.py:1) imports synth.commands.common: "
+        "layer apps may not import layer commands",
+        "synth.commands.common (synth/commands/common.py:2) imports synth.cli: "
+        "layer commands may not import layer cli",
         "synth.engine.core (synth/engine/core.py:1) imports synth.io.wav: layer engine may not import layer io",
         "synth.physics.string (synth/physics/string.py:3) imports synth.kernels: "
         "layer physics may not import layer kernels",

@@ -1,0 +1,171 @@
+"""`synth note`: one note of a preset to a WAV file, with its probe, hammer and
+contact logs on request."""
+
+from __future__ import annotations
+
+import math
+import time
+
+from .common import (add_quality, add_threads, check_output, engine_for, fail, output_rate,
+                     quality_overrides, write_audio)
+
+NAME = "note"
+HELP = "render one note of a preset to a WAV file"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("preset", help="preset name (see `synth presets`) or path to a .toml file")
+    parser.add_argument("--key", type=int, help="MIDI key 0-127 (musical presets: their range)")
+    parser.add_argument("--f0", type=float, help="fundamental frequency in Hz instead of --key")
+    parser.add_argument("--velocity", type=int, default=100, help="MIDI velocity 1-127 (default 100)")
+    parser.add_argument("--seconds", type=float, default=2.0, help="length in seconds (default 2)")
+    parser.add_argument("--internal-rate", type=float, help="internal sample rate in Hz (default: "
+                        "325000, or the study grid's own rate)")
+    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                        help="override a preset value, e.g. --set pluck.position=0.7 (repeatable)")
+    add_quality(parser)
+    parser.add_argument("--rate", type=float, metavar="HZ",
+                        help="output sample rate in Hz (default 48000; 44100, 88200, 96000, any "
+                             "22050-192000)")
+    parser.add_argument("-o", "--output", required=True, help="output WAV file (48 kHz, or --rate)")
+    parser.add_argument("--probe",
+                        help="also save u(l, t) at the pluck point (m, internal rate, float64 .npy)")
+    parser.add_argument("--pcm24", action="store_true", help="write 24-bit PCM instead of 32-bit float")
+    parser.add_argument("--hammer-speed", type=float, metavar="M_PER_S",
+                        help="hammer speed at contact in m/s (hammered presets; overrides --velocity)")
+    parser.add_argument("--contact-log", metavar="OUT.csv",
+                        help="CSV of contact telemetry in 1 ms frames per string (termination points "
+                             "in contact, hammer force) and a summary (time in contact, episodes, "
+                             "peak force)")
+    parser.add_argument("--hammer-log", metavar="OUT.csv",
+                        help="CSV of the strike at the internal rate: time, force, felt compression, g, "
+                             "hammer position")
+    add_threads(parser)
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from ..engine.engine import Event
+
+    if args.key is not None and args.f0 is not None:
+        fail("--key and --f0 are exclusive: give one of them")
+    if args.key is not None and not (0 <= args.key <= 127):
+        fail(f"--key = {args.key} is out of range (0 <= value <= 127)")
+    if args.f0 is not None and not (20.0 <= args.f0 <= 5000.0):
+        fail(f"--f0 = {args.f0} is out of range (20 <= value <= 5000 Hz)")
+    if not (1 <= args.velocity <= 127):
+        fail(f"--velocity = {args.velocity} is out of range (1 <= value <= 127)")
+    if not (0 < args.seconds <= 600):
+        fail(f"--seconds = {args.seconds} is out of range (0 < value <= 600)")
+    if args.internal_rate is not None and not (20_000 <= args.internal_rate <= 2_000_000):
+        fail(f"--internal-rate = {args.internal_rate} is out of range (20000 <= value <= 2000000 Hz)")
+    rate = output_rate(args)
+    check_output(args.output, "-o")
+    if args.probe is not None:
+        check_output(args.probe, "--probe")
+    if args.hammer_log is not None:
+        check_output(args.hammer_log, "--hammer-log")
+    if args.contact_log is not None:
+        check_output(args.contact_log, "--contact-log")
+    if args.hammer_speed is not None and not (0.01 <= args.hammer_speed <= 20.0):
+        fail(f"--hammer-speed = {args.hammer_speed} is out of range (0.01 <= value <= 20 m/s)")
+    args.set = list(args.set) + quality_overrides(args)
+    low = args.key if args.key is not None else None
+    if args.f0 is not None:
+        low = int(math.floor(69 + 12 * math.log2(args.f0 / 440.0)))
+    preset, inst, eng = engine_for(args.preset, args.set, args.internal_rate,
+                                    probe=(args.probe is not None or args.hammer_log is not None
+                                           or args.contact_log is not None),
+                                    low_key=low, rate=rate)
+    for opt, given in (("--hammer-speed", args.hammer_speed), ("--hammer-log", args.hammer_log)):
+        if given is not None and not inst.struck:
+            fail(f"{opt}: {args.preset} is plucked (voice = {preset.voice}): it has no hammer")
+    if preset.kind == "musical" and args.key is None and args.f0 is None:
+        fail(f"{args.preset} is a musical preset: give --key or --f0")
+    if preset.kind == "musical" and args.key is not None:
+        lo, hi = preset.play.key_low, preset.play.key_high
+        if not (lo <= args.key <= hi):
+            fail(f"--key = {args.key} is outside the playable range of {args.preset} ({lo} <= key <= {hi})")
+    f0 = args.f0
+    ev = Event(0.0, "note_on", args.key if args.key is not None else -1, args.velocity / 127.0,
+               f0_hz=f0, speed_m_per_s=args.hammer_speed)
+    t = time.perf_counter()
+    y = eng.render([ev], duration_s=args.seconds)
+    el = time.perf_counter() - t
+    info = write_audio(args.output, y, eng.fs_out, args.pcm24)
+    pitch = inst.pitch_hz(args.key, f0)
+    q = "" if inst.study else f" ({inst.quality.name})"
+    print(f"{args.output}: {args.seconds:g} s of {args.preset} at {pitch:.2f} Hz, "
+          f"internal rate {inst.fs:.1f} Hz{q}, {info}, rendered in {el:.2f} s")
+    if args.probe:
+        from ..io.wav import write_npy_atomic
+
+        u, _ = eng.probe_signals()
+        n = int(round(args.seconds * inst.fs))
+        write_npy_atomic(args.probe, u[:n].astype(np.float64))
+        print(f"{args.probe}: u(l, t) in metres, {n} samples at {inst.fs:.1f} Hz")
+    if args.hammer_log:
+        _write_hammer_log(args.hammer_log, inst, eng)
+    if args.contact_log:
+        _write_contact_log(args.contact_log, inst, eng, args.seconds)
+    return 0
+
+
+def _write_contact_log(path: str, inst, eng, seconds: float) -> None:
+    """CSV of the note's contacts in 1 ms frames, per string (termination
+    region points in contact, hammer felt force), and a summary per string
+    on stdout (synth.analysis.contacts)."""
+    import numpy as np
+
+    from ..analysis.contacts import contact_frames, contact_summary
+    from ..io.wav import write_text_atomic
+    from ..kernels import strings as K
+
+    n = int(round(seconds * inst.fs))
+    rows = ["string,time_s,termination_contact_share,termination_points_max,"
+            "hammer_contact_share,hammer_force_max_n"]
+    lines = []
+    for s in range(eng.spv):
+        ch = eng.probe_channels(s)[:, :n]
+        if not np.any(ch):
+            continue                        # a string this note does not use
+        fr = contact_frames(ch[K.P_CONTACT], ch[K.P_F], inst.fs, 0.001)
+        rows += [f"{s},{r[0]:.4f},{r[1]:.4f},{int(r[2])},{r[3]:.4f},{r[4]:.6g}" for r in fr]
+        sm = contact_summary(ch[K.P_CONTACT], ch[K.P_F], inst.fs)
+        t, h = sm["termination"], sm["hammer"]
+        lines.append(f"  string {s}: termination {t['time_in_contact_s'] * 1e3:.2f} ms in contact, "
+                     f"{t['episodes']} episodes, up to {t['max_points']} points; hammer "
+                     f"{h['time_in_contact_s'] * 1e3:.3f} ms in contact, {h['episodes']} episodes, "
+                     f"peak {h['peak_force_n']:.2f} N")
+    write_text_atomic(path, "\n".join(rows) + "\n")
+    print(f"{path}: contacts in 1 ms frames, {len(lines)} strings")
+    print("\n".join(lines))
+
+
+def _write_hammer_log(path: str, inst, eng) -> None:
+    """CSV of the strike at the internal rate, from the hammer's first
+    sample to the end of its last contact: t, F, w, g, z."""
+    import numpy as np
+
+    from ..io.wav import write_text_atomic
+    from ..kernels import strings as K
+
+    ch = inst.strike_log()
+    src = "the first-stage strike on the ideally supported string (injected g)"
+    if ch is None:
+        ch = eng.probe_channels()
+        src = "the strike"
+    F = ch[K.P_F]
+    hit = np.flatnonzero(F > 0)
+    if len(hit) == 0:
+        fail("--hammer-log: the hammer never touched the string")
+    n = int(hit[-1]) + 2
+    t = np.arange(n) / inst.fs
+    rows = ["time_s,force_n,felt_compression_m,g_m,hammer_position_m"]
+    rows += [f"{t[i]:.9e},{F[i]:.9e},{ch[K.P_W][i]:.9e},{ch[K.P_G][i]:.9e},{ch[K.P_Z][i]:.9e}"
+             for i in range(n)]
+    write_text_atomic(path, "\n".join(rows) + "\n")
+    dur = (hit[-1] - hit[0] + 1) / inst.fs
+    print(f"{path}: {n} samples of {src}: contact {dur * 1e3:.3f} ms "
+          f"(first to last sample with F > 0), peak force {F.max():.2f} N")

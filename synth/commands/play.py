@@ -1,0 +1,106 @@
+"""`synth play`: live play from a MIDI keyboard, through PortAudio or as a JACK
+client (synth.io.live)."""
+
+from __future__ import annotations
+
+from .common import add_channels, add_mpe, add_quality, add_threads, fail, quality_overrides
+
+NAME = "play"
+HELP = "play a preset live from a MIDI keyboard (needs the [live] extra)"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--preset", help="preset played first (program 0), see `synth presets`")
+    parser.add_argument("--midi-port", metavar="NAME",
+                        help="MIDI input port: exact name or part of it (default: the first keyboard)")
+    parser.add_argument("--audio-device", metavar="NAME",
+                        help="audio output device: index, exact name or part of it (default: the "
+                             "system's)")
+    parser.add_argument("--midi-api", choices=("auto", "alsa", "jack"),
+                        help="the MIDI system --midi-port is on: the ALSA sequencer or JACK MIDI "
+                             "(default auto: JACK when a JACK server runs, else ALSA)")
+    parser.add_argument("--block", type=int, default=128,
+                        help="audio block in samples at the output rate (default 128 = 2.7 ms at "
+                             "48 kHz)")
+    parser.add_argument("--rate", type=float, metavar="HZ",
+                        help="output rate in Hz: 44100, 48000, 88200 or 96000 (any 22050-192000); "
+                             "the decimator is designed for it (default 48000, or the device's own "
+                             "rate when it cannot play 48 kHz)")
+    parser.add_argument("--latency-ms", type=float, metavar="X",
+                        help="delay from key to stream in ms, at least one block (default: two blocks)")
+    parser.add_argument("--program-map", metavar="P=PRESET,...",
+                        help="presets for MIDI program changes, e.g. 0=grand-piano,1=sitar,24=biwa "
+                             "(programs 0-127; default: 0=the --preset)")
+    parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                        help="override a value of --preset, e.g. --set play.polyphony=32 "
+                             "(repeatable)")
+    add_quality(parser)
+    add_channels(parser)
+    add_mpe(parser)
+    parser.add_argument("--jack", action="store_true",
+                        help="play as a JACK client (jackd, or PipeWire's JACK): a MIDI input port "
+                             "and the audio outputs, every MIDI event on its frame; the server's "
+                             "rate and period are played at and may change while playing")
+    parser.add_argument("--jack-name", default="synth", metavar="NAME",
+                        help="the JACK client's name (default: synth)")
+    parser.add_argument("--connect", action="store_true",
+                        help="with --jack: connect the outputs to the system's playback ports and "
+                             "the first physical MIDI capture port to the input")
+    parser.add_argument("--reconnect", action="store_true",
+                        help="with --jack: when the server stops, wait for it and play on "
+                             "(default: say so and exit with status 1)")
+    parser.add_argument("--record", metavar="OUT.wav",
+                        help="also write the performance, as it goes to the device, to a WAV file "
+                             "(32-bit float; complete whatever stops the play)")
+    parser.add_argument("--seconds", type=float, metavar="S",
+                        help="stop after S seconds and print the report (default: play until Ctrl-C)")
+    parser.add_argument("--stats", action="store_true",
+                        help="show block time, voices and underruns once a second, and the "
+                             "latest note's contacts per string (hammer, termination)")
+    parser.add_argument("--list-ports", action="store_true",
+                        help="list MIDI input ports (ALSA and JACK) and audio output devices, then "
+                             "exit")
+    add_threads(parser)
+
+
+def run(args) -> int:
+    """Live play from a MIDI keyboard (synth.io.live; sounddevice and
+    python-rtmidi are imported there, only now)."""
+    from ..io import live
+
+    if args.list_ports:
+        print(live.list_ports())
+        return 0
+    if args.preset is None:
+        fail("play needs --preset PRESET (see `synth presets`), or --list-ports")
+    args.set = list(args.set) + quality_overrides(args)
+    programs = live.ProgramMap.parse(args.program_map, args.preset)
+    if args.seconds is not None and not (0.0 < args.seconds <= 86400.0):
+        fail(f"--seconds = {args.seconds:g} is out of range (0 < value <= 86400)")
+    if args.jack:
+        from ..io.live.jack import JackPlayer
+
+        for opt, val in (("--midi-port", args.midi_port), ("--audio-device", args.audio_device),
+                         ("--latency-ms", args.latency_ms), ("--midi-api", args.midi_api),
+                         ("--rate", args.rate)):
+            if val is not None:
+                fail(f"{opt} is not used with --jack (connect the client's ports on the server, "
+                      "whose rate and period it plays at; each MIDI event plays on its own frame)")
+
+        player = JackPlayer(args.preset, programs, name=args.jack_name, connect=args.connect,
+                            stats=args.stats, overrides=args.set, channels=args.channels,
+                            drums=args.drums, record=args.record, reconnect=args.reconnect,
+                            mpe=args.mpe)
+    else:
+        for opt, val in (("--connect", args.connect), ("--reconnect", args.reconnect)):
+            if val:
+                fail(f"{opt} needs --jack (PortAudio plays to --audio-device)")
+        player = live.Player(args.preset, programs, block=args.block,
+                             latency_s=None if args.latency_ms is None else args.latency_ms / 1e3,
+                             audio_device=args.audio_device, midi_port=args.midi_port,
+                             stats=args.stats, overrides=args.set, channels=args.channels,
+                             drums=args.drums, record=args.record, rate=args.rate,
+                             midi_api=args.midi_api or "auto", mpe=args.mpe)
+    player.start()
+    player.run(seconds=args.seconds)
+    return 1 if player.stopped else 0
