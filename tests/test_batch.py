@@ -336,6 +336,7 @@ def test_without_the_extra_the_error_says_how_to_install(monkeypatch, tmp_path):
         render_many(jobs, tmp_path / "out")
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_the_throughput_benchmark_runs_in_its_quick_mode():
     """tools/bench_batch.py (docs/benchmarks.md, "Batch rendering") in CI's quick mode."""
     root = Path(__file__).resolve().parents[1]

@@ -217,6 +217,7 @@ _MIDI = __import__("helpers").shared_dir() / "midi" / "ButchersMarchiiThe.mid"
 
 
 @pytest.mark.skipif(not _MIDI.is_file(), reason="shared MIDI corpus not present")
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_folk_melody_buzzes():
     """Issue 12's folk target: ButchersMarchiiThe.mid (keys 62-81) rendered
     on the sitar has at least 10 dB more energy above 1 kHz than the same

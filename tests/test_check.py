@@ -305,6 +305,7 @@ min_ratio = 3.0
     assert res["two"].passed and not res["one"].passed
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_pedals_dynamic_range_halo_smooth_and_momentary_on_the_grand(tmp_path):
     """Renders with the sustain and soft pedals down; the grand's dynamic
     range from velocity 1 to 127, its halo with the pedal, a smooth

@@ -289,6 +289,7 @@ def test_output_in_a_missing_directory(capsys, argv):
 
 
 @pytest.mark.skipif(not SONG.is_file(), reason="shared MIDI files not available")
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_render_a_midi_file(capsys):
     rc, out, err = run(capsys, "render", SONG, "--preset", "biwa", "-o", "out.wav")
     assert rc == 0, err
@@ -328,6 +329,7 @@ def test_malformed_table_names_only_existing_files():
 
 
 @pytest.mark.parametrize("path", MALFORMED, ids=[p.name for p in MALFORMED])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_render_malformed_file_renders_or_fails_cleanly(capsys, monkeypatch, tmp_path, path):
     assert path.name in MALFORMED_EXPECTED, (
         f"{path.name}: state in MALFORMED_EXPECTED whether it renders or is rejected (and how)")

@@ -163,6 +163,7 @@ def test_binomial_p_value_equals_scipy():
 # ---------------------------------------------------------------------------
 
 @pytest.mark.parametrize("which", ["cmp3", "cmp2"])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_written_files_match_in_loudness_and_do_not_clip(which, request):
     out, _ = request.getfixturevalue(which)
     data = _data(out)
@@ -338,6 +339,7 @@ def run(capsys, *argv):
     return rc, cap.out, cap.err
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_cli_builds_a_comparison(capsys, tmp_path):
     rc, out, err = run(capsys, "compare", "biwa", "biwa:pluck.position=0.5", "--key", "52",
                        "--seconds", "0.6", "--trials", "3", "--lufs", "-30", "-o", tmp_path / "c")

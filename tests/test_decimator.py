@@ -181,6 +181,7 @@ def test_streaming_equals_one_shot(dec):
     np.testing.assert_allclose(y_stream, y_once, rtol=0, atol=1e-12)
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_matches_numpy_reference(dec):
     rng = np.random.default_rng(7)
     n_in = 2 * (len(dec.h) // dec.L) + 100  # well past the first full history

@@ -176,6 +176,7 @@ def test_the_felt_command(tmp_path, capsys):
 
 @pytest.mark.parametrize("units", ["alpha0", "tau0"])
 @pytest.mark.parametrize("d,w", [(0.5, 1.0), (0.2, 2.0), (0.8, 3.0)])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_the_linear_solver_attenuates_a_harmonic_load_as_the_analysis_says(units, d, w):
     """The finite-difference solver's linear wave under a harmonic load
     decays along x at the boundary value problem's lambda(omega), in both

@@ -380,6 +380,7 @@ def test_midi_seed_files_load(tmp_path):
                           "of audio; --max-seconds S renders only the first S seconds"]
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_fuzz_midi_loader(tmp_path, capsys):
     path = tmp_path / "case.mid"
     outcome = {"loaded": 0, "error": 0, "long": 0}
@@ -579,6 +580,7 @@ def mutate_preset(rng: random.Random, text: str) -> tuple[bytes, str]:
     return ("\n".join(lines) + "\n").encode(), "+".join(names) or "none"
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_fuzz_preset_files(tmp_path, capsys):
     assert len(PRESETS) >= 10, PRESETS
     texts = [(p.relative_to(REPO).as_posix(), p.read_text(encoding="utf-8")) for p in PRESETS]

@@ -32,6 +32,7 @@ def window(key):
 
 
 @pytest.mark.parametrize("stretch", [0.0, 1.0])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_partial_1_within_one_cent_of_the_stated_tuning(stretch):
     """Every key (stretch 0: equal temperament at A4 = 440 Hz; stretch 1:
     every third key) within 1 cent of the tuning the preset states.  The
@@ -56,6 +57,7 @@ def test_stretch_widens_the_octaves():
     assert abs(cents(inst.tuning_hz(69), 440.0)) < 1e-9
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_fitted_inharmonicity_rises_from_bass_to_treble():
     """B fitted to the rendered partials (f_n = n f0 sqrt(1 + B n^2)) rises
     above the bass break, by more than 20x from C3 to A7 (strings alone: no
@@ -184,6 +186,7 @@ def test_the_capo_bar_colours_every_treble_note_at_the_default(key):
     assert min(ep) >= 20, ep
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_the_thesis_grid_through_the_whole_note_below_c6():
     """Below key 84 the preset strikes on the engine's grid, where the bar
     acts only while the hammer presses the string (key 78: no episode

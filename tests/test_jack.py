@@ -82,6 +82,7 @@ def _stop(proc, tester=None):
     return proc.communicate(timeout=60)
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_path):
     """24 notes sent through JACK MIDI at chosen frames to ``synth play
     --jack --preset grand-piano``, its audio captured through JACK: each
@@ -346,6 +347,7 @@ class _Lines:
 
 
 @pytest.mark.parametrize("rate,period", [(44_100, 128), (96_000, 256)])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_other_rates_through_jack(private_server, rate, period, tmp_path):
     """A server at 44.1 or 96 kHz: synth plays at its rate, each note as
     the same note rendered offline at that rate (correlation >= 0.9, each
@@ -379,6 +381,7 @@ def test_other_rates_through_jack(private_server, rate, period, tmp_path):
     assert info.samplerate == rate and info.frames > rate
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
     """While synth plays: the server's period goes from 128 to 256 frames
     (play goes on, said once), the MIDI source disconnects (a warning) and
@@ -467,6 +470,7 @@ def test_reconnect_waits_for_the_server_and_plays_on(private_server, tmp_path):
     assert info.samplerate == FS and info.frames > FS
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_portaudio_with_jack_midi(private_server, tmp_path):
     """The PortAudio player (no --jack) on a machine whose MIDI is JACK's:
     --midi-api auto takes JACK MIDI, --list-ports shows the keyboard, a
@@ -523,6 +527,7 @@ def test_portaudio_with_jack_midi(private_server, tmp_path):
     assert fs == FS and np.max(np.abs(y)) > 0.01
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_bench_live_jack_quick_measures_the_loop(server):
     """``tools/bench_live.py --jack --quick`` (issue 36's measuring tool, on
     the module's dummy server): every note found, at 241 samples (the

@@ -198,6 +198,7 @@ print("JSON " + json.dumps(res))
 """
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_warm_up_leaves_no_kernel_to_compile_in_the_callback():
     """A kernel first compiled (or loaded from the cache) inside the audio
     callback would be a dropout of a second or more: after ``ready_engine``'s

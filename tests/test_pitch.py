@@ -10,6 +10,7 @@ from synth.physics.string import midi_key_to_hz
 
 
 @pytest.mark.parametrize("name", ["sitar", "biwa", "hammered-sitar"])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_every_key_within_one_cent(name):
     play = load_preset(name).play
     worst = 0.0

@@ -80,6 +80,7 @@ def test_max_error_picks_the_cheapest_level_within_the_budget():
         Q.quality_level("fast")
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_the_command_line_options(tmp_path):
     out = tmp_path / "n.wav"
     p = _synth("note", "biwa", "--key", "50", "--seconds", "0.2", "--quality", "draft",
@@ -109,6 +110,7 @@ def test_the_command_line_options(tmp_path):
         assert "--max-error" in _synth(*cmd, "--help").stdout
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_the_levels_study_runs_in_its_quick_mode():
     """tools/quality_levels.py notes --quick (docs/quality.md): the
     reference level is the closest to the converged note."""

@@ -40,6 +40,7 @@ def run_live(name, arrivals, seconds, block=128, polyphony=None, **kw):
 
 
 @pytest.mark.parametrize("name", ["sitar", "grand-piano"])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_live_path_equals_offline_render(name):
     """The same events, stamped on arrival and played at a constant latency,
     give the same samples as rendering them offline at arrival + latency."""
@@ -76,6 +77,7 @@ def _max_jump(y):
     return np.max(np.abs(np.diff(y)))
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_flood_past_the_polyphony_steals_without_clicks():
     """200 notes in half a second on a 16-voice sitar: no error, the pool
     holds, and no sample-to-sample jump beyond what the same notes make
@@ -130,6 +132,7 @@ def _timed_blocks(fractions, notes=range(45, 57), **kw):
     return rt.stats
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_chord_attacks_the_device_absorbs_do_not_shed_but_a_lasting_overload_does():
     """Attack peaks (120 % then 94 % of the budget, then 60 %: the second
     period absorbs them) shed nothing, though they are two slow blocks in a

@@ -37,6 +37,7 @@ def test_aperiodic_then_periodic_with_case_order(cases):
         assert np.max(np.abs(tail[P:] - tail[:-P])) < 1e-12 * np.max(np.abs(u))
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_f0_glides_up_about_1_hz_and_returns(cases):
     for c, u in cases.items():
         t, f = f0_track(u, FS, 200.0, 0.05, 0.01)

@@ -203,6 +203,7 @@ def test_the_bridge_study_runs_in_its_quick_mode():
     assert float(row[0]) == 500.0 and abs(float(row[1])) < 1.0 and float(row[5]) > 15.0
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_a_soft_bridge_stays_bounded_under_a_chord_and_strokes():
     """At the schema's softest bridge (1 N s/m, against the strings' summed
     impedance of up to 3.5 N s/m: the bridge step before 2026-11-25 gave
