@@ -2,7 +2,7 @@
 
 The physics layer may not import the kernels (tests/test_layers.py), so the
 dispersion designs (synth.physics.dispersion) repeat the sizes the string
-kernel (synth.kernels.strings) holds state for.  A design larger than the
+kernel (synth.kernels.layout) holds state for.  A design larger than the
 kernel's state would be refused by the bank (synth.dsp.bank) at run time;
 one smaller would leave the kernel's room unused.  These tests make a change
 on one side fail until the other follows.

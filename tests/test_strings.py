@@ -8,6 +8,7 @@ from reference import closed_form_uk, naive_lossy_string, naive_string
 from synth.kernels import strings as K
 from synth.physics.plucks import biwa_g, sitar_g
 from synth.analysis import grid_energy
+from synth.dsp import sizing
 from synth.dsp.bank import StringBank
 
 
@@ -120,7 +121,7 @@ def test_fast_path_equals_per_sample_path(seed, side, N, R, frac, block, model, 
         # (bank.MIN_FAST_CHUNK), the same path as the reference
         from synth.dsp.bank import MIN_FAST_CHUNK
 
-        assert K.max_fast_chunk(N, k, R, out_mode) < MIN_FAST_CHUNK
+        assert sizing.max_fast_chunk(N, k, R, out_mode) < MIN_FAST_CHUNK
         return
     slow, _ = run_bank(N, k, model, A, 0.001, 3000.0, dt, n, U=U, side=side, per_sample=True,
                        lossy=lossy, max_bend=2 * N + 8, **kw)
@@ -594,7 +595,7 @@ def test_a_one_sample_fast_chunk_renders_per_sample():
     from synth.dsp.bank import MIN_FAST_CHUNK, slot_template
 
     U = np.full(10, 1e-3)
-    assert K.max_fast_chunk(100, 12, 10, 0) == 1
+    assert sizing.max_fast_chunk(100, 12, 10, 0) == 1
     assert slot_template(cells=100, k=12, dt_s=1e-5, U=U).ipar[K.I_CHUNK] == 0
-    assert K.max_fast_chunk(100, 13, 10, 0) == MIN_FAST_CHUNK == 2
+    assert sizing.max_fast_chunk(100, 13, 10, 0) == MIN_FAST_CHUNK == 2
     assert slot_template(cells=100, k=13, dt_s=1e-5, U=U).ipar[K.I_CHUNK] == 2

@@ -64,6 +64,7 @@ from synth.kernels import strings as K  # noqa: E402
 from synth.kernels.config import FASTMATH  # noqa: E402
 from synth.physics.losses import tune_loop  # noqa: E402
 from synth.physics.profiles import Termination, jawari_case1, jawari_case2  # noqa: E402
+from synth.dsp import sizing  # noqa: E402
 from synth.dsp.bank import StringBank  # noqa: E402
 
 # ---- the string of the benchmark --------------------------------------------
@@ -274,12 +275,13 @@ def main():
           f"segments of {SEG} samples, max_block {MAX_BLOCK}")
     tl = tune_loop(200.0, FS_MUSICAL, 7.0, 200.0, 1.2, 6000.0)
     print(f"# lossless: N={N_IDEAL}, k={K_IDEAL}, fs={FS_IDEAL:g}, fast chunk "
-          f"{K.max_fast_chunk(N_IDEAL, K_IDEAL, 25, 0)} (R=25) / "
-          f"{K.max_fast_chunk(N_IDEAL, K_IDEAL, 0, 0)} (R=0); musical: N={tl.cells}, "
+          f"{sizing.max_fast_chunk(N_IDEAL, K_IDEAL, 25, 0)} (R=25) / "
+          f"{sizing.max_fast_chunk(N_IDEAL, K_IDEAL, 0, 0)} (R=0); musical: N={tl.cells}, "
           f"k={round(0.75 * tl.cells)}, b0={tl.b0:.4f}, a1={tl.a1:.4f}, eta={tl.eta:.4f}, "
           f"extra_delay={tl.extra_delay}, fast chunk "
-          f"{K.max_fast_chunk(tl.cells, round(0.75 * tl.cells), 32, 1)} (R=32) while plucking, "
-          f"{K.max_free_chunk(tl.cells, round(0.75 * tl.cells), 32, 1)} after")
+          f"{sizing.max_fast_chunk(tl.cells, round(0.75 * tl.cells), 32, 1)} (R=32) "
+          "while plucking, "
+          f"{sizing.max_free_chunk(tl.cells, round(0.75 * tl.cells), 32, 1)} after")
     t = time.perf_counter()
     err, amp = check_naive_matches()   # also compiles both
     print(f"# naive vs bank, u(k) over 0.02 s with jawari Case 2: max |diff| = {err:.3g} m "

@@ -3,18 +3,21 @@
 ``synth.kernels`` holds only ``@njit`` functions and the constants they read
 (numba freezes the globals a kernel reads, and its cache checks a kernel
 against its own file only, so a kernel and its column numbers must live in
-one module; :mod:`synth.kernels.cache` keys the cache's folder on every
-kernel module's bytes).  This package holds
+that package, whose every module's bytes key the cache's folder:
+:mod:`synth.kernels.cache`).  This package holds
 the Python classes that own the kernels' arrays, validate their parameters
 and call them (stumpy's split of a kernel from its public wrapper):
 
 * :mod:`synth.dsp.bank`: :class:`~synth.dsp.bank.StringBank`, the string
   slots of :mod:`synth.kernels.strings`, and the templates a voice builds
-  once per key.  It is the only code outside the kernel module that indexes
-  the kernel's parameter and state tables (``ipar``, ``fpar``, ``fst``):
+  once per key.  It is the only code outside the kernels that indexes
+  the kernels' parameter and state tables (``ipar``, ``fpar``, ``fst``,
+  columns in :mod:`synth.kernels.layout`):
   voices and the engine use its methods (``configure_from``,
   ``start_pluck``, ``start_hammer_from``, ``apply_dampers``, ``fade``,
   ``reap``...).
+* :mod:`synth.dsp.sizing`: what the bank allocates for the string kernels
+  and the fast path's chunk limits (plain Python, from the kernels' layout).
 * :mod:`synth.dsp.body`: :class:`~synth.dsp.body.Body`, the soundboard's
   modal bank (:mod:`synth.kernels.body`).
 * :mod:`synth.dsp.decimator`: :class:`~synth.dsp.decimator.Decimator`,

@@ -23,7 +23,7 @@ import numpy as np
 from ..kernels import render as KR
 from ..kernels import strings as K
 from ..kernels.energy import ring_energy
-from . import threads
+from . import sizing, threads
 from .bridges import Bridges
 from .excitation import (  # noqa: F401  (re-exported: the voices build their hammers here)
     SOLVER_TOL, Excitations, HammerTemplate, hammer_template)
@@ -90,10 +90,10 @@ def region_reach(U: np.ndarray | None, side: int, subcell: float = 0.0) -> float
 
     The fast path skips a chunk's region when every step of two cells on
     the part of the ring that passes it is smaller (so every |u(n)| <
-    n B <= side U(n): :func:`synth.kernels.strings._out_of_reach`).
+    n B <= side U(n): :func:`synth.kernels.contact._out_of_reach`).
     With the sub-cell contact (``subcell`` > 0, the kernel's ``F_CURV``)
     the bound is over points 2..R: the kernel steps point 1 and the first
-    cell in any case (``strings._subcell_ring``), and they only move the
+    cell in any case (``contact._subcell_ring``), and they only move the
     string away from the obstacle."""
     if U is None:
         return 0.0
@@ -221,7 +221,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     ip[K.I_XDELAY] = int(extra_delay)
     ip[K.I_OUT] = int(out_mode)
     ip[K.I_PROBE] = -1
-    chunk = 0 if force_per_sample else K.max_fast_chunk(cells, k, R, out_mode)
+    chunk = 0 if force_per_sample else sizing.max_fast_chunk(cells, k, R, out_mode)
     # a chunk of one sample does the fast path's per-chunk work at every
     # sample: the per-sample path is then the faster (the same samples to
     # round-off).  The grand's key 97 on its 1.3 MHz strike grid (hammer 1
@@ -229,8 +229,8 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     # 128-sample blocks its hammer is on the strings: 2.6-3.5 ms in chunks of
     # one sample, 1.1-1.8 ms per sample (tools/bench_live.py --jack)
     ip[K.I_CHUNK] = 0 if chunk < MIN_FAST_CHUNK else chunk
-    ip[K.I_CHUNK_FREE] = 0 if force_per_sample else K.max_free_chunk(cells, k, R, out_mode,
-                                                                      bool(ip[K.I_FILT]))
+    ip[K.I_CHUNK_FREE] = 0 if force_per_sample else sizing.max_free_chunk(
+        cells, k, R, out_mode, bool(ip[K.I_FILT]))
     ip[K.I_HLAST] = -1
     fp = np.zeros(K.F_NF)
     fp[K.F_DT] = dt_s
@@ -325,8 +325,8 @@ class StringBank(Excitations, Bridges):
         # region profiles, g tables and pitch-bend lines, in one flat table array
         self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable + self.max_bend)))
         # fast-path chunks never exceed max_block (the kernel's scratch layout)
-        self._slen = K.scratch_length(self.max_block, self.max_region, self.max_bend,
-                                      self.max_group)
+        self._slen = sizing.scratch_length(self.max_block, self.max_region, self.max_bend,
+                                           self.max_group)
         # one scratch, iwork and staging row per thread (set_threads); the
         # shards' mixes, the plan, the big groups' blocks (kernels.render)
         self.threads = 1
@@ -341,7 +341,7 @@ class StringBank(Excitations, Bridges):
         # staging mix of strings on a finer grid (two buses; more rows for a
         # coupled group across rows, _fit_sub); an external bridge's
         # displacement when the caller gives none (all zero)
-        self._sub3 = np.zeros((1, 2, K.sub_length(self.max_block)))
+        self._sub3 = np.zeros((1, 2, sizing.sub_length(self.max_block)))
         # the highest output row of any slot (:meth:`set_output_row`)
         self._row_top = 0
         self._still = np.zeros(0)
@@ -382,7 +382,8 @@ class StringBank(Excitations, Bridges):
         # the hand-over between grids (:meth:`hand_over`): its scratch, and
         # the far-end filters' free state directions by (unit delay,
         # first-order sections, biquads)
-        self._ho_buf = np.zeros(K.hand_over_buffer_length(self.max_cells, self.HAND_OVER_ROWS))
+        self._ho_buf = np.zeros(sizing.hand_over_buffer_length(self.max_cells,
+                                                               self.HAND_OVER_ROWS))
         self._ho_At = np.zeros((K.MAX_FREE, self.HAND_OVER_ROWS))
         self._ho_R = np.zeros((K.MAX_FREE, K.MAX_FREE))
         self._ho_st = np.zeros(K.S_NS)
@@ -825,7 +826,7 @@ class StringBank(Excitations, Bridges):
         next outputs, with the new ring's arrivals, come nearest (least
         squares over :attr:`HAND_OVER_ROWS` steps) the old filter's, run on
         from its own state on the old ring's arrivals (one call of
-        :func:`synth.kernels.strings.hand_over_loop` per string, no
+        :func:`synth.kernels.hand_over.hand_over_loop` per string, no
         allocation in it: 0.17-0.23 ms for a key's three strings, most of
         it this method's Python; ``tools/study_capo.py cost``).  The bridge keeps its
         displacement, its step w = v dt is scaled by r, its constants are

@@ -4,7 +4,7 @@ hammer templates the voices build once per key.
 
 :class:`Excitations` is the part of :class:`synth.dsp.bank.StringBank`
 that writes an excitation into a slot's parameters and state (the kernels
-of :mod:`synth.kernels.strings` and :mod:`synth.kernels.felt_layer` then
+of :mod:`synth.kernels.excite` and :mod:`synth.kernels.felt_layer` then
 run it); a mixin, split from ``bank.py`` to keep one room per job.
 """
 
@@ -73,7 +73,7 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
     E = math.exp(-dt / tau0)
     # the felt impulse over a step, K int F dt = K (ca y1 + cby y0 + cbp Phi0),
     # Phi1 = pe Phi0 + p1 y1 + p0 y0 and F1 = fa y1 + fb y0 + fphi Phi1
-    # (synth.kernels.strings._hammer_general: eq. 1.5 and Pub. III eq. 3)
+    # (synth.kernels.excite._hammer_general: eq. 1.5 and Pub. III eq. 3)
     if law == K.EXC_HAMMER3:
         ca, cby, cbp = Q * (0.5 * dt + A), Q * (0.5 * dt - A), 0.0
         pe = p1 = p0 = 0.0

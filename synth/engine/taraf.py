@@ -14,7 +14,7 @@ of the bank (:meth:`synth.dsp.bank.StringBank.open_bridge`): a dashpot of
 resistance R (``taraf.bridge_resistance_ns_per_m / taraf.coupling``) with a
 slow spring, driven by the summed force of all its strings, whose motion
 every string's end follows, sample by sample in one kernel call
-(:func:`synth.kernels.strings._bridge`).  So a taraf string in unison with
+(:func:`synth.kernels.coupled._bridge`).  So a taraf string in unison with
 the note takes its energy from the played string (and gives it back), and
 the drones and the taraf hear each other.
 

@@ -6,8 +6,8 @@ spring that slowly brings it back, driven by the strings' summed force F,
 
     u[n+1] = a u[n] + b F[n],    b = dt / R,  a = exp(-2 pi f_r dt),
 
-the recurrence of a coupled unison's bridge in :mod:`synth.kernels.strings`
-(:func:`synth.kernels.strings._bridge`), here over the output rate.
+the recurrence of a coupled unison's bridge in :mod:`synth.kernels.coupled`
+(:func:`synth.kernels.coupled._bridge`), here over the output rate.
 """
 
 from numba import njit

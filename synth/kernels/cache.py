@@ -1,9 +1,11 @@
 """numba's on-disk cache of the kernels, in a folder keyed on their sources.
 
 The kernels are ``@njit(cache=True)`` and call each other across files
-(:mod:`~synth.kernels.render` calls and inlines :mod:`~synth.kernels.strings`,
-which calls :mod:`~synth.kernels.felt_layer` and the intrinsics of
-:mod:`~synth.kernels.lanes`; all read the flags and target constants of
+(:mod:`~synth.kernels.render` calls and inlines the string kernels,
+:mod:`~synth.kernels.strings` and the modules of its steps, which call one
+another, :mod:`~synth.kernels.felt_layer` and the intrinsics of
+:mod:`~synth.kernels.lanes`, and read the columns of
+:mod:`~synth.kernels.layout`; all read the flags and target constants of
 :mod:`~synth.kernels.config`).  numba checks a cached function against the
 one file that defines it (its modification time and size in older numba,
 a hash of its bytes in 0.68), never against the files it calls into: an

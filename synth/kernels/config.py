@@ -21,7 +21,7 @@ recurrence (4 cycles a sample), but re-associated to c (x - y1) + x1 (which
 LLVM does when it may) it has a subtraction and a multiply-add, and such a
 loop ran at 2.1 instead of 1.1 ns a sample (AVX2 build, Zen 5 host).
 Contraction into FMA stays allowed.  The pitch-bend line
-(``strings._bend_line`` and ``strings._bend_chunk``) uses it too: while a
+(``bend._bend_line`` and ``bend._bend_chunk``) uses it too: while a
 tune-out decays, both compute each sample's delay and taps with the same
 operations, and re-association let LLVM rewrite the chunk loop's (strength
 reduction of ``tog * to`` along the loop), so that a render's last bits

@@ -1,8 +1,11 @@
 """Rendering a bank of strings: coupled groups on their bridges, and the
 bank on every core.
 
-The per-string machinery (the fast path's steps, the hammer solver, the
-loop filters, the bridge's step) is :mod:`synth.kernels.strings`; this
+The per-string machinery is :mod:`synth.kernels.strings` (one string's
+drivers) and the modules of its steps (:mod:`~synth.kernels.excite`: the
+hammer solver; :mod:`~synth.kernels.contact`; :mod:`~synth.kernels.far_end`:
+the loop filters; :mod:`~synth.kernels.coupled`: the bridge's step and the
+lockstep filters; the columns in :mod:`~synth.kernels.layout`); this
 module puts it together for a whole bank, one segment at a time:
 
 * :func:`render_bank` renders a list of strings (singles, hammered strings
@@ -57,15 +60,18 @@ import numpy as np
 from numba import njit, prange
 
 from .config import JIT_OPTS, PAR_OPTS
-from .strings import (
+from .contact import _region_step
+from .coupled import _bridge, _bridge_steps, _far_lanes, _lanes_ok
+from .excite import _excite_chunk, _excite_group
+from .far_end import _far_filter, _far_prep, _far_write
+from .layout import (
     CPL_EXTERNAL, CPL_NONE, EXC_ENDED, EXC_FELT, EXC_HAMMER3, EXC_NONE, F_BRA, F_BRB, F_BRMU,
-    F_BTDX, F_GAIN, F_PAN, F_TDX, GROUP, GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL,
+    F_BTDX, F_CURV, F_GAIN, F_PAN, F_TDX, GROUP, GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL,
     I_CPLN, I_CPLNX, I_EXC, I_EXC_END, I_EXC_M, I_N, I_NDISP, I_NSOS, I_OFF, I_POS, I_PROBE,
-    I_REG_N, I_ROW, F_CURV, I_SUB, I_TELEM, S_PEAK, S_UBM, S_UBP, S_UBW, _CW, _GROW, _SCRATCH_GROUP,
-    _bridge, _bridge_steps, _chunk_end, _excite_chunk, _excite_group, _far_filter, _far_lanes,
-    _far_prep,
-    _far_write, _fold_if_ended, _lanes_ok, _region_step, _render_group, _render_per_sample,
-    _render_string, _work_windows,
+    I_REG_N, I_ROW, I_SUB, I_TELEM, S_PEAK, S_UBM, S_UBP, S_UBW, _CW, _GROW, _SCRATCH_GROUP,
+)
+from .strings import (
+    _chunk_end, _fold_if_ended, _render_group, _render_per_sample, _render_string, _work_windows,
 )
 
 #: 0 and 1 as int64 arguments: a literal 0 or 1 in a call makes numba compile
@@ -74,7 +80,7 @@ from .strings import (
 ZERO = np.int64(0)
 ONE = np.int64(1)
 #: members of a coupled group stepped together as one block (a multiple of
-#: the lanes of :func:`strings._far_lanes`, so that the lanes group the
+#: the lanes of :func:`coupled._far_lanes`, so that the lanes group the
 #: members as they would over the whole group)
 BLOCK = 4
 #: the least work (string_cost units x samples, about 0.5 ns each) worth a
@@ -179,7 +185,7 @@ def _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, fb):
     member's termination region and loop filter (into its far-end windows
     in ``cw``), as :func:`_coupled_chunk` steps them, then the block's
     share of the strings' force on the bridge held still, fb[i] = sum over
-    its members of T/dx 2 dz(i) (the sum :func:`strings._bridge` forms over
+    its members of T/dx 2 dz(i) (the sum :func:`coupled._bridge` forms over
     the whole group; ``ubm``: the bridge's u_b before the chunk); ``tw``:
     this thread's work row.  The members' windows stay with the thread
     that steps them: the calling thread reads only the blocks' rows."""
@@ -239,7 +245,7 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, nrow, scratch, pm, tw):
     s = ib[b]
     for j in range(g):
         m = m0 + j
-        # the outgoing wave y = z - u_b (as strings._bridge ends)
+        # the outgoing wave y = z - u_b (as coupled._bridge ends)
         yo = cw[(2 * m + 1) * _CW + 1:(2 * m + 1) * _CW + 1 + C]
         for i in range(C):
             yo[i] -= row[1 + i]
@@ -294,11 +300,11 @@ def _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, p
 
 @njit(**JIT_OPTS)
 def _bridge_blocks(lead, nb, fpar, fst, C, row, pb):
-    """:func:`strings._bridge` for a group in blocks: the strings' force
+    """:func:`coupled._bridge` for a group in blocks: the strings' force
     f(i) summed from the blocks' rows (the last row of each ``pb[b]``, in
     block order), then the bridge's step over the chunk, u_b per sample
     into ``row[1:C+1]`` (``row[0]``: u_b before the chunk), as
-    :func:`strings._bridge` computes it (the blocks subtract u_b from their
+    :func:`coupled._bridge` computes it (the blocks subtract u_b from their
     members' waves themselves, :func:`_block_c`)."""
     ubm = fst[lead, S_UBM]
     F = pb.shape[1] - 1
@@ -624,7 +630,7 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     active : int64[:]         string indices; the first ``n_active`` are used
     probe : 3-D               per-sample diagnostics [row, channel P_*, n] for
                               strings with ``ipar[s, I_PROBE] >= 0``
-    scratch : float64[:]      :func:`scratch_length` samples
+    scratch : float64[:]      :func:`synth.dsp.sizing.scratch_length` samples
     iwork : int64[:]          n_active + IWORK_EXTRA samples (work space)
     ubx : float64[:]          an external bridge's displacement per sample
                               (m), indexed like ``mix`` (strings with
@@ -632,10 +638,11 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                               string on a finer grid reads M values per
                               sample, ubx[(o0 + i) M + m]
     sub : float64[:, :]       staging mix for strings on a finer grid
-                              (:func:`sub_length` columns; rows: at least
-                              the span of rows any one of them, or any
-                              coupled group of them, writes; 2 when every
-                              member of a group has the same ``I_ROW``)
+                              (:func:`synth.dsp.sizing.sub_length` columns;
+                              rows: at least the span of rows any one of
+                              them, or any coupled group of them, writes; 2
+                              when every member of a group has the same
+                              ``I_ROW``)
     pb : float64[:, :, :]     the blocks' mixes of a coupled group of more
                               than BLOCK members (:func:`block_mix_shape`)
     tw : float64[:, :]        a work row per thread (:func:`task_work_length`
@@ -649,7 +656,8 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     its bridge; a sitar's taraf with its played strings: the chain of
     ``I_CPLNX`` from the leader) renders as a unit from its leader
     (:func:`_render_coupled`; the leader must be active while it has
-    members, and ``scratch`` must hold :func:`coupled_scratch` of its size);
+    members, and ``scratch`` must hold
+    :func:`synth.dsp.sizing.coupled_scratch` of its size);
     a string or group on a finer grid (``I_SUB`` = M > 1) renders n M steps
     into ``sub`` and is added as the mean of each sample's M steps (the
     rows it writes, lo .. hi - 1, staged in sub rows 0 .. hi - lo - 1:

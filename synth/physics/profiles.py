@@ -269,7 +269,7 @@ class Termination:
         under tension on the curved surface wraps it from x = 0 to where
         its tangent leaves it, however small its slope, so the kernel
         solves that contact within the first cell
-        (:func:`synth.kernels.strings._subcell_delta`).  On for
+        (:func:`synth.kernels.contact._subcell_delta`).  On for
         ``contact_subcell`` and a profile with ``end_slope`` (the
         ``jawari``); the thesis's profiles keep the clamp alone."""
         slope = getattr(self.profile, "end_slope", None)

@@ -11,7 +11,7 @@ termination (the composition of Faust's physmodels).  An exciter:
 * starts itself on a bank slot at note-on (``start``) through the bank's
   methods (:meth:`synth.dsp.bank.StringBank.start_pluck`, ``start_hammer``,
   ``start_gtable``); the kernel's excitation kinds are the named constants
-  ``EXC_*`` of :mod:`synth.kernels.strings`.
+  ``EXC_*`` of :mod:`synth.kernels.layout`.
 
 Both excite through the outgoing wave g(t) at x = l (thesis eq. 1.4:
 dg/dt = c F / 2T).
@@ -130,7 +130,7 @@ class FeltHammer(Exciter):
     """A felt hammer (``[hammer]``): the hammer-string system of eq. 1.4 at
     x = l with the three-parameter felt (eq. 1.5) or the four-parameter one
     (Publication III eq. 3), integrated by the kernel (implicit, second
-    order: ``_hammer_general`` in :mod:`synth.kernels.strings`).
+    order: ``_hammer_general`` in :mod:`synth.kernels.excite`).
 
     On a string with a termination, ``hammer.capo_coupling`` chooses the
     physically complete "direct" strike on the terminated string, or

@@ -67,7 +67,7 @@ from .first_order import _U_HI, _U_LO, _design
 #: Most biquads :func:`tune_stiff_loop_sos` may use, i.e. the state the
 #: kernel must hold.  The grand's 88 keys need at most 8 at 2 cents and
 #: partials up to 10 kHz (at most 40), 12 with partials up to 18 kHz.
-#: Equal to ``synth.kernels.strings.MAX_SOS`` (physics may not import
+#: Equal to ``synth.kernels.layout.MAX_SOS`` (physics may not import
 #: kernels; tests/test_constants.py keeps them equal).
 MAX_SOS = 12
 #: Cost of a biquad in first-order-section units (twice a first-order

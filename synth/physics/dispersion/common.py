@@ -18,7 +18,7 @@ import numpy as np
 from ..losses import loop_gain_from_t60, one_pole_from_two_gains
 
 CENTS_PER_LN = 1200.0 / math.log(2.0)
-#: Largest cascade the kernel is sized for (``synth.kernels.strings.MAX_DISP``;
+#: Largest cascade the kernel is sized for (``synth.kernels.layout.MAX_DISP``;
 #: physics may not import kernels, tests/test_constants.py keeps them equal).
 M_LIMIT = 16
 #: Fewest grid cells a stiff loop may keep (as :func:`losses.tune_loop`).

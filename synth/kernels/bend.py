@@ -1,0 +1,138 @@
+"""The pitch-bend line after the far end's loop filter (numba).
+
+A string with a bend line (``I_BLEN`` > 0) passes its loop filter's output
+through a delay line read with third-order Lagrange interpolation
+(:func:`_lagrange3`) at a gliding delay plus a decaying tune-out (the
+contact's pitch rise, undone): sample by sample (:func:`_bend_line`, the
+per-sample path) or over a fast-path chunk (:func:`_bend_chunk`), the same
+operations for the same samples.  Compiled without re-association
+(``SERIAL_OPTS``, :mod:`synth.kernels.config` says why).
+
+May import: :mod:`~synth.kernels.config`, :mod:`~synth.kernels.layout`,
+:mod:`~synth.kernels.ring`.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from .config import SERIAL_OPTS
+from .layout import S_BD, S_BW, S_TO
+from .ring import _ring_get, _ring_put
+
+
+@njit(**SERIAL_OPTS)
+def _lagrange3(f):
+    """Third-order Lagrange taps for the fraction f of a delay i + f, at
+    delays i-1 .. i+2 (one function, so that the bend line's per-sample and
+    chunk paths compute them with the same operations)."""
+    return (-f * (f - 1.0) * (f - 2.0) / 6.0, (f + 1.0) * (f - 1.0) * (f - 2.0) / 2.0,
+            -(f + 1.0) * f * (f - 2.0) / 2.0, (f + 1.0) * f * (f - 1.0) / 6.0)
+
+
+@njit(**SERIAL_OPTS)
+def _bend_line(y, st, U, boff, blen, bdt, bds, tor, tog):
+    """Pitch-bend line: write y, read at the (gliding) delay plus the
+    (decaying) tune-out tog S_TO with third-order Lagrange interpolation
+    (taps at delays i-1 .. i+2)."""
+    w = int(st[S_BW])
+    U[boff + w] = y
+    D = st[S_BD] + bds * (bdt - st[S_BD])
+    if abs(bdt - D) < 1e-9:
+        D = bdt                   # at rest: the fast path's block FIR takes over
+    st[S_BD] = D
+    to = st[S_TO]
+    D += tog * to
+    to *= tor
+    if abs(to) < 1e-9:
+        to = 0.0
+    st[S_TO] = to
+    i = int(D)
+    f = D - i
+    h0, h1, h2, h3 = _lagrange3(f)
+    r = w - i + 1
+    if r < 0:
+        r += blen
+    out = h0 * U[boff + r]
+    r -= 1
+    if r < 0:
+        r += blen
+    out += h1 * U[boff + r]
+    r -= 1
+    if r < 0:
+        r += blen
+    out += h2 * U[boff + r]
+    r -= 1
+    if r < 0:
+        r += blen
+    out += h3 * U[boff + r]
+    w += 1
+    if w == blen:
+        w = 0
+    st[S_BW] = w
+    return out
+
+
+@njit(**SERIAL_OPTS)
+def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
+    """The pitch-bend line over yb[b:b+n], in place.  While the delay glides,
+    sample by sample (:func:`_bend_line`); at rest (the usual case) its
+    third-order Lagrange read is a four-tap FIR over the line's last samples
+    and the new ones, laid out contiguously in ``hb``: fixed taps, or, while
+    a tune-out decays (tog S_TO), taps and integer delay computed per sample
+    exactly as :func:`_bend_line` computes them (the same operations in the
+    same order, each from its own sample's delay, so that the output does
+    not depend on where chunks start)."""
+    to = st[S_TO]
+    if st[S_BD] != bdt:
+        for i in range(n):
+            yb[b + i] = _bend_line(yb[b + i], st, U, boff, blen, bdt, bds, tor, tog)
+        return
+    D = bdt + tog * to
+    iD = int(D)
+    if to != 0.0:
+        # the history covers the run's integer delays (monotonic: its ends)
+        iE = int(bdt + tog * (to * tor ** n))
+        if iE > iD:
+            iD = iE
+        iD += 1
+        if iD > blen - 2:
+            iD = blen - 2
+    w = int(st[S_BW])
+    H = iD + 2                    # history: the H samples before this run
+    j = w - H
+    if j < 0:
+        j += blen
+    _ring_get(U, boff, blen, j, hb[0:H], 1.0)
+    y_ = yb[b:b + n]
+    hn = hb[H:H + n]
+    for i in range(n):
+        hn[i] = y_[i]
+    if to == 0.0:
+        f = D - iD
+        h0, h1, h2, h3 = _lagrange3(f)
+        t0 = hb[3:3 + n]
+        t1 = hb[2:2 + n]
+        t2 = hb[1:1 + n]
+        for i in range(n):
+            y_[i] = h0 * t0[i] + h1 * t1[i] + h2 * t2[i] + h3 * hb[i]
+    else:
+        for i in range(n):
+            D = bdt
+            D += tog * to
+            to *= tor
+            if abs(to) < 1e-9:
+                to = 0.0
+            k = int(D)
+            f = D - k
+            h0, h1, h2, h3 = _lagrange3(f)
+            r = H + i - k + 1     # delay k - 1
+            out = h0 * hb[r]
+            out += h1 * hb[r - 1]
+            out += h2 * hb[r - 2]
+            out += h3 * hb[r - 3]
+            y_[i] = out
+        st[S_TO] = to
+    m = n if n < blen else blen   # the new samples go into the line (its last blen)
+    _ring_put(U, boff, blen, (w + n - m) % blen, hb[H + n - m:H + n], 1.0)
+    st[S_BW] = (w + n) % blen
