@@ -55,7 +55,8 @@ inside or next to the region and diagnostics (probe, contacts, and the
 contact telemetry of ``I_TELEM`` strings: live play's ``--stats``).
 
 How the fast path is written, so that it is fast on every x86-64 target
-(AVX-512, AVX2 and plain SSE2 builds; measured in docs/benchmarks.md):
+(AVX-512, AVX2 and plain SSE2 builds; docs/benchmarks.md, "String bank
+kernel" and "Code targets"):
 
 * every window of the ring a step needs is copied to contiguous scratch
   with two loops split at the ring's wrap (:func:`_ring_get`,
