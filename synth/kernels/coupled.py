@@ -62,6 +62,31 @@ _LANES_ZERO = splat4 if LANES == 4 else splat2
 _LANES_HEAD_SOS2 = 0 if LANES == 2 else _LANES_HEAD_SOS
 
 
+@njit(inline="always", **JIT_OPTS)
+def _force_row(s, m0, g, ipar, fpar, C, cw, ubm, fo):
+    """fo[0:C] = the force on the bridge held still over a chunk of the
+    group's members m0 .. m0 + g - 1 (member m0 is slot ``s``, the next ones
+    follow ``I_CPLNX``): the sum over them of T/dx 2 dz(i), dz the change
+    of each one's loop-filter output in its far-end window of ``cw`` (its
+    z(-1) taken with ``ubm``, the bridge's u_b before the chunk, added, and
+    restored).  The whole group (:func:`_bridge`) or one block of a big
+    group (``synth.kernels.render._block_a``)."""
+    for i in range(C):
+        fo[i] = 0.0
+    for j in range(g):
+        m = m0 + j
+        yb = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
+        t2 = 2.0 * fpar[s, F_TDX]
+        s = ipar[s, I_CPLNX]
+        y_prev = yb[0]
+        yb[0] = y_prev + ubm          # z(-1), the filter's own previous output
+        zo = yb[1:1 + C]
+        zp = yb[0:C]
+        for i in range(C):
+            fo[i] += t2 * (zo[i] - zp[i])
+        yb[0] = y_prev
+
+
 @njit(**JIT_OPTS)
 def _bridge(lead, G, ipar, fpar, fst, C, cw):
     """The bridge of a coupled group over a chunk: from the members'
@@ -113,20 +138,7 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
         return
     row = cw[2 * G * _CW:2 * G * _CW + C + 1]
     fo = row[1:1 + C]
-    for i in range(C):
-        fo[i] = 0.0
-    s = lead
-    for m in range(G):
-        yb = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
-        t2 = 2.0 * fpar[s, F_TDX]
-        s = ipar[s, I_CPLNX]
-        y_prev = yb[0]
-        yb[0] = y_prev + ubm          # z(-1), the filter's own previous output
-        zo = yb[1:1 + C]
-        zp = yb[0:C]
-        for i in range(C):
-            fo[i] += t2 * (zo[i] - zp[i])
-        yb[0] = y_prev
+    _force_row(lead, G - G, G, ipar, fpar, C, cw, ubm, fo)   # (not the constant 0: see _ring_get)
     row[0] = ubm
     ubm = _bridge_steps(lead, fpar, fst, C, fo, ubm)
     s = lead

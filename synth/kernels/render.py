@@ -61,11 +61,11 @@ from numba import njit, prange
 
 from .config import JIT_OPTS, PAR_OPTS
 from .contact import _region_step
-from .coupled import _bridge, _bridge_steps, _far_lanes, _lanes_ok
+from .coupled import _bridge, _bridge_steps, _far_lanes, _force_row, _lanes_ok
 from .excite import _excite_chunk, _excite_group
 from .far_end import _far_filter, _far_prep, _far_write
 from .layout import (
-    CPL_EXTERNAL, CPL_NONE, EXC_ENDED, EXC_FELT, EXC_HAMMER3, EXC_NONE, F_BRA, F_BRB, F_BRMU,
+    CPL_NONE, EXC_FELT, EXC_HAMMER3, EXC_NONE, F_BRA, F_BRB, F_BRMU,
     F_BTDX, F_CURV, F_GAIN, F_PAN, F_TDX, GROUP, GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL,
     I_CPLN, I_CPLNX, I_EXC, I_EXC_END, I_EXC_M, I_N, I_NDISP, I_NSOS, I_OFF, I_POS, I_PROBE,
     I_REG_N, I_ROW, I_SUB, I_TELEM, S_PEAK, S_UBM, S_UBP, S_UBW, _CW, _GROW, _SCRATCH_GROUP,
@@ -207,21 +207,7 @@ def _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, fb):
     if lock:
         _far_lanes(ib[b], g, ipar, fpar, fst, C, cw[2 * m0 * _CW:], work[0:4 * C],
                    tw[tw.shape[0] - _CW:tw.shape[0] - _CW + C])
-    for i in range(C):
-        fb[i] = 0.0
-    s = ib[b]
-    for j in range(g):
-        m = m0 + j
-        yb = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
-        t2 = 2.0 * fpar[s, F_TDX]
-        s = ipar[s, I_CPLNX]
-        y_prev = yb[0]
-        yb[0] = y_prev + ubm          # z(-1), the filter's own previous output
-        zo = yb[1:1 + C]
-        zp = yb[0:C]
-        for i in range(C):
-            fb[i] += t2 * (zo[i] - zp[i])
-        yb[0] = y_prev
+    _force_row(ib[b], m0, g, ipar, fpar, C, cw, ubm, fb)
 
 
 @njit(**JIT_OPTS)
