@@ -221,14 +221,22 @@ GROUP_CHUNK = 512
 #: whose address matches an earlier store's in its low 12 bits waits for it:
 #: "4K aliasing")
 _GROW = GROUP_CHUNK + 24
+#: excited strings a coupled group's fast-path chunk takes (their g rows, the
+#: first GROUP of which also serve the hammers of :func:`_render_group`):
+#: plucks last 3-4 ms at 325 kHz, so a chord or a strum struck within that
+#: time on a sitar's bridge has that many members exciting at once, and with
+#: more than this the whole group (taraf and every sounding string) steps
+#: per sample until they end (the 128-note cluster of ``tools/bench_live.py``
+#: struck 0.4 ms apart has about 9 at once)
+ROWS = 16
 #: the rows of incoming waves start here (1088 bytes past a page multiple
-#: from the g rows)
-_GIB = GROUP * _GROW + 40
+#: from the g rows: (ROWS _GROW + 264) 8 = 17 pages + 1088 bytes)
+_GIB = ROWS * _GROW + 264
 #: scratch samples before the per-chunk windows (the group's g and I1 rows)
 _SCRATCH_GROUP = _GIB + GROUP * _GROW + GROUP + 8
 #: int64 work samples :func:`synth.kernels.render.render_bank` needs besides the
 #: string list
-IWORK_EXTRA = 8 * GROUP
+IWORK_EXTRA = 6 * GROUP + ROWS
 #: the coupled groups' far-end buffers at the end of ``scratch``: per member
 #: x (C + 2) and y (C + 1) windows, and the bridge's row, for chunks of at most
 #: GROUP_CHUNK samples

@@ -66,7 +66,7 @@ from .excite import _excite_chunk, _excite_group
 from .far_end import _far_filter, _far_prep, _far_write
 from .layout import (
     CPL_NONE, EXC_FELT, EXC_HAMMER3, EXC_NONE, F_BRA, F_BRB, F_BRMU,
-    F_BTDX, F_CURV, F_GAIN, F_PAN, F_TDX, GROUP, GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL,
+    F_BTDX, F_CURV, F_GAIN, F_PAN, F_TDX, GROUP, GROUP_CHUNK, ROWS, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL,
     I_CPLN, I_CPLNX, I_EXC, I_EXC_END, I_EXC_M, I_N, I_NDISP, I_NSOS, I_OFF, I_POS, I_PROBE,
     I_REG_N, I_ROW, I_SUB, I_TELEM, S_PEAK, S_UBM, S_UBP, S_UBW, _CW, _GROW, _SCRATCH_GROUP,
 )
@@ -371,7 +371,7 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
     (running hammers stepped together, :func:`_excite_group`), each
     string's region and loop filter, the bridge (:func:`_bridge`), then
     each string's far-end write and output.  C is within every member's
-    fast-path limit, and at most GROUP members excite.
+    fast-path limit, and at most ROWS members excite (GROUP hammers).
 
     A group of more than BLOCK members (a sitar's bridge) steps its members
     in blocks (:func:`_coupled_blocks`): the same samples whether the
@@ -507,7 +507,7 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
                     pb, tw, ib, nt):
     """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
     lockstep fast-path chunks (:func:`_coupled_chunk`) as long as every
-    member allows one and at most GROUP of them excite, else per sample
+    member allows one and at most ROWS of them excite (GROUP hammers), else per sample
     (:func:`_coupled_per_sample`, a member with a probe or telemetry takes
     the whole block that way)."""
     G = ipar[lead, I_CPLN]
@@ -525,12 +525,15 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
             C = GROUP_CHUNK
         slow = diag
         nexc = 0
+        nham = 0
         s = lead
         for m in range(G):
             exc = ipar[s, I_EXC]
             c = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
             if exc > EXC_NONE:
                 nexc += 1
+                if exc >= EXC_HAMMER3:
+                    nham += 1
                 left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
                 if left < c:
                     c = left
@@ -539,7 +542,7 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
             elif c < C:
                 C = c
             s = ipar[s, I_CPLNX]
-        if nexc > GROUP:
+        if nexc > ROWS or nham > GROUP:
             slow = True                # more excitations than the chunk's g rows
         if slow:
             if not diag and C > 64:
@@ -653,7 +656,7 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     """
     L = iwork.shape[0]
     ist = iwork[L - 6 * GROUP:]
-    iw = iwork[L - 8 * GROUP:L - 6 * GROUP]
+    iw = iwork[L - 6 * GROUP - ROWS:L - 6 * GROUP]
     rows = mix.shape[0]
     nh = 0
     for a in range(n_active):
