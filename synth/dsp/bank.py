@@ -324,6 +324,7 @@ class StringBank(Excitations, Bridges):
         self.max_bend = int(max_bend)
         # region profiles, g tables and pitch-bend lines, in one flat table array
         self.U = np.zeros(max(1, self.capacity * (self.max_region + self.max_gtable + self.max_bend)))
+        self.U.fill(0.0)               # (its pages too: a note-on's bend line is zeroed)
         # fast-path chunks never exceed max_block (the kernel's scratch layout)
         self._slen = sizing.scratch_length(self.max_block, self.max_region, self.max_bend,
                                            self.max_group)

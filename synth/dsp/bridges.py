@@ -135,22 +135,32 @@ class Bridges:
         mem = self._members[lead]
         G = len(mem)
         ipar = self.ipar
+        if G >= 8:
+            # a sitar's bridge (its taraf and every sounding string): one
+            # indexed write per column, not a Python step per member (a
+            # note-on joins and rewrites the whole chain)
+            idx = np.array(mem, dtype=np.int64)
+            ipar[idx, K.I_CPL] = lead
+            ipar[idx, K.I_CPLN] = G
+            ipar[idx[:-1], K.I_CPLNX] = idx[1:]
+            ipar[idx[-1], K.I_CPLNX] = -1
+            self._leader[idx] = lead
+            self.fpar[lead, K.F_BTDX] = float(np.sum(self.fpar[idx, K.F_TDX]))
+            self._fit_sub(lead)
+            return
         for i, m in enumerate(mem):
             ip = ipar[m]
             ip[K.I_CPL] = lead
             ip[K.I_CPLN] = G
             ip[K.I_CPLNX] = mem[i + 1] if i + 1 < G else -1
             self._leader[m] = lead
-        if G < 8:
-            # a key's unison: added in order, as numpy sums fewer than 8
-            # values (the same float), without its call's cost
-            fp = self.fpar
-            tdx = 0.0
-            for m in mem:
-                tdx += float(fp[m, K.F_TDX])
-            self.fpar[lead, K.F_BTDX] = tdx
-        else:
-            self.fpar[lead, K.F_BTDX] = float(np.sum(self.fpar[mem, K.F_TDX]))
+        # a key's unison: added in order, as numpy sums fewer than 8 values
+        # (the same float), without its call's cost
+        fp = self.fpar
+        tdx = 0.0
+        for m in mem:
+            tdx += float(fp[m, K.F_TDX])
+        self.fpar[lead, K.F_BTDX] = tdx
         self._fit_sub(lead)
 
     def set_external_bridge(self, s: int, ease_s: float = 0.02) -> None:

@@ -154,6 +154,9 @@ class OneStringVoice(Voice):
         self.buzz_cc = None if cc is None or self.termination is None else int(cc)
         self.exciter = exciter_for(preset, self.fs)
         self._setups: dict = {}
+        #: each cached setup's slot template (at the full buzz depth): a note-on
+        #: copies it into its slot instead of building it again
+        self._templates: dict = {}
         #: per bank slot: the pitch bend of its note, -1 .. 1
         self._bend: dict = {}
         #: per bank slot: its note's drain (:meth:`set_buzz`), while it runs
@@ -361,15 +364,25 @@ class OneStringVoice(Voice):
         return self.exciter.strike_log
 
     def _configure(self, bank: StringBank, slot: int, su: StringSetup, probe_row: int) -> None:
-        pre = self.preset
-        out_mode = 1 if pre.output.signal == "bridge_force" else 0
-        bank.configure(slot, cells=su.cells, k=su.k, dt_s=su.dt_s, U=self._region(su), side=su.side,
-                       out_mode=out_mode, gain=pre.output.gain,
-                       tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
-                       b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
-                       lossy=su.lossy, probe_row=probe_row, bend_len=su.bend_len,
-                       bend_delay=su.bend_delay, n_disp=su.n_disp, a_disp=su.a_disp,
-                       subcell=su.subcell)
+        U = self._region(su)
+        own = U is su.U                # the cached profile (not a buzz depth's)
+        hit = self._templates.get(id(su)) if own else None
+        if hit is None or hit[0] is not su:
+            pre = self.preset
+            out_mode = 1 if pre.output.signal == "bridge_force" else 0
+            t = slot_template(cells=su.cells, k=su.k, dt_s=su.dt_s, U=U, side=su.side,
+                              out_mode=out_mode, gain=pre.output.gain,
+                              tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
+                              b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
+                              lossy=su.lossy, bend_len=su.bend_len, bend_delay=su.bend_delay,
+                              n_disp=su.n_disp, a_disp=su.a_disp, subcell=su.subcell,
+                              glide_s=bank.LOSS_GLIDE_S, bend_glide_s=bank.BEND_GLIDE_S)
+            if own:
+                # (the setup is kept beside it: its id names no other object)
+                self._templates[id(su)] = (su, t)
+        else:
+            t = hit[1]
+        bank.configure_from(slot, t, probe_row)
         # the thesis's strings are lossless and never damped
         t_damped = math.inf if self.study else self.preset.loss.release_t60_s
         bank.set_damper(slot, (su.b0, su.f0_hz, t_damped, math.inf))
