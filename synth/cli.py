@@ -17,6 +17,12 @@
     synth batch SPEC.toml -o DIR [--scheduler tcp://HOST:8786 | --workers N] [--csv] [--dry-run]
     synth compare STIMULUS STIMULUS [...] [--midi FILE | --key K --velocity V --seconds S]
                [--lufs X] [--trials N] -o DIR [--serve [--port P]]
+    synth help [TOPIC]
+    synth --version
+
+Audio outputs take their format from the extension: .wav, .flac or .ogg
+(anything else is refused before any work); an output that names an input
+is refused too.  ``python -m synth`` is the same command (synth/__main__.py).
 
 Each command is a module of synth.commands (its options, checks and
 output); this module builds the parser from them, in the order of ``synth
@@ -30,35 +36,72 @@ left behind.  Ctrl-C (and SIGTERM during ``render``) print one line
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
-from .commands import analyze, batch, check, compare, demo, felt, note, play, presets, render
-from .commands.common import parse_channels, parse_mpe_option
+from . import __version__
+from .commands import (analyze, batch, check, compare, demo, felt, help as help_cmd, note, play,
+                       presets, render)
+from .commands.common import os_error_line, parse_channels, parse_mpe_option
 from .io.errors import SynthError
 from .io.interrupt import Interrupted
 
 __all__ = ["COMMANDS", "build_parser", "main", "parse_channels", "parse_mpe_option"]
 
 #: the command modules, in the order ``synth --help`` lists them
-COMMANDS = (demo, presets, note, render, analyze, check, felt, batch, play, compare)
+COMMANDS = (demo, presets, note, render, analyze, check, felt, batch, play, compare, help_cmd)
+
+EPILOG = """examples:
+  synth demo                                         # demo.wav: a phrase on the sitar and biwa
+  synth note sitar --key 57 -o a3.wav                # one note (.wav, .flac or .ogg)
+  synth render song.mid --preset grand-piano -o song.flac
+  synth analyze a3.wav                               # its partials, decays and loudness
+  synth COMMAND --help                               # a command's options and examples
+  synth help                                         # the user guides shipped with synth"""
 
 
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="synth", description="Physical-modelling string synthesizer "
-                                "(waveguide strings against jawari, sawari and capo-bar terminations).")
-    sub = p.add_subparsers(dest="cmd", required=True)
+                                "(waveguide strings against jawari, sawari and capo-bar terminations).",
+                                epilog=EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--version", action="version", version=f"synth {__version__}",
+                   help="print synth's version and exit")
+    sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
     for m in COMMANDS:
         extra = {k.lower(): getattr(m, k) for k in ("DESCRIPTION", "EPILOG", "FORMATTER_CLASS")
                  if hasattr(m, k)}
+        extra.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
         sp = sub.add_parser(m.NAME, help=m.HELP, **extra)
         m.add_arguments(sp)
-        sp.set_defaults(func=m.run)
+        sp.set_defaults(func=m.run, _module=m)
     return p
+
+
+def _warn_preset_path() -> None:
+    """One line on stderr for each $SYNTH_PRESET_PATH entry that is not a
+    folder (a typo is otherwise ignored without a word)."""
+    for entry in os.environ.get("SYNTH_PRESET_PATH", "").split(os.pathsep):
+        if entry.strip() and not os.path.isdir(os.path.expanduser(entry)):
+            what = "is not a folder" if os.path.exists(os.path.expanduser(entry)) \
+                else "no such folder"
+            print(f"synth: warning: SYNTH_PRESET_PATH entry {entry}: {what} (ignored)",
+                  file=sys.stderr)
 
 
 def main(argv=None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args, extras = parser.parse_known_args(argv)
+    if extras:
+        # an option the command (or felt's mode) does not take: the command
+        # may say which one does; else argparse's own error (status 2)
+        hook = getattr(getattr(args, "_module", None), "unknown_options", None)
+        msg = hook(args, extras) if hook is not None else None
+        if msg is None:
+            parser.error(f"unrecognized arguments: {' '.join(extras)}")
+        print(f"synth: error: {msg}", file=sys.stderr)
+        return 2
+    if getattr(args, "_module", None) is not felt:
+        _warn_preset_path()
     try:
         if getattr(args, "threads", None) is not None:
             from .io.factory import set_default_threads
@@ -68,7 +111,10 @@ def main(argv=None) -> int:
     except SynthError as e:
         print(f"synth: error: {e}", file=sys.stderr)
         return 2
-    except (OSError, ValueError) as e:
+    except OSError as e:               # one line naming the path, not "[Errno 13] ..."
+        print(f"synth: error: {os_error_line(e)}", file=sys.stderr)
+        return 2
+    except ValueError as e:
         print(f"synth: error: {e}", file=sys.stderr)
         return 2
     except Interrupted as e:                 # SIGINT or SIGTERM (synth.io.interrupt)

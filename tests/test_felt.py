@@ -261,7 +261,7 @@ def test_the_pulse_command(tmp_path, capsys):
     assert "leading crest decays" in capsys.readouterr().out
     for argv, msg in [(["--times", "a"], "--times = 'a' is not a list"),
                       (["--p", "9"], "exponent = 9.0 is out of range"),
-                      (["--gamma", "0.9"], "pulse takes --delta"),
+                      (["--gamma", "0.9"], "--gamma is not an option of this mode (it is an option of: dispersion"),
                       (["--preset", "thesis", "--delta", "0.2"], "not both")]:
         assert main(["felt", "pulse", *argv]) == 2
         err = capsys.readouterr().err.strip().splitlines()

@@ -7,6 +7,7 @@ absolute module names. A module's layer is the first package under synth
 
 Layers and what each may import from synth (its own layer included)::
 
+    __main__  cli                         (python -m synth)
     cli       commands, io                (the parser from the commands, dispatch)
     commands  anything below: apps, testing, io, engine, voices, dsp, physics,
               kernels, analysis           (one module per command; only cli imports them)
@@ -36,6 +37,8 @@ SYNTH_DIR = Path(__file__).resolve().parents[1] / "synth"
 
 _LOW = {"voices", "dsp", "physics", "kernels"}
 ALLOWED: dict[str, set[str]] = {
+    # python -m synth: synth/__main__.py runs synth.cli's main
+    "__main__": {"cli"},
     # synth.cli builds the parser from synth.commands and dispatches to them
     "cli": {"cli", "commands", "io"},
     # synth.commands: one module per command (options, checks, output); only cli imports them

@@ -641,8 +641,12 @@ def make_comparison(req: CompareRequest, log: Callable[[str], None] = print) -> 
 
     from synth.apps.compare_page import render_page
 
-    staging = Path(tempfile.mkdtemp(prefix=f".{out.name or 'compare'}.", suffix=".tmp",
-                                    dir=out.resolve().parent))
+    try:
+        staging = Path(tempfile.mkdtemp(prefix=f".{out.name or 'compare'}.", suffix=".tmp",
+                                        dir=out.resolve().parent))
+    except OSError as e:
+        raise SynthError(f"-o {display_path(out)}: cannot write in {display_path(out.resolve().parent)} "
+                         f"({e.strerror or e})") from None
     try:
         umask = os.umask(0)
         os.umask(umask)
@@ -706,11 +710,18 @@ def _check_rows(obj) -> list[dict]:
     return rows
 
 
+#: the first characters that make a spreadsheet read a cell as a formula
+#: (OWASP, CSV injection): such a text cell is written with a leading quote
+FORMULA_STARTS = ("=", "+", "-", "@", "\t", "\r")
+
+
 def _cell(v) -> str:
     if v is None:
         return ""
     if isinstance(v, bool):
         return "1" if v else "0"
+    if isinstance(v, str) and v.startswith(FORMULA_STARTS):
+        return "'" + v            # text, not a formula ('=cmd|calc!A1' -> "'=cmd|calc!A1")
     return str(v)
 
 

@@ -404,7 +404,9 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; }
   function csvCell(v) {
     if (v === null || v === undefined) return "";
     if (typeof v === "boolean") return v ? "1" : "0";
-    const s = String(v);
+    let s = String(v);
+    // a text cell a spreadsheet would read as a formula gets a leading quote (CSV injection)
+    if (typeof v === "string" && /^[=+\-@\t\r]/.test(s)) s = "'" + s;
     return /[",\r\n]/.test(s) ? '"' + s.replace(/"/g, '""') + '"' : s;
   }
   function csvText() {

@@ -117,6 +117,8 @@ class RenderRequest:
     drums: bool = False
     rate: int | None = None
     mpe: tuple[tuple[int, int], ...] = ()
+    #: the container: "wav", "flac" or "ogg" (synth.io.wav.FORMATS)
+    fmt: str = "wav"
 
 
 @dataclass(frozen=True)
@@ -187,6 +189,11 @@ class RenderResult:
     summary: str
     stolen: int = 0
     ignored: dict = field(default_factory=dict)
+    #: the peak sample (dBFS; over 0: over full scale), samples clipped
+    #: (24-bit PCM, FLAC, Ogg), and the preset's output.gain
+    peak_dbfs: float = -math.inf
+    n_clipped: int = 0
+    output_gain: float | None = None
 
 
 def ignored_lines(ignored: dict) -> list[str]:
@@ -443,7 +450,7 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
     fs = eng.fs_out
     subtype = "pcm24" if req.pcm24 else "float"
     limit_s = wav_max_frames(eng.channels, subtype) / fs
-    if plan.expected_s > limit_s:
+    if req.fmt == "wav" and plan.expected_s > limit_s:
         kind = {1: "mono", 2: "stereo"}.get(eng.channels, f"{eng.channels}-channel")
         raise SynthError(f"{shown}: {format_length(plan.expected_s)} of {kind} "
                          f"{'24-bit PCM' if req.pcm24 else '32-bit float'} audio is more than a WAV "
@@ -461,7 +468,7 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
     t = time.perf_counter()
     try:
         # written as rendered: the whole render is never in memory
-        res = write_wav_stream(req.output, cut, fs, eng.channels, subtype)
+        res = write_wav_stream(req.output, cut, fs, eng.channels, subtype, fmt=req.fmt)
     finally:
         if bar is not None:
             bar.close()
@@ -479,4 +486,5 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
     summary = (f"{req.output}: {dur:.1f} s, {len(plan.keys)} notes on {req.preset}{stolen}, "
                f"peak {res.peak_dbfs:.1f} dBFS{clip}, "
                f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)")
-    return RenderResult(dur, len(plan.keys), el, summary, eng.n_stolen, dict(ignored))
+    return RenderResult(dur, len(plan.keys), el, summary, eng.n_stolen, dict(ignored),
+                        res.peak_dbfs, res.n_clipped, float(preset.output.gain))

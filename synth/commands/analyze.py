@@ -6,30 +6,51 @@ from __future__ import annotations
 import os
 import sys
 
-from .common import check_output, engine_for, fail
+from .common import (DEFAULT_SECONDS, check_not_inputs, check_output, engine_for, fail,
+                     require_extra)
 
 NAME = "analyze"
 HELP = ("partials, inharmonicity, T60s, centroid and loudness of a "
-        "note: a WAV file, or a preset's note rendered first")
+        "note: an audio file, or a preset's note rendered first")
+EPILOG = ("examples:\n"
+          "  synth analyze take.wav --key 60            # a recording (WAV, FLAC, Ogg, AIFF)\n"
+          "  synth analyze sitar --key 57 --seconds 4   # a preset's note, rendered first\n"
+          "  synth analyze grand-piano --key 60 --json > c4.json\n"
+          "  synth analyze biwa --key 52 --plot e3.png  # and a PNG (the [plots] extra)\n"
+          "\n"
+          "A sound without a pitch (noise) is reported as such, without partials.\n"
+          "The report's fields: synth help analyze.")
+
+#: the audio files analyze reads (libsndfile's formats)
+AUDIO_SUFFIXES = (".wav", ".flac", ".aiff", ".aif", ".ogg")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("target", metavar="AUDIO.wav|PRESET")
-    parser.add_argument("--key", type=int,
-                        help="MIDI key (a preset's note, or the expected pitch of a file)")
-    parser.add_argument("--f0", type=float, help="expected pitch in Hz instead of --key")
-    parser.add_argument("--velocity", type=int, default=100,
-                        help="MIDI velocity of the rendered note (1-127)")
-    parser.add_argument("--seconds", type=float, default=4.0, help="length rendered (s, default 4)")
+    parser.add_argument("target", metavar="AUDIO.wav|PRESET",
+                        help="an audio file (WAV, FLAC, Ogg, AIFF; channels averaged) or a preset "
+                             "name or .toml file, whose note is rendered first")
+    parser.add_argument("--key", type=int, metavar="K",
+                        help="MIDI key 0-127 (a preset's note, or the expected pitch of a file; "
+                             "default: none, the strongest peak of a file)")
+    parser.add_argument("--f0", type=float, metavar="HZ",
+                        help="expected pitch in Hz, 20-10000, instead of --key (default: none)")
+    parser.add_argument("--velocity", type=int, default=100, metavar="V",
+                        help="MIDI velocity of the rendered note, 1-127 (default %(default)s)")
+    parser.add_argument("--seconds", type=float, default=DEFAULT_SECONDS, metavar="S",
+                        help="length of the rendered note in seconds, 0.1-60 (default %(default)g)")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
-                        help="override a preset value (repeatable)")
-    parser.add_argument("--partials", type=int, default=12,
-                        help="partials to measure (1-64, default 12)")
+                        help="override a preset value (repeatable; default: none)")
+    parser.add_argument("--partials", type=int, default=12, metavar="N",
+                        help="partials to measure, 1-64 (default %(default)s)")
     parser.add_argument("--contacts", action="store_true",
                         help="a preset's note: also summarise its contacts per string (termination and "
-                             "hammer: time in contact, episodes, peak force; over time in 10 ms frames)")
-    parser.add_argument("--json", action="store_true", help="print the report as JSON (docs/analyze.md)")
-    parser.add_argument("--plot", metavar="OUT.png", help="also draw a PNG (needs the [plots] extra)")
+                             "hammer: time in contact, episodes, peak force in N; over time in 10 ms "
+                             "frames; default: off)")
+    parser.add_argument("--json", action="store_true",
+                        help="print the report as JSON (its fields: synth help analyze; default: a "
+                             "table)")
+    parser.add_argument("--plot", metavar="OUT.png",
+                        help="also draw a PNG (needs the [plots] extra; default: none)")
 
 
 def run(args) -> int:
@@ -49,11 +70,19 @@ def run(args) -> int:
         fail(f"--seconds = {args.seconds} is out of range (0.1 <= value <= 60)")
     if args.plot is not None:
         check_output(args.plot, "--plot")
+        require_extra("plots", "--plot")
     target = args.target
-    audio_file = os.path.isfile(target) and target.lower().endswith((".wav", ".flac", ".aiff", ".ogg"))
+    # an existing file that is not a preset's .toml is audio, whatever its name
+    audio_file = os.path.isfile(target) and not target.lower().endswith(".toml")
+    check_not_inputs([("--plot", args.plot)], [("file", target if os.path.isfile(target) else None)])
     if audio_file:
         import soundfile as sf
 
+        try:
+            sf.info(target)
+        except (OSError, RuntimeError):
+            fail(f"not a WAV file: {target} (analyze reads WAV, FLAC, Ogg or AIFF audio, or a "
+                 f"preset: see synth presets)")
         if args.set:
             fail("--set applies to a preset, not to an audio file")
         if args.contacts:
@@ -67,7 +96,7 @@ def run(args) -> int:
         x = x.mean(axis=1)
         title = target
     else:
-        if target.lower().endswith((".wav", ".flac", ".aiff", ".ogg")):
+        if target.lower().endswith(AUDIO_SUFFIXES):
             fail(f"{target}: no such audio file")
         from ..engine.engine import Event
 

@@ -4,18 +4,26 @@ from __future__ import annotations
 
 import sys
 
-from .common import add_threads, check_output, fail
+from .common import add_threads, check_not_inputs, check_output, fail
 
 NAME = "check"
 HELP = ("spectrum tests: render what SPEC.toml names and check its "
         "expectations (exit 1 if one fails)")
+EPILOG = ("examples:\n"
+          "  synth check mine.toml                   # the tests of one spec file\n"
+          "  synth check --shipped --junit out.xml   # the shipped specs, and JUnit XML for CI\n"
+          "\n"
+          "The spec format: synth help check.")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("spec", nargs="*", help="spec files (TOML, docs/check.md)")
+    parser.add_argument("spec", nargs="*", metavar="SPEC.toml",
+                        help="spec files (TOML; the format: synth help check)")
     parser.add_argument("--shipped", action="store_true",
-                        help="also run the specs shipped with the presets (synth/presets/checks)")
-    parser.add_argument("--junit", metavar="OUT.xml", help="also write the results as JUnit XML")
+                        help="also run the specs shipped with the presets (synth/presets/checks; "
+                             "default: off)")
+    parser.add_argument("--junit", metavar="OUT.xml",
+                        help="also write the results as JUnit XML (default: none)")
     add_threads(parser)
 
 
@@ -30,6 +38,7 @@ def run(args) -> int:
         fail("check: give one or more SPEC.toml files, or --shipped")
     if args.junit is not None:
         check_output(args.junit, "--junit")
+        check_not_inputs([("--junit", args.junit)], [("spec", p) for p in specs])
     results = []
     for path in specs:
         results += run_spec(path, progress=lambda line: print(line, file=sys.stderr))

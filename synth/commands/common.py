@@ -15,6 +15,17 @@ import os
 from ..io.errors import SynthError
 
 
+#: the length of a rendered note when --seconds is not given (note, analyze, compare), s
+DEFAULT_SECONDS = 3.0
+
+#: the audio formats the commands write, by file extension (synth.io.wav.FORMATS)
+AUDIO_EXTENSIONS = {".wav": "wav", ".flac": "flac", ".ogg": "ogg"}
+
+#: the optional extras and the modules each brings (pyproject.toml's optional-dependencies)
+#: ([live] is checked by synth.io.live's players, before any slow work)
+EXTRAS = {"plots": ("matplotlib",), "batch": ("distributed", "pandas", "pyarrow")}
+
+
 def fail(msg: str) -> None:
     raise SynthError(msg)
 
@@ -28,16 +39,127 @@ def check_output(path: str, option: str) -> None:
         fail(f"{option} {path}: directory {d} does not exist")
 
 
+def audio_format(path: str, option: str) -> str:
+    """The format an audio output's extension chooses ("wav", "flac" or
+    "ogg"), or a one-line error before any work: an unknown extension
+    (.mp3) or none is not written as WAV data under that name."""
+    ext = os.path.splitext(path)[1].lower()
+    fmt = AUDIO_EXTENSIONS.get(ext)
+    allowed = ", ".join(AUDIO_EXTENSIONS)
+    if fmt is None:
+        what = f"extension {ext!r} is not an audio format synth writes" if ext \
+            else "has no extension to choose the audio format"
+        fail(f"{option} {path}: {what} (allowed: {allowed})")
+    if fmt != "wav":
+        import soundfile as sf
+
+        if fmt.upper() not in sf.available_formats():
+            fail(f"{option} {path}: this libsndfile cannot write {fmt.upper()} (allowed here: .wav)")
+    return fmt
+
+
+def _same_file(a: str, b: str) -> bool:
+    """`a` and `b` name one file: the same path resolved (a relative path, a
+    symlink), or, both existing, the same inode (a hard link)."""
+    try:
+        if os.path.exists(a) and os.path.exists(b) and os.path.samefile(a, b):
+            return True
+    except OSError:
+        pass
+    return os.path.realpath(a) == os.path.realpath(b)
+
+
+def check_not_inputs(outputs, inputs) -> None:
+    """Fail before any work if an output file names an input file, or
+    another output: `outputs` and `inputs` are (option, path) pairs, a path
+    None when not given.  ``synth render X.mid -o X.mid`` leaves X.mid as
+    it was."""
+    seen = []
+    for opt, path in outputs:
+        if path is None:
+            continue
+        for what, inp in inputs:
+            if inp is not None and _same_file(str(path), str(inp)):
+                fail(f"{opt} {path}: is the input {what} {inp}; writing it would destroy it "
+                     f"(give another output file)")
+        for opt2, p2 in seen:
+            if _same_file(str(path), str(p2)):
+                fail(f"{opt} {path}: is also {opt2} {p2}; give each output its own file")
+        seen.append((opt, path))
+
+
+def preset_file(name) -> str | None:
+    """The file a preset argument reads (a .toml path, or the file a name
+    finds on the preset path), None if none."""
+    if name is None:
+        return None
+    name = str(name)
+    if os.path.isfile(name):
+        return name
+    from ..io.presets.loader import find_preset_file
+
+    f = find_preset_file(name)
+    return None if f is None else str(f)
+
+
+def require_extra(extra: str, what: str, modules=None) -> None:
+    """Fail before any work if an optional extra's packages are missing:
+    one line saying how to install them."""
+    import importlib.util
+
+    missing = []
+    for m in modules or EXTRAS[extra]:
+        try:
+            if importlib.util.find_spec(m) is None:
+                missing.append(m)
+        except (ImportError, ValueError):
+            missing.append(m)
+    if missing:
+        fail(f'{what} needs the [{extra}] extra ({", ".join(missing)} not installed): '
+             f'pip install "synth[{extra}]"')
+
+
+def peak_warning(path: str, peak_dbfs: float, gain: float | None, n_clipped: int = 0) -> str | None:
+    """The one-line warning for a render over full scale (None under it):
+    its peak in dBFS and the gain change, in dB and as ``--set
+    output.gain``, that brings it to -1 dBFS."""
+    import math
+
+    if not (math.isfinite(peak_dbfs) and peak_dbfs > 0.0):
+        return None
+    drop = peak_dbfs + 1.0
+    clipped = f", {n_clipped} samples clipped" if n_clipped else ""
+    fix = f"{-drop:+.1f} dB would peak at -1 dBFS"
+    if gain is not None:
+        fix += f": --set output.gain={gain * 10.0 ** (-drop / 20.0):.4g} (the preset's is {gain:.4g})"
+    return (f"warning: {path} peaks at {peak_dbfs:+.1f} dBFS, over full scale{clipped}; "
+            f"{fix}, or --set output.limiter=on")
+
+
+def os_error_line(e: OSError) -> str:
+    """An OSError as one line naming the path: ``out/x.wav: Permission
+    denied``, not ``[Errno 13] Permission denied: 'out/x.wav'``."""
+    from ..io.errors import display_path
+
+    reason = e.strerror or str(e) or type(e).__name__
+    if e.filename is not None:
+        where = display_path(os.fsdecode(e.filename))
+        if e.filename2 is not None:
+            where += f" -> {display_path(os.fsdecode(e.filename2))}"
+        return f"{where}: {reason}"
+    return reason
+
+
 def add_quality(p) -> None:
     """--quality and --max-error on a command that builds an engine."""
     p.add_argument("--quality", choices=("draft", "standard", "reference"),
                    help="how finely the strings are computed (default: the preset's "
-                        "play.quality, standard); docs/quality.md gives each level's error "
+                        "play.quality, standard); `synth help quality` gives each level's error "
                         "and cost")
     p.add_argument("--max-error", metavar="CENTS,DB",
                    help="the cheapest quality level whose measured error for this preset is "
                         "within CENTS (partial frequencies) and DB (partial levels), e.g. 1,1 "
-                        "(docs/quality.md)")
+                        "(default: none, --quality decides; synth help quality)")
 
 
 def quality_overrides(args) -> list:
@@ -74,13 +196,20 @@ def engine_for(preset_name: str, overrides, internal_rate=None, probe=False, low
     return eng.inst.preset, eng.inst, eng
 
 
-def write_audio(path: str, audio, fs: int, pcm24: bool) -> str:
-    """Write `audio` as a WAV file (32-bit float, or 24-bit PCM); its peak, and clipping if any."""
+def write_audio(path: str, audio, fs: int, pcm24: bool, fmt: str = "wav", gain=None) -> str:
+    """Write `audio` as a WAV file (32-bit float, or 24-bit PCM), or FLAC or
+    Ogg Vorbis (`fmt`); its peak, and clipping if any.  Over full scale, a
+    warning on stderr (:func:`peak_warning`; `gain`: the preset's output.gain)."""
+    import sys
+
     import numpy as np
 
     from ..io.wav import write_wav
 
-    res = write_wav(path, audio.astype(np.float32), fs, "pcm24" if pcm24 else "float")
+    res = write_wav(path, audio.astype(np.float32), fs, "pcm24" if pcm24 else "float", fmt=fmt)
+    warn = peak_warning(path, res.peak_dbfs, gain, res.n_clipped)
+    if warn:
+        print(warn, file=sys.stderr)
     clip = f", {res.n_clipped} samples clipped" if res.n_clipped else ""
     return f"peak {res.peak_dbfs:.1f} dBFS{clip}"
 
@@ -145,7 +274,7 @@ def add_mpe(p) -> None:
                         "lower:7,upper:7; each note's channel bends (48 semitones, plus the "
                         "manager's 2; held within the preset's range), presses (its buzz) "
                         "and sets its pluck point (CC74) for that note alone "
-                        "(docs/midi.md, MPE)")
+                        "(default: none, plain MIDI; `synth help midi`, MPE)")
 
 
 def add_threads(p) -> None:

@@ -4,10 +4,13 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import add_threads, check_output, engine_for, write_audio
+from .common import add_threads, audio_format, check_output, engine_for, write_audio
 
 NAME = "demo"
 HELP = "render a short phrase on each plucked preset to demo.wav"
+EPILOG = ("examples:\n"
+          "  synth demo                   # demo.wav: a phrase on the sitar, then on the biwa\n"
+          "  synth demo -o demo.flac      # the same as FLAC (.wav, .flac or .ogg)")
 
 DEMO_PHRASES = {
     # (start beat, key, beats, velocity)
@@ -19,7 +22,9 @@ DEMO_PHRASES = {
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("-o", "--output", default="demo.wav")
+    parser.add_argument("-o", "--output", default="demo.wav", metavar="OUT.wav",
+                        help="output audio file, its format by extension: .wav, .flac or .ogg "
+                             "(default %(default)s)")
     add_threads(parser)
 
 
@@ -29,6 +34,7 @@ def run(args) -> int:
     from ..engine.engine import Event
 
     check_output(args.output, "-o")
+    fmt = audio_format(args.output, "-o")
     bpm = 96.0
     beat = 60.0 / bpm
     parts = []
@@ -44,7 +50,7 @@ def run(args) -> int:
         fs = eng.fs_out
     audio = np.concatenate(parts)
     out = Path(args.output).resolve()
-    info = write_audio(str(out), audio, fs, False)
+    info = write_audio(str(out), audio, fs, False, fmt)
     print(f"demo: {len(audio) / fs:.1f} s ({', '.join(DEMO_PHRASES)} phrases), {info}")
     print(f"wrote {out}")
     return 0

@@ -6,40 +6,63 @@ from __future__ import annotations
 import math
 import time
 
-from .common import (add_quality, add_threads, check_output, engine_for, fail, output_rate,
-                     quality_overrides, write_audio)
+from .common import (DEFAULT_SECONDS, add_quality, add_threads, audio_format, check_not_inputs,
+                     check_output, engine_for, fail, output_rate, preset_file, quality_overrides,
+                     write_audio)
 
 NAME = "note"
-HELP = "render one note of a preset to a WAV file"
+HELP = "render one note of a preset to a WAV, FLAC or Ogg file"
+EPILOG = ("examples:\n"
+          "  synth note sitar --key 57 -o a3.wav                 # 3 s of the sitar's A3\n"
+          "  synth note grand-piano --key 60 --velocity 40 --seconds 6 -o c4-soft.flac\n"
+          "  synth note paper/sitar-ideal --probe u.npy -o ideal.wav   # a study preset and u(l, t)\n"
+          "  synth note biwa --key 52 --set pluck.position=0.7 -o e3.ogg\n"
+          "\n"
+          "The output's extension chooses its format: .wav (32-bit float, or --pcm24), .flac\n"
+          "(24-bit) or .ogg (Vorbis); an output that names an input file is refused.")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("preset", help="preset name (see `synth presets`) or path to a .toml file")
-    parser.add_argument("--key", type=int, help="MIDI key 0-127 (musical presets: their range)")
-    parser.add_argument("--f0", type=float, help="fundamental frequency in Hz instead of --key")
-    parser.add_argument("--velocity", type=int, default=100, help="MIDI velocity 1-127 (default 100)")
-    parser.add_argument("--seconds", type=float, default=2.0, help="length in seconds (default 2)")
-    parser.add_argument("--internal-rate", type=float, help="internal sample rate in Hz (default: "
-                        "325000, or the study grid's own rate)")
+    parser.add_argument("preset", metavar="PRESET",
+                        help="preset name (see `synth presets`) or path to a .toml file")
+    parser.add_argument("--key", type=int, metavar="K",
+                        help="MIDI key 0-127, A4 = 69 (musical presets: within their range; "
+                             "default: none, a study preset's own pitch)")
+    parser.add_argument("--f0", type=float, metavar="HZ",
+                        help="fundamental frequency in Hz, 20-5000, instead of --key (default: none)")
+    parser.add_argument("--velocity", type=int, default=100, metavar="V",
+                        help="MIDI velocity 1-127 (default %(default)s)")
+    parser.add_argument("--seconds", type=float, default=DEFAULT_SECONDS, metavar="S",
+                        help="length of the audio in seconds, 0-600 (default %(default)g)")
+    parser.add_argument("--internal-rate", type=float, metavar="HZ",
+                        help="internal sample rate in Hz, 20000-2000000 (default: 325000, or the "
+                             "study grid's own rate)")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
-                        help="override a preset value, e.g. --set pluck.position=0.7 (repeatable)")
+                        help="override a preset value, e.g. --set pluck.position=0.7 (repeatable; "
+                             "default: none; every key: synth help presets)")
     add_quality(parser)
     parser.add_argument("--rate", type=float, metavar="HZ",
                         help="output sample rate in Hz (default 48000; 44100, 88200, 96000, any "
                              "22050-192000)")
-    parser.add_argument("-o", "--output", required=True, help="output WAV file (48 kHz, or --rate)")
-    parser.add_argument("--probe",
-                        help="also save u(l, t) at the pluck point (m, internal rate, float64 .npy)")
-    parser.add_argument("--pcm24", action="store_true", help="write 24-bit PCM instead of 32-bit float")
+    parser.add_argument("-o", "--output", required=True, metavar="OUT.wav",
+                        help="output audio file, its format by extension: .wav, .flac or .ogg "
+                             "(48 kHz, or --rate; required)")
+    parser.add_argument("--probe", metavar="OUT.npy",
+                        help="also save u(l, t) at the pluck point (m, internal rate, float64 .npy; "
+                             "default: not saved)")
+    parser.add_argument("--pcm24", action="store_true",
+                        help="WAV: write 24-bit PCM instead of 32-bit float (default: float; "
+                             "FLAC is always 24-bit)")
     parser.add_argument("--hammer-speed", type=float, metavar="M_PER_S",
-                        help="hammer speed at contact in m/s (hammered presets; overrides --velocity)")
+                        help="hammer speed at contact in m/s, 0.01-20 (hammered presets; overrides "
+                             "--velocity; default: from --velocity)")
     parser.add_argument("--contact-log", metavar="OUT.csv",
                         help="CSV of contact telemetry in 1 ms frames per string (termination points "
-                             "in contact, hammer force) and a summary (time in contact, episodes, "
-                             "peak force)")
+                             "in contact, hammer force in N) and a summary (time in contact, "
+                             "episodes, peak force; default: not written)")
     parser.add_argument("--hammer-log", metavar="OUT.csv",
-                        help="CSV of the strike at the internal rate: time, force, felt compression, g, "
-                             "hammer position")
+                        help="CSV of the strike at the internal rate: time (s), force (N), felt "
+                             "compression (m), g (m), hammer position (m) (default: not written)")
     add_threads(parser)
 
 
@@ -62,6 +85,12 @@ def run(args) -> int:
         fail(f"--internal-rate = {args.internal_rate} is out of range (20000 <= value <= 2000000 Hz)")
     rate = output_rate(args)
     check_output(args.output, "-o")
+    fmt = audio_format(args.output, "-o")
+    if args.pcm24 and fmt == "ogg":
+        fail(f"--pcm24 is for WAV files: -o {args.output} is Ogg Vorbis (give a .wav file)")
+    check_not_inputs([("-o", args.output), ("--probe", args.probe),
+                      ("--hammer-log", args.hammer_log), ("--contact-log", args.contact_log)],
+                     [("preset", preset_file(args.preset))])
     if args.probe is not None:
         check_output(args.probe, "--probe")
     if args.hammer_log is not None:
@@ -93,7 +122,7 @@ def run(args) -> int:
     t = time.perf_counter()
     y = eng.render([ev], duration_s=args.seconds)
     el = time.perf_counter() - t
-    info = write_audio(args.output, y, eng.fs_out, args.pcm24)
+    info = write_audio(args.output, y, eng.fs_out, args.pcm24, fmt, gain=preset.output.gain)
     pitch = inst.pitch_hz(args.key, f0)
     q = "" if inst.study else f" ({inst.quality.name})"
     print(f"{args.output}: {args.seconds:g} s of {args.preset} at {pitch:.2f} Hz, "

@@ -3,14 +3,23 @@ client (synth.io.live)."""
 
 from __future__ import annotations
 
-from .common import add_channels, add_mpe, add_quality, add_threads, fail, quality_overrides
+from .common import (add_channels, add_mpe, add_quality, add_threads, check_not_inputs, fail,
+                     preset_file, quality_overrides)
 
 NAME = "play"
 HELP = "play a preset live from a MIDI keyboard (needs the [live] extra)"
+EPILOG = ("examples:\n"
+          "  synth play --list-ports                         # MIDI inputs and audio devices\n"
+          "  synth play --preset grand-piano                 # the first keyboard, the default device\n"
+          "  synth play --preset sitar --program-map 0=sitar,1=biwa --record take.wav\n"
+          "  synth play --jack --preset harpsichord --connect\n"
+          "\n"
+          "What is played of the MIDI messages: synth help midi.")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--preset", help="preset played first (program 0), see `synth presets`")
+    parser.add_argument("--preset", help="preset played first (program 0), see `synth presets` (default: none; "
+                             "required unless --list-ports)")
     parser.add_argument("--midi-port", metavar="NAME",
                         help="MIDI input port: exact name or part of it (default: the first keyboard)")
     parser.add_argument("--audio-device", metavar="NAME",
@@ -20,8 +29,8 @@ def add_arguments(parser) -> None:
                         help="the MIDI system --midi-port is on: the ALSA sequencer or JACK MIDI "
                              "(default auto: JACK when a JACK server runs, else ALSA)")
     parser.add_argument("--block", type=int, default=128,
-                        help="audio block in samples at the output rate (default 128 = 2.7 ms at "
-                             "48 kHz)")
+                        help="audio block in samples at the output rate (default %(default)s = "
+                             "2.7 ms at 48 kHz)")
     parser.add_argument("--rate", type=float, metavar="HZ",
                         help="output rate in Hz: 44100, 48000, 88200 or 96000 (any 22050-192000); "
                              "the decimator is designed for it (default 48000, or the device's own "
@@ -33,33 +42,35 @@ def add_arguments(parser) -> None:
                              "(programs 0-127; default: 0=the --preset)")
     parser.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
                         help="override a value of --preset, e.g. --set play.polyphony=32 "
-                             "(repeatable)")
+                             "(repeatable; default: none)")
     add_quality(parser)
     add_channels(parser)
     add_mpe(parser)
     parser.add_argument("--jack", action="store_true",
                         help="play as a JACK client (jackd, or PipeWire's JACK): a MIDI input port "
                              "and the audio outputs, every MIDI event on its frame; the server's "
-                             "rate and period are played at and may change while playing")
+                             "rate and period are played at and may change while playing (default: "
+                             "PortAudio)")
     parser.add_argument("--jack-name", default="synth", metavar="NAME",
-                        help="the JACK client's name (default: synth)")
+                        help="the JACK client's name (default: %(default)s)")
     parser.add_argument("--connect", action="store_true",
                         help="with --jack: connect the outputs to the system's playback ports and "
-                             "the first physical MIDI capture port to the input")
+                             "the first physical MIDI capture port to the input (default: off)")
     parser.add_argument("--reconnect", action="store_true",
                         help="with --jack: when the server stops, wait for it and play on "
                              "(default: say so and exit with status 1)")
     parser.add_argument("--record", metavar="OUT.wav",
                         help="also write the performance, as it goes to the device, to a WAV file "
-                             "(32-bit float; complete whatever stops the play)")
+                             "(32-bit float; complete whatever stops the play; default: none)")
     parser.add_argument("--seconds", type=float, metavar="S",
                         help="stop after S seconds and print the report (default: play until Ctrl-C)")
     parser.add_argument("--stats", action="store_true",
                         help="show block time, voices and underruns once a second, and the "
-                             "latest note's contacts per string (hammer, termination)")
+                             "latest note's contacts per string (hammer, termination; default: "
+                             "off)")
     parser.add_argument("--list-ports", action="store_true",
                         help="list MIDI input ports (ALSA and JACK) and audio output devices, then "
-                             "exit")
+                             "exit (default: off)")
     add_threads(parser)
 
 
@@ -73,6 +84,9 @@ def run(args) -> int:
         return 0
     if args.preset is None:
         fail("play needs --preset PRESET (see `synth presets`), or --list-ports")
+    check_not_inputs([("--record", args.record)], [("preset", preset_file(args.preset))])
+    # (the [live] extra is checked by the players before any slow work, with the
+    # system packages' names: synth.io.live.devices.check_audio, check_midi, check_jack)
     args.set = list(args.set) + quality_overrides(args)
     programs = live.ProgramMap.parse(args.program_map, args.preset)
     if args.seconds is not None and not (0.0 < args.seconds <= 86400.0):

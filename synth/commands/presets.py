@@ -9,12 +9,19 @@ from .common import fail
 
 NAME = "presets"
 HELP = "list presets with a one-line description"
+EPILOG = ("examples:\n"
+          "  synth presets                          # name and description of each preset found\n"
+          "  synth presets --reference > keys.md    # every key a preset file may hold\n"
+          "\n"
+          "Presets are looked for in the folders of $SYNTH_PRESET_PATH (separated by\n"
+          "the system's path separator), then among the shipped ones.")
 
 
 def add_arguments(parser) -> None:
     parser.add_argument("--reference", action="store_true",
                         help="instead: print every key a preset file may hold (meaning, unit, type, "
-                             "range, default, when it applies) as Markdown, the text of docs/presets.md")
+                             "range, default, when it applies) as Markdown, the text of `synth help "
+                             "presets` (default: off, the list)")
 
 
 def run(args) -> int:

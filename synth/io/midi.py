@@ -121,8 +121,9 @@ def _unwrap_riff(data: bytes, shown: str) -> bytes:
         raise _fail(shown, "truncated RIFF header")
     form = data[8:12]
     if form != b"RMID":
-        raise _fail(shown, f"RIFF file of type {form.decode('latin1')!r}, "
-                           "not a MIDI file (RIFF RMID)")
+        kind = " (a WAV file)" if form == b"WAVE" else ""
+        raise _fail(shown, f"not a MIDI file: RIFF file of type {form.decode('latin1')!r}{kind}, "
+                           "not RIFF RMID")
     off = 12
     while off + 8 <= len(data):
         cid = data[off:off + 4]
@@ -142,8 +143,9 @@ def _frame(data: bytes, shown: str) -> _Framed:
         data = _unwrap_riff(data, shown)
     if data[:4] != b"MThd":
         if not data:
-            raise _fail(shown, "empty file, not a Standard MIDI File")
-        raise _fail(shown, f"not a Standard MIDI File (no MThd header; starts with {data[:4]!r})")
+            raise _fail(shown, "not a MIDI file: empty file")
+        raise _fail(shown, f"not a MIDI file: no MThd header of a Standard MIDI File "
+                           f"(starts with {data[:4]!r})")
     if len(data) < 14:
         raise _fail(shown, f"truncated: {len(data)} bytes, the MThd header alone needs 14")
     (hlen,) = struct.unpack(">I", data[4:8])

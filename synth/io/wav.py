@@ -30,13 +30,16 @@ import soundfile as sf
 
 from synth.io.errors import SynthError, display_path
 
-__all__ = ["WavWriteResult", "write_wav", "write_wav_stream", "write_npy_atomic", "write_text_atomic", "write_bytes_atomic",
+__all__ = ["WavWriteResult", "write_wav", "FORMATS", "write_wav_stream", "write_npy_atomic", "write_text_atomic", "write_bytes_atomic",
            "wav_bytes", "wav_max_frames", "FS_MIN_HZ", "FS_MAX_HZ", "SUBTYPES"]
 
 FS_MIN_HZ = 8000
 FS_MAX_HZ = 384000
 MAX_CHANNELS = 64
 SUBTYPES = ("float", "pcm24")
+#: the audio formats written, by file extension: WAV (32-bit float or 24-bit
+#: PCM), FLAC (24-bit PCM, lossless) and Ogg Vorbis (lossy), through libsndfile
+FORMATS = {"wav": ".wav", "flac": ".flac", "ogg": ".ogg"}
 _PCM24_SCALE = float(1 << 23)
 _PCM24_MAX = 1.0 - 1.0 / _PCM24_SCALE  # largest representable sample, full scale is [-1, 1)
 _WAV_MAX_DATA_BYTES = 0xFFFFFFFF - 1024  # RIFF sizes are 32-bit
@@ -125,7 +128,7 @@ def _atomic_write(path: str | os.PathLike[str], write: Callable[[BinaryIO], None
 
 
 def write_wav(path: str | os.PathLike[str], audio: np.ndarray, fs: int,
-              subtype: str = "float") -> WavWriteResult:
+              subtype: str = "float", fmt: str = "wav") -> WavWriteResult:
     """Write audio to a WAV file atomically.
 
     Parameters
@@ -141,6 +144,10 @@ def write_wav(path: str | os.PathLike[str], audio: np.ndarray, fs: int,
         ``"float"``: 32-bit IEEE float, values beyond +-1 kept as they are.
         ``"pcm24"``: 24-bit PCM, samples rounded to the nearest step of
         2**-23 and clipped to [-1, 1 - 2**-23] (the count is reported).
+    fmt : {"wav", "flac", "ogg"}
+        The container (:data:`FORMATS`): ``"wav"`` as `subtype` says;
+        ``"flac"`` is 24-bit PCM whatever `subtype` (rounded and clipped as
+        ``"pcm24"``), ``"ogg"`` Ogg Vorbis (samples clipped to [-1, 1]).
 
     Returns
     -------
@@ -178,16 +185,23 @@ def write_wav(path: str | os.PathLike[str], audio: np.ndarray, fs: int,
     if n_bad:
         raise SynthError(f"{shown}: audio has {n_bad} non-finite samples (NaN or inf) of {a.size}; "
                          "nothing written")
-    if frames > wav_max_frames(channels, subtype):
+    _check_fmt(shown, fmt)
+    if fmt == "wav" and frames > wav_max_frames(channels, subtype):
         raise SynthError(f"{shown}: {frames} frames x {channels} channels is too long for a WAV "
                          f"file (4 GiB limit)")
     # (checked whole above: the stream writer need not look again)
     return _write_blocks(path, (a[i:i + _WRITE_FRAMES] for i in range(0, frames, _WRITE_FRAMES)),
-                         fs, channels, subtype, checked=True)
+                         fs, channels, subtype, checked=True, fmt=fmt)
+
+
+def _check_fmt(shown: str, fmt: str) -> None:
+    if fmt not in FORMATS:
+        raise SynthError(f"{shown}: fmt = {fmt!r} is not allowed (choices: "
+                         f"{', '.join(repr(f) for f in FORMATS)})")
 
 
 def write_wav_stream(path: str | os.PathLike[str], blocks: Iterable[np.ndarray], fs: int,
-                     channels: int, subtype: str = "float") -> WavWriteResult:
+                     channels: int, subtype: str = "float", fmt: str = "wav") -> WavWriteResult:
     """Write audio to a WAV file atomically, block by block as ``blocks``
     yields them: a render of hours holds one block in memory, not the
     whole of it (at 48 kHz a 3-hour stereo render is 8.3 GB of float64).
@@ -206,6 +220,8 @@ def write_wav_stream(path: str | os.PathLike[str], blocks: Iterable[np.ndarray],
     channels : int
         Channels of every block, 1..64.
     subtype : {"float", "pcm24"}
+        As :func:`write_wav`.
+    fmt : {"wav", "flac", "ogg"}
         As :func:`write_wav`.
 
     Returns
@@ -231,15 +247,16 @@ def write_wav_stream(path: str | os.PathLike[str], blocks: Iterable[np.ndarray],
     if not (1 <= int(channels) <= MAX_CHANNELS):
         raise SynthError(f"{shown}: channels = {channels!r} is out of range "
                          f"(1 <= value <= {MAX_CHANNELS})")
-    return _write_blocks(path, blocks, fs, int(channels), subtype, checked=False)
+    _check_fmt(shown, fmt)
+    return _write_blocks(path, blocks, fs, int(channels), subtype, checked=False, fmt=fmt)
 
 
 def _write_blocks(path, blocks, fs: int, channels: int, subtype: str,
-                  checked: bool) -> WavWriteResult:
+                  checked: bool, fmt: str = "wav") -> WavWriteResult:
     """Encode and write ``blocks`` (validated fs, channels and subtype)
     atomically; each block is checked for its shape and finite samples
     unless the caller ``checked`` the whole of them (:func:`write_wav`)."""
-    write, result = _encoder(display_path(path), blocks, fs, channels, subtype, checked)
+    write, result = _encoder(display_path(path), blocks, fs, channels, subtype, checked, fmt)
     _atomic_write(path, write)
     return result()
 
@@ -295,18 +312,23 @@ def _no_peak_chunk(snd: sf.SoundFile) -> None:
     lib.sf_command(snd._file, _SFC_SET_ADD_PEAK_CHUNK, sf._ffi.NULL, 0)
 
 
-def _encoder(shown: str, blocks, fs: int, channels: int, subtype: str, checked: bool):
+def _encoder(shown: str, blocks, fs: int, channels: int, subtype: str, checked: bool,
+             fmt: str = "wav"):
     """``write(f)``, which encodes ``blocks`` into the open binary file
     ``f``, and ``result()``, the :class:`WavWriteResult` once it has."""
-    limit = wav_max_frames(channels, subtype)
-    sf_subtype = "FLOAT" if subtype == "float" else "PCM_24"
+    if fmt == "flac":
+        subtype = "pcm24"                 # FLAC holds integers: 24-bit, as --pcm24
+    limit = wav_max_frames(channels, subtype) if fmt == "wav" else 1 << 62
+    sf_subtype = {"wav": "FLOAT" if subtype == "float" else "PCM_24", "flac": "PCM_24",
+                  "ogg": "VORBIS"}[fmt]
     tally = {"frames": 0, "peak": 0.0, "clipped": 0}
 
     def write(f: BinaryIO) -> None:
         f.flush()
         snd = sf.SoundFile(f.fileno(), mode="w", samplerate=fs, channels=channels,
-                           subtype=sf_subtype, format="WAV", closefd=False)
-        _no_peak_chunk(snd)
+                           subtype=sf_subtype, format=fmt.upper(), closefd=False)
+        if fmt == "wav":
+            _no_peak_chunk(snd)
         try:
             for block in blocks:
                 a = np.asarray(block)
@@ -325,7 +347,10 @@ def _encoder(shown: str, blocks, fs: int, channels: int, subtype: str, checked: 
                                      f"is too long for a WAV file (4 GiB limit); nothing written")
                 if a.size:
                     tally["peak"] = max(tally["peak"], float(a.max()), float(-a.min()))
-                if subtype == "float":
+                if fmt == "ogg":
+                    tally["clipped"] += int(np.count_nonzero(np.abs(a) > 1.0))
+                    data = np.ascontiguousarray(np.clip(a, -1.0, 1.0), dtype=np.float32)
+                elif subtype == "float":
                     data = np.ascontiguousarray(a, dtype=np.float32)
                 else:
                     tally["clipped"] += int(np.count_nonzero((a > _PCM24_MAX) | (a < -1.0)))

@@ -29,6 +29,7 @@ __all__ = [
     "preset_dirs",
     "list_presets",
     "load_preset",
+    "find_preset_file",
 ]
 
 ENV_PRESET_PATH = "SYNTH_PRESET_PATH"
@@ -104,6 +105,15 @@ def _scan() -> dict[str, Path]:
             name = f.relative_to(d).with_suffix("").as_posix()
             found.setdefault(name, f)
     return found
+
+
+def find_preset_file(name: str) -> Path | None:
+    """The file a preset name finds on :func:`preset_dirs` (a path ending in
+    ``.toml``: itself if it exists), or None."""
+    if str(name).endswith(".toml"):
+        p = Path(name)
+        return p if p.is_file() else None
+    return _scan().get(str(name))
 
 
 def _read_toml(path: Path, shown: str) -> dict[str, Any]:
