@@ -12,6 +12,9 @@ or check one rendered note::
     y, fs, f = render_note("grand-piano", key=60, velocity=100, seconds=2.0)
     assert check_f0(y, fs, f, cents=1.0).passed
 
+``render_note`` gives the mean of a stereo preset's channels; with
+``mono=False`` every channel, shape (frames, channels).
+
 Every ``check_*`` returns a :class:`~synth.apps.check.Result` (``passed``,
 ``measured``, ``expected``: the same row ``synth check`` prints).  The
 measures are those of :mod:`synth.apps.check`; tolerances are in cents, dB,

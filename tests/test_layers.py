@@ -9,8 +9,10 @@ Layers and what each may import from synth (its own layer included)::
 
     __main__  cli                         (python -m synth)
     cli       commands, io                (the parser from the commands, dispatch)
-    commands  anything below: apps, testing, io, engine, voices, dsp, physics,
+    commands  anything below: api, apps, testing, io, engine, voices, dsp, physics,
               kernels, analysis           (one module per command; only cli imports them)
+    api       as apps, and apps           (synth.render_note ...: the Python API, beside the
+                                           commands, which render through it)
     apps, io  engine, voices, dsp, physics, kernels, analysis, io (apps: apps too)
     testing   as apps, and apps (synth.testing: the checks of synth check for pytest)
     engine    voices, dsp, physics, kernels
@@ -42,7 +44,10 @@ ALLOWED: dict[str, set[str]] = {
     # synth.cli builds the parser from synth.commands and dispatches to them
     "cli": {"cli", "commands", "io"},
     # synth.commands: one module per command (options, checks, output); only cli imports them
-    "commands": {"commands", "apps", "testing", "io", "engine", "analysis"} | _LOW,
+    "commands": {"commands", "api", "apps", "testing", "io", "engine", "analysis"} | _LOW,
+    # synth.api: the Python API (synth.render_note ...); it checks MIDI units at the edge as
+    # a command does, and the commands render through it (synth note)
+    "api": {"api", "apps", "io", "engine", "analysis"} | _LOW,
     # synth.testing: the checks of synth check (apps) for pytest, beside apps
     "testing": {"testing", "apps", "io", "engine", "analysis"} | _LOW,
     # synth.batch: the Python API of synth batch (apps), beside apps, as testing is

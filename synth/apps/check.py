@@ -197,13 +197,14 @@ def _render_dict(v: dict) -> dict:
 
 def render_note(preset, key: int, velocity: int = 100, seconds: float = 2.0,
                 overrides=(), hold_s: float | None = None, engine=None, sustain: float = 0.0,
-                soft: float = 0.0):
+                soft: float = 0.0, mono: bool = True):
     """Render one note of ``preset`` (name or path; ``overrides`` as
     ``--set``) at MIDI ``key`` and ``velocity`` (1..127) for ``seconds``,
     key up at ``hold_s`` (None: held), the sustain and soft pedals at
     ``sustain`` and ``soft`` (0..1) from the start.  Returns (audio float64
-    at 48 kHz, the mean of a stereo render's channels; fs; the voice's pitch
-    for the key in Hz)."""
+    at 48 kHz; fs; the voice's pitch for the key in Hz).  The audio is
+    shape (frames,), the mean of a stereo render's channels, with ``mono``
+    (the default), else every channel, shape (frames, channels) (1 or 2)."""
     from ..engine.engine import Event
     from ..io.factory import build_engine
 
@@ -213,7 +214,9 @@ def render_note(preset, key: int, velocity: int = 100, seconds: float = 2.0,
     ev.append(Event(0.0, "note_on", key, velocity / 127.0))
     if hold_s is not None:
         ev.append(Event(hold_s, "note_off", key, 0.0))
-    y = as_mono(eng.render(ev, duration_s=seconds))      # a stereo render: its mean
+    y = eng.render(ev, duration_s=seconds)
+    # mono: a stereo render's mean; else (frames, channels) for any preset
+    y = as_mono(y) if mono else y.reshape(len(y), -1)
     return y, eng.fs_out, eng.inst.pitch_hz(key)
 
 

@@ -3,11 +3,10 @@ contact logs on request."""
 
 from __future__ import annotations
 
-import math
 import time
 
 from .common import (DEFAULT_SECONDS, add_quality, add_threads, audio_format, check_not_inputs,
-                     check_output, engine_for, fail, output_rate, preset_file, quality_overrides,
+                     check_output, fail, output_rate, preset_file, quality_overrides,
                      write_audio)
 
 NAME = "note"
@@ -67,20 +66,19 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
+    """One note through the Python API's rendering path (:mod:`synth.api.render`:
+    the same checks, under the options' names, the same engine, the same
+    samples as :func:`synth.render_note`), then the files asked for."""
     import numpy as np
 
-    from ..engine.engine import Event
+    from ..api.checks import CLI_NAMES, check_note
+    from ..api.render import check_playable, note_engine, play_note
 
-    if args.key is not None and args.f0 is not None:
-        fail("--key and --f0 are exclusive: give one of them")
-    if args.key is not None and not (0 <= args.key <= 127):
-        fail(f"--key = {args.key} is out of range (0 <= value <= 127)")
-    if args.f0 is not None and not (20.0 <= args.f0 <= 5000.0):
-        fail(f"--f0 = {args.f0} is out of range (20 <= value <= 5000 Hz)")
-    if not (1 <= args.velocity <= 127):
-        fail(f"--velocity = {args.velocity} is out of range (1 <= value <= 127)")
-    if not (0 < args.seconds <= 600):
-        fail(f"--seconds = {args.seconds} is out of range (0 < value <= 600)")
+    try:
+        key, f0, velocity, seconds = check_note(args.key, args.f0, args.velocity, args.seconds,
+                                                CLI_NAMES)
+    except ValueError as e:
+        fail(str(e))
     if args.internal_rate is not None and not (20_000 <= args.internal_rate <= 2_000_000):
         fail(f"--internal-rate = {args.internal_rate} is out of range (20000 <= value <= 2000000 Hz)")
     rate = output_rate(args)
@@ -100,27 +98,20 @@ def run(args) -> int:
     if args.hammer_speed is not None and not (0.01 <= args.hammer_speed <= 20.0):
         fail(f"--hammer-speed = {args.hammer_speed} is out of range (0.01 <= value <= 20 m/s)")
     args.set = list(args.set) + quality_overrides(args)
-    low = args.key if args.key is not None else None
-    if args.f0 is not None:
-        low = int(math.floor(69 + 12 * math.log2(args.f0 / 440.0)))
-    preset, inst, eng = engine_for(args.preset, args.set, args.internal_rate,
-                                    probe=(args.probe is not None or args.hammer_log is not None
-                                           or args.contact_log is not None),
-                                    low_key=low, rate=rate)
+    eng = note_engine(args.preset, args.set, key, f0, internal_rate=args.internal_rate,
+                      probe=(args.probe is not None or args.hammer_log is not None
+                             or args.contact_log is not None),
+                      rate=rate)
+    preset, inst = eng.inst.preset, eng.inst
     for opt, given in (("--hammer-speed", args.hammer_speed), ("--hammer-log", args.hammer_log)):
         if given is not None and not inst.struck:
             fail(f"{opt}: {args.preset} is plucked (voice = {preset.voice}): it has no hammer")
-    if preset.kind == "musical" and args.key is None and args.f0 is None:
-        fail(f"{args.preset} is a musical preset: give --key or --f0")
-    if preset.kind == "musical" and args.key is not None:
-        lo, hi = preset.play.key_low, preset.play.key_high
-        if not (lo <= args.key <= hi):
-            fail(f"--key = {args.key} is outside the playable range of {args.preset} ({lo} <= key <= {hi})")
-    f0 = args.f0
-    ev = Event(0.0, "note_on", args.key if args.key is not None else -1, args.velocity / 127.0,
-               f0_hz=f0, speed_m_per_s=args.hammer_speed)
+    try:
+        check_playable(eng, args.preset, key, f0, CLI_NAMES)
+    except ValueError as e:
+        fail(str(e))
     t = time.perf_counter()
-    y = eng.render([ev], duration_s=args.seconds)
+    y = play_note(eng, key, f0, velocity, seconds, args.hammer_speed)
     el = time.perf_counter() - t
     info = write_audio(args.output, y, eng.fs_out, args.pcm24, fmt, gain=preset.output.gain)
     pitch = inst.pitch_hz(args.key, f0)

@@ -51,6 +51,10 @@ __all__ = [
     "EVENT_KINDS",
     "MAX_DURATION_S",
     "read_midi_file",
+    "read_midi_bytes",
+    "read_mido_file",
+    "is_mido_file",
+    "normalise_fields",
     "midi_to_events",
     "midi_file_duration_s",
     "normalise_message",
@@ -303,7 +307,32 @@ def read_midi_file(path: str | os.PathLike[str], dropped: dict | None = None) ->
             data = f.read()
     except OSError as e:
         raise _fail(shown, f"cannot read MIDI file ({e.strerror or e})") from None
+    return read_midi_bytes(data, shown, dropped)
 
+
+def read_midi_bytes(data: bytes, shown: str = "<memory>",
+                    dropped: dict | None = None) -> list[MidiEvent]:
+    """:func:`read_midi_file` on the bytes of a file already in memory (a
+    ``mido.MidiFile`` saved to a buffer: :func:`synth.render_midi`).
+
+    Parameters
+    ----------
+    data : bytes
+        The whole Standard MIDI File (optionally RIFF RMID-wrapped).
+    shown : str
+        Its name in error messages.
+    dropped : dict or None
+        As :func:`read_midi_file`.
+
+    Returns
+    -------
+    list of MidiEvent
+
+    Raises
+    ------
+    MidiFileError
+        As :func:`read_midi_file`, naming ``shown``.
+    """
     framed = _frame(data, shown)
     ntrks = len(framed.tracks)
     tracks = [_decode_track(body, framed.division, i, ntrks, shown)
@@ -344,6 +373,47 @@ def read_midi_file(path: str | os.PathLike[str], dropped: dict | None = None) ->
                            f"more than the {MAX_DURATION_S / 3600:g} h limit (broken delta times?)")
     # times are already non-decreasing; simultaneous notes in the engine's order
     return order_events(events)
+
+
+def read_mido_file(midi_file: mido.MidiFile, dropped: dict | None = None) -> tuple[list[MidiEvent], str]:
+    """:func:`read_midi_file` on a ``mido.MidiFile`` made or loaded in
+    Python (:func:`synth.render_midi`): saved to bytes and read as a file
+    is, so that both give the same events.
+
+    Returns
+    -------
+    (list of MidiEvent, str)
+        The events, and the name messages give it (its ``filename``, or
+        ``<mido.MidiFile>``).
+
+    Raises
+    ------
+    MidiFileError
+        mido cannot save it (a message out of range), or as :func:`read_midi_file`.
+    """
+    shown = display_path(midi_file.filename) if midi_file.filename else "<mido.MidiFile>"
+    buf = io.BytesIO()
+    try:
+        midi_file.save(file=buf)
+    except (ValueError, TypeError, OSError) as e:
+        raise _fail(shown, "cannot be saved as a Standard MIDI File "
+                           f"({str(e).splitlines()[0] if str(e) else type(e).__name__})") from None
+    return read_midi_bytes(buf.getvalue(), shown, dropped), shown
+
+
+def is_mido_file(obj) -> bool:
+    """Whether ``obj`` is a ``mido.MidiFile``."""
+    return isinstance(obj, mido.MidiFile)
+
+
+def normalise_fields(msg_type: str, **fields) -> tuple[str, int, int, float]:
+    """A channel message given by its type and fields (mido's names:
+    ``note_on`` with ``channel``, ``note``, ``velocity``; ``control_change``
+    with ``control``, ``value``; ``pitchwheel`` with ``pitch``), normalised
+    by :func:`normalise_message` as a file's or a keyboard's is
+    (:class:`synth.Instrument`'s events).  Values are checked by the
+    caller; mido's own check raises ValueError."""
+    return normalise_message(mido.Message(msg_type, **fields))
 
 
 #: General MIDI's percussion channel (channel 10, 0-based 9)
