@@ -90,6 +90,7 @@ import numpy as np
 
 from ..dsp.bank import HammerTemplate, SlotTemplate, StringBank, hammer_template, slot_template
 from ..kernels import strings as K
+from ..physics import dampers as damper_laws
 from ..physics import piano as P
 from ..physics.dispersion import BridgeLag, retune_sos_loop, tune_stiff_loop_sos
 from ..physics.profiles import Termination, capo
@@ -534,16 +535,17 @@ class GrandPianoInstrument(Voice):
         return float(self.preset.dampers.land_s)
 
     def release_t60_s(self, key: int) -> float:
+        """T60 of the damped string (s) (:func:`synth.physics.dampers.damped_t60_s`)."""
         d = self.preset.dampers
-        x = (key - self.KEY_LOW) / (self.KEY_HIGH - self.KEY_LOW)
-        return math.exp((1 - x) * math.log(d.release_t60_bass_s) + x * math.log(d.release_t60_treble_s))
+        return damper_laws.damped_t60_s(key, self.KEY_LOW, self.KEY_HIGH, d.release_t60_bass_s,
+                                        d.release_t60_treble_s)
 
     def damper_lift(self, pedal: float) -> float:
         """How far the sustain pedal (0..1) lifts the dampers: 0 below
         ``dampers.half_pedal_low``, 1 above ``half_pedal_high``, linear
-        between (half pedal)."""
+        between (half pedal; :func:`synth.physics.dampers.damper_lift`)."""
         d = self.preset.dampers
-        return min(max((pedal - d.half_pedal_low) / (d.half_pedal_high - d.half_pedal_low), 0.0), 1.0)
+        return damper_laws.damper_lift(pedal, d.half_pedal_low, d.half_pedal_high)
 
     def note_off(self, bank: StringBank, slots, key, f0_hz, pedal: float) -> None:
         """Key up: the damper falls on the strings, as far as the sustain

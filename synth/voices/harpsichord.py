@@ -41,12 +41,12 @@ the piano's.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ..dsp.bank import SlotTemplate, StringBank, slot_template
+from ..physics import dampers as damper_laws
 from ..physics import piano as P
 from ..physics.dispersion import tune_stiff_loop
 from ..physics.string import IdealString
@@ -117,11 +117,11 @@ class Harpsichord(Voice):
         return P.stretched_f0_hz(int(round(key)), None, a4_hz=t.a4_hz, stretch=t.stretch)
 
     def release_t60_s(self, key: int) -> float:
-        """T60 of the damped string (s), geometric from bass to treble."""
+        """T60 of the damped string (s), geometric from bass to treble
+        (:func:`synth.physics.dampers.damped_t60_s`)."""
         d = self.preset.dampers
-        x = (key - self.KEY_LOW) / (self.KEY_HIGH - self.KEY_LOW)
-        return math.exp((1 - x) * math.log(d.release_t60_bass_s)
-                        + x * math.log(d.release_t60_treble_s))
+        return damper_laws.damped_t60_s(key, self.KEY_LOW, self.KEY_HIGH, d.release_t60_bass_s,
+                                        d.release_t60_treble_s)
 
     def setup(self, key: int) -> PluckedPianoString:
         """The key's string (designed once, then cached)."""
@@ -180,9 +180,10 @@ class Harpsichord(Voice):
         bank.activate(slot)
 
     def damper_lift(self, pedal: float) -> float:
+        """How far the sustain pedal (0..1) lifts the dampers (half pedal;
+        :func:`synth.physics.dampers.damper_lift`)."""
         d = self.preset.dampers
-        return min(max((pedal - d.half_pedal_low) / (d.half_pedal_high - d.half_pedal_low), 0.0),
-                   1.0)
+        return damper_laws.damper_lift(pedal, d.half_pedal_low, d.half_pedal_high)
 
     def note_off(self, bank, slots, key, f0_hz, pedal) -> None:
         """Key up: the damper falls as far as the sustain pedal lets it."""
