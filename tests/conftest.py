@@ -1,6 +1,16 @@
 """Test session set-up shared by every test module."""
 
+import os
 import signal
+
+# OpenMP's threads (numba's "omp" layer, the renders on several threads) wait
+# for the next parallel loop by spinning, by default: in a test run, with a
+# second worker (pytest-xdist) and the tests' own subprocesses on the same
+# cores, the spinning threads took the cores from the work.  Passive waiting
+# (asleep until woken) gives the same samples; measured on 89 render tests
+# (2 workers, 2 cores, 2026-11-29): 102.5 s of CPU spinning, 36.7 s passive.
+# The tests' subprocesses inherit it; a value set by the user is kept.
+os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
 
 # The tests that interrupt a render or the compare server send SIGINT as a
 # user's Ctrl-C would.  A test run started as a background job of a
@@ -13,3 +23,44 @@ import signal
 # does; its children inherit the default disposition at exec.
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+# ---- running in parallel (pytest-xdist) ---------------------------------------------
+#
+# pyproject's addopts run the suite on every core (``-n auto --dist loadgroup``);
+# ``-n 0`` runs it in one process.  Tests go to the workers one by one, except
+# the groups below, each run by one worker (pytest.mark.xdist_group):
+#
+# * "realtime": live play on a real audio server or device, or against the
+#   clock: test_jack.py (jackd's dummy backend, its clients' callbacks),
+#   test_live.py (PortAudio's null device, ALSA's virtual MIDI ports),
+#   test_realtime.py (the live engine's block deadlines) and test_compare.py
+#   (its browser tests play the page against its audio clock; its pages are
+#   module fixtures): one at a time, so they do not take each other's ports
+#   and time.
+# * a module whose module-scoped fixture is dear (a LocalCluster of two
+#   processes, bisected partials, study renders): its tests stay together so
+#   the fixture is built once, not once per worker.
+#
+# Everything else is process-local (tmp_path, port 0, the numba cache's
+# writes are atomic) and runs anywhere.
+XDIST_GROUPS = {
+    "test_jack.py": "realtime",
+    "test_live.py": "realtime",
+    "test_realtime.py": "realtime",
+    "test_compare.py": "realtime",
+    "test_batch.py": "batch",
+    "test_dispersion.py": "dispersion",
+    "test_dispersion_sos.py": "dispersion_sos",
+    "test_reproduction.py": "reproduction",
+    "test_decimator.py": "decimator",
+}
+
+
+def pytest_collection_modifyitems(config, items):
+    import pytest
+
+    for item in items:
+        group = XDIST_GROUPS.get(item.path.name)
+        if group is not None:
+            item.add_marker(pytest.mark.xdist_group(group))

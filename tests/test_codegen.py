@@ -6,20 +6,17 @@ compare and a masked store, ``vmaskmovpd`` in AVX2 code, which AMD CPUs
 before Zen 4 run as microcode: the jawari strings ran 3-4x slower on a Zen 3
 than here (issue 8).  Each target is compiled in a fresh process with its
 own numba cache (numba does not show the code of functions loaded from a
-cache), through ``tools/cpu_target.py``, as the benchmarks do.
+cache), through ``tools/cpu_target.py`` (:mod:`synth.apps.cpu_target`), as the
+benchmarks do.
 """
 
 import subprocess
 import sys
 import textwrap
-from pathlib import Path
 
 import pytest
 
-TOOLS = Path(__file__).resolve().parents[1] / "tools"
-sys.path.insert(0, str(TOOLS))
-
-import cpu_target  # noqa: E402
+from synth.apps import cpu_target
 
 RENDER = textwrap.dedent("""
     import numpy as np

@@ -1,4 +1,5 @@
-"""tools/cpu_target.py: the numba code-generation targets of the benchmarks."""
+"""tools/cpu_target.py (synth.apps.cpu_target): the numba code-generation
+targets of the benchmarks."""
 
 import subprocess
 import sys
@@ -7,10 +8,9 @@ from pathlib import Path
 
 import pytest
 
-TOOLS = Path(__file__).resolve().parents[1] / "tools"
-sys.path.insert(0, str(TOOLS))
+from synth.apps import cpu_target
 
-import cpu_target  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def host_is_x86_64_v3():
@@ -90,11 +90,9 @@ def test_describe_names_cpu_and_target():
 
 
 ASM_CHECK = textwrap.dedent("""
-    import sys
-    sys.path.insert(0, {tools!r})
     import numpy as np
     from numba import njit
-    import cpu_target
+    from synth.apps import cpu_target
 
     @njit(fastmath=True)
     def f(a, b, out):
@@ -116,7 +114,8 @@ def test_compiled_code_of_target(tmp_path, target):
     if target == "haswell" and not host_is_x86_64_v3():
         pytest.skip("this CPU cannot run AVX2 code")
     env = cpu_target.environ_for(target, tmp_path)
-    r = subprocess.run([sys.executable, "-c", ASM_CHECK.format(tools=str(TOOLS))], env=env,
+    env["PYTHONPATH"] = str(ROOT)
+    r = subprocess.run([sys.executable, "-c", ASM_CHECK], env=env,
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0, r.stderr
     *head, last = r.stdout.strip().splitlines()
@@ -148,9 +147,9 @@ def test_vector_registers_of_target(tmp_path, target):
     if target == "haswell" and not host_is_x86_64_v3():
         pytest.skip("this CPU cannot run AVX2 code")
     env = cpu_target.environ_for(target, tmp_path)
-    env["PYTHONPATH"] = str(TOOLS.parent)
+    env["PYTHONPATH"] = str(ROOT)
     r = subprocess.run([sys.executable, "-c", REGS_CHECK], env=env, capture_output=True,
-                       text=True, timeout=120, cwd=str(TOOLS.parent))
+                       text=True, timeout=120, cwd=str(ROOT))
     assert r.returncode == 0, r.stderr
     regs, head, lanes, width, lanes2 = (int(x) for x in r.stdout.split())
     host512 = cpu_target.host_features().get("avx512f", False)

@@ -6,11 +6,25 @@ boundary value problem's attenuation against Publication III's Table 1."""
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from synth.physics import felt as F
+
+TOOLS = Path(__file__).resolve().parents[1] / "tools"
+
+
+def _tool(script, *argv):
+    """Run ``tools/<script>`` as a program (as its users do); its stdout,
+    after checking that it exited 0 (its own checks held)."""
+    p = subprocess.run([sys.executable, str(TOOLS / script), *argv], capture_output=True,
+                       text=True, cwd=TOOLS.parent, timeout=600)
+    assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
+    return p.stdout
 
 
 def _thesis_closed_form(k, d):
@@ -547,18 +561,11 @@ def test_the_felt_command_takes_lists(tmp_path, capsys):
 
 
 @pytest.mark.slow  # ~13 s on a quiet 2-core machine: some 40 pulses, half of them finite volumes
-def test_the_chapter_2_reproduction_script(capsys):
+def test_the_chapter_2_reproduction_script():
     """tools/reproduce_felt.py (docs/reproduction.md, chapter 2) on a grid
     twice as coarse: every row's check against the thesis holds (its exit
     code), and the table names each figure of sections 2.2-2.4."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-    import reproduce_felt
-
-    assert reproduce_felt.main(["--quick"]) == 0
-    out = capsys.readouterr().out
+    out = _tool("reproduce_felt.py", "--quick")
     for item in ("eqs. 2.12-2.13", "Fig. 2.1,", "Fig. 2.2,", "Fig. 2.3", "Fig. 2.4",
                  "Fig. 2.5", "0.1346427873", "Table 1, lambda(omega)", "Fig. 2.6",
                  "Table 1, lambda_num", "Fig. 2.7", "Fig. 2.8", "Publication III Fig. 7"):
@@ -798,17 +805,10 @@ def test_the_felt_layer_through_synth_note(tmp_path, capsys):
     assert np.all(np.diff(lay[:60, 4]) > 0)            # the core advances at first
 
 
-def test_the_felt_study_quick_mode(capsys):
+def test_the_felt_study_quick_mode():
     """tools/felt_study.py --quick (docs/felt.md's A7 tables on coarse
     settings): the layer's strike is shorter than the lumped law's, gives
     the string the same momentum within 1 %, and its g(t) converges with
     the felt's grid (its exit code)."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-    import felt_study
-
-    assert felt_study.main(["--quick"]) == 0
-    out = capsys.readouterr().out
+    out = _tool("felt_study.py", "--quick")
     assert "layer - lumped" in out and "quick checks: passed" in out

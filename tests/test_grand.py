@@ -522,11 +522,7 @@ def test_the_thump_under_the_attack_is_a_recorded_grands():
     recording's three layers.  With ``action.knock`` = 3.9 the model reads
     about -24 and -21 dB at velocity 80; with the old 0.25, -42.8 and
     -44.1 dB."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-    from study_partials import thump_db
+    from synth.apps.grand_study import thump_db
 
     c4, _ = render(60, 80 / 127, 0.3)
     for key in (60, 96):
@@ -544,15 +540,11 @@ def test_the_una_corda_darkens_the_top_keys(key):
     to measured felts and the knock at a recorded grand's thump (-9.8,
     -6.0, -14.0 % with the knock alone; keys 90 and 96 -4.8 and +4.2 %
     before both)."""
-    import sys
-    from pathlib import Path
-
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-    from voicing_report import attack_centroid_hz
+    from synth.analysis import attack_centroid_hz
 
     up, _ = render(key, 80 / 127, 0.3)
     down, _ = render(key, 80 / 127, 0.3, events=[Event(0.0, "control", 67, 1.0)])
-    change = attack_centroid_hz(down) / attack_centroid_hz(up) - 1.0
+    change = attack_centroid_hz(down, FS) / attack_centroid_hz(up, FS) - 1.0
     assert change <= -0.10, change
 
 

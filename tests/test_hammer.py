@@ -159,11 +159,8 @@ def test_capo_bar_contacts_and_spectral_shift(coupling):
     """Publication I section 4.1: about 13 contacts with the bar by 3.86 ms
     and 21 by 6.21 ms (period 0.284 ms); energy leaves the low modes and the
     high modes gain (mode 23 missing: left out)."""
-    import sys
-    from pathlib import Path
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tools"))
-    from reproduce import a7_run
     from synth.analysis import episode_times
+    from synth.apps.reproduce import a7_run
 
     times = (3.86e-3, 6.21e-3)
     inst, su, _, snaps_i = a7_run("paper/piano-a7-ideal", times_s=times)

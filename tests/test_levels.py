@@ -1,20 +1,16 @@
 """Issue 12's levels: every calibrated preset's reference phrase, as
-tools/calibrate_levels.py writes it (the levels themselves are held by the
-shipped check specs, ``synth check --shipped``)."""
+tools/calibrate_levels.py writes it (synth.apps.levels; the levels
+themselves are held by the shipped check specs, ``synth check --shipped``)."""
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tools"))
+from synth.apps import levels as cl
+from synth.io.midi import midi_to_events, read_midi_file
+from synth.io.presets import load_preset, shipped_checks_dir
 
-import calibrate_levels as cl  # noqa: E402
-from synth.io.midi import midi_to_events, read_midi_file  # noqa: E402
-from synth.io.presets import load_preset  # noqa: E402
+PHRASES = shipped_checks_dir() / "phrases"
 
 
 def test_the_phrase_is_a_melody_in_range_at_velocity_100():
@@ -47,9 +43,9 @@ def test_every_musical_preset_is_calibrated():
 
 @pytest.mark.parametrize("name", cl.musical_presets())
 def test_the_shipped_phrase_is_the_tools_and_its_spec_checks_the_level(name, tmp_path):
-    shipped = cl.PHRASES / f"{name}.mid"
+    shipped = PHRASES / f"{name}.mid"
     fresh = tmp_path / f"{name}.mid"
     cl.write_midi(cl.phrase_events(load_preset(name)), fresh)
     assert shipped.read_bytes() == fresh.read_bytes()
-    spec = (ROOT / "synth" / "presets" / "checks" / f"{name}.toml").read_text()
+    spec = (shipped_checks_dir() / f"{name}.toml").read_text()
     assert f'midi = "phrases/{name}.mid"' in spec and "lufs = -20.0" in spec

@@ -1,7 +1,9 @@
 """tools/real_grand.py: the voicing report's measures on a folder of real
-samples, run here on synthetic notes whose decay is known in closed form."""
+samples, run here (the tool as a program) on synthetic notes whose decay is
+known in closed form; its sample names (synth.apps.grand_study.midi_of)."""
 
 import json
+import subprocess
 import sys
 from pathlib import Path
 
@@ -9,10 +11,14 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tools"))
+from synth.apps.grand_study import midi_of
 
-import real_grand as rg  # noqa: E402
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _run(*argv):
+    return subprocess.run([sys.executable, str(ROOT / "tools" / "real_grand.py"), *argv],
+                          capture_output=True, text=True, cwd=ROOT, timeout=600)
 
 FS = 48_000
 
@@ -34,14 +40,14 @@ def math_ln1000():
 
 
 def test_file_names_give_the_key_and_the_layer():
-    assert rg.midi_of("C4v10.ogg") == (60, 10)
-    assert rg.midi_of("D#1v4.ogg") == (27, 4)
-    assert rg.midi_of("A0v14.wav") == (21, 14)
-    assert rg.midi_of("C8v1.flac") == (108, 1)
-    assert rg.midi_of("notes.txt") is None and rg.midi_of("Cb4v10.ogg") is None
+    assert midi_of("C4v10.ogg") == (60, 10)
+    assert midi_of("D#1v4.ogg") == (27, 4)
+    assert midi_of("A0v14.wav") == (21, 14)
+    assert midi_of("C8v1.flac") == (108, 1)
+    assert midi_of("notes.txt") is None and midi_of("Cb4v10.ogg") is None
 
 
-def test_the_measures_of_known_notes(tmp_path, capsys):
+def test_the_measures_of_known_notes(tmp_path):
     """A note with a prompt sound (T60 2 s) falling to an aftersound 25 dB
     down (T60 20 s) reads a visible two-stage decay with late/early near 10;
     one straight decay shows no knee; the louder layer's loudness and the
@@ -57,8 +63,9 @@ def test_the_measures_of_known_notes(tmp_path, capsys):
     y, fs = _note(261.63, 12.0, 2.0, 20.0, -25.0, amp=0.05)
     sf.write(str(soft / "C4v4.ogg"), np.c_[y, y], fs)
     out = tmp_path / "m.json"
-    assert rg.main([str(tmp_path), "--json", str(out)]) == 0
-    text = capsys.readouterr().out
+    p = _run(str(tmp_path), "--json", str(out))
+    assert p.returncode == 0, p.stderr
+    text = p.stdout
     rows = {(r["key"], r["layer"]): r for r in json.loads(out.read_text())}
     c4 = rows[(60, 10)]
     assert c4["visible"] and 6.0 < c4["ratio"] < 14.0
@@ -77,9 +84,9 @@ def test_the_measures_of_known_notes(tmp_path, capsys):
     assert "C4: centroid of the first 100 ms v10 / v4" in text
 
 
-def test_an_empty_folder_is_a_one_line_error(tmp_path, capsys):
-    assert rg.main([str(tmp_path)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "no samples named like C4v10.ogg" in err
-    assert rg.main([str(tmp_path / "missing")]) == 2
-    assert "is not a folder" in capsys.readouterr().err
+def test_an_empty_folder_is_a_one_line_error(tmp_path):
+    p = _run(str(tmp_path))
+    assert p.returncode == 2
+    assert p.stderr.count("\n") == 1 and "no samples named like C4v10.ogg" in p.stderr
+    p = _run(str(tmp_path / "missing"))
+    assert p.returncode == 2 and "is not a folder" in p.stderr

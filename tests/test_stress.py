@@ -1,4 +1,4 @@
-"""Issue 13: the stability stress subset in CI (tools/stress.py): 2,000
+"""Issue 13: the stability stress subset in CI (tools/stress.py, synth.apps.stress): 2,000
 property cases (random presets across their allowed ranges, random scenes
 rendered in random block sizes, every internal rate from 96 kHz to 1.3 MHz,
 the lossless strings' grid energy, silence in and out), none failing.  The
@@ -7,15 +7,9 @@ full tool runs any number of cases and prints the table of counts
 
 from __future__ import annotations
 
-import sys
-from pathlib import Path
-
 import pytest
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "tools"))
-
-import stress  # noqa: E402
+from synth.apps import stress
 
 
 @pytest.mark.slow

@@ -35,11 +35,10 @@ import time
 import numpy as np
 
 from synth.analysis import episode_times, free_mode_energies
+from synth.apps.reproduce import a7_run  # the A7 strike (tools/reproduce.py's)
 from synth.dsp.bank import StringBank
 from synth.engine.engine import Event
 from synth.io.factory import build_engine
-
-from reproduce import a7_run  # noqa: E402  (tools/, on sys.path when run as a script): the A7 strike
 from synth.kernels import strings as K
 
 L, T, MU = 0.061, 774.6, 0.0042

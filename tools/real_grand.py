@@ -31,7 +31,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import re
 import sys
 from pathlib import Path
 
@@ -42,19 +41,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from voicing_report import FS, attack_centroid_hz, decay, max_momentary  # noqa: E402
 
 from synth.analysis import estimate_f0, track_partials  # noqa: E402
+from synth.apps.grand_study import midi_of  # noqa: E402
 from synth.physics.piano import grand_string  # noqa: E402
-
-_NOTE = re.compile(r"^([A-G]#?)(\d)v(\d+)\.(ogg|wav|flac)$")
-_PITCH = {"C": 0, "C#": 1, "D": 2, "D#": 3, "E": 4, "F": 5, "F#": 6, "G": 7, "G#": 8, "A": 9,
-          "A#": 10, "B": 11}
-
-
-def midi_of(name: str) -> tuple[int, int] | None:
-    """(MIDI key, velocity layer) of a sample's file name, or None."""
-    m = _NOTE.match(name)
-    if not m:
-        return None
-    return 12 * (int(m.group(2)) + 1) + _PITCH[m.group(1)], int(m.group(3))
 
 
 def load(path: Path) -> np.ndarray:

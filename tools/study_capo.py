@@ -398,7 +398,7 @@ def hash_(args) -> None:
     panels = []
     for key in args.keys:
         (fine, pre), ys = contact_hash(key, args.velocity)
-        print(f"| {key} | {fine[0]:.0f} | {fine[1]:.0f} | {pre[0]:.0f} | {pre[1]:.0f} |", flush=True)
+        print(f"| {key} | {fine[0]:.1f} | {fine[1]:.1f} | {pre[0]:.1f} | {pre[1]:.1f} |", flush=True)
         panels.append((key, ys))
     if args.png:
         try:

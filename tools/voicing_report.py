@@ -43,17 +43,26 @@ if "numba" not in sys.modules:
 import numpy as np  # noqa: E402
 
 from synth.analysis import (  # noqa: E402
+    attack_centroid_hz as _attack_centroid_hz,
     cents,
     click_scan,
     decay_curve_db,
     estimate_f0,
     halo,
-    loudness,
+    max_momentary_lufs,
     peak_dbfs,
-    spectral_centroid_hz,
     t60_s,
     track_partials,
     two_stage_summary,
+)
+from synth.apps.voicing import (  # noqa: E402  (MIDI_FILES, QUICK_KEYS, Row: the report's)
+    MIDI_FILES,
+    QUICK_KEYS,
+    Row,
+    channels,
+    format_table,
+    law_partials,
+    mono,
 )
 from synth.engine.engine import Event  # noqa: E402
 from synth.io.errors import SynthError  # noqa: E402
@@ -67,14 +76,10 @@ FS = 48_000
 #: recorded grand's aftersound and the undamped top strings rang past it)
 STUCK_AFTER_S = 30.0
 ROOT = Path(__file__).resolve().parents[1]
-#: the five piano files of ../shared/midi (SOURCES.md, section 1)
-MIDI_FILES = ("rac_op23_5.mid", "chpn_op25_e11.mid", "deb_clai.mid", "hp956bx4547_exp.mid",
-              "kw569bw0899_exp.mid")
 DEFAULT_MIDI_DIR = ROOT.parent / "shared" / "midi"
 
 SWEEP_VELS = (20, 50, 80, 110, 127)
 CURVE_KEYS = (33, 48, 60, 72, 84, 96, 105)
-QUICK_KEYS = (21, 33, 41, 48, 59, 60, 61, 72, 84, 96, 97, 100, 104, 108)
 PEDAL_KEYS = (36, 48, 60, 72, 84)
 HALO_KEYS = (36, 60)
 SOFT_KEYS = (33, 48, 60, 72, 84, 96)
@@ -95,18 +100,6 @@ KNEE_MIN_DROP_DB, KNEE_MIN_LATE_DB = 6.0, 10.0
 # --------------------------------------------------------------------------
 # rendering, with a cache
 # --------------------------------------------------------------------------
-
-def mono(y):
-    """Mono view of a render: channels averaged if it is (n, channels)."""
-    y = np.asarray(y, dtype=np.float64)
-    return y.mean(axis=1) if y.ndim == 2 else y
-
-
-def channels(y):
-    """The render's channels as a list of 1-D arrays."""
-    y = np.asarray(y, dtype=np.float64)
-    return [y[:, i] for i in range(y.shape[1])] if y.ndim == 2 else [y]
-
 
 @dataclass
 class Renderer:
@@ -182,34 +175,15 @@ class Renderer:
 # --------------------------------------------------------------------------
 
 def max_momentary(y):
-    """Maximum 400 ms momentary loudness (LUFS) of a note, ungated: the note
-    is measured at peak 1 and the gain taken off again (BS.1770 is linear up
-    to its gates; pyloudnorm's absolute gate would read a note quieter than
-    -70 LUFS as silence)."""
-    p = float(np.max(np.abs(y)))
-    if p == 0.0:
-        return -math.inf
-    return float(loudness(y / p, FS)["max_momentary_lufs"]) + 20.0 * math.log10(p)
+    """Maximum 400 ms momentary loudness (LUFS) of a note, ungated
+    (:func:`synth.analysis.max_momentary_lufs`)."""
+    return max_momentary_lufs(y, FS)
 
 
 def attack_centroid_hz(y, length_s=0.1, fade_s=0.01):
-    """Spectral centroid (Hz) of the first ``length_s`` of a note: flat
-    window, half-Hann fade over the last ``fade_s``."""
-    n, m = int(round(length_s * FS)), int(round(fade_s * FS))
-    seg = np.array(y[:n], dtype=np.float64)
-    seg[n - m:] *= 0.5 + 0.5 * np.cos(np.pi * np.arange(m) / m)
-    return float(spectral_centroid_hz(seg, FS, window="rect"))
-
-
-def law_partials(key, f1_hz, f_max_hz=10_000.0, n_max=40):
-    """The key's stiff-string law: f0 with partial 1 at ``f1_hz`` and B of
-    ``grand_string(key)``; the partial numbers to check (up to ``n_max``,
-    or ``f_max_hz``, whichever is fewer)."""
-    B = grand_string(key).inharmonicity_b
-    f0 = f1_hz / math.sqrt(1.0 + B)
-    n = np.arange(1, n_max + 1)
-    f = n * f0 * np.sqrt(1.0 + B * n * n)
-    return f0, B, int(max(1, np.sum(f <= f_max_hz)))
+    """Spectral centroid (Hz) of the first ``length_s`` of a note
+    (:func:`synth.analysis.attack_centroid_hz`)."""
+    return _attack_centroid_hz(y, FS, length_s, fade_s)
 
 
 def tuning(y, key, f1_hz, seg_s=(0.05, 1.05)):
@@ -275,17 +249,6 @@ def rms_db(x):
 # --------------------------------------------------------------------------
 # the report
 # --------------------------------------------------------------------------
-
-@dataclass
-class Row:
-    section: str
-    target: str
-    measured: str
-    limit: str
-    status: str          # PASS, FAIL, INFO, SKIP
-    value: object = None
-    detail: str = ""     # the per-key figures, printed under the table
-
 
 class Report:
     def __init__(self, args):
@@ -723,33 +686,6 @@ def git_commit():
         return sha + ("+dirty" if dirty else "")
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
-
-
-def format_table(rows, details=True, before=None) -> str:
-    """The table (status, target, measured, limit), then the details of
-    each row that has any, numbered.  ``before``: {(section, target):
-    measured} of an earlier report (``--before``), shown as a column."""
-    head = ("", "target", "measured", "limit")
-    body = [(r.status, r.target, r.measured, r.limit) for r in rows]
-    if before is not None:
-        head = ("", "target", "before", "measured", "limit")
-        body = [(r.status, r.target, before.get((r.section, r.target), "-"), r.measured, r.limit)
-                for r in rows]
-    nc = len(head) - 1
-    w = [max(len(x[i]) for x in [head] + body) for i in range(nc)]
-    lines = []
-    for i, x in enumerate([head] + body):
-        ref = f"[{i}]" if i and rows[i - 1].detail and details else ""
-        lines.append(("  ".join(c.ljust(w[j]) for j, c in enumerate(x[:nc])) + f"  {x[nc]} {ref}").rstrip())
-        if i == 0:
-            lines.append("  ".join("-" * x for x in w) + "  -----")
-    n = {s: sum(r.status == s for r in rows) for s in ("PASS", "FAIL", "INFO", "SKIP")}
-    lines.append(f"{n['PASS']} passed, {n['FAIL']} failed, {n['INFO']} for information, "
-                 f"{n['SKIP']} skipped")
-    if details:
-        lines.append("")
-        lines += [f"[{i}] {r.detail}" for i, r in enumerate(rows, 1) if r.detail]
-    return "\n".join(lines)
 
 
 def _jsonable(o):

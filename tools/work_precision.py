@@ -68,6 +68,8 @@ from pathlib import Path
 
 import numpy as np
 
+from synth.apps.work_precision import CAPO_MODES, capo_summary, orders
+
 ROOT = Path(__file__).resolve().parents[1]
 
 #: the clock of the run times: wall time, or with ``--cpu-time`` the process's
@@ -143,12 +145,6 @@ def timed(fn, repeats):
         res = fn()
         times.append(res[-1])
     return res, statistics.median(times)
-
-
-def orders(errors):
-    e = np.asarray(errors, float)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.log2(e[:-1] / e[1:])
 
 
 # ---- problems ----------------------------------------------------------------------
@@ -264,7 +260,6 @@ CAPO_RADIUS_M = 0.015
 CAPO_REGION_M = 48 * 0.061 / 184
 #: the snapshot times (s) and the modes the thesis reports on
 CAPO_TIMES = (3.86e-3, 6.21e-3)
-CAPO_MODES = 40
 #: grids: 14 cells (96.6 kHz; the strike on the first point, l = L/14), then
 #: multiples of 23 (the strike exactly at l = L/23, as the study preset's
 #: 184 cells: 1.295 MHz); the finest is the converged solution
@@ -377,21 +372,6 @@ def capo_levels(run, ideal, t):
         d = 10 * np.log10(Ec[:n] / Ei[:n])
     d[~_capo_live(n)] = np.nan
     return d
-
-
-def capo_summary(d):
-    """The thesis's quantities of a level vector: modes 1 and 4, the mean
-    of modes 1-5, and over modes 6-40 but 21-25 (the missing mode 23 and
-    its neighbours, weakest on the ideal string, whose levels swing by
-    tens of dB from grid to grid) the median and the largest gain (with
-    its mode)."""
-    m = np.arange(1, len(d) + 1)
-    far = (m >= 6) & (m <= CAPO_MODES) & ((m < 21) | (m > 25)) & np.isfinite(d)
-    j = int(m[far][np.argmax(d[far])]) if far.any() else 0
-    return dict(mode1=float(d[0]), mode4=float(d[3]) if len(d) > 3 else math.nan,
-                low=float(np.nanmean(d[:5])),
-                median=float(np.median(d[far])) if far.any() else math.nan,
-                gain=float(d[j - 1]) if j else math.nan, gain_mode=j)
 
 
 def capo_study(cells_list, repeats: int, variants=("direct", "injected")):

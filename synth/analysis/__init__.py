@@ -8,7 +8,13 @@ never imports numba or other ``synth`` layers (loudness uses pyloudnorm).
 from synth.analysis.bands import band_levels_db, halo, highband_db
 from synth.analysis.clicks import click_scan
 from synth.analysis.decay import decay_curve_db, t60_s, two_stage_decay, two_stage_summary
-from synth.analysis.loudness import crest_factor_db, loudness, momentary_lufs, peak_dbfs
+from synth.analysis.loudness import (
+    crest_factor_db,
+    loudness,
+    max_momentary_lufs,
+    momentary_lufs,
+    peak_dbfs,
+)
 from synth.analysis.modes import (
     free_mode_energies,
     grid_energy,
@@ -28,6 +34,7 @@ from synth.analysis.regimes import (
 from synth.analysis.spectrum import (
     FLOOR_DB,
     as_mono,
+    attack_centroid_hz,
     magnitude_spectrum_db,
     partial_levels_db,
     partial_peaks,
@@ -41,6 +48,7 @@ __all__ = [
     "magnitude_spectrum_db",
     "spectrogram",
     "spectral_centroid_hz",
+    "attack_centroid_hz",
     "partial_peaks",
     "partial_levels_db",
     "estimate_f0",
@@ -63,6 +71,7 @@ __all__ = [
     "two_stage_summary",
     "loudness",
     "momentary_lufs",
+    "max_momentary_lufs",
     "peak_dbfs",
     "crest_factor_db",
     "band_levels_db",

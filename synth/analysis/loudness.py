@@ -12,11 +12,13 @@ measured in tests/test_loudness.py against a steady tone).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .spectrum import _positive, _signal
 
-__all__ = ["loudness", "momentary_lufs", "peak_dbfs", "crest_factor_db"]
+__all__ = ["loudness", "momentary_lufs", "max_momentary_lufs", "peak_dbfs", "crest_factor_db"]
 
 #: loudness reported for silence (LUFS): below BS.1770's absolute gate
 SILENT_LUFS = -np.inf
@@ -53,6 +55,21 @@ def momentary_lufs(x, fs, hop_s=0.1):
     starts = np.arange(0, len(x) - n + 1, hop)
     vals = np.array([_integrated(meter, x[s:s + n]) for s in starts])
     return (starts + 0.5 * n) / fs, vals
+
+
+def max_momentary_lufs(x, fs):
+    """Maximum 400 ms momentary loudness (LUFS) of a mono signal at ``fs``
+    (Hz), ungated: a note's loudness as a listener judges it.  The signal is
+    measured at peak 1 and the gain taken off again (BS.1770 is linear up to
+    its gates; pyloudnorm's absolute gate would read a note quieter than -70
+    LUFS as silence); -inf for silence.  ``synth check``'s "momentary"
+    measure and the voicing report's loudness."""
+    fs = _positive("fs", fs)
+    x = _signal("x", x)
+    p = float(np.max(np.abs(x)))
+    if p == 0.0:
+        return SILENT_LUFS
+    return float(np.max(momentary_lufs(x / p, fs)[1])) + 20.0 * math.log10(p)
 
 
 def peak_dbfs(x):

@@ -25,6 +25,7 @@ __all__ = [
     "magnitude_spectrum_db",
     "spectrogram",
     "spectral_centroid_hz",
+    "attack_centroid_hz",
     "partial_peaks",
     "partial_levels_db",
 ]
@@ -366,6 +367,17 @@ def spectral_centroid_hz(x, fs, weighting="magnitude", window="hann"):
     tot = a.sum()
     f = np.fft.rfftfreq(n_fft, 1.0 / fs)
     return float(np.dot(f, a) / tot)
+
+
+def attack_centroid_hz(x, fs, length_s=0.1, fade_s=0.01):
+    """Spectral centroid (Hz) of the first ``length_s`` of a note, flat
+    window with a half-Hann fade over its last ``fade_s``, so the attack
+    counts in full (the voicing report's brightness of an attack, and the
+    una corda's test on it)."""
+    n, m = int(round(length_s * fs)), int(round(fade_s * fs))
+    seg = np.array(x[:n], dtype=np.float64)
+    seg[n - m:] *= 0.5 + 0.5 * np.cos(np.pi * np.arange(m) / m)
+    return float(spectral_centroid_hz(seg, fs, window="rect"))
 
 
 def partial_peaks(x, fs, f0_hz, n_partials, search_cents=50.0, window="nuttall",

@@ -64,7 +64,7 @@ from ..analysis import (
     halo,
     highband_db,
     loudness,
-    momentary_lufs,
+    max_momentary_lufs,
     partial_peaks,
     peak_dbfs,
     spectral_centroid_hz,
@@ -473,7 +473,7 @@ def _c_smooth(items, e, others):
 
 
 def _max_momentary(it):
-    return float(np.max(momentary_lufs(it.audio, it.fs)[1]))
+    return max_momentary_lufs(it.audio, it.fs)
 
 
 def _c_dynamic_range(items, e, others):

@@ -1,0 +1,238 @@
+"""The measures of ``tools/study_partials.py`` (the studies behind the grand's
+fit to a recorded grand, issue 11; ``docs/voicing.md``, "Fitted to a
+recorded grand"), on notes at 48 kHz with note-on at t = 0, read against
+each key's stiff-string law (:func:`synth.physics.piano.grand_string`):
+
+* :func:`early_t60_s`: the early T60 of partials 1-8;
+* :func:`partial_levels_db`: peak and band levels of partials 1..n;
+* :func:`thump_db`, :func:`thump_spectrum_db`: the thump under an attack;
+* :func:`damping_rows`, :func:`ratio_summary`: the strings' loss at 3-8 kHz;
+* :func:`beat_roughness_db`: how much a unison's partials beat;
+* :func:`tail_t60_and_level`, :func:`level_curve_db`: the aftersound;
+* :func:`midi_of`: the key and layer of a recorded grand's sample from its
+  file name (``C4v10.ogg``; ``tools/real_grand.py``).
+
+The tool's studies render the model and read a recording with them; they
+live here so that they are tested from the package.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from ..analysis import band_levels_db, estimate_f0, track_partials
+from ..physics.piano import et_f0_hz, grand_string
+
+#: the sample rate the measures read (Hz): the voicing report's renders and the recording's
+FS = 48_000
+
+
+N_PARTIALS = 8
+
+
+def _f0_law(y, key):
+    g = grand_string(key)
+    B = g.inharmonicity_b
+    f1 = estimate_f0(y[int(0.05 * FS):int(1.05 * FS)], FS, g.partial_hz(1), search_cents=60.0)
+    return f1 / math.sqrt(1.0 + B), B
+
+
+def early_t60_s(y, key, hi_s=1.2, hop_s=0.05, win_s=0.2):
+    """Early T60 (s) of partials 1..8 of ``y`` (48 kHz, note-on at 0)."""
+    f0, B = _f0_law(y, key)
+    ts, levels = [], []
+    t = 0.05
+    while t + win_s <= hi_s + win_s / 2:
+        seg = y[int(t * FS):int((t + win_s) * FS)]
+        _, lv, _ = track_partials(seg, FS, f0, N_PARTIALS, inharmonicity=B)
+        ts.append(t + win_s / 2)
+        levels.append(lv)
+        t += hop_s
+    ts, levels = np.array(ts), np.array(levels)
+    out = []
+    for k in range(N_PARTIALS):
+        slope = np.polyfit(ts, levels[:, k], 1)[0]
+        out.append(-60.0 / slope if slope < -1e-3 else 99.0)
+    return np.array(out)
+
+
+def partial_levels_db(y, key, t0, t1, n=10):
+    """(peak levels, band levels) of partials 1..n over t0..t1 s, dB re
+    the strongest of each."""
+    f0, B = _f0_law(y, key)
+    seg = y[int(t0 * FS):int(t1 * FS)]
+    _, peak, _ = track_partials(seg, FS, f0, n, inharmonicity=B)
+    P = np.abs(np.fft.rfft(seg * np.hanning(len(seg)))) ** 2
+    fr = np.fft.rfftfreq(len(seg), 1.0 / FS)
+    band = np.array([10 * np.log10(P[np.abs(fr - j * f0 * math.sqrt(1 + B * j * j)) < 0.45 * f0].sum()
+                                   + 1e-300) for j in range(1, n + 1)])
+    return peak - np.nanmax(peak), band - band.max()
+
+
+#: the thump's band (Hz): from THUMP_LOW_HZ to THUMP_HIGH_HZ or f0 / 2, whichever is lower
+THUMP_LOW_HZ, THUMP_HIGH_HZ = 20.0, 1000.0
+
+
+#: the attack window the thump is read over (s)
+THUMP_WINDOW_S = 0.1
+
+
+def _band_power_db(y, lo_hz, hi_hz, window_s=THUMP_WINDOW_S):
+    """Power (dB) of ``y``'s first ``window_s`` (mean removed) in ``lo_hz``
+    < f < ``hi_hz`` (:func:`synth.analysis.band_levels_db`, Hann window)."""
+    seg = np.array(y[:int(round(window_s * FS))], dtype=np.float64)
+    seg -= seg.mean()
+    return float(band_levels_db(seg, FS, 0.5 * (lo_hz + hi_hz), 0.5 * (hi_hz - lo_hz))[0])
+
+
+def thump_db(y, key, c4):
+    """The thump under key ``key``'s attack ``y``: its power below the
+    note (20 Hz to 1 kHz or f0 / 2) over the first 100 ms, dB re the power
+    of partial 1 of ``c4`` (C4 in the same layer) over the same window."""
+    f0 = et_f0_hz(key)
+    ref = et_f0_hz(60)
+    return (_band_power_db(y, THUMP_LOW_HZ, min(THUMP_HIGH_HZ, 0.5 * f0))
+            - _band_power_db(c4, 0.7 * ref, 1.3 * ref))
+
+
+#: the thump's spectrum: bands (Hz) whose power per Hz is read re the 90-360 Hz band's
+THUMP_BANDS_HZ = ((20.0, 90.0), (90.0, 360.0), (360.0, 720.0), (720.0, 1000.0))
+
+
+def thump_spectrum_db(y):
+    """The thump's spectrum over the first 100 ms: the power per Hz in each
+    of ``THUMP_BANDS_HZ``, dB re the 90-360 Hz band's (read it on keys
+    whose f0 / 2 lies above 1 kHz, where no partial falls in the bands)."""
+    lv = [_band_power_db(y, lo, hi) - 10.0 * math.log10(hi - lo) for lo, hi in THUMP_BANDS_HZ]
+    return np.array(lv) - lv[1]
+
+
+#: the band and the level floor of the ``damping`` study
+DAMPING_BAND_HZ = (3000.0, 8000.0)
+
+
+DAMPING_FLOOR_DB = -50.0
+
+
+def damping_rows(key, real, model):
+    """(partial, f (Hz), level (dB), real T60, model T60) of each partial
+    1-8 of ``key`` in ``DAMPING_BAND_HZ`` whose level in ``real``'s
+    0.05-0.35 s lies within ``-DAMPING_FLOOR_DB`` of its strongest, and
+    whose early T60 both notes read (not 99)."""
+    g = grand_string(key)
+    tr, tm = early_t60_s(real, key), early_t60_s(model, key)
+    pk, _ = partial_levels_db(real, key, 0.05, 0.35, n=N_PARTIALS)
+    out = []
+    for j in range(N_PARTIALS):
+        f = g.partial_hz(j + 1)
+        if (DAMPING_BAND_HZ[0] <= f <= DAMPING_BAND_HZ[1] and pk[j] > DAMPING_FLOOR_DB
+                and tr[j] < 99.0 and tm[j] < 99.0):
+            out.append((j + 1, f, float(pk[j]), float(tr[j]), float(tm[j])))
+    return out
+
+
+def ratio_summary(rows):
+    """(median, lower quartile, upper quartile) of model / real T60 over
+    ``rows`` (geometric: the quantiles of log2 of the ratios)."""
+    lr = np.log2([m / t for *_, t, m in rows])
+    return tuple(float(2.0 ** np.percentile(lr, q)) for q in (50, 25, 75))
+
+
+#: the ``beats`` study: frames, span, and the partials it counts
+BEAT_WIN_S, BEAT_HOP_S, BEAT_SPAN_S = 0.1, 0.025, (0.1, 3.0)
+
+
+BEAT_START_DB, BEAT_FLOOR_DB = -40.0, -70.0
+
+
+def partial_envelopes_db(y, key, span_s=BEAT_SPAN_S, win_s=BEAT_WIN_S, hop_s=BEAT_HOP_S):
+    """(frame centres (s), peak levels (dB), shape (frames, 8)) of partials
+    1-8 of ``y`` (48 kHz, note-on at 0) in ``win_s`` frames every ``hop_s``
+    over ``span_s``."""
+    f0, B = _f0_law(y, key)
+    ts, levels = [], []
+    t = span_s[0]
+    while t + win_s <= span_s[1] + 1e-9:
+        _, lv, _ = track_partials(y[int(t * FS):int((t + win_s) * FS)], FS, f0, N_PARTIALS,
+                                  inharmonicity=B)
+        ts.append(t + win_s / 2)
+        levels.append(lv)
+        t += hop_s
+    return np.array(ts), np.array(levels)
+
+
+def hinge_residual_db(t, level):
+    """RMS (dB) of ``level`` about the continuous two-segment line through
+    it that fits best (its knee at any frame but the first and last four):
+    what is left is the beating, not the decay or its knee."""
+    best = np.inf
+    for tk in t[4:-4]:
+        A = np.stack([np.ones_like(t), t, np.maximum(t - tk, 0.0)], axis=1)
+        c, *_ = np.linalg.lstsq(A, level, rcond=None)
+        best = min(best, float(np.sqrt(np.mean((level - A @ c) ** 2))))
+    return best
+
+
+def beat_roughness_db(y, key):
+    """``hinge_residual_db`` of each partial 1-8 of ``y`` (NaN for those
+    whose first frame lies more than ``-BEAT_START_DB`` under the
+    strongest; frames more than ``-BEAT_FLOOR_DB`` under it are left out)."""
+    ts, L = partial_envelopes_db(y, key)
+    top = np.nanmax(L[0])
+    out = []
+    for k in range(N_PARTIALS):
+        e = L[:, k]
+        ok = np.isfinite(e) & (e > top + BEAT_FLOOR_DB)
+        if not e[0] >= top + BEAT_START_DB or ok.sum() < 12:
+            out.append(np.nan)
+            continue
+        out.append(hinge_residual_db(ts[ok], e[ok]))
+    return np.array(out)
+
+
+#: the ``tail`` study's window (s) and level floor (dB re the loudest frame)
+TAIL_SPAN_S, TAIL_LEVEL_S, TAIL_FLOOR_DB = (2.5, 9.0), 1.5, -70.0
+
+
+def tail_t60_and_level(y, span_s=TAIL_SPAN_S, level_s=TAIL_LEVEL_S, floor_db=TAIL_FLOOR_DB):
+    """(T60 (s) of a line through the note's level over ``span_s``, the
+    median level (dB re the loudest 50 ms frame) over the first
+    ``level_s`` of it) of ``y`` (48 kHz, note-on at 0); the span ends at
+    most 1.5 s before ``y`` does.  T60 is inf where the level does not
+    fall, and both NaN with fewer than 20 frames above ``floor_db``."""
+    lv = level_curve_db(y, 0.05)
+    t = (np.arange(len(lv)) + 0.5) * 0.05
+    t1 = min(span_s[1], len(y) / FS - 1.5)
+    m = (t >= span_s[0]) & (t <= t1) & (lv > floor_db)
+    if m.sum() < 20:
+        return float("nan"), float("nan")
+    slope = np.polyfit(t[m], lv[m], 1)[0]
+    level = float(np.median(lv[(t >= span_s[0]) & (t <= span_s[0] + level_s)]))
+    return (-60.0 / slope if slope < 0 else float("inf")), level
+
+
+def level_curve_db(y, frame_s=0.1):
+    """The note's level (dB re its loudest frame) in ``frame_s`` frames."""
+    fr = int(frame_s * FS)
+    n = len(y) // fr
+    lv = 10.0 * np.log10(np.mean(np.asarray(y[:n * fr], dtype=np.float64).reshape(n, fr) ** 2, axis=1)
+                         + 1e-30)
+    return lv - lv.max()
+
+
+_NOTE = re.compile(r"^([A-G]#?)(\d)v(\d+)\.(ogg|wav|flac)$")
+
+
+_PITCH = {"C": 0, "C#": 1, "D": 2, "D#": 3, "E": 4, "F": 5, "F#": 6, "G": 7, "G#": 8, "A": 9,
+          "A#": 10, "B": 11}
+
+
+def midi_of(name: str) -> tuple[int, int] | None:
+    """(MIDI key, velocity layer) of a sample's file name, or None."""
+    m = _NOTE.match(name)
+    if not m:
+        return None
+    return 12 * (int(m.group(2)) + 1) + _PITCH[m.group(1)], int(m.group(3))
