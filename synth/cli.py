@@ -17,6 +17,7 @@
     synth batch SPEC.toml -o DIR [--scheduler tcp://HOST:8786 | --workers N] [--csv] [--dry-run]
     synth compare STIMULUS STIMULUS [...] [--midi FILE | --key K --velocity V --seconds S]
                [--lufs X] [--trials N] -o DIR [--serve [--port P]]
+    synth warmup [--presets LIST]
     synth help [TOPIC]
     synth --version
 
@@ -30,7 +31,10 @@ output); this module builds the parser from them, in the order of ``synth
 everything below works in SI units and [0, 1].  User errors print one line
 (``synth: error: ...``) and exit with status 2; no half-written file is
 left behind.  Ctrl-C (and SIGTERM during ``render``) print one line
-(``synth: interrupted ...``) and exit with status 130 (143).
+(``synth: interrupted ...``) and exit with status 130 (143).  Run from the
+command line, a command that renders says on stderr, within its first
+second, when the kernels are about to compile (a cold numba cache:
+:mod:`synth.dsp.compile_notice`).
 """
 
 from __future__ import annotations
@@ -41,15 +45,16 @@ import sys
 
 from . import __version__
 from .commands import (analyze, batch, check, compare, demo, felt, help as help_cmd, note, play,
-                       presets, render)
-from .commands.common import os_error_line, parse_channels, parse_mpe_option
+                       presets, render, warmup)
+from .commands.common import arm_compile_notice, os_error_line, parse_channels, parse_mpe_option
 from .io.errors import SynthError
 from .io.interrupt import Interrupted
 
 __all__ = ["COMMANDS", "build_parser", "main", "parse_channels", "parse_mpe_option"]
 
 #: the command modules, in the order ``synth --help`` lists them
-COMMANDS = (demo, presets, note, render, analyze, check, felt, batch, play, compare, help_cmd)
+COMMANDS = (demo, presets, note, render, analyze, check, felt, batch, play, compare, warmup,
+            help_cmd)
 
 EPILOG = """examples:
   synth demo                                         # demo.wav: a phrase on the sitar and biwa
@@ -58,6 +63,10 @@ EPILOG = """examples:
   synth analyze a3.wav                               # its partials, decays and loudness
   synth COMMAND --help                               # a command's options and examples
   synth help                                         # the user guides shipped with synth"""
+#: the commands that render with the kernels: from the command line, they say
+#: within a second when the kernels are about to compile (a cold cache)
+RENDERING = {"demo", "note", "render", "analyze", "check", "felt", "batch", "play", "compare",
+             "warmup"}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -102,6 +111,8 @@ def main(argv=None) -> int:
         return 2
     if getattr(args, "_module", None) is not felt:
         _warn_preset_path()
+    if argv is None and args.cmd in RENDERING:
+        arm_compile_notice()
     try:
         if getattr(args, "threads", None) is not None:
             from .io.factory import set_default_threads

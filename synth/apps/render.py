@@ -465,6 +465,9 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
                                    progress=bar)
     n_max = None if req.max_seconds is None else int(round(req.max_seconds * fs))
     cut = _Cut(_checked(blocks), n_max, int(round(CUT_FADE_S * fs)), plan.cut)
+    from ..dsp.compile_notice import compile_seconds, timing_note
+
+    c0 = compile_seconds()
     t = time.perf_counter()
     try:
         # written as rendered: the whole render is never in memory
@@ -472,7 +475,8 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
     finally:
         if bar is not None:
             bar.close()
-    el = time.perf_counter() - t
+    comp = compile_seconds() - c0
+    el = time.perf_counter() - t - comp
     if cut.cut and not plan.cut:
         log(f"note: the sound is cut at {format_length(req.max_seconds)} "
             f"(--max-seconds {req.max_seconds:g}), before it has died away")
@@ -485,6 +489,7 @@ def _render(req: RenderRequest, log, stream) -> RenderResult:
     stolen = f", {eng.n_stolen} voices stolen (polyphony {eng.polyphony})" if eng.n_stolen else ""
     summary = (f"{req.output}: {dur:.1f} s, {len(plan.keys)} notes on {req.preset}{stolen}, "
                f"peak {res.peak_dbfs:.1f} dBFS{clip}, "
-               f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)")
+               f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)"
+               f"{timing_note(comp)}")
     return RenderResult(dur, len(plan.keys), el, summary, eng.n_stolen, dict(ignored),
                         res.peak_dbfs, res.n_clipped, float(preset.output.gain))

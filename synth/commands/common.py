@@ -30,6 +30,15 @@ def fail(msg: str) -> None:
     raise SynthError(msg)
 
 
+def arm_compile_notice() -> None:
+    """From the command line: say on stderr, within the first second, when
+    the kernels are about to compile (a cold numba cache), with progress on
+    a terminal (:mod:`synth.dsp.compile_notice`; no numba import here)."""
+    from ..dsp import compile_notice
+
+    compile_notice.arm()
+
+
 def check_output(path: str, option: str) -> None:
     """Fail before any work if `path` cannot be an output file (its directory is missing)."""
     if os.path.isdir(path):

@@ -29,12 +29,16 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
+    import time
+
     import numpy as np
 
+    from ..dsp.compile_notice import compile_seconds, timing_note
     from ..engine.engine import Event
 
     check_output(args.output, "-o")
     fmt = audio_format(args.output, "-o")
+    t0, c0 = time.perf_counter(), compile_seconds()
     bpm = 96.0
     beat = 60.0 / bpm
     parts = []
@@ -48,9 +52,12 @@ def run(args) -> int:
         y = eng.render(evs, tail_s=0.2, max_tail_s=2.0)
         parts += [y, np.zeros(int(0.5 * fs))]
         fs = eng.fs_out
+    comp = compile_seconds() - c0
+    el = time.perf_counter() - t0 - comp
     audio = np.concatenate(parts)
     out = Path(args.output).resolve()
     info = write_audio(str(out), audio, fs, False, fmt)
-    print(f"demo: {len(audio) / fs:.1f} s ({', '.join(DEMO_PHRASES)} phrases), {info}")
+    print(f"demo: {len(audio) / fs:.1f} s ({', '.join(DEMO_PHRASES)} phrases), {info}, "
+          f"rendered in {el:.2f} s{timing_note(comp)}")
     print(f"wrote {out}")
     return 0

@@ -110,14 +110,18 @@ def run(args) -> int:
         check_playable(eng, args.preset, key, f0, CLI_NAMES)
     except ValueError as e:
         fail(str(e))
+    from ..dsp.compile_notice import compile_seconds, timing_note
+
+    c0 = compile_seconds()
     t = time.perf_counter()
     y = play_note(eng, key, f0, velocity, seconds, args.hammer_speed)
-    el = time.perf_counter() - t
+    comp = compile_seconds() - c0
+    el = time.perf_counter() - t - comp
     info = write_audio(args.output, y, eng.fs_out, args.pcm24, fmt, gain=preset.output.gain)
     pitch = inst.pitch_hz(args.key, f0)
     q = "" if inst.study else f" ({inst.quality.name})"
     print(f"{args.output}: {args.seconds:g} s of {args.preset} at {pitch:.2f} Hz, "
-          f"internal rate {inst.fs:.1f} Hz{q}, {info}, rendered in {el:.2f} s")
+          f"internal rate {inst.fs:.1f} Hz{q}, {info}, rendered in {el:.2f} s{timing_note(comp)}")
     if args.probe:
         from ..io.wav import write_npy_atomic
 

@@ -23,10 +23,13 @@ import numpy as np
 from ..kernels import render as KR
 from ..kernels import strings as K
 from ..kernels.energy import ring_energy
-from . import sizing, threads
+from . import compile_notice, sizing, threads
 from .bridges import Bridges
 from .excitation import (  # noqa: F401  (re-exported: the voices build their hammers here)
     SOLVER_TOL, Excitations, HammerTemplate, hammer_template)
+
+# compiles of the kernels counted and timed (and, from the synth command, announced)
+compile_notice.listen()
 
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
 #: the shortest fast-path chunk a slot is given while its excitation runs
@@ -286,6 +289,15 @@ class StringBank(Excitations, Bridges):
     max_gtable : int
         Longest injected g(t) table per slot (samples), 0 if none.
     """
+
+    #: render every scene through the one kernel that handles them all
+    #: (:func:`synth.kernels.render.render_sharded`) instead of the one
+    #: :func:`~synth.kernels.render.bank_kind` picks for what is active.
+    #: Offline (False) a scene compiles only the paths it runs; live play
+    #: (:func:`synth.io.live.engines.ready_engine` sets it for its process)
+    #: loads the one kernel before the stream opens, so that no scene
+    #: compiles one mid-performance.  The same samples either way.
+    whole_kernel = False
 
     #: time constant (s) of the loss's glide to a new value (a damper falling
     #: or lifting, a fade): a damper's felt lands over a few ms; at 2 ms the
@@ -1053,12 +1065,59 @@ class StringBank(Excitations, Bridges):
                     heapq.heappop(timers)[2]()
                     continue
                 c = min(c, due)
-            KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U,
-                              self.active, self.n_active, c, o0 + done, mix,
-                              self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
-                              smix, self._plan, pb, self._tw, self._ib, nt)
+            kind = (KR.KIND_SHARDS if self.whole_kernel
+                    else KR.bank_kind(self.active, self.n_active, self.ipar))
+            # the kernel for what is active (the samples render_sharded gives
+            # it), so that a scene compiles only what it runs
+            if kind == KR.KIND_SHARDS:
+                KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U,
+                                  self.active, self.n_active, c, o0 + done, mix,
+                                  self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
+                                  smix, self._plan, pb, self._tw, self._ib, nt)
+            elif kind == KR.KIND_BIG_GROUPS:
+                KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U,
+                                     self.active, self.n_active, c, o0 + done, mix, self.probe,
+                                     self._scratch2[0], self._iwork2[0], pb, self._tw, self._ib,
+                                     nt)
+            elif kind == KR.KIND_SMALL_GROUP:
+                KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U,
+                                      self.active, self.n_active, c, o0 + done, mix, self.probe,
+                                      self._scratch2[0], self._iwork2[0])
+            elif kind == KR.KIND_STRINGS:
+                KR.render_strings(self.ring, self.ipar, self.fpar, self.fst, self.U,
+                                  self.active, self.n_active, c, o0 + done, mix, self.probe,
+                                  self._scratch2[0], ubx)
+            elif kind == KR.KIND_BANK:
+                KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
+                               self.active, self.n_active, c, o0 + done, mix,
+                               self.probe, self._scratch2[0], self._iwork2[0], ubx,
+                               self._sub3[0], pb, self._tw, self._ib, nt)
             done += c
             self.time += c
+
+    def load_kernels(self) -> None:
+        """Compile (or load from numba's cache) every kernel :meth:`render`
+        may call, whatever the scene (``synth warmup``): each is called
+        with no string and no sample, which renders nothing."""
+        mix = np.zeros((self._row_top + 1, 1))
+        ubx = np.zeros(max(1, self._ext_sub))
+        none = self.active[:0]
+        c = 0
+        nt = threads.enter(self.threads)
+        KR.bank_kind(none, 0, self.ipar)
+        KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
+                          self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
+                          self._smix, self._plan, self._pb, self._tw, self._ib, nt)
+        KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0,
+                             mix, self.probe, self._scratch2[0], self._iwork2[0], self._pb,
+                             self._tw, self._ib, nt)
+        KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0,
+                              mix, self.probe, self._scratch2[0], self._iwork2[0])
+        KR.render_strings(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
+                          self.probe, self._scratch2[0], ubx)
+        KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
+                       self.probe, self._scratch2[0], self._iwork2[0], ubx, self._sub3[0],
+                       self._pb, self._tw, self._ib, nt)
 
     # -- inspection (tests, analysis) ----------------------------------------
     def rails(self, s: int):

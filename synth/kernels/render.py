@@ -76,7 +76,11 @@ from .strings import (
 
 #: 0 and 1 as int64 arguments: a literal 0 or 1 in a call makes numba compile
 #: the callee (and everything below it) once more for ``Literal[int]``: the
-#: bank's renderer was compiled three times over (cold start 3 min)
+#: bank's renderer was compiled three times over (cold start 3 min).  A
+#: counter that starts at a literal 0 (``n = 0`` ... ``n += 1``) does it
+#: too: type inference first sees the call with ``Literal[int](0)`` and
+#: compiles that, before the loop's int64 reaches it (25 of 146 CPU s of a
+#: cold ``synth note sitar`` went to such copies, ``tools/compile_profile.py``)
 ZERO = np.int64(0)
 ONE = np.int64(1)
 #: members of a coupled group stepped together as one block (a multiple of
@@ -363,23 +367,27 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
 
 # ---- coupled groups, and a list of strings into one mix ------------------------------
 
-@njit(**JIT_OPTS)
-def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist, pb, tw, ib,
-                   nt):
-    """C samples of a coupled group (the G strings of the chain from
-    ``lead`` on one bridge) in lockstep on the fast path: excitation
-    (running hammers stepped together, :func:`_excite_group`), each
-    string's region and loop filter, the bridge (:func:`_bridge`), then
-    each string's far-end write and output.  C is within every member's
-    fast-path limit, and at most ROWS members excite (GROUP hammers).
-
-    A group of more than BLOCK members (a sitar's bridge) steps its members
-    in blocks (:func:`_coupled_blocks`): the same samples whether the
-    blocks run on this thread or on ``nt``."""
+@njit(inline="always", **JIT_OPTS)
+def _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist):
+    """The start of a coupled group's lockstep chunk (C samples of the G
+    strings of the chain from ``lead`` on one bridge, on the fast path; C
+    within every member's fast-path limit, at most ROWS members
+    exciting, GROUP of them hammers): running hammers stepped together
+    (:func:`_excite_group`),
+    plucks one by one (member m's g row at scratch[row * _GROW:], its
+    string at iw[row]); returns (row, work, cw, lock): the rows used, the
+    work windows, the coupled area and whether the lanes apply.  The rest
+    of the chunk: :func:`_coupled_chunk_small` (each string's region and
+    loop filter, the bridge, :func:`_bridge`, each string's far-end write
+    and output) or, for a group of more than BLOCK members (a sitar's
+    bridge), :func:`_coupled_chunk_big` (its blocks,
+    :func:`_coupled_blocks`: the same samples whether they run on this
+    thread or on ``nt``): separate kernels (one ``_coupled_chunk`` before),
+    so that a scene compiles the kind of group it has."""
     # ---- 2. excitation: member m's g row at scratch[row * _GROW:]
     # (the kinds are read before any step: a hammer that ends in this chunk
     # is EXC_ENDED afterwards and must not be injected again)
-    nh = 0
+    nh = ZERO                  # (not 0: see ZERO)
     s = lead
     for m in range(G):
         _fold_if_ended(s, ring, ipar, fst)
@@ -403,10 +411,25 @@ def _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, i
     work = scratch[_SCRATCH_GROUP:]
     cw = scratch[scratch.shape[0] - (2 * G + 1) * _CW:]
     lock = _lanes_ok(lead, G, ipar)
-    if G > BLOCK:
-        _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
-                        pb, tw, ib, nt)
-        return
+    return row, work, cw, lock
+
+
+@njit(**JIT_OPTS)
+def _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist, pb, tw,
+                       ib, nt):
+    """:func:`_coupled_chunk` of a group of more than BLOCK members (a
+    sitar's bridge): its blocks (:func:`_coupled_blocks`)."""
+    row, work, cw, lock = _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist)
+    _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
+                    pb, tw, ib, nt)
+
+
+@njit(**JIT_OPTS)
+def _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist):
+    """:func:`_coupled_chunk` of a group of at most BLOCK members (a piano
+    key's unison): each member's region and loop filter (in lockstep where
+    :func:`coupled._lanes_ok`), the bridge, each member's output."""
+    row, work, cw, lock = _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist)
     s = lead
     for m in range(G):
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
@@ -476,8 +499,8 @@ def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, on
         s = lead
         for m in range(G):
             corr += fpar[s, F_TDX] * (U0 - fst[s, S_UBP])
-            _render_per_sample(s, ring, ipar, fpar, fst, U, 1, o0 + i, mix, probe, one, 0,
-                               cf, po0 + i // psub, 1)
+            _render_per_sample(s, ring, ipar, fpar, fst, U, ONE, o0 + i, mix, probe, one, ZERO,
+                               cf, po0 + i // psub, ONE)
             s = ipar[s, I_CPLNX]
         dU = b * (one[1] + corr) * den
         ub = U0 + dU
@@ -502,56 +525,121 @@ def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, on
         fst[lead, S_UBW] = ub - a * ubm
 
 
-@njit(**JIT_OPTS)
-def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub,
-                    pb, tw, ib, nt):
-    """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
-    lockstep fast-path chunks (:func:`_coupled_chunk`) as long as every
-    member allows one and at most ROWS of them excite (GROUP hammers), else per sample
-    (:func:`_coupled_per_sample`, a member with a probe or telemetry takes
-    the whole block that way)."""
-    G = ipar[lead, I_CPLN]
+@njit(inline="always", **JIT_OPTS)
+def _coupled_diag(lead, G, ipar):
+    """Whether a member of the group has a probe or telemetry (then the
+    group renders per sample)."""
     diag = False
     s = lead
     for m in range(G):
         if ipar[s, I_PROBE] >= 0 or ipar[s, I_TELEM] != 0:
             diag = True
         s = ipar[s, I_CPLNX]
+    return diag
+
+
+@njit(inline="always", **JIT_OPTS)
+def _coupled_next(lead, G, ipar, avail, diag):
+    """The next piece of a coupled group's render, of at most ``avail``
+    samples: (C, slow), a lockstep chunk of C samples if every member
+    allows one and at most ROWS of them excite (GROUP hammers), else C
+    samples per sample
+    (slow)."""
+    C = avail
+    if C > GROUP_CHUNK:
+        C = GROUP_CHUNK
+    slow = diag
+    nexc = 0
+    nham = 0
+    s = lead
+    for m in range(G):
+        exc = ipar[s, I_EXC]
+        c = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
+        if exc > EXC_NONE:
+            nexc += 1
+            if exc >= EXC_HAMMER3:
+                nham += 1
+            left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
+            if left < c:
+                c = left
+        if c <= 0 or exc == EXC_FELT:
+            slow = True
+        elif c < C:
+            C = c
+        s = ipar[s, I_CPLNX]
+    if nexc > ROWS or nham > GROUP:
+        slow = True                # more excitations than the chunk's g rows
+    if slow and not diag and C > 64:
+        C = 64                     # look again soon: the fast path may apply
+    return C, slow
+
+
+@njit(**JIT_OPTS)
+def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub,
+                    pb, tw, ib, nt):
+    """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
+    lockstep fast-path chunks (:func:`_coupled_chunk_small`, or
+    :func:`_coupled_chunk_big` for a group of more than BLOCK members) as
+    long as every member allows one and at most ROWS of them excite (GROUP
+    hammers), else
+    per sample (:func:`_coupled_per_sample`, a member with a probe or
+    telemetry takes the whole block that way).  :func:`_render_coupled_big`
+    and :func:`_render_coupled_small` are the same for one kind of group,
+    and compile only its chunks."""
+    G = ipar[lead, I_CPLN]
+    diag = _coupled_diag(lead, G, ipar)
     one = scratch[scratch.shape[0] - 2:]
     done = 0
     while done < n:
-        C = n - done
-        if C > GROUP_CHUNK:
-            C = GROUP_CHUNK
-        slow = diag
-        nexc = 0
-        nham = 0
-        s = lead
-        for m in range(G):
-            exc = ipar[s, I_EXC]
-            c = ipar[s, I_CHUNK] if exc > EXC_NONE else ipar[s, I_CHUNK_FREE]
-            if exc > EXC_NONE:
-                nexc += 1
-                if exc >= EXC_HAMMER3:
-                    nham += 1
-                left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
-                if left < c:
-                    c = left
-            if c <= 0 or exc == EXC_FELT:
-                slow = True
-            elif c < C:
-                C = c
-            s = ipar[s, I_CPLNX]
-        if nexc > ROWS or nham > GROUP:
-            slow = True                # more excitations than the chunk's g rows
+        C, slow = _coupled_next(lead, G, ipar, n - done, diag)
         if slow:
-            if not diag and C > 64:
-                C = 64                 # look again soon: the fast path may apply
             _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
                                 one, po0 + (done // psub), psub)
+        elif G > BLOCK:
+            _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw,
+                               ist, pb, tw, ib, nt)
         else:
-            _coupled_chunk(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw, ist,
-                           pb, tw, ib, nt)
+            _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
+                                 iw, ist)
+        done += C
+
+
+@njit(**JIT_OPTS)
+def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, pb,
+                        tw, ib, nt):
+    """:func:`_render_coupled` of a group of more than BLOCK members on the
+    engine's grid."""
+    G = ipar[lead, I_CPLN]
+    diag = _coupled_diag(lead, G, ipar)
+    one = scratch[scratch.shape[0] - 2:]
+    done = 0
+    while done < n:
+        C, slow = _coupled_next(lead, G, ipar, n - done, diag)
+        if slow:
+            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
+                                one, o0 + done, ONE)
+        else:
+            _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw,
+                               ist, pb, tw, ib, nt)
+        done += C
+
+
+@njit(**JIT_OPTS)
+def _render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist):
+    """:func:`_render_coupled` of a group of at most BLOCK members on the
+    engine's grid."""
+    G = ipar[lead, I_CPLN]
+    diag = _coupled_diag(lead, G, ipar)
+    one = scratch[scratch.shape[0] - 2:]
+    done = 0
+    while done < n:
+        C, slow = _coupled_next(lead, G, ipar, n - done, diag)
+        if slow:
+            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
+                                one, o0 + done, ONE)
+        else:
+            _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
+                                 iw, ist)
         done += C
 
 
@@ -768,6 +856,116 @@ def _shard_tasks_par(T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, prob
                     iwork2, ubx, sub3, smix, pb, tw, ib)
 
 
+#: what :func:`bank_kind` finds in a list of active strings, and so which
+#: kernel the bank calls for it (each compiles only what it calls, the first
+#: time a scene needs it: a cold ``synth note sitar`` compiled 146 CPU s of
+#: kernels through :func:`render_sharded` (tools/compile_profile.py))
+KIND_NONE = 0         # nothing active: no call
+KIND_SHARDS = 1       # several small units: :func:`render_sharded`
+KIND_BANK = 2         # one shard of anything (a lone string's hammer, a finer grid):
+                      # :func:`render_bank`
+KIND_BIG_GROUPS = 3   # coupled groups of more than BLOCK members on the engine's grid
+                      # only (a sitar's bridge): :func:`render_big_groups`
+KIND_SMALL_GROUP = 4  # one coupled group of at most BLOCK members on the engine's
+                      # grid (a piano key): :func:`render_small_group`
+KIND_STRINGS = 5      # one single string that :func:`render_bank` renders by itself:
+                      # :func:`render_strings`
+
+
+@njit(**JIT_OPTS)
+def bank_kind(active, n_active, ipar):
+    """Which kernel renders the ``n_active`` strings of ``active`` with the
+    samples :func:`render_sharded` gives them (``KIND_*``).  It renders
+    them as one shard, :func:`render_bank` of them all on the calling
+    thread (a big group's blocks on ``nt``), when at most one unit is not a
+    coupled group of more than :data:`BLOCK` members and not one of those
+    alongside big groups; then, if every unit is a coupled group on the
+    engine's grid (``I_SUB`` 1), :func:`render_bank` only calls
+    :func:`_render_coupled` for each, in the active list's order
+    (:func:`render_big_groups` and :func:`render_small_group` do the same
+    for each kind of group), and if the unit is a single string on the
+    engine's grid that it renders by itself (no hammer it would step with
+    others), only :func:`strings._render_string` (:func:`render_strings`).
+    The bank calls the kernel itself, so that a scene compiles only the
+    paths it runs (the first time it needs them)."""
+    if n_active == 0:
+        return KIND_NONE
+    nbig = 0
+    nsmall = 0
+    grid = True
+    single = False
+    for a in range(n_active):
+        s = active[a]
+        cpl = ipar[s, I_CPL]
+        if cpl >= 0 and cpl != s:
+            continue
+        if ipar[s, I_SUB] != 1:
+            grid = False
+        if cpl >= 0 and ipar[s, I_CPLN] > BLOCK:
+            nbig += 1
+        else:
+            nsmall += 1
+            single = cpl < 0 and not (
+                ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_EXC] != EXC_FELT
+                and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
+                and ipar[s, I_CHUNK] > 0 and cpl == CPL_NONE)
+            if cpl < 0 and not single:
+                grid = False      # a hammer render_bank would step with others
+    if not (nsmall <= 1 and (nbig == 0 or nsmall == 0)):
+        return KIND_SHARDS
+    if not grid:
+        return KIND_BANK
+    if nbig > 0:
+        return KIND_BIG_GROUPS
+    return KIND_STRINGS if single else KIND_SMALL_GROUP
+
+
+@njit(**JIT_OPTS)
+def render_big_groups(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch,
+                      iwork, pb, tw, ib, nt):
+    """:func:`render_bank` of a list of coupled groups of more than BLOCK
+    members on the engine's grid (:func:`bank_kind` gives
+    ``KIND_BIG_GROUPS``): the same calls, without the paths of other
+    strings (arguments as :func:`render_bank`'s)."""
+    L = iwork.shape[0]
+    ist = iwork[L - 6 * GROUP:]
+    iw = iwork[L - 6 * GROUP - ROWS:L - 6 * GROUP]
+    for a in range(n_active):
+        s = active[a]
+        if ipar[s, I_CPL] != s:
+            continue                  # rendered with its group's leader
+        _render_coupled_big(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
+                            pb, tw, ib, nt)
+
+
+@njit(**JIT_OPTS)
+def render_small_group(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch,
+                       iwork):
+    """:func:`render_bank` of one coupled group of at most BLOCK members on
+    the engine's grid (:func:`bank_kind` gives ``KIND_SMALL_GROUP``): the
+    same calls, without the paths of other strings (arguments as
+    :func:`render_bank`'s)."""
+    L = iwork.shape[0]
+    ist = iwork[L - 6 * GROUP:]
+    iw = iwork[L - 6 * GROUP - ROWS:L - 6 * GROUP]
+    for a in range(n_active):
+        s = active[a]
+        if ipar[s, I_CPL] != s:
+            continue                  # rendered with its group's leader
+        _render_coupled_small(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist)
+
+
+@njit(**JIT_OPTS)
+def render_strings(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch, ubx):
+    """:func:`render_bank` of single strings on the engine's grid that it
+    renders one by one (:func:`bank_kind` gives ``KIND_STRINGS`` for one):
+    the same calls, without the paths of coupled groups and of hammers
+    stepped together (arguments as :func:`render_bank`'s)."""
+    for a in range(n_active):
+        _render_string(active[a], ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0,
+                       ONE)
+
+
 @njit(**JIT_OPTS)
 def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch2,
                    iwork2, ubx, sub3, smix, plan, pb, tw, ib, nt):
@@ -819,7 +1017,7 @@ def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
         return
     # the big groups, one after the other, their blocks on nt threads
     if nbig > 0:
-        k = 0
+        k = ZERO               # (not 0: see ZERO)
         for u in range(nu):
             if ush[u] < 0:
                 lists[k] = units[u]

@@ -160,6 +160,10 @@ from .layout import *  # noqa: F401,F403  (every column, kind and limit)
 from .layout import _CW, _GIB, _GROW, _SCRATCH_GROUP
 from .ring import _hmax4, _ring_add, _ring_get, _ring_get_in, _ring_put, _ring_put_in
 
+#: 1 as an int64 argument (a literal 1 in a call compiles the callee, and
+#: everything below it, once more for ``Literal[int](1)``; render.ONE)
+_ONE = np.int64(1)
+
 
 @njit(**JIT_OPTS)
 def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, cf, po0, psub):
@@ -644,7 +648,7 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
                 j += 1
             elif done < n:
                 _render_string(s, ring, ipar, fpar, fst, U, n - done, o0 + done, mix, probe,
-                               scratch, ubx, o0 + done, 1)
+                               scratch, ubx, o0 + done, _ONE)
         live = j
 
 

@@ -1,0 +1,211 @@
+"""First sound in seconds (issue 39): the line a cold start prints before the
+kernels compile, ``synth warmup``, and render times reported without the
+compile (synth.dsp.compile_notice)."""
+
+from __future__ import annotations
+
+import io
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+from synth.dsp import compile_notice as CN
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@pytest.fixture
+def notice_state():
+    """compile_notice's module state, restored after the test."""
+    saved = dict(CN._state)
+    CN._state.update(armed=False, said=False, stream=None, bar=None)
+    yield CN._state
+    CN._state.clear()
+    CN._state.update(saved)
+
+
+class _Tty(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def _event(module="synth.kernels.render"):
+    return {"dispatcher": SimpleNamespace(py_func=SimpleNamespace(__module__=module))}
+
+
+def _keyed(base: Path) -> Path:
+    (folder,) = [p for p in CN.keyed_folders() if p.parent == base]
+    return folder
+
+
+def test_cache_looks_warm_reads_the_keyed_folder(tmp_path, monkeypatch):
+    """Cold while the keyed folder (NUMBA_CACHE_DIR first) lacks the bank
+    renderer's index, warm once it holds one; the folder's name is
+    synth.kernels.cache's for these sources."""
+    from synth.kernels import cache as C
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    folder = _keyed(tmp_path)
+    assert folder.name == C.folder_name(C.NAME, C.source_digest(ROOT / "synth" / "kernels"))
+    assert not CN.cache_looks_warm()
+    (folder / "kernels_0123").mkdir(parents=True)
+    assert not CN.cache_looks_warm()
+    (folder / "kernels_0123" / "render.render_bank-603.py311.nbi").write_bytes(b"")
+    assert CN.cache_looks_warm()
+
+
+def test_the_line_comes_with_the_first_compile_in_a_log(tmp_path, monkeypatch, notice_state):
+    """Not a terminal: nothing at arm(), the line once at the first compile
+    of a synth kernel (not another library's), no progress; the compile's
+    time is added up."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    log = io.StringIO()
+    assert CN.arm(log) is False and log.getvalue() == ""
+    c0, n0 = CN.compile_seconds(), CN.kernels_compiled()
+    CN._on_start(_event("other.library"))
+    CN._on_end(_event("other.library"))
+    assert log.getvalue() == ""
+    CN._on_start(_event())
+    CN._on_start(_event("synth.kernels.strings"))
+    CN._on_end(_event("synth.kernels.strings"))
+    CN._on_end(_event())
+    CN._on_start(_event())
+    CN._on_end(_event())
+    assert log.getvalue() == CN.MESSAGE + "\n"
+    assert CN.kernels_compiled() == n0 + 3
+    assert CN.compile_seconds() >= c0
+
+
+def test_a_terminal_hears_it_at_once_on_a_cold_cache(tmp_path, monkeypatch, notice_state):
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    tty = _Tty()
+    assert CN.arm(tty) is True
+    assert tty.getvalue() == CN.MESSAGE + "\n"
+    CN._on_start(_event())
+    CN._on_end(_event())
+    assert tty.getvalue().count(CN.MESSAGE) == 1
+
+
+def test_nothing_on_a_warm_cache_or_when_turned_off(tmp_path, monkeypatch, notice_state):
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    folder = _keyed(tmp_path)
+    (folder / "k").mkdir(parents=True)
+    (folder / "k" / "render.render_bank-603.py311.nbi").write_bytes(b"")
+    tty = _Tty()
+    assert CN.arm(tty) is False and tty.getvalue() == ""
+    CN.disarm()
+    monkeypatch.setenv("SYNTH_COMPILE_NOTICE", "0")
+    (folder / "k" / "render.render_bank-603.py311.nbi").unlink()
+    assert CN.arm(tty) is False
+    CN._on_start(_event())
+    CN._on_end(_event())
+    assert tty.getvalue() == ""
+
+
+def test_timing_note():
+    assert CN.timing_note(0.0) == ""
+    assert CN.timing_note(41.26) == " (+ 41.3 s compiling the kernels for this CPU, once)"
+
+
+def test_in_process_main_never_arms(tmp_path, notice_state):
+    """synth.cli.main(argv) (the tests, a program using the package) says
+    nothing; only the command line arms the notice."""
+    from synth.cli import main
+
+    assert main(["presets"]) == 0
+    assert CN._state["armed"] is False
+
+
+def test_warmup_is_a_command():
+    from synth.cli import COMMANDS, build_parser
+
+    assert "warmup" in [m.NAME for m in COMMANDS]
+    a = build_parser().parse_args(["warmup", "--presets", "biwa"])
+    assert a.presets == "biwa"
+
+
+def _synth(args, cache, cwd):
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))
+    env.pop("SYNTH_COMPILE_NOTICE", None)
+    r = subprocess.run([sys.executable, "-m", "synth.cli", *args], env=env, cwd=str(cwd),
+                       capture_output=True, text=True, timeout=1800)
+    assert r.returncode == 0, r.stderr
+    return r.stdout, r.stderr
+
+
+@pytest.mark.slow  # a cold compile of the kernels in a subprocess: 1-2 min on 2 cores
+def test_cold_start_says_so_then_warmup_then_nothing(tmp_path):
+    """With an empty numba cache: `synth note` prints the one line on stderr
+    (not a terminal: no progress) and reports its render time without the
+    compile; `synth warmup` compiles what a phrase of several notes adds,
+    then, run again, compiles nothing and says so; a warm `synth note`
+    prints nothing on stderr."""
+    cache = tmp_path / "numba"
+    note = ["note", "biwa", "--key", "52", "--seconds", "0.05", "-o", "a.wav"]
+    out, err = _synth(note, cache, tmp_path)
+    assert err.splitlines() == [CN.MESSAGE]
+    assert re.search(r"rendered in [0-9.]+ s \(\+ [0-9.]+ s compiling the kernels", out), out
+    out, err = _synth(["warmup", "--presets", "biwa"], cache, tmp_path)
+    # (compiles the shards' path of several notes at once, if the biwa plays them)
+    assert "warmup: compiled" in out or "already compiled" in out
+    out, err = _synth(["warmup", "--presets", "biwa"], cache, tmp_path)
+    assert "already compiled" in out and CN.MESSAGE not in err
+    out, err = _synth(note, cache, tmp_path)
+    assert err == "" and "compiling" not in out
+
+
+def _ipar(n):
+    from synth.kernels import layout as L
+
+    ip = np.zeros((n, L.I_NI), dtype=np.int64)
+    ip[:, L.I_CPL] = L.CPL_NONE
+    ip[:, L.I_SUB] = 1
+    ip[:, L.I_PROBE] = -1
+    ip[:, L.I_CHUNK] = 8
+    return ip
+
+
+def _group(ip, lead, size):
+    from synth.kernels import layout as L
+
+    for j in range(size):
+        s = lead + j
+        ip[s, L.I_CPL] = lead
+        ip[s, L.I_CPLNX] = s + 1 if j + 1 < size else -1
+    ip[lead, L.I_CPLN] = size
+
+
+def test_bank_kind_picks_the_renderer_render_sharded_would_run():
+    """The bank's choice of kernel (synth.kernels.render.bank_kind): one
+    shard of big groups, one small group, one plain string, anything else
+    in one shard (a hammer stepped with others, a finer grid), several
+    units (shards), nothing."""
+    from synth.kernels import layout as L
+    from synth.kernels import render as KR
+
+    def kind(ip, active):
+        a = np.array(active, dtype=np.int64)
+        return KR.bank_kind(a, len(active), ip)
+
+    ip = _ipar(40)
+    assert kind(ip, []) == KR.KIND_NONE
+    _group(ip, 0, 14)                      # a sitar's bridge
+    _group(ip, 20, 3)                      # a piano key
+    assert kind(ip, list(range(14))) == KR.KIND_BIG_GROUPS
+    assert kind(ip, [20, 21, 22]) == KR.KIND_SMALL_GROUP
+    assert kind(ip, [30]) == KR.KIND_STRINGS
+    assert kind(ip, [30, 31]) == KR.KIND_SHARDS
+    assert kind(ip, list(range(14)) + [30]) == KR.KIND_SHARDS
+    assert kind(ip, [20, 21, 22, 30]) == KR.KIND_SHARDS
+    ip[31, L.I_EXC] = L.EXC_HAMMER3        # a hammer render_bank steps with others
+    assert kind(ip, [31]) == KR.KIND_BANK
+    ip[31, L.I_PROBE] = 0                  # ... unless it has a probe: by itself
+    assert kind(ip, [31]) == KR.KIND_STRINGS
+    ip[20, L.I_SUB] = 2                    # a key on a finer grid
+    assert kind(ip, [20, 21, 22]) == KR.KIND_BANK
