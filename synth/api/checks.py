@@ -16,7 +16,6 @@ is out of range (0 <= value <= 127)``): the messages are one text.
 
 from __future__ import annotations
 
-import math
 from numbers import Integral, Real
 
 __all__ = ["check_int", "check_real", "check_note", "check_set", "API_NAMES", "CLI_NAMES",
@@ -113,27 +112,16 @@ def check_note(key, f0, velocity, seconds, names: dict = API_NAMES):
 
 
 def _toml_value(path: str, v) -> str:
-    """A Python value as the TOML text of a ``--set`` value."""
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, Integral):
-        return str(int(v))
-    if isinstance(v, Real):
-        x = float(v)
-        if math.isnan(x):
-            return "nan"
-        if math.isinf(x):
-            return "inf" if x > 0 else "-inf"
-        return repr(x)
-    if isinstance(v, str):
-        # a TOML basic string: JSON's escapes are TOML's
-        import json
+    """A Python value as the TOML text of a ``--set`` value
+    (:func:`synth.io.presets.loader.override_literal`), or ValueError naming
+    the override."""
+    from ..io.presets.loader import override_literal
 
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(path, x) for x in v) + "]"
-    raise ValueError(f"set[{path!r}] = {v!r} is not a preset value (a number, a string, a bool "
-                     f"or a list of them)")
+    try:
+        return override_literal(v)
+    except TypeError:
+        raise ValueError(f"set[{path!r}] = {v!r} is not a preset value (a number, a string, a bool "
+                         f"or a list of them)") from None
 
 
 def check_set(overrides) -> list[str]:

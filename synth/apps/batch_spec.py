@@ -27,7 +27,6 @@ import dataclasses
 import glob
 import hashlib
 import json
-import math
 import os
 import tomllib
 from collections import OrderedDict
@@ -38,6 +37,7 @@ import numpy as np
 
 from ..io.errors import PresetError, SynthError, display_path
 from ..io.presets.schema import Field, Range, Section, When, _fmt_literal
+from ..io.presets.loader import override_literal
 from ..io.presets.validate import check_rows, validate_table
 
 #: the spec format's version (``schema = 1`` in the file)
@@ -256,24 +256,8 @@ SPEC_SECTIONS = (
 check_rows(SPEC_FIELDS, SPEC_SECTIONS)
 
 
-def _toml_value(v) -> str:
-    """A value as a TOML literal for a ``--set`` override."""
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, (int, np.integer)):
-        return str(int(v))
-    if isinstance(v, (float, np.floating)):
-        f = float(v)
-        if math.isnan(f):
-            return "nan"
-        if math.isinf(f):
-            return "inf" if f > 0 else "-inf"
-        return repr(f)
-    if isinstance(v, str):
-        return json.dumps(v)
-    if isinstance(v, (list, tuple)):
-        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
-    raise TypeError(f"cannot write {v!r} as TOML")
+#: a value as a TOML literal for a ``--set`` override
+_toml_value = override_literal
 
 
 class _Axis:

@@ -163,6 +163,37 @@ def _name_for_path(path: Path) -> str:
     return path.stem
 
 
+def override_literal(v) -> str:
+    """A Python value as the TOML text of a ``--set PATH=VALUE`` override's
+    value (what :func:`load_preset` reads back): a bool, an integer, a real
+    (``nan``, ``inf`` included), a string, or a list or tuple of them.
+
+    Raises
+    ------
+    TypeError
+        For any other value."""
+    import json
+    import math
+    from numbers import Integral, Real
+
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, Integral):
+        return str(int(v))
+    if isinstance(v, Real):
+        x = float(v)
+        if math.isnan(x):
+            return "nan"
+        if math.isinf(x):
+            return "inf" if x > 0 else "-inf"
+        return repr(x)
+    if isinstance(v, str):
+        return json.dumps(v)           # a TOML basic string: JSON's escapes are TOML's
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(override_literal(x) for x in v) + "]"
+    raise TypeError(f"cannot write {v!r} as TOML")
+
+
 def load_preset(name_or_path: str | os.PathLike, overrides: Sequence[str] = ()) -> Preset:
     """Load, override and validate a preset.
 
