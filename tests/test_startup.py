@@ -189,14 +189,28 @@ def test_bank_kind_picks_the_renderer_render_sharded_would_run():
     from synth.kernels import layout as L
     from synth.kernels import render as KR
 
-    def kind(ip, active):
+    def kind(ip, active, n=4096):
         a = np.array(active, dtype=np.int64)
-        return KR.bank_kind(a, len(active), ip)
+        return KR.bank_kind(a, len(active), ip, fp, n)
 
     ip = _ipar(40)
+    fp = np.zeros((40, L.F_NF))
     assert kind(ip, []) == KR.KIND_NONE
     _group(ip, 0, 14)                      # a sitar's bridge
     _group(ip, 20, 3)                      # a piano key
+    # chunks of 8 samples: never the work for a second thread
+    assert kind(ip, list(range(14))) == KR.KIND_BIG_GROUPS_ONE
+    # chunks of up to 512 samples (GROUP_CHUNK) of 14 strings of cost
+    # 6 + 20: 186k > PAR_MIN_WORK ...
+    ip[0:14, L.I_CHUNK] = 4096
+    ip[0:14, L.I_REG_N] = 20
+    assert KR.unit_cost(ip, fp, 0) * KR.GROUP_CHUNK >= KR.PAR_MIN_WORK
+    assert kind(ip, list(range(14))) == KR.KIND_BIG_GROUPS
+    # ... unless the call renders fewer samples, or a member's chunks are short
+    assert kind(ip, list(range(14)), n=64) == KR.KIND_BIG_GROUPS_ONE
+    ip[5, L.I_CHUNK] = 100
+    assert kind(ip, list(range(14))) == KR.KIND_BIG_GROUPS_ONE
+    ip[5, L.I_CHUNK_FREE] = 4096           # (the longer of a member's two limits)
     assert kind(ip, list(range(14))) == KR.KIND_BIG_GROUPS
     assert kind(ip, [20, 21, 22]) == KR.KIND_SMALL_GROUP
     assert kind(ip, [30]) == KR.KIND_STRINGS
@@ -209,3 +223,22 @@ def test_bank_kind_picks_the_renderer_render_sharded_would_run():
     assert kind(ip, [31]) == KR.KIND_STRINGS
     ip[20, L.I_SUB] = 2                    # a key on a finer grid
     assert kind(ip, [20, 21, 22]) == KR.KIND_BANK
+
+
+@pytest.mark.slow
+def test_a_sitar_note_compiles_no_parallel_loop():
+    """A single sitar note on two threads never has the work for a second
+    thread in a chunk of its bridge (bank_kind: KIND_BIG_GROUPS_ONE), so
+    it runs render_big_groups typed with ``nt`` None, and the blocks'
+    parallel loops are neither compiled nor loaded (issue 39: 10 of a cold
+    note's CPU seconds); a chord with the work for them runs the threaded
+    kind (test_threads checks that both give the same samples)."""
+    code = (
+        "import synth, synth.kernels.render as KR\n"
+        "synth.render_note('sitar', key=57, velocity=100, seconds=0.2)\n"
+        "print(len(KR._tasks_a_par.signatures), len(KR._tasks_c_par.signatures),"
+        " [str(s[-1]) for s in KR.render_big_groups.signatures])\n")
+    env = dict(os.environ, SYNTH_THREADS="2", SYNTH_COMPILE_NOTICE="0")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True, env=env).stdout.split("\n")[-2]
+    assert out == "0 0 ['none']", out

@@ -1066,7 +1066,7 @@ class StringBank(Excitations, Bridges):
                     continue
                 c = min(c, due)
             kind = (KR.KIND_SHARDS if self.whole_kernel
-                    else KR.bank_kind(self.active, self.n_active, self.ipar))
+                    else KR.bank_kind(self.active, self.n_active, self.ipar, self.fpar, c))
             # the kernel for what is active (the samples render_sharded gives
             # it), so that a scene compiles only what it runs
             if kind == KR.KIND_SHARDS:
@@ -1074,11 +1074,13 @@ class StringBank(Excitations, Bridges):
                                   self.active, self.n_active, c, o0 + done, mix,
                                   self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                                   smix, self._plan, pb, self._tw, self._ib, nt)
-            elif kind == KR.KIND_BIG_GROUPS:
+            elif kind == KR.KIND_BIG_GROUPS or kind == KR.KIND_BIG_GROUPS_ONE:
+                # (nt None: the blocks on this thread, a separate compile
+                # without the parallel loops, which one note never needs)
                 KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                      self.active, self.n_active, c, o0 + done, mix, self.probe,
                                      self._scratch2[0], self._iwork2[0], pb, self._tw, self._ib,
-                                     nt)
+                                     nt if kind == KR.KIND_BIG_GROUPS and nt > 1 else None)
             elif kind == KR.KIND_SMALL_GROUP:
                 KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                       self.active, self.n_active, c, o0 + done, mix, self.probe,
@@ -1104,13 +1106,14 @@ class StringBank(Excitations, Bridges):
         none = self.active[:0]
         c = 0
         nt = threads.enter(self.threads)
-        KR.bank_kind(none, 0, self.ipar)
+        KR.bank_kind(none, 0, self.ipar, self.fpar, c)
         KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
                           self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                           self._smix, self._plan, self._pb, self._tw, self._ib, nt)
-        KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0,
-                             mix, self.probe, self._scratch2[0], self._iwork2[0], self._pb,
-                             self._tw, self._ib, nt)
+        for big_nt in (nt, None):
+            KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c,
+                                 0, mix, self.probe, self._scratch2[0], self._iwork2[0],
+                                 self._pb, self._tw, self._ib, big_nt)
         KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0,
                               mix, self.probe, self._scratch2[0], self._iwork2[0])
         KR.render_strings(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,

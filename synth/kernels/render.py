@@ -83,6 +83,16 @@ from .strings import (
 #: cold ``synth note sitar`` went to such copies, ``tools/compile_profile.py``)
 ZERO = np.int64(0)
 ONE = np.int64(1)
+#: (Compile time.)  numba links each callee's optimised module into its
+#: caller's and optimises and emits the whole again, so every level of a
+#: call tree costs about as much as the tree below it.  The small drivers
+#: between a renderer and a group's blocks (``_render_coupled_big`` and
+#: ``_small``, ``_coupled_chunk_big``, ``_coupled_blocks``, ``_task_a`` and
+#: ``_c``) are therefore ``inline="always"``: a cold sitar note compiled
+#: 45.4 CPU s before, 34.7 after, with the serial ``nt`` None variant of
+#: :func:`_coupled_blocks` (alternated, loaded 2-vCPU Xeon, 2026-11-29,
+#: tools/compile_profile.py).  The blocks' bodies (``_block_a``, ``_c``)
+#: are not: inlined, numba's typing of the nest took 113 CPU s and 1.7 GB.
 #: members of a coupled group stepped together as one block (a multiple of
 #: the lanes of :func:`coupled._far_lanes`, so that the lanes group the
 #: members as they would over the whole group)
@@ -255,7 +265,7 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, nrow, scratch, pm, tw):
         s = ipar[s, I_CPLNX]
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _task_a(t, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb):
     """Task t: the blocks b with ib[nb + b] = t (first half; block b's
     force row: the last row of ``pb[b]``)."""
@@ -266,7 +276,7 @@ def _task_a(t, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb):
             _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw[t], ubm, pm[F])
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _task_c(t, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw):
     """Task t: the blocks b with ib[nb + b] = t (second half)."""
     for b in range(nb):
@@ -312,14 +322,17 @@ def _bridge_blocks(lead, nb, fpar, fst, C, row, pb):
     _bridge_steps(lead, fpar, fst, C, fo, ubm)
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
                     pb, tw, ib, nt):
     """Steps 3 and 4 of :func:`_coupled_chunk` for a group of more than
     BLOCK members: the blocks' first halves (:func:`_block_a`), the
     bridge, the blocks' second halves (:func:`_block_c`) each into its
     mix ``pb[b]``, then those mixes added to mix[:, o0:o0+C] in block
-    order.  On min(nt, blocks) threads; the same samples for any."""
+    order.  On min(nt, blocks) threads; the same samples for any.  With
+    ``nt`` None (a compile-time choice: numba prunes the branch on the
+    argument's type), every block on the calling thread, and the parallel
+    loops are not compiled (a single note's scene: issue 39's cold start)."""
     nb = (G + BLOCK - 1) // BLOCK
     ubm = fst[lead, S_UBM]
     s = lead
@@ -327,6 +340,31 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
         if m % BLOCK == 0:
             ib[m // BLOCK] = s
         s = ipar[s, I_CPLNX]
+    rows = mix.shape[0]
+    if nt is None:
+        for b in range(nb):
+            ib[nb + b] = 0
+        _task_a(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
+        _bridge_blocks(lead, nb, fpar, fst, C, cw[2 * G * _CW:2 * G * _CW + C + 1], pb)
+        _task_c(ZERO, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
+    else:
+        _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb, tw, ib, nt,
+                        nb, ubm, rows, scratch)
+    for b in range(nb):
+        pm = pb[b]
+        for r in range(rows):
+            mo = mix[r, o0:o0 + C]
+            pr = pm[r]
+            for i in range(C):
+                mo[i] += pr[i]
+
+
+@njit(inline="always", **JIT_OPTS)
+def _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb, tw, ib, nt, nb,
+                    ubm, rows, scratch):
+    """:func:`_coupled_blocks`' halves and bridge on min(nt, blocks)
+    threads, balanced by cost (one thread when the chunk's work is below
+    :data:`PAR_MIN_WORK`)."""
     T = nt if nt < nb else nb
     if T > 1:
         # the blocks to the threads by cost (ib[nb:2 nb]; which thread steps
@@ -351,18 +389,10 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
             ib[nb + b] = 0
         _task_a(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
     _bridge_blocks(lead, nb, fpar, fst, C, cw[2 * G * _CW:2 * G * _CW + C + 1], pb)
-    rows = mix.shape[0]
     if T > 1:
         _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
     else:
         _task_c(ZERO, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
-    for b in range(nb):
-        pm = pb[b]
-        for r in range(rows):
-            mo = mix[r, o0:o0 + C]
-            pr = pm[r]
-            for i in range(C):
-                mo[i] += pr[i]
 
 
 # ---- coupled groups, and a list of strings into one mix ------------------------------
@@ -414,7 +444,7 @@ def _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist):
     return row, work, cw, lock
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist, pb, tw,
                        ib, nt):
     """:func:`_coupled_chunk` of a group of more than BLOCK members (a
@@ -543,8 +573,7 @@ def _coupled_next(lead, G, ipar, avail, diag):
     """The next piece of a coupled group's render, of at most ``avail``
     samples: (C, slow), a lockstep chunk of C samples if every member
     allows one and at most ROWS of them excite (GROUP hammers), else C
-    samples per sample
-    (slow)."""
+    samples per sample (slow)."""
     C = avail
     if C > GROUP_CHUNK:
         C = GROUP_CHUNK
@@ -581,11 +610,10 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
     lockstep fast-path chunks (:func:`_coupled_chunk_small`, or
     :func:`_coupled_chunk_big` for a group of more than BLOCK members) as
     long as every member allows one and at most ROWS of them excite (GROUP
-    hammers), else
-    per sample (:func:`_coupled_per_sample`, a member with a probe or
-    telemetry takes the whole block that way).  :func:`_render_coupled_big`
-    and :func:`_render_coupled_small` are the same for one kind of group,
-    and compile only its chunks."""
+    hammers), else per sample (:func:`_coupled_per_sample`, a member with
+    a probe or telemetry takes the whole block that way).
+    :func:`_render_coupled_big` and :func:`_render_coupled_small` are the
+    same for one kind of group, and compile only its chunks."""
     G = ipar[lead, I_CPLN]
     diag = _coupled_diag(lead, G, ipar)
     one = scratch[scratch.shape[0] - 2:]
@@ -604,7 +632,7 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
         done += C
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, pb,
                         tw, ib, nt):
     """:func:`_render_coupled` of a group of more than BLOCK members on the
@@ -624,7 +652,7 @@ def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scrat
         done += C
 
 
-@njit(**JIT_OPTS)
+@njit(inline="always", **JIT_OPTS)
 def _render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist):
     """:func:`_render_coupled` of a group of at most BLOCK members on the
     engine's grid."""
@@ -870,10 +898,13 @@ KIND_SMALL_GROUP = 4  # one coupled group of at most BLOCK members on the engine
                       # grid (a piano key): :func:`render_small_group`
 KIND_STRINGS = 5      # one single string that :func:`render_bank` renders by itself:
                       # :func:`render_strings`
+KIND_BIG_GROUPS_ONE = 6   # KIND_BIG_GROUPS where no chunk has the work for a second
+                          # thread (:data:`PAR_MIN_WORK`): :func:`render_big_groups` with
+                          # ``nt`` None, which compiles no parallel loop
 
 
 @njit(**JIT_OPTS)
-def bank_kind(active, n_active, ipar):
+def bank_kind(active, n_active, ipar, fpar, n):
     """Which kernel renders the ``n_active`` strings of ``active`` with the
     samples :func:`render_sharded` gives them (``KIND_*``).  It renders
     them as one shard, :func:`render_bank` of them all on the calling
@@ -887,10 +918,15 @@ def bank_kind(active, n_active, ipar):
     engine's grid that it renders by itself (no hammer it would step with
     others), only :func:`strings._render_string` (:func:`render_strings`).
     The bank calls the kernel itself, so that a scene compiles only the
-    paths it runs (the first time it needs them)."""
+    paths it runs (the first time it needs them).  ``KIND_BIG_GROUPS_ONE``
+    instead of ``KIND_BIG_GROUPS`` when no chunk of the next ``n`` samples
+    can reach :data:`PAR_MIN_WORK` (a group's cost now, which only falls
+    until the next note-on, times the longest chunk its members allow),
+    so that :func:`_coupled_blocks` would run on one thread anyway."""
     if n_active == 0:
         return KIND_NONE
     nbig = 0
+    par = False
     nsmall = 0
     grid = True
     single = False
@@ -903,6 +939,8 @@ def bank_kind(active, n_active, ipar):
             grid = False
         if cpl >= 0 and ipar[s, I_CPLN] > BLOCK:
             nbig += 1
+            if not par:
+                par = _group_work(s, ipar, fpar, n) >= PAR_MIN_WORK
         else:
             nsmall += 1
             single = cpl < 0 and not (
@@ -916,8 +954,26 @@ def bank_kind(active, n_active, ipar):
     if not grid:
         return KIND_BANK
     if nbig > 0:
-        return KIND_BIG_GROUPS
+        return KIND_BIG_GROUPS if par else KIND_BIG_GROUPS_ONE
     return KIND_STRINGS if single else KIND_SMALL_GROUP
+
+
+@njit(inline="always", **JIT_OPTS)
+def _group_work(lead, ipar, fpar, n):
+    """An upper bound of ``total * C`` in :func:`_coupled_blocks` over the
+    next ``n`` samples of the coupled group led by ``lead``: its
+    :func:`unit_cost` now (costs only fall within a render call: a hammer
+    ends) times the longest chunk :func:`_coupled_next` can give it."""
+    G = ipar[lead, I_CPLN]
+    C = n if n < GROUP_CHUNK else GROUP_CHUNK
+    s = lead
+    for m in range(G):
+        c = ipar[s, I_CHUNK]
+        cf = ipar[s, I_CHUNK_FREE]
+        c = cf if cf > c else c
+        C = c if c < C else C
+        s = ipar[s, I_CPLNX]
+    return unit_cost(ipar, fpar, lead) * C
 
 
 @njit(**JIT_OPTS)
