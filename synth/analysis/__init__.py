@@ -6,6 +6,7 @@ never imports numba or other ``synth`` layers (loudness uses pyloudnorm).
 """
 
 from synth.analysis.bands import band_levels_db, halo, highband_db
+from synth.analysis.buzz import band_decay, largest_fall_db
 from synth.analysis.clicks import click_scan
 from synth.analysis.decay import decay_curve_db, t60_s, two_stage_decay, two_stage_summary
 from synth.analysis.loudness import (
@@ -43,6 +44,8 @@ from synth.analysis.spectrum import (
 )
 
 __all__ = [
+    "band_decay",
+    "largest_fall_db",
     "FLOOR_DB",
     "as_mono",
     "magnitude_spectrum_db",

@@ -63,6 +63,7 @@ from ..analysis import (
     fit_inharmonicity,
     halo,
     highband_db,
+    largest_fall_db,
     loudness,
     max_momentary_lufs,
     partial_peaks,
@@ -430,6 +431,16 @@ def _c_highband_diff(items, e, others):
     return out
 
 
+def _c_band_fall(it, e):
+    lo, hi = e["above_hz"], e["below_hz"]
+    t0 = e.get("start_s", 0.3)
+    t1 = t0 + e.get("length_s", 2.2)
+    fall, at = largest_fall_db(it.audio, it.fs, lo, hi, e["span_s"], t0, t1)
+    where = "" if fall == 0.0 else f" (into {at:.1f} s)"
+    return (f"largest {e['span_s']:g} s fall of {lo:g}-{hi:g} Hz, {t0:g}-{t1:g} s, {it.label}",
+            f"{fall:.1f} dB{where}", f"<= {e['max_db']:g} dB", bool(fall <= e["max_db"]))
+
+
 def _partial_db(it, e):
     """Partial ``n``'s peak level (dB) over ``length_s`` from ``start_s``
     (default 0.05 and 1 s)."""
@@ -616,6 +627,7 @@ CHECKS = {
     "two_stage": Check(_per_item(_c_two_stage)),
     "partials_law": Check(_per_item(_c_partials_law)),
     "halo": Check(_c_halo),
+    "band_fall": Check(_per_item(_c_band_fall)),
 }
 
 
@@ -683,6 +695,10 @@ EXPECT = Section("expect", "what must hold", dict, (
           when=_on("partial_level", "highband_diff", "partial_diff")),
     Field("max_db", "float", "largest distance from the fit, dB", 0.0, 100.0, when=_on("smooth")),
     Field("max_db", "float", "highest range, dB", *_DB, when=_on("dynamic_range"), optional=True),
+    Field("max_db", "float", "largest fall, dB", 0.0, 200.0, when=_on("band_fall")),
+    Field("span_s", "float", "the fall's time span, s (a multiple of 0.1)", 0.1, 10.0,
+          when=_on("band_fall")),
+    Field("below_hz", "float", "the band's upper edge, Hz", 1.0, 24000.0, when=_on("band_fall")),
     Field("min_s", "float", "shortest T60, s", 0.0, 1000.0, when=_on("t60")),
     Field("max_s", "float", "longest T60, s", 0.0, 1000.0, when=_on("t60")),
     Field("lufs", "float", "target loudness, LUFS", -100.0, 10.0, when=_on("loudness")),
@@ -705,11 +721,11 @@ EXPECT = Section("expect", "what must hold", dict, (
     Field("window_s", "float", "the part read, s (default 1)", 0.01, 60.0,
           when=_on("centroid_ratio"), optional=True),
     Field("above_hz", "float", "the band's lower edge, Hz", 1.0, 24000.0,
-          when=_on("highband_diff")),
+          when=_on("highband_diff", "band_fall")),
     Field("start_s", "float", "start of the part read, s", 0.0, 60.0, optional=True,
-          when=_on("partial_level", "highband_diff", "partial_diff", "halo")),
+          when=_on("partial_level", "highband_diff", "partial_diff", "halo", "band_fall")),
     Field("length_s", "float", "length of the part read, s", 0.01, 60.0, optional=True,
-          when=_on("partial_level", "highband_diff", "partial_diff")),
+          when=_on("partial_level", "highband_diff", "partial_diff", "band_fall")),
     Field("min_ratio", "float", "lowest late/early T60", 0.0, 1e3, when=_on("two_stage")),
     Field("min_drop_db", "float", "fall before the knee, dB (default 6)", 0.0, 200.0,
           when=_on("two_stage"), optional=True),

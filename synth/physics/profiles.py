@@ -84,6 +84,9 @@ def sawari(radius_m: float, extent_m: float) -> Profile:
         x = np.asarray(x, float)
         return np.where(_upto(x, s), -x * x / (2.0 * R), -np.inf)
 
+    # curved from x = 0, level there: the sub-cell contact applies
+    # (Termination.subcell; the study preset keeps the thesis's grid)
+    U.end_slope = 0.0
     return U
 
 

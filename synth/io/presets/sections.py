@@ -202,6 +202,12 @@ SECTIONS: tuple[Section, ...] = (
               "grid: the clamp at grid points alone (the thesis's scheme; the buzz then stops "
               "when the first point's gap exceeds the string's reach)",
               choices=JAWARI_CONTACTS, when=_prof("jawari"), default="subcell"),
+        Field("contact", "str", "subcell: the string wraps the sawari's curve between x = 0 "
+              "and the first grid point too (a grazing contact that shrinks with the "
+              "amplitude, so the buzz fades with the note); grid: the clamp at grid points "
+              "alone (the thesis's scheme, eq. 1.12; the buzz then stops in one step when "
+              "the first point's gap exceeds the string's reach)",
+              choices=JAWARI_CONTACTS, when=_prof("sawari"), default="subcell"),
         Field("slope", "float", "jawari slope (dimensionless)", 0.0, 0.2,
               when=_prof("jawari-case1", "jawari-case2", "jawari-case3")),
         Field("x_c_m", "float", "jawari case-1 contact end, m", 1e-4, 0.2,
