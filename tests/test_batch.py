@@ -338,9 +338,9 @@ def test_without_the_extra_the_error_says_how_to_install(monkeypatch, tmp_path):
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_the_throughput_benchmark_runs_in_its_quick_mode():
-    """tools/bench_batch.py (docs/benchmarks.md, "Batch rendering") in CI's quick mode."""
+    """tools/bench.py batch (docs/benchmarks.md, "Batch rendering") in CI's quick mode."""
     root = Path(__file__).resolve().parents[1]
-    p = subprocess.run([sys.executable, str(root / "tools" / "bench_batch.py"), "--quick"],
+    p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "batch", "--quick"],
                        capture_output=True, text=True, cwd=root, timeout=600)
     assert p.returncode == 0, p.stderr
     for way in ("| one process | 1 |", "| Dask, 1 worker | 1 |", "| Dask, 2 workers | 2 |"):

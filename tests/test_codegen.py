@@ -6,7 +6,7 @@ compare and a masked store, ``vmaskmovpd`` in AVX2 code, which AMD CPUs
 before Zen 4 run as microcode: the jawari strings ran 3-4x slower on a Zen 3
 than here (issue 8).  Each target is compiled in a fresh process with its
 own numba cache (numba does not show the code of functions loaded from a
-cache), through ``tools/cpu_target.py`` (:mod:`synth.apps.cpu_target`), as the
+cache), through :mod:`synth.apps.cpu_target` (the benchmarks' ``--cpu-name``), as the
 benchmarks do.
 """
 

@@ -1,4 +1,4 @@
-"""tools/cpu_target.py (synth.apps.cpu_target): the numba code-generation
+"""synth.apps.cpu_target (the benchmarks' --cpu-name): the numba code-generation
 targets of the benchmarks."""
 
 import subprocess

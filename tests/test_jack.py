@@ -529,14 +529,14 @@ def test_portaudio_with_jack_midi(private_server, tmp_path):
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_bench_live_jack_quick_measures_the_loop(server):
-    """``tools/bench_live.py --jack --quick`` (issue 36's measuring tool, on
+    """``tools/bench.py live --jack --quick`` (issue 36's measuring tool, on
     the module's dummy server): every note found, at 241 samples (the
     loop's period and the grand's decimator and limiter), a spread under
     0.1 ms; its xrun count is printed, not judged (this VM's own)."""
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    p = subprocess.run([sys.executable, str(root / "tools" / "bench_live.py"), "--jack", "--quick",
+    p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "live", "--jack", "--quick",
                         "--server", server], capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr
     out = p.stdout

@@ -145,7 +145,7 @@ def test_folder_stable_across_processes_and_under_numba_cache_dir(tmp_path):
     assert folder.is_dir()
     assert Path(a[1]).parent == folder
     assert a[2] == str(base)
-    # a target of tools/cpu_target.py (its own NUMBA_CACHE_DIR) gets its own folder
+    # a target of synth.apps.cpu_target (its own NUMBA_CACHE_DIR) gets its own folder
     c = _run(PRINT_DIR, _env(tmp_path, base / "haswell"), tmp_path)
     assert Path(c[0]) == base / "haswell" / folder.name
 

@@ -174,13 +174,13 @@ def test_taraf_tables_are_validated():
 
 
 def test_the_cost_benchmark_runs_in_its_quick_mode():
-    """tools/bench_taraf.py (docs/benchmarks.md, "Sitar taraf") in CI's quick mode."""
+    """tools/bench.py taraf (docs/benchmarks.md, "Sitar taraf") in CI's quick mode."""
     import subprocess
     import sys
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    p = subprocess.run([sys.executable, str(root / "tools" / "bench_taraf.py"), "--quick"],
+    p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "taraf", "--quick"],
                        capture_output=True, text=True, cwd=root, timeout=600)
     assert p.returncode == 0, p.stderr
     for name in ("bare", "taraf", "taraf and chikari"):

@@ -118,7 +118,7 @@ MALLOC_TRIM_OK = 1 << 30
 #: runs a task in a thread of its own, which by default gets an arena of its
 #: own, whose heaps glibc unmaps whenever they empty: a 4-s grand note on A0
 #: took 23 % more CPU in a thread than in the main thread, with 1.6x the page
-#: faults (``tools/bench_batch.py --where``); in a worker with one arena, the same.
+#: faults (``tools/bench.py batch --where``); in a worker with one arena, the same.
 MALLOC_ARENAS = "MALLOC_ARENA_MAX"
 #: Dask settings for the workers (and the local cluster's scheduler and
 #: nannies).  With Dask's defaults (the statistical profiler every 10 ms, the

@@ -24,21 +24,18 @@ features too, but separate directories keep runs honest.  The kernels'
 cache is a folder keyed on their sources within it
 (:mod:`synth.kernels.cache`).
 
-A tool runs for another target by re-executing itself in a subprocess with
-that target's environment (:func:`run_for_targets`); numba reads these
-variables once, when it is imported.
+A benchmark runs for another target by re-executing itself in a subprocess
+with that target's environment (:func:`synth.apps.bench.harness.dispatch`);
+numba reads these variables once, when it is imported.
 
-The benchmark tools use it as ``import cpu_target`` (``tools/cpu_target.py``
-re-exports this module; run as ``python tools/x.py``, tools/ is on
-``sys.path``).
+The benchmarks use it through their harness (:mod:`synth.apps.bench.harness`,
+``python tools/bench.py NAME --cpu-name host,haswell,generic``).
 """
 
 from __future__ import annotations
 
 import os
 import platform
-import subprocess
-import sys
 from pathlib import Path
 
 #: code-generation targets ``--cpu-name`` accepts (besides "all")
@@ -289,17 +286,7 @@ def describe(prefix: str = "# ") -> str:
                      (("cpu", cpu), ("codegen", code), ("software", sw)))
 
 
-# ---- running a tool for other targets ---------------------------------------------------------
-def add_cpu_option(parser) -> None:
-    """``--cpu-name {host,haswell,generic,all}`` on an argparse parser."""
-    parser.add_argument(
-        "--cpu-name", choices=TARGETS + ("all",), default=None,
-        help="numba code-generation target: host (this CPU, the default), haswell (AVX2 "
-             "only, x86-64-v3), generic (x86-64, SSE2) or all three one after another; a "
-             "target other than this process's re-runs the tool in a subprocess with its "
-             "own NUMBA_CACHE_DIR")
-
-
+# ---- the harness's --cpu-name ---------------------------------------------------------------
 def strip_cpu_option(argv) -> list[str]:
     """``argv`` without ``--cpu-name X`` / ``--cpu-name=X``."""
     out, skip = [], False
@@ -314,44 +301,3 @@ def strip_cpu_option(argv) -> list[str]:
             continue
         out.append(a)
     return out
-
-
-def run_for_targets(argv, targets, script: str | None = None) -> int:
-    """Run this tool (``script``, default ``sys.argv[0]``) once per target in
-    a subprocess (``sys.executable script *argv --cpu-name T``) with that
-    target's environment, its output streaming through; returns 0 if every
-    run succeeded, else the last non-zero status.  A target this CPU cannot
-    run is skipped with a note."""
-    script = os.path.abspath(script or sys.argv[0])
-    status = 0
-    for t in targets:
-        why = runnable(t)
-        if why:
-            print(f"# --cpu-name {t}: skipped, {why}", flush=True)
-            continue
-        cmd = [sys.executable, script, *argv, "--cpu-name", t]
-        env = environ_for(t)
-        print(f"# ==== --cpu-name {t} (NUMBA_CPU_NAME={env.get('NUMBA_CPU_NAME', '(unset)')}, "
-              f"NUMBA_CACHE_DIR={env['NUMBA_CACHE_DIR']})", flush=True)
-        sys.stdout.flush()
-        sys.stderr.flush()
-        rc = subprocess.call(cmd, env=env)
-        if rc != 0:
-            print(f"# --cpu-name {t}: exit status {rc}", flush=True)
-            status = rc
-    return status
-
-
-def dispatch(cpu_name: str | None, argv=None, script: str | None = None) -> int | None:
-    """Handle a tool's ``--cpu-name``: None if the tool should run here (no
-    value, or this process's own target), else the exit status of the
-    re-executed runs.  ``argv``: the tool's arguments (default sys.argv[1:])."""
-    argv = sys.argv[1:] if argv is None else list(argv)
-    here = current_target()
-    if cpu_name is None or cpu_name == here:
-        return None
-    if os.environ.get(ENV_TARGET):
-        # a child asked for another target: never re-execute twice
-        raise SystemExit(f"--cpu-name {cpu_name}: this process was started for target {here}")
-    targets = TARGETS if cpu_name == "all" else (cpu_name,)
-    return run_for_targets(strip_cpu_option(argv), targets, script)

@@ -230,7 +230,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     # round-off).  The grand's key 97 on its 1.3 MHz strike grid (hammer 1
     # step from the capo region) at velocity 127, in each of the two
     # 128-sample blocks its hammer is on the strings: 2.6-3.5 ms in chunks of
-    # one sample, 1.1-1.8 ms per sample (tools/bench_live.py --jack)
+    # one sample, 1.1-1.8 ms per sample (tools/bench.py live --jack)
     ip[K.I_CHUNK] = 0 if chunk < MIN_FAST_CHUNK else chunk
     ip[K.I_CHUNK_FREE] = 0 if force_per_sample else sizing.max_free_chunk(
         cells, k, R, out_mode, bool(ip[K.I_FILT]))

@@ -97,7 +97,7 @@ class OutputPath:
         # sum to what the one would give.  Copies of the engine's own
         # designs, not new ones: the first pan controller of a live
         # performance builds this in the audio callback (a new decimator
-        # and body took about 25 ms there, tools/bench_live.py --quick)
+        # and body took about 25 ms there, tools/bench.py live --quick)
         self.decs = []
         for main in engine.decs:
             d = main.fresh_copy()

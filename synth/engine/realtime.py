@@ -151,7 +151,7 @@ class Realtime:
         quiet_gc : collect garbage once, freeze what exists and switch the
             cyclic collector off until :meth:`stop` (it runs in whichever
             thread allocates, and a pass in the audio callback cost up to 4
-            block budgets in tools/bench_live.py); reference counting still
+            block budgets in tools/bench.py live); reference counting still
             frees everything the engine drops.  The control thread may call
             ``gc.collect(0)`` now and then.
         """

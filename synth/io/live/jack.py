@@ -21,7 +21,7 @@ line and the command exits non-zero, or, with ``--reconnect``, waits for
 it and plays on with the same engine, recording and connections.  The
 client plays at the server's rate (the engine's decimator designed for it)
 and period, which may change while it plays.  Measured on jackd's dummy
-backend (``tools/bench_live.py --jack``): a grand note sounds 113 samples
+backend (``tools/bench.py live --jack``): a grand note sounds 113 samples
 (2.35 ms) after its MIDI event's frame at 48 kHz, the same for every note.
 
 Needs the ``JACK-Client`` package (``[live]`` extra) and the JACK library

@@ -1,7 +1,7 @@
 """A JACK loopback for measuring live play: a client that plays MIDI into
 ``synth play --jack`` at chosen frames and records what comes back.
 
-The measuring harness of ``tests/test_jack.py`` and ``tools/bench_live.py
+The measuring harness of ``tests/test_jack.py`` and ``tools/bench.py live
 --jack``, and of anyone who wants the MIDI-to-sound latency of their own
 set-up: start (or join) a JACK server, wait for the synth's ports, connect
 a :class:`Loopback` to them, queue notes at frame times, then read the

@@ -262,7 +262,7 @@ class Player:
             self.rt = Realtime(eng, block=self.block, latency_s=self.latency_s)
             # the audio thread must get the GIL quickly even while a program
             # change is built in the background (default switch interval: 5 ms;
-            # tools/bench_live.py --program-change measures the difference)
+            # tools/bench.py live --program-change measures the difference)
             self._switch = sys.getswitchinterval()
             sys.setswitchinterval(min(self._switch, SWITCH_INTERVAL_S))
             try:

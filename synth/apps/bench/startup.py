@@ -2,7 +2,7 @@
 (:func:`synth.io.live.ready_engine`, what ``synth play`` does before the
 stream opens), in a fresh process, with a cold and then a warm numba cache.
 
-    python tools/bench_startup.py [--presets sitar,grand-piano]
+    python tools/bench.py startup [--presets sitar,grand-piano]
 
 The cold run uses an empty ``NUMBA_CACHE_DIR`` (every kernel compiles); the
 warm run repeats it with that cache filled.

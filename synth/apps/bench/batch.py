@@ -37,12 +37,12 @@ the measured rows).
 
 Usage
 -----
-    python tools/bench_batch.py [--preset grand-piano] [--jobs 16] [--seconds 4]
+    python tools/bench.py batch [--preset grand-piano] [--jobs 16] [--seconds 4]
                                 [--workers 2] [--runs 3] [--dask-defaults] [--quick]
-    python tools/bench_batch.py --spec nsynth-small --sample 4 --runs 3 \\
+    python tools/bench.py batch --spec nsynth-small --sample 4 --runs 3 \\
                                 --project 300000 --cores 100
-    python tools/bench_batch.py --jobs 4 --where 20
-    python tools/bench_batch.py --idle 20
+    python tools/bench.py batch --jobs 4 --where 20
+    python tools/bench.py batch --idle 20
 
 Two probes of Dask's cost, each alone:
 
@@ -464,9 +464,9 @@ def main(argv=None) -> int:
         audio_s = sum(per_job[j.hash][0][3]["duration_s"] for j in jobs)
         import dask
 
-        import cpu_target  # tools/, on sys.path when run as a script
+        from synth.apps.bench import harness
 
-        print(cpu_target.describe())
+        print(harness.header())
         print(f"# dask {dask.__version__}; load average {load0[0]:.2f} at the start, "
               f"{os.getloadavg()[0]:.2f} at the end ({os.cpu_count()} cores)")
         print(f"# {n} jobs of {what} ({audio_s:g} s of audio), median of {a.runs} run(s)"

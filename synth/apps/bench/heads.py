@@ -1,7 +1,7 @@
 """The far end's loop filter of a string with second-order dispersion, split
 into the head loop and passes of biquads, timed alone (CPU time, one core).
 
-    NUMBA_NUM_THREADS=1 python tools/bench_heads.py [--cpu-name {host,haswell,generic,all}]
+    NUMBA_NUM_THREADS=1 python tools/bench.py heads [--cpu-name {host,haswell,generic,all}]
                                                     [--n 600] [--reps 600] [--rounds 7]
 
 For 1-8 biquads (after the loss filter and two first-order sections, as a
@@ -37,7 +37,7 @@ if "numba" not in sys.modules:
 import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
 
-import cpu_target  # noqa: E402
+from synth.apps.bench import harness  # noqa: E402
 from synth.kernels import strings as K  # noqa: E402
 from synth.kernels.config import SERIAL_OPTS  # noqa: E402
 from synth.kernels.lanes import splat4  # noqa: E402
@@ -81,12 +81,12 @@ def main(argv=None) -> int:
     ap.add_argument("--n", type=int, default=600, help="samples per chunk")
     ap.add_argument("--reps", type=int, default=600, help="chunks per timing")
     ap.add_argument("--rounds", type=int, default=7)
-    cpu_target.add_cpu_option(ap)
+    harness.add_target_option(ap)
     a = ap.parse_args(argv)
-    rc = cpu_target.dispatch(a.cpu_name, argv)
+    rc = harness.dispatch("heads", a.cpu_name, argv)
     if rc is not None:
         return rc
-    print(cpu_target.describe())
+    print(harness.header())
     n, reps = a.n, a.reps
     rng = np.random.default_rng(1)
     X = [rng.standard_normal(n) * 1e-3 for _ in range(4)]

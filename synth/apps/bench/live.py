@@ -1,13 +1,13 @@
 """Stress the real-time callback: per-block render time against the budget.
 
-    python tools/bench_live.py [--blocks 64,128,256] [--threads 1,2] [--repeats 3]
+    python tools/bench.py live [--blocks 64,128,256] [--threads 1,2] [--repeats 3]
                                [--perfs rac,roll,chords,cluster]
                                [--seconds S] [--host-seconds S] [--host-only]
-    python tools/bench_live.py --program-change
-    python tools/bench_live.py --shedding
+    python tools/bench.py live --program-change
+    python tools/bench.py live --shedding
     (each also with --cpu-name {host,haswell,generic,all}; --quick: a short run for CI)
-    python tools/bench_live.py --jack [--server NAME] [--notes 24] [--runs 3] [--quick]
-    python tools/bench_live.py --jack --voices 32 [--cycles 3] [--runs 3]
+    python tools/bench.py live --jack [--server NAME] [--notes 24] [--runs 3] [--quick]
+    python tools/bench.py live --jack --voices 32 [--cycles 3] [--runs 3]
 
 Drives :class:`synth.engine.realtime.Realtime` exactly as the audio device
 would (``callback(outdata, frames, ...)``), as fast as it can, and times every
@@ -73,7 +73,7 @@ and the synth's own count (its report, from its activation on).
 times), and counts the xruns during play, each with the chord it followed.
 ``--runs`` plays each in a fresh synth process (default 3).
 
-``--cpu-name`` picks numba's code-generation target (``tools/cpu_target.py``:
+``--cpu-name`` picks numba's code-generation target (:mod:`synth.apps.bench.harness`:
 host, haswell = AVX2 only, generic = SSE2, or all three in turn); the header
 names the CPU and the target in effect.
 """
@@ -88,14 +88,14 @@ from pathlib import Path
 
 import numpy as np  # noqa: E402
 
-import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
+from synth.apps.bench import harness  # noqa: E402
 from synth.engine.engine import Event  # noqa: E402
 from synth.engine.realtime import Realtime  # noqa: E402
 from synth.io.midi import midi_to_events, read_midi_file  # noqa: E402
 from synth.io.factory import build_engine  # noqa: E402
 from synth.io.live.loopback import Loopback  # noqa: E402  (imports jack only when used)
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
+SHARED = Path(__file__).resolve().parents[4] / "shared"
 if not SHARED.is_dir():
     SHARED = Path("/work/shared")
 
@@ -625,7 +625,7 @@ def main(argv=None) -> int:
                     help="runs, each a fresh synth process (default 3)")
     jk.add_argument("--settle", type=float, default=1.0,
                     help="seconds between connecting and the first note (default 1)")
-    cpu_target.add_cpu_option(ap)
+    harness.add_target_option(ap)
     a = ap.parse_args(argv)
     if a.quick:
         a.blocks, a.seconds, a.host_seconds = "128", 2.0, 1.0
@@ -637,7 +637,7 @@ def main(argv=None) -> int:
         return jack_main(a)
     if a.repeats < 3:
         ap.error(f"--repeats = {a.repeats} is out of range (value >= 3)")
-    rc = cpu_target.dispatch(a.cpu_name, argv)
+    rc = harness.dispatch("live", a.cpu_name, argv)
     if rc is not None:
         return rc
 
@@ -658,7 +658,7 @@ def main(argv=None) -> int:
     print(f"# {time.strftime('%Y-%m-%d %H:%M')}  threads {','.join(map(str, counts))} "
           f"({threads_mod.available_cores()} cores available)")
     print(f"# command: python {' '.join(sys.argv)}")
-    print(cpu_target.describe())
+    print(harness.header())
     # warm-up: compile/load every kernel before timing
     for t in counts:
         drive("grand-piano", [Event(0.0, "note_on", 60, 0.8)], 0.2, 128, 8, threads=t)

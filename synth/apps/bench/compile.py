@@ -1,6 +1,6 @@
 """Which numba kernels a ``synth`` command compiles, and what each costs.
 
-    NUMBA_CACHE_DIR=$(mktemp -d) python tools/compile_profile.py note sitar --key 57 \
+    NUMBA_CACHE_DIR=$(mktemp -d) python tools/bench.py compile note sitar --key 57 \
         --seconds 1 -o /tmp/x.wav [--top 25] [--json OUT.json]
 
 Runs the command in this process (``synth.cli.main``) with a listener on

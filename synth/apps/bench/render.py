@@ -1,6 +1,6 @@
 """Whole-pipeline benchmark: the cost of ``synth render`` per voice per internal sample.
 
-    python tools/bench_render.py [--voices 1,8,32,128] [--presets sitar,biwa,grand-piano]
+    python tools/bench.py render [--voices 1,8,32,128] [--presets sitar,biwa,grand-piano]
                                  [--long-s 12] [--short-s 2] [--runs 3] [--window-s 1]
                                  [--quick] [--cpu-name {host,haswell,generic,all}]
 
@@ -95,7 +95,7 @@ The issue's target: 32 held sitar voices within 1.3x of the kernel figure
 test of the tool.  Its (a) figures are start-up noise (one second of a few
 voices costs less than the start-up varies) and may even be negative; its
 (b) figures are short but sound.  ``--cpu-name`` picks numba's code-generation
-target for this process and the renders (``tools/cpu_target.py``).
+target for this process and the renders (:mod:`synth.apps.cpu_target`).
 """
 
 from __future__ import annotations
@@ -122,7 +122,7 @@ import mido  # noqa: E402
 import numpy as np  # noqa: E402
 import soundfile  # noqa: E402
 
-import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
+from synth.apps.bench import harness  # noqa: E402
 from synth.io.factory import build_engine  # noqa: E402
 from synth.io.midi import midi_to_events, read_midi_file  # noqa: E402
 from synth.io.presets import load_preset  # noqa: E402
@@ -323,7 +323,7 @@ def scaling(presets, voices, counts, long_s, short_s, runs) -> int:
     synth = synth_command()
     print(f"# synth render scaling  {datetime.datetime.now().isoformat(timespec='seconds')}")
     print(f"# command : {shlex.join([os.path.basename(sys.executable)] + sys.argv)}")
-    print(cpu_target.describe())
+    print(harness.header())
     print(f"# holds {long_s:g} s and {short_s:g} s (+{TAIL_S:g} s tail), {runs} run(s), "
           f"medians; wall-time differences, ns per voice-sample and per string-sample")
     with tempfile.TemporaryDirectory(prefix="bench_render_") as tmp:
@@ -396,7 +396,7 @@ def main(argv=None) -> int:
     ap.add_argument("--threads", default=None,
                     help="instead: the scaling table, synth render --threads T for each T of "
                          "this list (e.g. 1,2; 'all': 1 up to every core), voices default 32")
-    cpu_target.add_cpu_option(ap)
+    harness.add_target_option(ap)
     a = ap.parse_args(argv)
     q = a.quick
     voices = [int(x) for x in (a.voices or ("1,8" if q else "32" if a.threads
@@ -424,11 +424,11 @@ def main(argv=None) -> int:
         if any(not 1 <= t <= cores for t in counts):
             ap.error(f"--threads = {a.threads!r} is out of range (1 <= each <= {cores}, the "
                      f"cores this process may use)")
-        rc = cpu_target.dispatch(a.cpu_name, argv)
+        rc = harness.dispatch("render", a.cpu_name, argv)
         if rc is not None:
             return rc
         return scaling(presets, voices, counts, long_s, short_s, runs)
-    rc = cpu_target.dispatch(a.cpu_name, argv)
+    rc = harness.dispatch("render", a.cpu_name, argv)
     if rc is not None:
         return rc
 
@@ -436,7 +436,7 @@ def main(argv=None) -> int:
            + shlex.join([os.path.basename(sys.executable)] + sys.argv))
     print(f"# synth render benchmark  {datetime.datetime.now().isoformat(timespec='seconds')}")
     print(f"# command : {cmd}")
-    print(cpu_target.describe())
+    print(harness.header())
     print(f"# voices {','.join(map(str, voices))}; holds {long_s:g} s and {short_s:g} s "
           f"(+{TAIL_S:g} s tail), {runs} run(s) each, medians; in process: {window_s:g} s "
           f"windows from t = {long_s:g} s, {BLOCK}-sample blocks; ns per voice-sample "

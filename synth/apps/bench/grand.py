@@ -1,6 +1,6 @@
 """Cost of grand-piano notes at the default 325 kHz internal rate, one core.
 
-    NUMBA_NUM_THREADS=1 python tools/bench_grand.py [--runs 5]
+    NUMBA_NUM_THREADS=1 python tools/bench.py grand [--runs 5]
                                                     [--cpu-name {host,haswell,generic,all}]
                                                     [--set PATH=VALUE ...] [--only keys|chord]
 
@@ -27,7 +27,7 @@ Prints, medians over ``--runs`` repetitions (each after a warm-up render):
 5. a sustain-pedal change (CC64) with 64 released voices held by the
    pedal: the engine's time to apply the event (the dampers of all of them).
 
-``--cpu-name`` picks numba's code-generation target (``tools/cpu_target.py``:
+``--cpu-name`` picks numba's code-generation target (:mod:`synth.apps.bench.harness`:
 host, haswell = AVX2 only, generic = SSE2, or all three in turn); the header
 names the CPU and the target in effect.
 """
@@ -46,7 +46,7 @@ if "numba" not in sys.modules:
 
 import numpy as np  # noqa: E402
 
-import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
+from synth.apps.bench import harness  # noqa: E402
 from synth.engine.engine import Engine, Event  # noqa: E402
 from synth.io.factory import build_engine  # noqa: E402
 
@@ -178,9 +178,9 @@ def main(argv=None) -> int:
     ap.add_argument("--clock", choices=("wall", "cpu"), default="wall",
                     help="time with the wall clock (default) or this process's CPU time "
                          "(time.process_time: on a loaded machine)")
-    cpu_target.add_cpu_option(ap)
+    harness.add_target_option(ap)
     a = ap.parse_args(argv)
-    rc = cpu_target.dispatch(a.cpu_name, argv)
+    rc = harness.dispatch("grand", a.cpu_name, argv)
     if rc is not None:
         return rc
 
@@ -192,7 +192,7 @@ def main(argv=None) -> int:
     if OVERRIDES:
         print(f"# preset overrides: {' '.join(OVERRIDES)}")
     print(f"# command: {' '.join([os.path.basename(sys.executable)] + sys.argv)}")
-    print(cpu_target.describe())
+    print(harness.header())
     # warm-up (compilation, caches)
     e = make_engine(4)
     e.schedule([Event(0.0, "note_on", 60, 0.8)])

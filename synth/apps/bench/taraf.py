@@ -2,10 +2,10 @@
 
 Usage
 -----
-    python tools/bench_taraf.py [--keys 43,55,60,67,74] [--velocity 100]
+    python tools/bench.py taraf [--keys 43,55,60,67,74] [--velocity 100]
                                 [--seconds 4] [--runs 7] [--set taraf.coupling=4 ...]
                                 [--cpu-name {host,haswell,generic,all}]
-    python tools/bench_taraf.py --quick      # CI: one short run, checks it runs
+    python tools/bench.py taraf --quick      # CI: one short run, checks it runs
 
 Each run renders one note per key (a fresh engine per note, one note-on at
 t = 0, ``Engine.render`` in its default blocks) with three variants of the
@@ -33,10 +33,9 @@ import os
 import sys
 import time
 
-import numpy as np
 
-import bench_ab  # noqa: E402  (tools/, on sys.path when run as a script)
-import cpu_target  # noqa: E402
+from synth.apps.bench import ab as bench_ab  # noqa: E402
+from synth.apps.bench import harness  # noqa: E402
 
 
 def variants(overrides=()):
@@ -62,9 +61,9 @@ def main(argv=None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
                     help="preset override for every variant (repeatable)")
     ap.add_argument("--quick", action="store_true", help="one short run (CI)")
-    cpu_target.add_cpu_option(ap)
+    harness.add_target_option(ap)
     a = ap.parse_args(argv)
-    rc = cpu_target.dispatch(a.cpu_name, argv)
+    rc = harness.dispatch("taraf", a.cpu_name, argv)
     if rc is not None:
         return rc
     if a.quick:
@@ -76,19 +75,16 @@ def main(argv=None) -> int:
     keys = [int(k) for k in a.keys.split(",")]
     vs = variants(a.set)
     print(f"# {time.strftime('%Y-%m-%d %H:%M')}  NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')}")
-    print(cpu_target.describe())
+    print(harness.header())
     for p in vs.values():
         run(p, keys[:1], a.velocity, 0.2)
-    times = {k: [] for k in vs}
-    for _ in range(a.runs):
-        for k, p in vs.items():
-            times[k].append(run(p, keys, a.velocity, a.seconds))
-    base = np.array(times["bare"])
+    times = harness.alternate(
+        {k: (lambda p=p: run(p, keys, a.velocity, a.seconds)) for k, p in vs.items()}, a.runs)
     print(f"sitar; keys {keys}, velocity {a.velocity:g}, {a.seconds:g} s each, {a.runs} runs")
     for k, t in times.items():
-        r = np.array(t) / base
-        print(f"{k:>17}: median {np.median(t):.3f} s, {np.median(r):.2f}x bare "
-              f"(range {r.min():.2f}-{r.max():.2f})")
+        r_med, r_lo, r_hi = harness.summary(harness.ratios(t, times["bare"]))
+        print(f"{k:>17}: median {harness.summary(t)[0]:.3f} s, {r_med:.2f}x bare "
+              f"(range {r_lo:.2f}-{r_hi:.2f})")
     return 0
 
 

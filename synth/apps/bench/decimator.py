@@ -1,8 +1,8 @@
 """Quick timing of the streaming decimator.
 
-Usage:  python tools/bench_decimator.py [--seconds 1] [--block 64] [--runs 7]
+Usage:  python tools/bench.py decimator [--seconds 1] [--block 64] [--runs 7]
                                        [--cpu-name {host,haswell,generic,all}]
-        python tools/bench_decimator.py --card-rates [...]
+        python tools/bench.py decimator --card-rates [...]
 
 For each internal rate (``--card-rates``: 325 kHz to each card rate, 44.1,
 48, 88.2 and 96 kHz), pushes ``--seconds`` of noise through a fresh
@@ -10,7 +10,7 @@ Decimator in engine-like blocks (``inputs_needed(block)`` inputs for ``block``
 outputs at a time) and prints the median over ``--runs`` runs of: ns per
 output sample, and ms of CPU per second of audio.
 
-``--cpu-name`` picks numba's code-generation target (``tools/cpu_target.py``:
+``--cpu-name`` picks numba's code-generation target (:mod:`synth.apps.bench.harness`:
 host, haswell = AVX2 only, generic = SSE2, or all three in turn); the header
 names the CPU and the target in effect.
 """
@@ -21,7 +21,7 @@ import time
 
 import numpy as np
 
-import cpu_target  # tools/, on sys.path when run as a script
+from synth.apps.bench import harness  # noqa: E402
 from synth.dsp.decimator import Decimator
 
 
@@ -49,20 +49,20 @@ def bench(fs_in, seconds, block, runs, fs_out=48000):
     return dec, t / n_out_total * 1e9, t / seconds * 1e3
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=1.0)
     ap.add_argument("--block", type=int, default=64)
     ap.add_argument("--runs", type=int, default=7)
     ap.add_argument("--card-rates", action="store_true",
                     help="325 kHz to 44.1, 48, 88.2 and 96 kHz instead of the internal rates")
-    cpu_target.add_cpu_option(ap)
-    a = ap.parse_args()
-    rc = cpu_target.dispatch(a.cpu_name)
+    harness.add_target_option(ap)
+    a = ap.parse_args(argv)
+    rc = harness.dispatch("decimator", a.cpu_name, argv)
     if rc is not None:
         return rc
     print(f"# command: {' '.join(['python'] + sys.argv)}")
-    print(cpu_target.describe())
+    print(harness.header())
     pairs = ([(325000, r) for r in (44100, 48000, 88200, 96000)] if a.card_rates
              else [(fs, 48000) for fs in (325000, 336000, 324800)])
     for fs, fs_out in pairs:

@@ -2,9 +2,9 @@
 
 Usage
 -----
-    NUMBA_NUM_THREADS=1 python tools/bench_reach.py [--runs 7] [--seconds 30]
-    NUMBA_NUM_THREADS=1 python tools/bench_reach.py --callgrind [--seconds 30]
-    python tools/bench_reach.py --onset          # when the skip starts, per treble key,
+    NUMBA_NUM_THREADS=1 python tools/bench.py reach [--runs 7] [--seconds 30]
+    NUMBA_NUM_THREADS=1 python tools/bench.py reach --callgrind [--seconds 30]
+    python tools/bench.py reach --onset          # when the skip starts, per treble key,
                                                  # and what the energy bound would skip;
                                                  # which sitar strings it skips
 
@@ -43,7 +43,7 @@ scene under ``valgrind
 --tool=callgrind``, with the skip and without it, counting the render
 alone (the instrumentation switched on and off around it with
 ``callgrind_control``), in the AVX2 ("haswell") build of
-``tools/cpu_target.py`` (valgrind runs no AVX-512) compiled outside
+:mod:`synth.apps.cpu_target` (valgrind runs no AVX-512) compiled outside
 valgrind first.
 """
 
@@ -61,9 +61,10 @@ from pathlib import Path
 
 import numpy as np
 
-import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
+from synth.apps import cpu_target  # noqa: E402
+from synth.apps.bench import harness  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[3]  # the checkout
 TREBLE_KEYS = (73, 79, 85, 91, 97, 103, 108)
 SCENES = ("treble", "chopin", "sitar-buzz-0.2", "sitar", "sitar-alone", "biwa", "case1")
 
@@ -153,8 +154,8 @@ def timing(scenes, seconds: float, runs: int) -> bool:
 
 # ---- instruction counts ------------------------------------------------------------------
 def _child_cmd(scene, seconds, skip):
-    return [sys.executable, str(Path(__file__).resolve()), "--child", scene, "--seconds",
-            str(seconds), "--skip", "1" if skip else "0"]
+    return harness.child_command("reach", ["--child", scene, "--seconds", str(seconds),
+                                           "--skip", "1" if skip else "0"])
 
 
 def _ir(path: Path) -> int:
@@ -174,7 +175,7 @@ def callgrind_window(cmd, out: Path, env, what: str, **popen_kw) -> str:
     its stdin start the measured work; it prints one line and waits again
     while the instrumentation goes off.  Returns that line (``what`` names
     the child in the error if it fails).  Also used by
-    tools/callgrind_note.py."""
+    tools/bench.py callgrind."""
     p = subprocess.Popen(["valgrind", "--tool=callgrind", "--instr-atstart=no",
                           f"--callgrind-out-file={out}", *cmd, "--wait"],
                          env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
@@ -207,7 +208,7 @@ def _callgrind_render(scene, seconds, skip, env, out: Path):
 
 
 def callgrind(scenes, seconds: float) -> bool:
-    env = cpu_target.environ_for("haswell")
+    env = harness.child_environ(cpu_target.environ_for("haswell"))
     env["NUMBA_NUM_THREADS"] = "1"
     env["PYTHONHASHSEED"] = "0"
     print(f"| scene | audio (s) | render instructions with the skip | without | ratio | saved "
@@ -391,7 +392,7 @@ def main(argv=None) -> int:
     if bad:
         raise SystemExit(f"--scenes: {bad} not in {SCENES}")
     print(f"# {time.strftime('%Y-%m-%d %H:%M')}  NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')}")
-    print(cpu_target.describe())
+    print(harness.header())
     if a.onset:
         onset(TREBLE_KEYS, (20, 80, 127))
         print()

@@ -2,7 +2,7 @@
 
 Usage
 -----
-    python tools/bench_ab.py --preset sitar --b termination.pitch_rise_cents=0
+    python tools/bench.py ab --preset sitar --b termination.pitch_rise_cents=0
                              [--a PATH=VALUE ...] [--keys 43,55,67,74]
                              [--velocity 102] [--seconds 4] [--runs 9]
                              [--cpu-name {host,haswell,generic,all}]
@@ -26,9 +26,8 @@ import os
 import sys
 import time
 
-import numpy as np
 
-import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
+from synth.apps.bench import harness  # noqa: E402
 
 
 def run(preset, overrides, keys, velocity, seconds):
@@ -55,9 +54,9 @@ def main(argv=None) -> int:
     ap.add_argument("--velocity", type=float, default=102.0)
     ap.add_argument("--seconds", type=float, default=4.0)
     ap.add_argument("--runs", type=int, default=9)
-    cpu_target.add_cpu_option(ap)
+    harness.add_target_option(ap)
     a = ap.parse_args(argv)
-    rc = cpu_target.dispatch(a.cpu_name, argv)
+    rc = harness.dispatch("ab", a.cpu_name, argv)
     if rc is not None:
         return rc
     if not (1 <= a.runs <= 1000):
@@ -68,18 +67,17 @@ def main(argv=None) -> int:
         raise SystemExit(f"--velocity = {a.velocity} is out of range (1 <= value <= 127)")
     keys = [int(k) for k in a.keys.split(",")]
     print(f"# {time.strftime('%Y-%m-%d %H:%M')}  NUMBA_NUM_THREADS={os.environ.get('NUMBA_NUM_THREADS')}")
-    print(cpu_target.describe())
+    print(harness.header())
     run(a.preset, a.a, keys, a.velocity, 0.2)
     run(a.preset, a.b, keys, a.velocity, 0.2)
-    ta, tb = [], []
-    for _ in range(a.runs):
-        ta.append(run(a.preset, a.a, keys, a.velocity, a.seconds))
-        tb.append(run(a.preset, a.b, keys, a.velocity, a.seconds))
-    r = np.array(ta) / np.array(tb)
+    t = harness.alternate({
+        "A": lambda: run(a.preset, a.a, keys, a.velocity, a.seconds),
+        "B": lambda: run(a.preset, a.b, keys, a.velocity, a.seconds)}, a.runs)
+    r_med, r_lo, r_hi = harness.summary(harness.ratios(t["A"], t["B"]))
     print(f"preset {a.preset}; keys {keys}, velocity {a.velocity:g}, {a.seconds:g} s each, {a.runs} runs")
-    print(f"A ({' '.join(a.a) or 'as shipped'}): median {np.median(ta):.3f} s")
-    print(f"B ({' '.join(a.b) or 'as shipped'}): median {np.median(tb):.3f} s")
-    print(f"A / B: median {np.median(r):.3f} (range {r.min():.3f}-{r.max():.3f})")
+    print(f"A ({' '.join(a.a) or 'as shipped'}): median {harness.summary(t['A'])[0]:.3f} s")
+    print(f"B ({' '.join(a.b) or 'as shipped'}): median {harness.summary(t['B'])[0]:.3f} s")
+    print(f"A / B: median {r_med:.3f} (range {r_lo:.3f}-{r_hi:.3f})")
     return 0
 
 

@@ -1,9 +1,9 @@
 """Instructions of one grand note's sustain, per numba function (callgrind).
 
-    NUMBA_NUM_THREADS=1 python tools/callgrind_note.py KEY [KEY ...] [--out DIR] [--top 40]
+    NUMBA_NUM_THREADS=1 python tools/bench.py callgrind KEY [KEY ...] [--out DIR] [--top 40]
 
 For each key (0: the engine with no note), in the AVX2 ("haswell") build
-of ``tools/cpu_target.py`` (``--cpu-name generic``: the SSE2 build;
+of :mod:`synth.apps.cpu_target` (``--cpu-name generic``: the SSE2 build;
 valgrind cannot run the host's AVX-512 one): a warm-up run outside valgrind (compiles or
 loads the kernels), then a child under ``valgrind --tool=callgrind
 --instr-atstart=no``: a grand engine of polyphony 4 plays the key
@@ -31,9 +31,10 @@ import sys
 import tempfile
 from pathlib import Path
 
-from bench_reach import callgrind_window  # noqa: E402  (tools/, on sys.path when run as a script)
 
-HERE = Path(__file__).resolve().parent
+from synth.apps import cpu_target
+from synth.apps.bench import harness
+from synth.apps.bench.reach import callgrind_window
 
 
 def child(key: int, wait: bool, syms: str) -> None:
@@ -103,7 +104,8 @@ def child(key: int, wait: bool, syms: str) -> None:
 
 
 def run(key: int, out: Path, env: dict) -> int:
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--child", str(key)]
+    cmd = harness.child_command("callgrind", ["--child", str(key)])
+    env = harness.child_environ(env)
     subprocess.run(cmd, env=env, check=True)
     env = dict(env, SYMS=str(out) + ".syms")
     reply = callgrind_window(cmd, out, env, f"key {key}", stderr=subprocess.DEVNULL)
@@ -161,22 +163,19 @@ def report(out: Path, top: int) -> None:
         print(f"{s:>12,} {i:>12,} {calls.get(n, ''):>8}  {n}")
 
 
-def main() -> int:
+def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("keys", nargs="*", type=int)
     ap.add_argument("--out", default=None, help="directory for the callgrind outputs")
     ap.add_argument("--top", type=int, default=40)
     ap.add_argument("--cpu-name", default="haswell", choices=("haswell", "generic"),
-                    help="numba code target (tools/cpu_target.py; default haswell)")
+                    help="numba code target (synth.apps.cpu_target; default haswell)")
     ap.add_argument("--child", type=int, default=None, help=argparse.SUPPRESS)
     ap.add_argument("--wait", action="store_true", help=argparse.SUPPRESS)
-    a = ap.parse_args()
+    a = ap.parse_args(argv)
     if a.child is not None:
         child(a.child, a.wait, os.environ.get("SYMS", os.devnull))
         return 0
-    sys.path.insert(0, str(HERE))
-    import cpu_target
-
     env = cpu_target.environ_for(a.cpu_name)
     env.update(NUMBA_NUM_THREADS="1", PYTHONHASHSEED="0")
     if os.environ.get("NUMBA_CACHE_DIR"):           # one's own cache, if given

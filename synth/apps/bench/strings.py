@@ -1,6 +1,6 @@
 """Timing of the waveguide string bank kernel, per string-sample.
 
-Usage:  NUMBA_NUM_THREADS=1 python tools/bench_strings.py [--runs 7]
+Usage:  NUMBA_NUM_THREADS=1 python tools/bench.py strings [--runs 7]
             [--banks 1,64,256] [--work 1e7] [--slow-work 2e6] [--seconds-warm 0.01]
             [--cpu-name {host,haswell,generic,all}]
 
@@ -35,7 +35,7 @@ The naive scheme is checked against the bank (same pluck, u at k over
 Everything runs on one core: NUMBA_NUM_THREADS is set to 1 before numba is
 imported and the process is pinned to one CPU.
 
-``--cpu-name`` picks numba's code-generation target (``tools/cpu_target.py``:
+``--cpu-name`` picks numba's code-generation target (:mod:`synth.apps.bench.harness`:
 host, haswell = AVX2 only, generic = SSE2, or all three in turn); the header
 names the CPU and the target in effect.
 """
@@ -58,7 +58,7 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 from numba import njit  # noqa: E402
 
-import cpu_target  # noqa: E402  (tools/, on sys.path when run as a script)
+from synth.apps.bench import harness  # noqa: E402
 
 from synth.kernels import strings as K  # noqa: E402
 from synth.kernels.config import FASTMATH  # noqa: E402
@@ -239,7 +239,7 @@ CASES = ["lossless", "lossless+J2/25", "lossless+J1/25", "musical", "musical+J2/
          "per-sample+J2/25", "naive+J2/25", "naive/none"]
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=7)
     ap.add_argument("--banks", default="1,64,256")
@@ -248,13 +248,13 @@ def main():
     ap.add_argument("--slow-work", type=float, default=2e6,
                     help="string-samples per timed repetition (per-sample path, naive scheme)")
     ap.add_argument("--seconds-warm", type=float, default=0.01)
-    cpu_target.add_cpu_option(ap)
-    a = ap.parse_args()
+    harness.add_target_option(ap)
+    a = ap.parse_args(argv)
     if a.runs < 1:
         raise ValueError(f"--runs = {a.runs} is out of range (>= 1)")
     if a.seconds_warm < 0.01:
         raise ValueError(f"--seconds-warm = {a.seconds_warm} is out of range (>= 0.01; the pluck lasts 4 ms)")
-    rc = cpu_target.dispatch(a.cpu_name)
+    rc = harness.dispatch("strings", a.cpu_name, argv)
     if rc is not None:
         return rc
     banks = [int(x) for x in a.banks.split(",")]
@@ -268,7 +268,7 @@ def main():
            + " ".join(shlex.quote(x) for x in [os.path.basename(sys.executable)] + sys.argv))
     print(f"# string bank benchmark  {datetime.datetime.now().isoformat(timespec='seconds')}")
     print(f"# command : {cmd}")
-    print(cpu_target.describe())
+    print(harness.header())
     print(f"# process : {pinned}")
     print(f"# runs={a.runs} (median [min..max] ns per string-sample), work={a.work:g} "
           f"string-samples/rep (per-sample and naive {a.slow_work:g}), warm-up {a.seconds_warm} s, "
