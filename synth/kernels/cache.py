@@ -22,7 +22,7 @@ Where the folder goes, in numba's own order of cache locations:
 
 1. ``$NUMBA_CACHE_DIR/synth-kernels-<hash>`` when the user set
    ``NUMBA_CACHE_DIR`` (or ``numba.config.CACHE_DIR``) before importing the
-   kernels: the CI and ``tools/cpu_target.py`` (one base per numba code
+   kernels: the CI and ``tools/bench.py --cpu-name`` (one base per numba code
    target) rely on it, and each gets its keyed folder under its own base.
 2. Else ``synth/kernels/__pycache__/synth-kernels-<hash>``, next to the
    sources, where numba put the kernels' cache before: a checkout (or

@@ -58,7 +58,7 @@ _LANES_ZERO = splat4 if LANES == 4 else splat2
 #: biquad kept states on the stack and cost as much as the head alone and
 #: a pass of it (``ns`` 2, 1-8 biquads, 2.1-2.4 ns a two-lane sample more
 #: than the head of none and passes; SSE2 build, Zen 4, ``python
-#: tools/bench_heads.py``)
+#: tools/bench.py heads``)
 _LANES_HEAD_SOS2 = 0 if LANES == 2 else _LANES_HEAD_SOS
 
 

@@ -399,7 +399,7 @@ def _head(xin, yo, n, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
 #: (AVX-512), three where they are 16 (AVX2, SSE2: a head of four kept its
 #: states on the stack).  With more, the head takes one (16 registers) or
 #: what passes of four leave (32), the rest run in passes (microbenchmark:
-#: ``python tools/bench_heads.py``; docs/benchmarks.md, "One change, one
+#: ``python tools/bench.py heads``; docs/benchmarks.md, "One change, one
 #: loop")
 _HEAD_SOS = 4 if VECTOR_REGS >= 32 else 3
 
@@ -413,7 +413,7 @@ def _head_sos(xin, yo, n, st, fp, ns, s0, s1, c0, c1, cnt):
     loop.  Each stage's recurrence waits on one multiply-add of the sample
     before; in one loop the stages of successive samples overlap, where in
     separate passes each pass waits on its own chain (measured with
-    ``python tools/bench_heads.py``).  Compiled without
+    ``python tools/bench.py heads``).  Compiled without
     re-association, as :func:`_biquads`."""
     b0 = fp[F_B0]
     gk = 1.0 - fp[F_B0S]

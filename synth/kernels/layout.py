@@ -226,7 +226,7 @@ _GROW = GROUP_CHUNK + 24
 #: plucks last 3-4 ms at 325 kHz, so a chord or a strum struck within that
 #: time on a sitar's bridge has that many members exciting at once, and with
 #: more than this the whole group (taraf and every sounding string) steps
-#: per sample until they end (the 128-note cluster of ``tools/bench_live.py``
+#: per sample until they end (the 128-note cluster of ``tools/bench.py live``
 #: struck 0.4 ms apart has about 9 at once)
 ROWS = 16
 #: the rows of incoming waves start here (1088 bytes past a page multiple

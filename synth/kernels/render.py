@@ -80,7 +80,7 @@ from .strings import (
 #: counter that starts at a literal 0 (``n = 0`` ... ``n += 1``) does it
 #: too: type inference first sees the call with ``Literal[int](0)`` and
 #: compiles that, before the loop's int64 reaches it (25 of 146 CPU s of a
-#: cold ``synth note sitar`` went to such copies, ``tools/compile_profile.py``)
+#: cold ``synth note sitar`` went to such copies, ``tools/bench.py compile``)
 ZERO = np.int64(0)
 ONE = np.int64(1)
 #: (Compile time.)  numba links each callee's optimised module into its
@@ -887,7 +887,7 @@ def _shard_tasks_par(T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, prob
 #: what :func:`bank_kind` finds in a list of active strings, and so which
 #: kernel the bank calls for it (each compiles only what it calls, the first
 #: time a scene needs it: a cold ``synth note sitar`` compiled 146 CPU s of
-#: kernels through :func:`render_sharded` (tools/compile_profile.py))
+#: kernels through :func:`render_sharded` (tools/bench.py compile))
 KIND_NONE = 0         # nothing active: no call
 KIND_SHARDS = 1       # several small units: :func:`render_sharded`
 KIND_BANK = 2         # one shard of anything (a lone string's hammer, a finer grid):
