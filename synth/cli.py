@@ -45,7 +45,7 @@ import sys
 
 from . import __version__
 from .commands import (analyze, batch, check, compare, demo, felt, help as help_cmd, note, play,
-                       presets, render, warmup)
+                       presets, render, reproduce, warmup)
 from .commands.common import arm_compile_notice, os_error_line, parse_channels, parse_mpe_option
 from .io.errors import SynthError
 from .io.interrupt import Interrupted
@@ -53,8 +53,8 @@ from .io.interrupt import Interrupted
 __all__ = ["COMMANDS", "build_parser", "main", "parse_channels", "parse_mpe_option"]
 
 #: the command modules, in the order ``synth --help`` lists them
-COMMANDS = (demo, presets, note, render, analyze, check, felt, batch, play, compare, warmup,
-            help_cmd)
+COMMANDS = (demo, presets, note, render, analyze, check, felt, batch, play, compare, reproduce,
+            warmup, help_cmd)
 
 EPILOG = """examples:
   synth demo                                         # demo.wav: a phrase on the sitar and biwa
@@ -66,7 +66,7 @@ EPILOG = """examples:
 #: the commands that render with the kernels: from the command line, they say
 #: within a second when the kernels are about to compile (a cold cache)
 RENDERING = {"demo", "note", "render", "analyze", "check", "felt", "batch", "play", "compare",
-             "warmup"}
+             "reproduce", "warmup"}
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -15,14 +15,14 @@ import pytest
 
 from synth.physics import felt as F
 
-TOOLS = Path(__file__).resolve().parents[1] / "tools"
+ROOT = Path(__file__).resolve().parents[1]
 
 
-def _tool(script, *argv):
-    """Run ``tools/<script>`` as a program (as its users do); its stdout,
-    after checking that it exited 0 (its own checks held)."""
-    p = subprocess.run([sys.executable, str(TOOLS / script), *argv], capture_output=True,
-                       text=True, cwd=TOOLS.parent, timeout=600)
+def _reproduce(*argv):
+    """Run ``synth reproduce ARGV`` as a program (as its users do); its
+    stdout, after checking that it exited 0 (its own checks held)."""
+    p = subprocess.run([sys.executable, "-m", "synth.cli", "reproduce", *argv],
+                       capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
     return p.stdout
 
@@ -562,10 +562,10 @@ def test_the_felt_command_takes_lists(tmp_path, capsys):
 
 @pytest.mark.slow  # ~13 s on a quiet 2-core machine: some 40 pulses, half of them finite volumes
 def test_the_chapter_2_reproduction_script():
-    """tools/reproduce_felt.py (docs/reproduction.md, chapter 2) on a grid
+    """synth reproduce felt (docs/reproduction.md, chapter 2) on a grid
     twice as coarse: every row's check against the thesis holds (its exit
     code), and the table names each figure of sections 2.2-2.4."""
-    out = _tool("reproduce_felt.py", "--quick")
+    out = _reproduce("felt", "--quick")
     for item in ("eqs. 2.12-2.13", "Fig. 2.1,", "Fig. 2.2,", "Fig. 2.3", "Fig. 2.4",
                  "Fig. 2.5", "0.1346427873", "Table 1, lambda(omega)", "Fig. 2.6",
                  "Table 1, lambda_num", "Fig. 2.7", "Fig. 2.8", "Publication III Fig. 7"):
@@ -617,7 +617,7 @@ def _render(b, n):
 
 def _contact_end_s(g, dt, c=_A7_C, T=_A7_T):
     """The end of the step-mean force dg / (K dt), interpolated to zero
-    (tools/reproduce.py's reading)."""
+    (synth reproduce's reading)."""
     Fm = np.diff(g) / (c / (2 * T) * dt)
     e = int(np.flatnonzero(Fm > 1e-9 * Fm.max())[-1])
     return (e + 0.5 + Fm[e] / (Fm[e - 1] - Fm[e])) * dt
@@ -806,9 +806,9 @@ def test_the_felt_layer_through_synth_note(tmp_path, capsys):
 
 
 def test_the_felt_study_quick_mode():
-    """tools/felt_study.py --quick (docs/felt.md's A7 tables on coarse
+    """synth reproduce felt-study --quick (docs/felt.md's A7 tables on coarse
     settings): the layer's strike is shorter than the lumped law's, gives
     the string the same momentum within 1 %, and its g(t) converges with
     the felt's grid (its exit code)."""
-    out = _tool("felt_study.py", "--quick")
+    out = _reproduce("felt-study", "--quick")
     assert "layer - lumped" in out and "quick checks: passed" in out

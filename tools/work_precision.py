@@ -187,7 +187,7 @@ def jawari(case: int, n_grids: int, repeats: int):
 def sawari(n_grids: int, repeats: int):
     """First contact and contacts by 16.4 and 201.4 ms (per-sample path:
     contact telemetry needs the probe; contacts 0.2 ms apart merged, as
-    tools/reproduce.py counts them), per grid."""
+    `synth reproduce` counts them), per grid."""
     from synth.analysis import episode_times
 
     rows = []
@@ -294,7 +294,7 @@ def capo_run(cells: int, variant: str, *, per_sample: bool = True, region_m: flo
     Returns the mode energies (J, modes 1..min(CAPO_MODES, cells - 1), from
     u at t and t + dt: :func:`synth.analysis.free_mode_energies`) and the
     contacts with the bar by each of ``times`` (runs less than 0.02 ms apart
-    merged, as tools/reproduce.py counts them; None on the fast path), the
+    merged, as `synth reproduce` counts them; None on the fast path), the
     internal rate and the render's run time (s)."""
     from synth.analysis import episode_times, free_mode_energies
     from synth.dsp.bank import StringBank

@@ -1,7 +1,15 @@
-"""The A7 strike of the reproduction scripts (``tools/reproduce.py``,
-``tools/felt_study.py``; docs/reproduction.md, Publication I): a study
-preset's hammer on the A7 string, its probe channels and snapshots of the
-string's shape, kept in the package so that they are tested from it."""
+"""``synth reproduce``: the thesis's results reproduced and printed as
+Markdown (docs/reproduction.md), in three parts:
+
+* :mod:`.thesis` (``synth reproduce``, the default): Publications I-II,
+  the plucked strings, the biwa and the A7 hammer;
+* :mod:`.felt` (``synth reproduce felt``): chapter 2, deformation waves in
+  hammer felt, with its checks against the thesis;
+* :mod:`.felt_study` (``synth reproduce felt-study``): the A7 strike with
+  the felt-layer hammer against the lumped law (docs/felt.md).
+
+Here: the A7 strike they share (Publication I), a study preset's hammer on
+the A7 string, its probe channels and snapshots of the string's shape."""
 
 from __future__ import annotations
 

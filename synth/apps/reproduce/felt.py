@@ -2,16 +2,16 @@
 hammer felt, and the numbers they quote from Publications III and IV) and
 print the comparison as Markdown (docs/reproduction.md, "Chapter 2").
 
-    python tools/reproduce_felt.py                 # the table (~40 s on one core)
-    python tools/reproduce_felt.py --png docs/img  # and the figures, felt-*.png
-    python tools/reproduce_felt.py --quick         # pulses on a grid twice as coarse (the test)
+    synth reproduce felt                 # the table (~40 s on one core)
+    synth reproduce felt --png docs/img  # and the figures, felt-*.png
+    synth reproduce felt --quick         # pulses on a grid twice as coarse (the test)
 
 Each row names the thesis's figure or number, what the thesis says, the
 command that gives ours (a ``synth felt`` line, whose JSON this script
-reads, or this script where the number is a derived one), our value and
+reads, or this command where the number is a derived one), our value and
 the difference.  Rows with a number to match carry a check (value,
-reference, tolerance); ``tests/test_felt.py`` runs the script and asserts
-every check.
+reference, tolerance); ``tests/test_felt.py`` runs it and asserts every
+check.
 """
 
 from __future__ import annotations
@@ -165,7 +165,7 @@ def linear_rows(png):
         oc, mc = _closed_form(k, d)
         err = max(err, float(np.max(np.abs(om - oc))), float(np.max(np.abs(mu - mc))))
     out.append(row(S, "eqs. 2.21-2.23, omega(k) and mu(k) in closed form (case ii, 1/9 < "
-                   "delta < 1)", "the closed form", "python tools/reproduce_felt.py",
+                   "delta < 1)", "the closed form", "synth reproduce felt",
                    f"our roots (the cubic's eigenvalues) equal it within {err:.1e} "
                    f"(delta 0.128-0.8, k <= 20)", "none", (err, 0.0, 1e-9)))
     ds = "0.15,0.2,0.5,0.8"
@@ -190,7 +190,7 @@ def linear_rows(png):
         om, mu = F.dispersion([1e4], d)
         big = max(big, abs(mu[0] / (-(1 - d) / (2 * d)) - 1))
     out.append(row(S, "eqs. 2.24-2.25, k -> infinity", "omega -> infinity, mu -> -(1 - delta) "
-                   "/ (2 delta)", "python tools/reproduce_felt.py",
+                   "/ (2 delta)", "synth reproduce felt",
                    f"mu(k = 10^4) within {big:.1e} of the limit (delta 0.15-0.8)", "none",
                    (big, 0.0, 1e-4)))
     gap = F.band_gap(1 / 9 - 1e-3)
@@ -208,7 +208,7 @@ def linear_rows(png):
         worst = max(worst, abs(vph[0] - 1), abs(vgr[0] - 1),
                     abs(vph[1] * math.sqrt(d) - 1), abs(vgr[1] * math.sqrt(d) - 1))
     out.append(row(S, "eq. 2.26 and the long-wave limit", "v_ph, v_gr -> 1/sqrt(delta) (c_d) "
-                   "for short waves; v = 1 is c_s", "python tools/reproduce_felt.py",
+                   "for short waves; v = 1 is c_s", "synth reproduce felt",
                    f"at k = 10^-4 and 10^4 within {worst:.1e} of 1 and 1/sqrt(delta) "
                    f"(delta 0.15-0.8)", "none", (worst, 0.0, 1e-4)))
     t = synth_json("felt velocities --delta 0.15 --points 2", png, "felt-fig2-3.png")
@@ -231,7 +231,7 @@ def linear_rows(png):
                    (float(np.sum(vgr <= vph)), 0.0, 0.0)))
     k13 = _crossing_k(1 / 9 + 1e-4)
     out.append(row(S, "the range of k_*", "0 <= k_* < sqrt 3, sqrt 3 as delta -> 1/9",
-                   "python tools/reproduce_felt.py",
+                   "synth reproduce felt",
                    f"k_*^2 = 4 (C - 4)(C + 1)^2 / ((C - 2)^2 (C + 4)), C = (1 - delta) / delta: "
                    f"{F.normal_dispersion_limit(1 / 9):.6f} at 1/9 (sqrt 3 = {math.sqrt(3):.6f}); "
                    f"on a grid {k13:.4f} at 1/9 + 10^-4", "none",
@@ -278,7 +278,7 @@ def linear_rows(png):
                    f"0.13: slowest v_gr {mins[1][1]:+.4f}; 0.06: band gap {g06[0]:.4f} < k < "
                    f"{g06[1]:.4f}, NGV {'yes' if t06['ngv'] else 'no'}", "none"))
     out.append(row(S, "Publication IV: four cases of dispersion", "named, not listed (Publication "
-                   "V, not in the thesis)", "python tools/reproduce_felt.py",
+                   "V, not in the thesis)", "synth reproduce felt",
                    f"delta < 1/9: band gap and NGV; 1/9-{dstar:.5f}: NGV, normal below k_*; "
                    f"{dstar:.5f}-0.2: normal below k_*, no NGV; 0.2-1: anomalous only "
                    f"(delta = 1: none)", "the cases' bounds are missing in the text"))
@@ -355,7 +355,7 @@ def attenuation_rows(png):
                    "; ".join(got), f"up to {worst:.0%} (delta 0.2, t0 = 1); the paper gives the "
                    "times only for t0 = 1/2: the same assumed"))
     out.append(row(S, "Table 1, |lambda(omega) - lambda_num|", "0.010-0.271: 'approximately the "
-                   "same'", "python tools/reproduce_felt.py",
+                   "same'", "synth reproduce felt",
                    "; ".join(dif) + " with lambda(omega) in eq. 2.27's units (tau0, c_d tau0)",
                    "the paper compares lambda_num (eq. 2.27's units) with lambda(omega) in eq. "
                    "2.11's; in one system they agree within 0.053"))
@@ -465,16 +465,11 @@ def failed(rs) -> list:
             and not abs(r["check"][0] - r["check"][1]) <= r["check"][2]]
 
 
-def main(argv=None) -> int:
-    import argparse
-
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--png", metavar="DIR", help="also draw the figures into DIR (felt-*.png)")
-    ap.add_argument("--quick", action="store_true",
-                    help="pulses on a grid twice as coarse (dx 0.01): the test's run")
-    a = ap.parse_args(argv)
-    DX.update(dx=0.01, args="--dx 0.01") if a.quick else DX.update(dx=0.005, args="")
-    rs = rows(a.png)
+def run(png: str | None = None, quick: bool = False) -> int:
+    """Print the table (``png``: also draw the figures into that folder;
+    ``quick``: pulses on a grid twice as coarse); 1 if a check failed."""
+    DX.update(dx=0.01, args="--dx 0.01") if quick else DX.update(dx=0.005, args="")
+    rs = rows(png)
     print(markdown(rs))
     bad = failed(rs)
     n = sum(r["check"] is not None for r in rs)
@@ -483,6 +478,3 @@ def main(argv=None) -> int:
         print(f"CHECK FAILED: {r['item']}: {r['check']}", file=sys.stderr)
     return 1 if bad else 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -3,9 +3,9 @@ against the lumped law: the strike, the mode levels with and without the
 capo bar, the cost and the work-precision of the layer's grid (issue 14,
 section 6; the tables of docs/felt.md, "The felt layer on the moving string").
 
-    python tools/felt_study.py                 # everything (about 30 s on one core)
-    python tools/felt_study.py --quick         # the checks only, on coarse settings (~10 s)
-    python tools/felt_study.py --repeats 5     # cost: medians of 5 runs
+    synth reproduce felt-study                 # everything (about 30 s on one core)
+    synth reproduce felt-study --quick         # the checks only, on coarse settings (~10 s)
+    synth reproduce felt-study --repeats 5     # cost: medians of 5 runs
 
 Both models run through the study presets exactly as `synth note` runs
 them: `paper/piano-a7-ideal` and `paper/piano-a7-capo` with
@@ -14,7 +14,7 @@ law as its quasi-static limit, felt 10.2 mm x 64 mm^2, 1000 kg/m^3,
 tau0 1.8 us, 32 cells; synth.physics.felt.felt_from_law).
 
 Definitions: contact duration, the end of the step-mean force Fm = dg/K
-(interpolated to zero as tools/reproduce.py does) from the strike's
+(interpolated to zero as ``synth reproduce`` does) from the strike's
 sample 0; peak force, the largest step-mean force; contacts, runs of
 samples with F > 0; g(t0), g after the last contact; mode levels,
 Publication II eq. 17 from two snapshots (synth.analysis.free_mode_energies),
@@ -27,15 +27,12 @@ note through the engine.
 
 from __future__ import annotations
 
-import argparse
-import math
-import sys
 import time
 
 import numpy as np
 
 from synth.analysis import episode_times, free_mode_energies
-from synth.apps.reproduce import a7_run  # the A7 strike (tools/reproduce.py's)
+from synth.apps.reproduce import a7_run  # the A7 strike (synth reproduce's)
 from synth.dsp.bank import StringBank
 from synth.engine.engine import Event
 from synth.io.factory import build_engine
@@ -280,7 +277,7 @@ def work_precision(cells_list=(8, 16, 32, 64, 128), ref_cells=256, repeats=3, n=
     return dict(rows=rows, orders=orders)
 
 
-def quick() -> int:
+def quick_checks() -> int:
     """The checks on coarse settings: the layer's strike is shorter than the
     lumped law's and gives the string the same momentum within 1 %, its
     capo-bar contacts are counted, and g(t) converges with the felt's grid."""
@@ -292,19 +289,14 @@ def quick() -> int:
     return 0 if ok else 1
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--quick", action="store_true", help="the checks only, coarse (~10 s)")
-    ap.add_argument("--repeats", type=int, default=3, help="runs per cost figure (median)")
-    a = ap.parse_args(argv)
-    if a.quick:
-        return quick()
+def run(quick: bool = False, repeats: int = 3) -> int:
+    """Print the tables (``quick``: the checks only, coarse; ``repeats``:
+    runs per cost figure, their median); 1 if a quick check failed."""
+    if quick:
+        return quick_checks()
     strike_table()
     mode_tables()
-    cost_table(a.repeats)
-    work_precision(repeats=a.repeats)
+    cost_table(repeats)
+    work_precision(repeats=repeats)
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,8 +1,8 @@
 """Reproduce the thesis's plucked-string results (Publications I-II) and
 print them as Markdown (the numbers in docs/reproduction.md).
 
-    python tools/reproduce.py            # everything, about 20 s
-    python tools/reproduce.py --energy   # the grid energy step by step (docs/reproduction.md, Notes)
+    synth reproduce            # everything, about 20 s
+    synth reproduce --energy   # the grid energy step by step (docs/reproduction.md, Notes)
 
 Definitions used:
 * t_np, end of the aperiodic regime: with the period P = 2N samples exact
@@ -20,7 +20,6 @@ Definitions used:
 
 from __future__ import annotations
 
-import sys
 
 import math
 
@@ -191,14 +190,9 @@ def energy_steps(n_steps: int = 30000) -> None:
     print()
 
 
-def main(argv=None) -> int:
-    import argparse
-
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--energy", action="store_true",
-                    help="only the grid energy, step by step after the pluck")
-    a = ap.parse_args(argv)
-    if a.energy:
+def run(energy: bool = False) -> int:
+    """Print the tables (``energy``: only the grid energy, step by step)."""
+    if energy:
         energy_steps()
         return 0
     P = 2 * 812
@@ -257,6 +251,3 @@ def main(argv=None) -> int:
     piano_section()
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())
