@@ -45,6 +45,8 @@ import time
 
 import numpy as np
 
+from synth.analysis import highband_energy
+
 EARLY = (0.05, 0.5)
 LATE = (0.9, 1.1)
 F_CUT_HZ = 1000.0
@@ -52,15 +54,6 @@ F_CUT_HZ = 1000.0
 
 def sweep_keys():
     return list(range(43, 75, 3)) + [74]
-
-
-def high_band(y, fs, t0, t1, f_cut=F_CUT_HZ):
-    """Energy above ``f_cut`` (Hz) of ``y`` between ``t0`` and ``t1`` (s),
-    from one Hann-windowed spectrum (arbitrary units, linear)."""
-    x = np.asarray(y[int(round(t0 * fs)):int(round(t1 * fs))], float)
-    X = np.fft.rfft(x * np.hanning(len(x)))
-    f = np.fft.rfftfreq(len(x), 1.0 / fs)
-    return float(np.sum(np.abs(X[f >= f_cut]) ** 2))
 
 
 def _db(a, b):
@@ -111,11 +104,11 @@ def measure(preset, overrides, key, velocity, seconds=1.2, f_cut=F_CUT_HZ, fs_in
         end = float(on[-1] / fsi)
     w = c[int(LATE[0] * fsi):int(LATE[1] * fsi)]
     return {
-        "early": _db(high_band(y, fs, *EARLY, f_cut), high_band(y0, fs, *EARLY, f_cut)),
-        "late": _db(high_band(y, fs, *LATE, f_cut), high_band(y0, fs, *LATE, f_cut)),
+        "early": _db(highband_energy(y, fs, f_cut, EARLY[0], EARLY[1] - EARLY[0]), highband_energy(y0, fs, f_cut, EARLY[0], EARLY[1] - EARLY[0])),
+        "late": _db(highband_energy(y, fs, f_cut, LATE[0], LATE[1] - LATE[0]), highband_energy(y0, fs, f_cut, LATE[0], LATE[1] - LATE[0])),
         "end": end,
         "c1": 100.0 * float(np.count_nonzero(w)) / max(1, len(w)),
-        "none_early_db": 10.0 * np.log10(high_band(y0, fs, *EARLY, f_cut) + 1e-300),
+        "none_early_db": 10.0 * np.log10(highband_energy(y0, fs, f_cut, EARLY[0], EARLY[1] - EARLY[0]) + 1e-300),
         "t_render": el,
     }
 

@@ -30,12 +30,9 @@ import sys
 
 import numpy as np
 
+from synth.analysis import window_energy_db
+
 FS = 48_000
-
-
-def _energy_db(y, a_s, b_s):
-    x = y[int(a_s * FS):int(b_s * FS)]
-    return 10.0 * np.log10(np.sum(x * x) + 1e-300)
 
 
 def _keys(text):
@@ -85,10 +82,10 @@ def measure(R: float, keys, overrides=()) -> dict:
         contact = e.bank.telemetry(s)["termination"]["time_in_contact_s"]
     return {
         "R": R, "worst_key": worst[0], "worst_cents": worst[1],
-        "halo_db": _energy_db(y, 1.5, 3.0) - _energy_db(y0, 1.5, 3.0),
-        "held_db": _energy_db(y, 0.05, 0.9) - _energy_db(y0, 0.05, 0.9),
-        "decay_db": ((_energy_db(y, 0.7, 0.9) - _energy_db(y, 0.1, 0.3))
-                     - (_energy_db(y0, 0.7, 0.9) - _energy_db(y0, 0.1, 0.3))),
+        "halo_db": window_energy_db(y, FS, 1.5, 3.0) - window_energy_db(y0, FS, 1.5, 3.0),
+        "held_db": window_energy_db(y, FS, 0.05, 0.9) - window_energy_db(y0, FS, 0.05, 0.9),
+        "decay_db": ((window_energy_db(y, FS, 0.7, 0.9) - window_energy_db(y, FS, 0.1, 0.3))
+                     - (window_energy_db(y0, FS, 0.7, 0.9) - window_energy_db(y0, FS, 0.1, 0.3))),
         "lufs": [float(m[int(np.argmin(np.abs(t - x)))]) for x in (0.3, 1.6, 2.5)],
         "contact_s": contact,
     }

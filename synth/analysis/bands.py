@@ -25,7 +25,7 @@ import numpy as np
 
 from .spectrum import _positive, _real, _signal
 
-__all__ = ["band_levels_db", "halo", "highband_db"]
+__all__ = ["band_levels_db", "halo", "highband_db", "highband_energy", "window_energy_db"]
 
 
 def _bins(n, fs):
@@ -166,18 +166,32 @@ def halo(x_with, x_without, fs, probe_hz, exclude_hz=(), probe_cents=10.0, exclu
     }
 
 
-def highband_db(x, fs, above_hz, start_s=None, length_s=None):
-    """Energy above ``above_hz`` (dB, re a unit sum of squared spectrum
-    magnitudes; -inf if none) of ``x`` (1-D, sampled at ``fs`` Hz), or of
-    its window from ``start_s`` (s, default 0) for ``length_s`` (s, default
-    to the end), Hann-windowed: the buzz measure of issue 12 (a render's
-    high band over the same note's with buzz 0)."""
+def highband_energy(x, fs, above_hz, start_s=None, length_s=None):
+    """Energy above ``above_hz`` (a sum of squared spectrum magnitudes, linear)
+    of ``x`` (1-D, sampled at ``fs`` Hz), or of its window from ``start_s``
+    (s, default 0) for ``length_s`` (s, default to the end), from one
+    Hann-windowed spectrum: the buzz measure of issue 12 (a render's high
+    band over the same note's with buzz 0, or with a rigid end)."""
     x = np.asarray(x, float)
     if start_s is not None or length_s is not None:
         a = int(round((start_s or 0.0) * fs))
         x = x[a:] if length_s is None else x[a:a + int(round(length_s * fs))]
     spec = np.abs(np.fft.rfft(x * np.hanning(len(x)))) ** 2
     f = np.fft.rfftfreq(len(x), 1.0 / fs)
-    e = float(np.sum(spec[f >= above_hz]))
+    return float(np.sum(spec[f >= above_hz]))
+
+
+def highband_db(x, fs, above_hz, start_s=None, length_s=None):
+    """:func:`highband_energy` in dB (re a unit sum of squared spectrum
+    magnitudes; -inf if none)."""
+    e = highband_energy(x, fs, above_hz, start_s, length_s)
     return 10.0 * np.log10(e) if e > 0 else -np.inf
 
+
+def window_energy_db(x, fs, start_s, end_s):
+    """Energy of ``x`` (1-D, sampled at ``fs`` Hz) from ``start_s`` to
+    ``end_s`` (s): 10 log10 of the sum of its squared samples (-inf if
+    they are all zero)."""
+    x = np.asarray(x, float)[int(round(start_s * fs)):int(round(end_s * fs))]
+    e = float(np.sum(x * x))
+    return 10.0 * np.log10(e) if e > 0 else -np.inf
