@@ -89,7 +89,8 @@ def test_the_high_band_grows_with_the_buzz(key):
     every grid point the string meets (physics notes section 2), shortens
     the note (total 50-500 ms 1.1 dB lower; from 50-150 ms to 400-500 ms
     it loses 7.2 dB against 6.0 at 0.5): the band follows the total
-    (``python tools/buzz_depth.py`` with these overrides)."""
+    (a retired study with these overrides,
+    ``git show dbf4294:tools/buzz_depth.py``)."""
     levels, shares = [], []
     for b in (0.0, 0.25, 0.5, 0.75, 1.0):
         e = engine("sitar", OPEN + [f"termination.buzz={b}"])

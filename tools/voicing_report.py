@@ -613,7 +613,7 @@ class Report:
                  "of the loudest, not the 10 ms after a note-on): " + ", ".join(f"{k}: {v:.1f}" for k, v in jm.items()) + " dB")
         hb = {k: max(v["highband_db"]) for k, v in res.items()}
         j = max(hb, key=hb.get)
-        self.add("midi", f"{what}: high-band scan (tools/click_scan.py)",
+        self.add("midi", f"{what}: high-band scan",
                  f"{hb[j]:.1f} dB ({short(j)} {res[j]['highband_s'][0]:.2f} s)", "(a C8 alone: -12 dB)",
                  "INFO", hb[j], "largest share of a 5 ms frame's energy above 14 kHz: "
                  + ", ".join(f"{k}: {v:.1f}" for k, v in hb.items()) + " dB")

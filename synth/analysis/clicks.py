@@ -16,8 +16,8 @@ scores:
   Because the context is the neighbours' RMS, an onset after silence (the
   frames after it are as loud) is not taken for a click.
 * **high band** (dB): the share of the frame's energy above
-  ``highband_hz`` (Hann window): the scan of ``tools/click_scan.py``
-  (``docs/reproduction.md``).  It finds high-frequency bursts (an
+  ``highband_hz`` (Hann window): the scan of ``docs/reproduction.md``
+  ("Clicks").  It finds high-frequency bursts (an
   alternating jump), but not a low step, and a high note's own partials
   above 14 kHz read like a click (a lone C8 reaches -12 dB).
 

@@ -82,7 +82,7 @@ says and leaves out the point-to-point signs:
   and within -6.5 .. +8.5 dB from 25 to 150 Hz, where the lowest modes
   stand alone (overlap < 0.15) -- for every seed tested (1-8), one or two
   inputs and outputs (tests/test_body.py); the old board reached -55 dB.
-  Measured on the instrument (tools/study_body_evenness.py, velocity 80,
+  Measured on the instrument (a retired study, git show dbf4294:tools/study_body_evenness.py, velocity 80,
   keys 21-108), the median loudness step between adjacent keys is 1.2 dB
   (mono) / 1.4 dB (stereo) with the body against 0.45 dB for the bare
   strings and 2.7 dB with the old board; at partials 1-3 of every key the
