@@ -39,7 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
-from work_precision import note_partials, partial_errors  # noqa: E402  (tools/, on sys.path)
+from synth.apps.work_precision import note_partials, partial_errors
 
 ROOT = Path(__file__).resolve().parents[1]
 MUSICAL = ("grand-piano", "harpsichord", "sitar", "hammered-sitar", "biwa")

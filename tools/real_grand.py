@@ -36,28 +36,10 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from voicing_report import FS, attack_centroid_hz, decay, max_momentary  # noqa: E402
-
-from synth.analysis import estimate_f0, track_partials  # noqa: E402
-from synth.apps.grand_study import midi_of  # noqa: E402
-from synth.physics.piano import grand_string  # noqa: E402
-
-
-def load(path: Path) -> np.ndarray:
-    """The note at 48 kHz, mono (mean of the channels), from 2 ms before its
-    first sample above 1 % of its peak."""
-    import soundfile as sf
-    from scipy.signal import resample_poly
-
-    y, fs = sf.read(str(path), dtype="float64", always_2d=True)
-    y = y.mean(axis=1)
-    if fs != FS:
-        g = math.gcd(int(fs), FS)
-        y = resample_poly(y, FS // g, int(fs) // g)
-    i0 = int(np.argmax(np.abs(y) > 0.01 * np.max(np.abs(y))))
-    return y[max(0, i0 - int(0.002 * FS)):]
+from synth.analysis import attack_centroid_hz, estimate_f0, max_momentary_lufs, track_partials
+from synth.apps.grand_study import load_recording, midi_of
+from synth.apps.voicing import FS, decay
+from synth.physics.piano import grand_string
 
 
 def measure(folder: Path) -> dict:
@@ -67,14 +49,14 @@ def measure(folder: Path) -> dict:
     notes = {}
     for p in files:
         key, layer = midi_of(p.name)
-        y = load(p)
+        y = load_recording(p)
         # the recording's own partial 1, near this model's partial 1 of the key
         g = grand_string(key)
         f1 = estimate_f0(y[int(0.05 * FS):int(1.05 * FS)], FS, g.partial_hz(1), search_cents=60.0)
         d = decay(y, f1)
         notes[(key, layer)] = {
             "key": key, "layer": layer, "seconds": len(y) / FS,
-            "loudness_lufs": max_momentary(y), "centroid_100ms_hz": attack_centroid_hz(y),
+            "loudness_lufs": max_momentary_lufs(y, FS), "centroid_100ms_hz": attack_centroid_hz(y, FS),
             "t60_p1_s": d["t60_s"], "t60_early_s": d["t60_early_s"], "t60_late_s": d["t60_late_s"], "ratio": d["ratio"],
             "knee_drop_db": d["knee_drop_db"], "late_span_db": d["late_span_db"],
             "visible": bool(d["visible"])}

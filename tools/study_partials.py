@@ -95,11 +95,10 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-
-from voicing_report import Renderer, attack_centroid_hz, max_momentary  # noqa: E402
-
+from synth.analysis import attack_centroid_hz, max_momentary_lufs
+from synth.apps.voicing import FS, Renderer
 from synth.apps.grand_study import (  # noqa: E402
+    load_recording,
     BEAT_SPAN_S,
     DAMPING_BAND_HZ,
     DAMPING_FLOOR_DB,
@@ -139,13 +138,11 @@ def _real_folder(args, keys=()) -> Path:
 
 
 def _load_real(folder: Path, key: int, layer: int = 10):
-    from real_grand import load
-
     name = f"{_NAMES[key % 12]}{key // 12 - 1}v{layer}.ogg"
     p = next(folder.rglob(name), None)
     if p is None:
         raise SystemExit(f"study_partials: error: no sample {name} under {folder}")
-    return load(p)
+    return load_recording(p)
 
 
 def _scaled_renderers(args, path: str) -> list:
@@ -397,10 +394,10 @@ def una_corda(args) -> None:
     for key in args.keys:
         a = r.note(key, 80, 0.3)
         b = r.note(key, 80, 0.3, soft=True)
-        ca, cb = attack_centroid_hz(a), attack_centroid_hz(b)
+        ca, cb = attack_centroid_hz(a, FS), attack_centroid_hz(b, FS)
         f0 = et_f0_hz(key)
         print(f"| {key} | {100 * (cb / ca - 1):+.1f} % | {ca / f0:.2f} -> {cb / f0:.2f} | "
-              f"{max_momentary(b) - max_momentary(a):+.1f} |")
+              f"{max_momentary_lufs(b, FS) - max_momentary_lufs(a, FS):+.1f} |")
 
 
 def _keys(text: str) -> list:

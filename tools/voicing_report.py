@@ -31,8 +31,6 @@ import os
 import subprocess
 import sys
 import time
-from collections import OrderedDict
-from dataclasses import dataclass, field
 from pathlib import Path
 
 if "numba" not in sys.modules:
@@ -46,31 +44,31 @@ from synth.analysis import (  # noqa: E402
     attack_centroid_hz as _attack_centroid_hz,
     cents,
     click_scan,
-    decay_curve_db,
     estimate_f0,
     halo,
     max_momentary_lufs,
     peak_dbfs,
-    t60_s,
     track_partials,
-    two_stage_summary,
 )
-from synth.apps.voicing import (  # noqa: E402  (MIDI_FILES, QUICK_KEYS, Row: the report's)
+from synth.apps.voicing import (  # noqa: E402  (the report's pieces, tested there)
+    FS,
+    KNEE_MIN_DROP_DB,
+    KNEE_MIN_LATE_DB,
+    LATE_EARLY_MIN,
+    Renderer,
+    decay,
     MIDI_FILES,
     QUICK_KEYS,
     Row,
     channels,
     format_table,
     law_partials,
-    mono,
 )
 from synth.engine.engine import Event  # noqa: E402
 from synth.io.errors import SynthError  # noqa: E402
-from synth.io.factory import build_engine, build_voice  # noqa: E402
 from synth.physics.piano import grand_string  # noqa: E402
 
 SCHEMA = 1
-FS = 48_000
 #: a voice still sounding this long after a MIDI file's last event is stuck
 #: (10 s until 2026-11-27, when the strings' own decay was fitted to a
 #: recorded grand's aftersound and the undamped top strings rang past it)
@@ -90,84 +88,14 @@ BENCH_FACTOR = 1.5
 
 # the limits of the issue
 LIM = dict(range_db=35.0, centroid_ratio=2.0, partial_db=-25.0, step_db=3.0, fit_db=5.0,
-           treble_db=8.0, t60_treble_s=0.8, late_early=3.0, staccato_db=10.0, soft_change=0.10,
+           treble_db=8.0, t60_treble_s=0.8, late_early=LATE_EARLY_MIN, staccato_db=10.0, soft_change=0.10,
            cents_p1=1.0, cents_law=2.0, peak_dbfs=-1.0, jump_db=30.0, halo_gain_db=6.0)
-#: a knee is visible when the prompt sound falls at least this much before it
-#: and the aftersound at least this much after it (dB)
-KNEE_MIN_DROP_DB, KNEE_MIN_LATE_DB = 6.0, 10.0
 
 
 # --------------------------------------------------------------------------
 # rendering, with a cache
 # --------------------------------------------------------------------------
 
-@dataclass
-class Renderer:
-    """Renders single notes of one preset (fresh engine each, the voice's
-    key designs shared) and keeps them: a later request for the same note,
-    as long or shorter, is served from the cache (a prefix: a render is
-    deterministic), up to ``budget_mb`` of audio."""
-
-    preset: str
-    overrides: tuple
-    budget_mb: float = 200.0
-    voice: object = None
-    cache: OrderedDict = field(default_factory=OrderedDict)
-    render_s: float = 0.0
-    audio_s: float = 0.0
-    renders: int = 0
-    hits: int = 0
-
-    def __post_init__(self):
-        self.voice = build_voice(self.preset, self.overrides)
-
-    def tuning_hz(self, key):
-        return float(self.voice.tuning_hz(key))
-
-    def engine(self, low_key=None):
-        return build_engine(self.preset, self.overrides, fs_out=FS, extra_low_key=low_key,
-                            voice=self.voice)
-
-    def note(self, key, vel, seconds, *, sustain=False, soft=False, off_s=None, exact=False,
-             keep_s=None):
-        """Mono render of ``key`` at MIDI velocity ``vel`` from t = 0 for
-        ``seconds``; sustain pedal / soft pedal fully down from t = 0 if
-        asked; key up at ``off_s`` (None: held).
-
-        A render of the same note at least as long is reused (its prefix),
-        unless ``exact``: renders of different lengths end in blocks of
-        different sizes, and the decimator and soundboard then round
-        differently (by ~1e-18 of the signal), so two takes compared sample
-        for sample must be rendered alike.  ``keep_s``: keep only the first
-        ``keep_s`` in the cache (long decay renders)."""
-        n = int(round(seconds * FS))
-        tag = (int(key), int(vel), bool(sustain), bool(soft), off_s, n if exact else None)
-        y = self.cache.get(tag)
-        if y is not None and len(y) >= n:
-            self.cache.move_to_end(tag)
-            self.hits += 1
-            return y[:n]
-        ev = []
-        if sustain:
-            ev.append(Event(0.0, "control", 64, 1.0))
-        if soft:
-            ev.append(Event(0.0, "control", 67, 1.0))
-        ev.append(Event(0.0, "note_on", int(key), vel / 127.0))
-        if off_s is not None:
-            ev.append(Event(off_s, "note_off", int(key), 0.0))
-        t = time.perf_counter()
-        y = mono(self.engine(key).render(ev, duration_s=seconds))
-        self.render_s += time.perf_counter() - t
-        self.audio_s += seconds
-        self.renders += 1
-        if keep_s is not None and len(y) > int(keep_s * FS):
-            tag = tag[:-1] + (None,)
-            self.cache[tag] = y[:int(keep_s * FS)].copy()
-        else:
-            self.cache[tag] = y
-        while sum(v.nbytes for v in self.cache.values()) > self.budget_mb * 1e6 and len(self.cache) > 1:
-            self.cache.popitem(last=False)
-        return y
 
 
 # --------------------------------------------------------------------------
@@ -201,44 +129,6 @@ def tuning(y, key, f1_hz, seg_s=(0.05, 1.05)):
     return {"partial1_cents": float(cents(p1, f1_hz)), "law_cents": c.tolist(),
             "levels_db": (levels - np.nanmax(levels)).tolist(), "n_checked": int(ok.sum()),
             "n_law": N, "worst_n": j + 1, "worst_cents": float(c[j])}
-
-
-def _two_stage(y, f_hz, hop):
-    """The two-stage fit (to -50 dB) of the level of ``y`` (the whole note
-    for ``f_hz`` None, else its partial at ``f_hz``):
-    :func:`synth.analysis.two_stage_summary` with the report's limits."""
-    try:
-        d = two_stage_summary(y, FS, f_hz=f_hz, stop_db=-50.0, hop_s=hop,
-                              min_drop_db=KNEE_MIN_DROP_DB, min_late_db=KNEE_MIN_LATE_DB,
-                              min_ratio=LIM["late_early"])
-    except ValueError:
-        d = {"t60_early_s": None, "t60_late_s": None, "knee_s": None, "ratio": None,
-             "knee_drop_db": None, "late_span_db": None, "visible": False}
-    return d
-
-
-def decay(y, f1_hz):
-    """T60 of partial 1 (one line, -5 to -35 dB, or to -25 / -15 dB if it
-    does not fall that far), and the two-stage fit (to -50 dB) of the
-    note's whole level (what a listener hears fall fast, then slowly: the
-    prompt sound and the aftersound) with the knee's drop and the
-    aftersound's span; the same fit of partial 1 alone under ``p1_``
-    (beats between a unison's detuned strings cut notches of 20-40 dB into
-    one partial's level, which a two-line fit takes for a knee).  Level
-    frames every 10 ms, or every 1/1000 of a render longer than 10 s (the
-    knee search is quadratic in the frames)."""
-    hop = max(0.01, len(y) / FS / 1000.0)
-    out = {"t60_s": None, "t60_range_db": None}
-    for stop in (-35.0, -25.0, -15.0):
-        try:
-            out["t60_s"] = t60_s(y, FS, f_hz=f1_hz, stop_db=stop, hop_s=hop)
-            out["t60_range_db"] = stop
-            break
-        except ValueError:
-            continue
-    out.update(_two_stage(y, None, hop))
-    out.update({"p1_" + k: v for k, v in _two_stage(y, f1_hz, hop).items()})
-    return out
 
 
 def rms_db(x):

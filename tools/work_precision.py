@@ -68,7 +68,7 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.apps.work_precision import CAPO_MODES, capo_summary, orders
+from synth.apps.work_precision import CAPO_MODES, capo_summary, note_partials, orders, partial_errors
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -667,29 +667,6 @@ def decimator(designs, repeats: int, fs_in: int = 325_000, fs_out: int = 48_000)
 #: grand notes: keys and internal rates (the last is the reference)
 GRAND_KEYS = (33, 60, 84)
 GRAND_RATES = (162_500, 243_750, 325_000, 650_000, 1_300_000)
-
-
-def note_partials(y, fs, f1, B):
-    """Partials 1..16 (those under 10 kHz) of a note over 0.05 s on:
-    frequencies and levels (:func:`synth.analysis.track_partials`)."""
-    from synth.analysis.partials import track_partials
-
-    seg = y[int(0.05 * fs):]
-    n = max(1, min(16, int(10_000 / f1)))
-    f, lv, _ = track_partials(seg, fs, f1 / math.sqrt(1 + B), n, inharmonicity=B)
-    return f, lv
-
-
-def partial_errors(f, lv, fr, lr):
-    """(partials compared, worst frequency error in cents, worst level
-    error in dB) of partials (f, lv) against the reference's (fr, lr), over
-    the reference's partials within 40 dB of its strongest."""
-    keep = np.isfinite(fr) & np.isfinite(lr) & (lr >= np.nanmax(lr) - 40)
-    ok = keep & np.isfinite(f) & np.isfinite(lv)
-    if not ok.any():
-        return 0, math.nan, math.nan
-    return (int(ok.sum()), float(np.max(np.abs(1200 * np.log2(f[ok] / fr[ok])))),
-            float(np.max(np.abs(lv[ok] - lr[ok]))))
 
 
 def grand_notes(keys, rates, repeats: int):

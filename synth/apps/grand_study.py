@@ -25,10 +25,7 @@ import numpy as np
 
 from ..analysis import band_levels_db, estimate_f0, track_partials
 from ..physics.piano import et_f0_hz, grand_string
-
-#: the sample rate the measures read (Hz): the voicing report's renders and the recording's
-FS = 48_000
-
+from .voicing import FS  # the rate the measures read: the voicing report's renders and the recordings'
 
 N_PARTIALS = 8
 
@@ -236,3 +233,18 @@ def midi_of(name: str) -> tuple[int, int] | None:
     if not m:
         return None
     return 12 * (int(m.group(2)) + 1) + _PITCH[m.group(1)], int(m.group(3))
+
+
+def load_recording(path) -> np.ndarray:
+    """A recorded note (a file of ``path``) at 48 kHz (:data:`FS`), mono (mean of the channels), from 2 ms before its
+    first sample above 1 % of its peak."""
+    import soundfile as sf
+    from scipy.signal import resample_poly
+
+    y, fs = sf.read(str(path), dtype="float64", always_2d=True)
+    y = y.mean(axis=1)
+    if fs != FS:
+        g = math.gcd(int(fs), FS)
+        y = resample_poly(y, FS // g, int(fs) // g)
+    i0 = int(np.argmax(np.abs(y) > 0.01 * np.max(np.abs(y))))
+    return y[max(0, i0 - int(0.002 * FS)):]

@@ -2,7 +2,9 @@
 "Work and precision"), kept in the package so that they are tested from it:
 
 * :func:`orders`: observed orders of convergence from successive errors;
-* :func:`capo_summary`: the capo study's quantities of a mode-level vector.
+* :func:`capo_summary`: the capo study's quantities of a mode-level vector;
+* :func:`note_partials`, :func:`partial_errors`: a note's partials, and
+  their errors against a reference render's (also ``tools/quality_levels.py``'s).
 """
 
 from __future__ import annotations
@@ -10,6 +12,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
+
+from ..analysis import track_partials
 
 
 def orders(errors):
@@ -37,3 +41,24 @@ def capo_summary(d):
                 low=float(np.nanmean(d[:5])),
                 median=float(np.median(d[far])) if far.any() else math.nan,
                 gain=float(d[j - 1]) if j else math.nan, gain_mode=j)
+
+
+def note_partials(y, fs, f1, B):
+    """Partials 1..16 (those under 10 kHz) of a note over 0.05 s on:
+    frequencies and levels (:func:`synth.analysis.track_partials`)."""
+    seg = y[int(0.05 * fs):]
+    n = max(1, min(16, int(10_000 / f1)))
+    f, lv, _ = track_partials(seg, fs, f1 / math.sqrt(1 + B), n, inharmonicity=B)
+    return f, lv
+
+
+def partial_errors(f, lv, fr, lr):
+    """(partials compared, worst frequency error in cents, worst level
+    error in dB) of partials (f, lv) against the reference's (fr, lr), over
+    the reference's partials within 40 dB of its strongest."""
+    keep = np.isfinite(fr) & np.isfinite(lr) & (lr >= np.nanmax(lr) - 40)
+    ok = keep & np.isfinite(f) & np.isfinite(lv)
+    if not ok.any():
+        return 0, math.nan, math.nan
+    return (int(ok.sum()), float(np.max(np.abs(1200 * np.log2(f[ok] / fr[ok])))),
+            float(np.max(np.abs(lv[ok] - lr[ok]))))
