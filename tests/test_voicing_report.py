@@ -86,7 +86,7 @@ def test_the_quick_report_runs_and_prints_its_table(tmp_path):
     targets = ["C4 loudness, velocity 1 to 127", "partials 2-8", "adjacent keys", "smooth fit",
                "keys 97-108", "T60 of partial 1, keys 100-108", "two-stage decay", "staccato",
                "halo", "una corda", "partial 1 against the tuning curve", "stiff-string law",
-               "bench_grand"]
+               "bench grand"]
     # the five piano files live beside the repository (../shared/midi), not in
     # it: a checkout without them reports the MIDI rows as skipped
     if all((DEFAULT_MIDI_DIR / f).is_file() for f in vr.MIDI_FILES):

@@ -5,7 +5,7 @@
     python tools/voicing_report.py --quick            # few keys, short notes (CI, development)
     python tools/voicing_report.py --json r.json --plots docs/img/voicing
     python tools/voicing_report.py --set action.speed_max_m_per_s=7 --quick
-    python tools/voicing_report.py --bench            # also the cost (tools/bench_grand.py)
+    python tools/voicing_report.py --bench            # also the cost (tools/bench.py grand)
     python tools/voicing_report.py --before docs/voicing-before.json   # today's figures as a column
 
 Prints one row per target: what was measured, the value(s), the limit and
@@ -82,7 +82,7 @@ PEDAL_KEYS = (36, 48, 60, 72, 84)
 HALO_KEYS = (36, 60)
 SOFT_KEYS = (33, 48, 60, 72, 84, 96)
 
-#: today's cost (tools/bench_grand.py, docs/voicing.md): the limit is 1.5 x
+#: today's cost (tools/bench.py grand, docs/voicing.md): the limit is 1.5 x
 BENCH_BASELINE = {"sustain_ms": 5.80, "chord_pct": 33.1}
 BENCH_FACTOR = 1.5
 
@@ -521,13 +521,13 @@ class Report:
     # -- cost -------------------------------------------------------------------
     def bench(self):
         if not self.a.bench:
-            self.add("cost", "bench_grand: sustaining note, pedalled chord", "not run (--bench)",
+            self.add("cost", "bench grand: sustaining note, pedalled chord", "not run (--bench)",
                      f"<= {BENCH_FACTOR:g} x today's", "SKIP")
             return
-        p = subprocess.run([sys.executable, str(ROOT / "tools" / "bench_grand.py"), "--runs", "3"],
+        p = subprocess.run([sys.executable, str(ROOT / "tools" / "bench.py"), "grand", "--runs", "3"],
                            capture_output=True, text=True, env={**os.environ, "PYTHONPATH": str(ROOT)})
         if p.returncode != 0:
-            raise SynthError(f"tools/bench_grand.py failed: {p.stderr.strip().splitlines()[-1:]}")
+            raise SynthError(f"tools/bench.py grand failed: {p.stderr.strip().splitlines()[-1:]}")
         sus = chord = None
         for line in p.stdout.splitlines():
             if line.startswith("Mean over these keys:"):
@@ -535,12 +535,12 @@ class Report:
             if "note chord over the keyboard" in line:
                 chord = float(line.split(":")[1].split("%")[0])
         self.data["bench"] = {"sustain_ms": sus, "chord_pct": chord, "output": p.stdout}
-        for name, v, unit, base in (("bench_grand: sustaining note", sus, "ms/note-s",
+        for name, v, unit, base in (("bench grand: sustaining note", sus, "ms/note-s",
                                      BENCH_BASELINE["sustain_ms"]),
-                                    ("bench_grand: 64-note pedalled chord", chord, "% real time",
+                                    ("bench grand: 64-note pedalled chord", chord, "% real time",
                                      BENCH_BASELINE["chord_pct"])):
             self.add("cost", name, f"{v:.2f} {unit} ({v / base:.2f} x)", f"<= {BENCH_FACTOR:g} x {base:g}",
-                     v <= BENCH_FACTOR * base, v / base, "tools/bench_grand.py --runs 3: "
+                     v <= BENCH_FACTOR * base, v / base, "tools/bench.py grand --runs 3: "
                      + ("mean CPU per second of a sustaining note over its 10 keys" if unit == "ms/note-s"
                         else "2 s of a 64-note chord over the keyboard, sustain pedal down, whole engine"))
 
@@ -725,7 +725,7 @@ def main(argv=None) -> int:
     ap.add_argument("--midi-dir", default=str(DEFAULT_MIDI_DIR), help="folder of the five piano files")
     ap.add_argument("--midi-seconds", type=float, default=None,
                     help="render only the first S seconds of each file (quick: 4)")
-    ap.add_argument("--bench", action="store_true", help="also run tools/bench_grand.py (about 10 s)")
+    ap.add_argument("--bench", action="store_true", help="also run tools/bench.py grand (about 10 s)")
     ap.add_argument("--before", metavar="JSON", help="an earlier report's --json (e.g. "
                     "docs/voicing-before.json): its figures as a column")
     ap.add_argument("--silent", action="store_true", help="no progress on stderr")

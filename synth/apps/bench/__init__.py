@@ -48,7 +48,7 @@ def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     if not argv or argv[0] in ("-h", "--help"):
         print(usage())
-        return 0 if argv else 2
+        return 0
     name, rest = argv[0], argv[1:]
     if name not in BENCHMARKS:
         print(f"bench: NAME = {name!r} is not a benchmark; one of: {', '.join(BENCHMARKS)}",
