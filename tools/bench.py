@@ -9,6 +9,7 @@ its latest figures.
 import sys
 
 from synth.apps.bench import main
+from synth.cli import main as synth_main  # for `bench.py compile` (argparse-level imports only)
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(main(synth_main=synth_main))

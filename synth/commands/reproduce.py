@@ -57,6 +57,18 @@ def _given(args) -> list[str]:
     return out
 
 
+def _run_felt(argv) -> int:
+    """``synth felt ...`` (``argv[0] == "felt"``) in this process: the
+    commands the chapter 2 rows cite, whose JSON they read."""
+    from . import felt
+
+    if not argv or argv[0] != "felt":
+        raise ValueError(f"argv = {argv!r}: only synth felt commands run here")
+    parser = argparse.ArgumentParser(prog="synth felt")
+    felt.add_arguments(parser)
+    return felt.run(parser.parse_args(argv[1:]))
+
+
 def run(args: argparse.Namespace) -> int:
     for opt in _given(args):
         if opt not in OPTIONS[args.part]:
@@ -71,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
             require_extra("plots", "synth reproduce felt --png")
         from ..apps.reproduce import felt
 
-        return felt.run(png=args.png, quick=args.quick)
+        return felt.run(_run_felt, png=args.png, quick=args.quick)
     repeats = 3 if args.repeats is None else args.repeats
     if not 1 <= repeats <= 100:
         fail(f"--repeats = {repeats} is out of range (1 <= value <= 100)")

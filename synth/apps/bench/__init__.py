@@ -43,8 +43,10 @@ def usage() -> str:
             f"benchmarks:\n{rows}")
 
 
-def main(argv=None) -> int:
-    """Run benchmark ``argv[0]`` with the rest of ``argv``."""
+def main(argv=None, synth_main=None) -> int:
+    """Run benchmark ``argv[0]`` with the rest of ``argv`` (``synth_main``:
+    ``synth.cli.main``, for ``compile``, which profiles a synth command;
+    ``tools/bench.py`` hands it in)."""
     argv = sys.argv[1:] if argv is None else list(argv)
     if not argv or argv[0] in ("-h", "--help"):
         print(usage())
@@ -55,5 +57,5 @@ def main(argv=None) -> int:
               file=sys.stderr)
         return 2
     mod = importlib.import_module(f"synth.apps.bench.{BENCHMARKS[name][0]}")
-    rc = mod.main(rest)
+    rc = mod.main(rest, synth_main) if name == "compile" else mod.main(rest)
     return int(rc or 0)

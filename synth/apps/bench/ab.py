@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 
 
@@ -79,7 +78,3 @@ def main(argv=None) -> int:
     print(f"B ({' '.join(a.b) or 'as shipped'}): median {harness.summary(t['B'])[0]:.3f} s")
     print(f"A / B: median {r_med:.3f} (range {r_lo:.3f}-{r_hi:.3f})")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -187,7 +187,3 @@ def main(argv=None) -> int:
         print(f"key {k}: {run(k, f, env):,} instructions ({f})", flush=True)
         report(f, a.top)
     return 0
-
-
-if __name__ == "__main__":
-    raise SystemExit(main())

@@ -3,7 +3,9 @@
     NUMBA_CACHE_DIR=$(mktemp -d) python tools/bench.py compile note sitar --key 57 \
         --seconds 1 -o /tmp/x.wav [--top 25] [--json OUT.json]
 
-Runs the command in this process (``synth.cli.main``) with a listener on
+Runs the command in this process (``synth.cli.main``, which
+``tools/bench.py`` hands in: the package's apps do not import the command
+line above them) with a listener on
 numba's ``numba:compile`` event (one event per function and signature that
 numba compiles, i.e. did not find in its cache) and on ``numba:llvm_lock``
 (LLVM's share).  Compiles nest: a caller's type inference compiles its
@@ -88,7 +90,11 @@ def _LLVM(rec):
     return T()
 
 
-def main(argv=None) -> int:
+def main(argv=None, synth_main=None) -> int:
+    """Profile ``synth ARGV`` run by ``synth_main`` (``synth.cli.main``)."""
+    if synth_main is None:
+        raise SystemExit("bench compile: run it as python tools/bench.py compile COMMAND ... "
+                         "(it profiles the synth command line)")
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--top", type=int, default=30)
     ap.add_argument("--json", help="write every row as JSON here")
@@ -96,8 +102,6 @@ def main(argv=None) -> int:
     rec = Recorder()
     install(rec)
     t0, w0 = time.process_time(), time.perf_counter()
-    from synth.cli import main as synth_main
-
     rc = synth_main(rest)
     cpu, wall = time.process_time() - t0, time.perf_counter() - w0
     rows = sorted(rec.rows, key=lambda r: -r["exclusive"])
@@ -118,6 +122,3 @@ def main(argv=None) -> int:
             json.dump(dict(cmd=rest, cpu=cpu, wall=wall, rows=rec.rows), f, indent=1)
     return rc
 
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -71,7 +71,3 @@ def main(argv=None):
               f"latency={dec.latency_s * 1e3:.3f} ms  {ns:7.1f} ns/output  "
               f"{ms:6.2f} ms per s of audio  (block {a.block} outputs)")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

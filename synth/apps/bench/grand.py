@@ -221,7 +221,3 @@ def main(argv=None) -> int:
     print(f"A sustain-pedal change with 64 released voices: {pedal_event(a.runs) * 1e6:.0f} us "
           f"to apply.")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -136,7 +136,3 @@ def main(argv=None) -> int:
               f"{m['lanes', 1] / m['lanes', 0]:.2f} | {m['scalar', 0]:.2f} | "
               f"{m['scalar', 1]:.2f} | {m['scalar', 1] / m['scalar', 0]:.2f} |")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -732,7 +732,3 @@ def main(argv=None) -> int:
                       f"{r['mean'] * 100:.0f}% | {r['over']} of {r['blocks']} | {r['underruns']} | "
                       f"{each} | {most} |", flush=True)
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -404,7 +404,3 @@ def main(argv=None) -> int:
     if not ok:
         print("FAIL: the skip changed a render's samples", file=sys.stderr)
     return 0 if ok else 1
-
-
-if __name__ == "__main__":
-    sys.exit(main())

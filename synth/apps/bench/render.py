@@ -518,7 +518,3 @@ def main(argv=None) -> int:
               f"{r['ek']:.2f} ({'met' if r['ek'] <= 1.3 else 'MISSED'}), render/kernel "
               f"{r['rk']:.2f} ({'met' if r['rk'] <= 1.3 else 'MISSED'})")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

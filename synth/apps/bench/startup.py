@@ -46,7 +46,3 @@ def main(argv=None) -> int:
             warm = run(preset, d)
         print(f"| {preset} | {cold:.2f} | {warm:.2f} |", flush=True)
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

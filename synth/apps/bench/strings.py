@@ -315,7 +315,3 @@ def main(argv=None):
             ok = "met" if res[case, S] <= target else "MISSED"
             print(f"  {case:<{w}} bank {S:>3}: {res[case, S]:6.2f} ns  {ok}")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

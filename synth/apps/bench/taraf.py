@@ -30,7 +30,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import os
-import sys
 import time
 
 
@@ -86,7 +85,3 @@ def main(argv=None) -> int:
         print(f"{k:>17}: median {harness.summary(t)[0]:.3f} s, {r_med:.2f}x bare "
               f"(range {r_lo:.2f}-{r_hi:.2f})")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -39,13 +39,18 @@ FIG26_TIMES = "4.5,6.75,9"
 THIRDS = "0,3.3333333,6.6666667,10"
 #: the pulses' grid step (``--quick``: twice the commands' default 0.005)
 DX = {"dx": 0.005, "args": ""}
+#: what runs a ``synth`` command line in this process and returns its exit
+#: status (:func:`run` is handed it by ``synth reproduce``: the apps do not
+#: import the command line above them)
+RUNNER = {"run": None}
 
 
 def synth_json(cmd: str, png_dir: str | None = None, png: str | None = None):
     """Run ``synth CMD --json`` in this process (and ``--plot PNG_DIR/PNG``)
     and return its JSON."""
-    from synth.cli import main
-
+    main = RUNNER["run"]
+    if main is None:
+        raise RuntimeError("no synth command runner: run this through synth reproduce felt")
     argv = shlex.split(cmd) + ["--json"]
     if argv[:2] == ["felt", "pulse"] and DX["args"]:
         argv += shlex.split(DX["args"])
@@ -465,9 +470,12 @@ def failed(rs) -> list:
             and not abs(r["check"][0] - r["check"][1]) <= r["check"][2]]
 
 
-def run(png: str | None = None, quick: bool = False) -> int:
+def run(run_command, png: str | None = None, quick: bool = False) -> int:
     """Print the table (``png``: also draw the figures into that folder;
-    ``quick``: pulses on a grid twice as coarse); 1 if a check failed."""
+    ``quick``: pulses on a grid twice as coarse); 1 if a check failed.
+    ``run_command(argv) -> int`` runs ``synth ARGV`` in this process (the
+    felt lab's commands, whose JSON the rows read)."""
+    RUNNER["run"] = run_command
     DX.update(dx=0.01, args="--dx 0.01") if quick else DX.update(dx=0.005, args="")
     rs = rows(png)
     print(markdown(rs))
