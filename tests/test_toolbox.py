@@ -234,3 +234,10 @@ def test_window_energy_db():
     assert window_energy_db(x, fs, 0.5, 0.75) == pytest.approx(10 * math.log10(250 * 4.0))
     assert window_energy_db(x, fs, 0.6, 0.7) == pytest.approx(10 * math.log10(100 * 4.0))
     assert window_energy_db(x, fs, 0.0, 0.5) == -math.inf
+
+
+def test_benchmarks_page_stays_a_user_page():
+    """docs/benchmarks.md holds the current tables (issue 38: at most 400
+    lines); the history is in docs/lab/."""
+    n = len((ROOT / "docs" / "benchmarks.md").read_text("utf-8").splitlines())
+    assert n <= 400, n

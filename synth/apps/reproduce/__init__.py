@@ -15,8 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..engine.engine import Event
-from ..io.factory import build_engine
+from ...engine.engine import Event
+from ...io.factory import build_engine
 
 
 def a7_run(name, sets=(), times_s=(), probe_s=0.0065, fs_internal=None):
