@@ -91,7 +91,7 @@ ONE = np.int64(1)
 #: ``_c``) are therefore ``inline="always"``: a cold sitar note compiled
 #: 45.4 CPU s before, 34.7 after, with the serial ``nt`` None variant of
 #: :func:`_coupled_blocks` (alternated, loaded 2-vCPU Xeon, 2026-11-29,
-#: tools/compile_profile.py).  The blocks' bodies (``_block_a``, ``_c``)
+#: tools/bench.py compile).  The blocks' bodies (``_block_a``, ``_c``)
 #: are not: inlined, numba's typing of the nest took 113 CPU s and 1.7 GB.
 #: members of a coupled group stepped together as one block (a multiple of
 #: the lanes of :func:`coupled._far_lanes`, so that the lanes group the
