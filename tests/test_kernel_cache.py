@@ -94,12 +94,23 @@ def _numba_sites(path):
 
 def test_no_numba_code_outside_kernels():
     """Only ``synth/kernels`` is hashed: no other module of ``synth`` may
-    compile numba functions (they could be cached, or call a kernel)."""
+    compile numba functions (they could be cached, or call a kernel), but
+    the benchmarks' own timing loops and naive references
+    (``synth/apps/bench``), which are never cached: compiled afresh in
+    each run, they cannot keep a stale kernel."""
     assert _numba_sites(KERNELS / "energy.py")            # the check sees a kernel
     assert _numba_sites(KERNELS / "lanes.py")             # and an intrinsic
-    outside = [site for p in (ROOT / "synth").rglob("*.py") if KERNELS not in p.parents
+    bench = ROOT / "synth" / "apps" / "bench"
+    outside = [site for p in (ROOT / "synth").rglob("*.py")
+               if KERNELS not in p.parents and bench not in p.parents
                for site in _numba_sites(p)]
     assert outside == []
+    for p in bench.glob("*.py"):
+        if _numba_sites(p):
+            text = p.read_text(encoding="utf-8")
+            assert "cache=True" not in text, p.name
+            if re.search(r"\b(JIT|SERIAL|PAR)_OPTS\b", text):
+                assert "cache=False" in text, p.name    # the kernels' options, uncached
 
 
 def test_every_kernel_is_cached_in_the_keyed_folder():
@@ -285,3 +296,69 @@ def test_callee_edit_gives_fresh_code(tmp_path, numba_cache_dir):
     k4, _ = run()
     assert k4[:2] == (2.5, 1)
     assert folder.is_dir()                               # kept: within KEEP
+
+
+def _racing_saves(root, guarded):
+    """Two processes' saves of two signatures of one function, interleaved
+    as numba's unlocked save lets them be: A reads the empty index, B reads
+    it too, A writes its index, B writes its index and its data, A writes its
+    data last.  Threads stand for the processes; hooks on the two
+    ``IndexDataCacheFile`` objects order them (each wait gives up after
+    0.3 s, as it must when the guard's lock keeps B out until A is done).
+    Returns what a later process finds: {key: data} through the index."""
+    import threading
+
+    from numba.core import caching
+
+    cls = caching.IndexDataCacheFile
+    path = str(root / "kernels_x")
+    os.makedirs(path, exist_ok=True)
+    a = cls(path, "f-1.py311", "stamp")
+    b = cls(path, "f-1.py311", "stamp")
+    a_read, b_read, a_index, b_done = (threading.Event() for _ in range(4))
+
+    def hook(obj, name, before=None, after=None):
+        plain = getattr(obj, name)
+
+        def run(*args):
+            if before:
+                before()
+            out = plain(*args)
+            if after:
+                after()
+            return out
+        setattr(obj, name, run)
+
+    hook(a, "_load_index", after=lambda: (a_read.set(), b_read.wait(0.3)))
+    hook(b, "_load_index", before=lambda: a_read.wait(0.3), after=b_read.set)
+    hook(a, "_save_index", after=a_index.set)
+    hook(b, "_save_index", before=lambda: a_index.wait(0.3))
+    hook(a, "_save_data", before=lambda: (a_index.set(), b_done.wait(0.3)))
+    save = cls.save if guarded else getattr(cls.save, "__wrapped_plain__", None)
+    assert save is not None
+    tb = threading.Thread(target=lambda: (save(b, "key-int64", "code for int64"), b_done.set()))
+    ta = threading.Thread(target=lambda: save(a, "key-none", "code for none"))
+    ta.start()
+    tb.start()
+    ta.join(10)
+    tb.join(10)
+    c = cls(path, "f-1.py311", "stamp")
+    return {k: c.load(k) for k in ("key-none", "key-int64")}
+
+
+@pytest.mark.parametrize("guarded", [False, True])
+def test_two_processes_saving_two_signatures_never_swap_their_code(tmp_path, guarded):
+    """numba's own save, so interleaved, leaves the index naming int64's
+    signature and the data file holding None's code (a later process runs
+    code compiled for other types: a grand note crashed with signal 11 on
+    such a cache).  With synth.kernels.cache's guard (a lock around the
+    save, the data written before the index) each signature found loads its
+    own code.  The guard covers only the keyed folder's saves."""
+    C.install_save_lock(tmp_path)
+    got = _racing_saves(tmp_path, guarded)
+    if guarded:
+        for key, code in (("key-none", "code for none"), ("key-int64", "code for int64")):
+            assert got[key] in (None, code), got
+        assert any(v is not None for v in got.values())
+    else:
+        assert got["key-int64"] == "code for none", got     # the race the guard closes

@@ -236,4 +236,99 @@ def load_keyed(package: str, folder: str | os.PathLike, name: str = NAME,
         except OSError:
             pass
         prune(path, name, keep)
+        install_save_lock(path)
     return path
+
+
+#: name of the lock file in a keyed folder (:func:`install_save_lock`)
+LOCK_NAME = ".save.lock"
+_LOCKED_ROOTS: set[str] = set()
+
+
+def install_save_lock(root: str | os.PathLike) -> bool:
+    """Make numba's saves of cache entries under ``root`` safe between
+    processes; returns whether the guard is in place.
+
+    numba 0.68 saves an entry (``IndexDataCacheFile.save``) by reading the
+    function's index, naming the data file by the first number that no
+    signature in it uses, writing the index and then the data, with no
+    lock.  Two processes that compile two signatures of one function at
+    once (two test workers, two Dask workers, ``render_big_groups`` typed
+    with ``nt`` None in one and int64 in the other) can both take number 1:
+    the index then names one signature and the data file holds the other's
+    code, and every later process that loads that signature runs code
+    compiled for other types (a grand note crashed with signal 11 on such a
+    cache, and rendered on a fresh one).  The guard takes an exclusive lock
+    on ``root/.save.lock`` (``fcntl.flock``) around the whole save and writes
+    the data before the index, so an index never names data that is not
+    there or not its own.  Loads take no lock: both files are replaced
+    atomically (numba writes a temporary file and renames it).  Without
+    ``fcntl`` (Windows) only the order is changed."""
+    try:
+        from numba.core import caching
+    except ImportError:                      # pragma: no cover
+        return False
+    cls = getattr(caching, "IndexDataCacheFile", None)
+    need = ("save", "_load_index", "_save_index", "_save_data", "_data_name")
+    if cls is None or not all(hasattr(cls, a) for a in need):
+        return False                         # another numba: leave it as it is
+    _LOCKED_ROOTS.add(os.path.abspath(os.fspath(root)))
+    if getattr(cls.save, "_synth_locked", False):
+        return True
+    plain = cls.save
+
+    def save(self, key, data):
+        cache_path = os.path.abspath(getattr(self, "_cache_path", ""))
+        roots = [r for r in _LOCKED_ROOTS if cache_path == r or cache_path.startswith(r + os.sep)]
+        if not roots:
+            return plain(self, key, data)
+        with _flocked(os.path.join(roots[0], LOCK_NAME)):
+            overloads = self._load_index()
+            data_name = overloads.get(key)
+            if data_name is None:
+                used = set(overloads.values())
+                i = 1
+                while self._data_name(i) in used:
+                    i += 1
+                data_name = self._data_name(i)
+            self._save_data(data_name, data)
+            overloads[key] = data_name
+            self._save_index(overloads)
+
+    save._synth_locked = True
+    save.__wrapped_plain__ = plain
+    cls.save = save
+    return True
+
+
+class _flocked:
+    """An exclusive ``fcntl.flock`` on ``path`` (created) for a ``with``
+    block; nothing where ``fcntl`` or the file is not available."""
+
+    def __init__(self, path: str):
+        self.path = path
+        self.fd = None
+
+    def __enter__(self):
+        try:
+            import fcntl
+        except ImportError:                  # pragma: no cover (Windows)
+            return self
+        try:
+            self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            fcntl.flock(self.fd, fcntl.LOCK_EX)
+        except OSError:
+            if self.fd is not None:
+                os.close(self.fd)
+            self.fd = None
+        return self
+
+    def __exit__(self, *exc):
+        if self.fd is not None:
+            import fcntl
+
+            try:
+                fcntl.flock(self.fd, fcntl.LOCK_UN)
+            finally:
+                os.close(self.fd)
+        return False
