@@ -86,6 +86,68 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+class _SkipBlasProbe:
+    """numba's first kernel load in a process (from its cache too) imports
+    its numpy library, ``numba.np.arraymath``, which probes for a BLAS by
+    importing ``scipy.linalg.cython_blas``: all of ``scipy.linalg``, 0.18
+    of the 1.15 CPU s of a warm ``synth note sitar`` (2-vCPU Xeon,
+    docs/benchmarks.md "Start-up").  The kernels call no BLAS (no
+    ``np.dot``, ``np.convolve``, ``np.correlate``, ``np.cov``), so the
+    command line lets the probe fail: while that one module executes,
+    ``sys.modules["scipy.linalg.cython_blas"]`` is None (its import raises
+    ImportError before ``scipy.linalg`` is imported), and then the entry is
+    gone and scipy imports as usual.  The only effect beyond the time:
+    numba code compiled later in the same process computes a float
+    ``np.convolve``/``np.correlate``/``np.cov`` with its own loops instead
+    of BLAS (``np.dot`` checks for BLAS again when it compiles).  Only the
+    ``synth`` command installs it (:func:`main` run from the command line):
+    a library user's process is left as it is.  A one-shot finder on
+    ``sys.meta_path``: it removes itself at its module's import."""
+
+    MODULE = "numba.np.arraymath"
+    PROBE = "scipy.linalg.cython_blas"
+
+    def find_spec(self, name, path=None, target=None):
+        if name != self.MODULE:
+            return None
+        import importlib.util
+
+        sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(name)
+        if (spec is None or spec.loader is None or "scipy.linalg" in sys.modules
+                or self.PROBE in sys.modules):
+            return spec
+        spec.loader = _ProbeFails(spec.loader, self.PROBE)
+        return spec
+
+    @classmethod
+    def install(cls) -> None:
+        if cls.MODULE not in sys.modules and not any(isinstance(f, cls) for f in sys.meta_path):
+            sys.meta_path.insert(0, cls())
+
+
+class _ProbeFails:
+    """A module's loader that executes it with ``probe`` unimportable (None
+    in ``sys.modules``), and otherwise is the module's own loader."""
+
+    def __init__(self, loader, probe: str) -> None:
+        self._loader, self._probe = loader, probe
+
+    def __getattr__(self, name):
+        return getattr(self._loader, name)
+
+    def create_module(self, spec):
+        return self._loader.create_module(spec)
+
+    def exec_module(self, module) -> None:
+        sys.modules[self._probe] = None
+        try:
+            self._loader.exec_module(module)
+        finally:
+            if sys.modules.get(self._probe, 0) is None:
+                del sys.modules[self._probe]
+
+
 def _warn_preset_path() -> None:
     """One line on stderr for each $SYNTH_PRESET_PATH entry that is not a
     folder (a typo is otherwise ignored without a word)."""
@@ -113,6 +175,7 @@ def main(argv=None) -> int:
         _warn_preset_path()
     if argv is None and args.cmd in RENDERING:
         arm_compile_notice()
+        _SkipBlasProbe.install()
     try:
         if getattr(args, "threads", None) is not None:
             from .io.factory import set_default_threads

@@ -5,6 +5,7 @@ compile (synth.dsp.compile_notice)."""
 from __future__ import annotations
 
 import io
+import json
 import os
 import re
 import subprocess
@@ -242,3 +243,67 @@ def test_a_sitar_note_compiles_no_parallel_loop():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, env=env).stdout.split("\n")[-2]
     assert out == "0 0 ['none']", out
+
+
+LEAN_SCRIPT = r"""
+import json, sys
+import synth.cli
+sys.argv = ["synth", *sys.argv[1:]]
+rc = synth.cli.main()
+import numba.np.arraymath
+import synth.kernels.render as KR
+print("JSON " + json.dumps({
+    "rc": rc,
+    "scipy.linalg": "scipy.linalg" in sys.modules,
+    "prime_threads": len(KR.prime_threads.signatures),
+    "parallel kernels": sorted(n for n in ("_shard_tasks_par", "_tasks_a_par", "_tasks_c_par")
+                               if getattr(KR, n).signatures),
+}))
+from synth.io.live import ready_engine
+ready_engine("biwa")
+print("JSON " + json.dumps({"primed for live": len(KR.prime_threads.signatures)}))
+"""
+
+
+@pytest.mark.slow  # a one-note render and a live engine's warm-up in a subprocess
+def test_a_one_note_command_starts_no_thread_team_and_no_scipy(tmp_path):
+    """A warm start does only what the note needs (issue 39): on 2 threads,
+    a one-note ``synth note`` run from the command line renders without a
+    parallel loop (less work than PAR_MIN_WORK), so it neither loads the
+    priming kernel nor starts OpenMP's team (synth.dsp.threads.set_priming,
+    off offline), and numba's BLAS probe does not import scipy.linalg
+    (synth.cli._SkipBlasProbe).  Live play still primes before the stream
+    opens (ready_engine)."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT), SYNTH_THREADS="2", NUMBA_NUM_THREADS="2",
+               SYNTH_COMPILE_NOTICE="0")
+    p = subprocess.run([sys.executable, "-c", LEAN_SCRIPT, "note", "sitar", "--key", "57",
+                        "--seconds", "0.2", "-o", "a.wav"], env=env, cwd=str(tmp_path),
+                       capture_output=True, text=True, timeout=1800)
+    assert p.returncode == 0, p.stderr
+    note, live = (json.loads(x.split("\n", 1)[0]) for x in p.stdout.split("JSON ")[1:])
+    assert note == {"rc": 0, "scipy.linalg": False, "prime_threads": 0, "parallel kernels": []}
+    assert live == {"primed for live": 1}
+
+
+def test_priming_is_for_live_play_only():
+    """threads.enter primes a thread's team only when asked (set_priming,
+    or prime=True): a new thread's first enter does not, a later one that
+    is asked to does, once."""
+    import threading
+
+    from synth.dsp import threads as TH
+
+    if TH.max_threads() < 2:
+        pytest.skip("numba has one thread (NUMBA_NUM_THREADS)")
+    seen = []
+
+    def run():
+        seen.append((TH.enter(2, prime=False), getattr(TH._local, "primed", False)))
+        seen.append((TH.enter(2, prime=True), getattr(TH._local, "primed", False)))
+        seen.append((TH.enter(2), getattr(TH._local, "primed", False)))
+
+    t = threading.Thread(target=run)
+    t.start()
+    t.join()
+    assert seen == [(2, False), (2, True), (2, True)]
+    assert TH._prime is False

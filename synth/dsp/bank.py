@@ -1105,7 +1105,7 @@ class StringBank(Excitations, Bridges):
         ubx = np.zeros(max(1, self._ext_sub))
         none = self.active[:0]
         c = 0
-        nt = threads.enter(self.threads)
+        nt = threads.enter(self.threads, prime=True)     # the priming kernel too
         KR.bank_kind(none, 0, self.ipar, self.fpar, c)
         KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
                           self.probe, self._scratch2, self._iwork2, ubx, self._sub3,

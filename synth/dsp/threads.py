@@ -24,6 +24,7 @@ _local = threading.local()
 _default: int | None = None
 _layer_checked = False
 _layer_ok = True
+_prime = False
 
 
 def available_cores() -> int:
@@ -86,29 +87,43 @@ def resolve(threads: int | None) -> int:
     return default_threads() if threads is None else check_threads(threads)
 
 
-def enter(n: int) -> int:
+def set_priming(on: bool) -> None:
+    """Whether :func:`enter` creates a rendering thread's OpenMP team at
+    its first call (live play, :func:`synth.io.live.ready_engine`: the
+    audio thread's team exists before the first big chord needs it).  Off
+    by default: offline, the team starts with the first loop that runs in
+    parallel, and a render that never runs one (a note: less work than
+    :data:`synth.kernels.render.PAR_MIN_WORK`) neither loads the priming
+    kernel nor starts the team."""
+    global _prime
+    _prime = bool(on)
+
+
+def enter(n: int, prime: bool | None = None) -> int:
     """Make numba run ``prange`` loops launched from this thread on ``n``
-    threads (numba's setting is per calling thread; the first call in a
-    thread also creates its team of worker threads,
-    :func:`synth.kernels.render.prime_threads`); returns the count to
-    render with: ``n``, or 1 if numba's threading layer turned out to be
-    its workqueue (which costs 130 us a loop and aborts when two threads
-    launch loops at once: warned once)."""
+    threads (numba's setting is per calling thread); with ``prime`` (None:
+    as :func:`set_priming` says) the first call in a thread also creates
+    its team of worker threads (:func:`synth.kernels.render.prime_threads`).
+    Returns the count to render with: ``n``, or 1 if numba's threading
+    layer turned out to be its workqueue (which costs 130 us a loop and
+    aborts when two threads launch loops at once: warned once)."""
     if n <= 1 or not _layer_ok:
         return 1
-    if getattr(_local, "n", 0) != n:
+    prime = _prime if prime is None else prime
+    if getattr(_local, "n", 0) != n or (prime and not getattr(_local, "primed", False)):
         import numba
-        import numpy as np
-
-        from ..kernels.render import prime_threads
 
         numba.set_num_threads(n)
         _check_layer()
         if not _layer_ok:
             return 1
-        if not getattr(_local, "primed", False):
+        if prime and not getattr(_local, "primed", False):
             # this thread's first loop creates its OpenMP team (~0.1 ms):
             # now, not at the first big chord
+            import numpy as np
+
+            from ..kernels.render import prime_threads
+
             prime_threads(n, np.zeros(n, dtype=np.int64))
             _local.primed = True
         _local.n = n

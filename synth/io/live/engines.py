@@ -40,12 +40,16 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
     SynthError
         The preset does not load or its voice cannot be built.
     """
+    from synth.dsp import threads
     from synth.dsp.bank import StringBank
     from synth.io.factory import build_engine, build_voice
 
     # live: every scene through the one kernel, loaded before the stream
     # opens (a narrower one compiled mid-performance would stall the audio)
     StringBank.whole_kernel = True
+    # and each rendering thread's OpenMP team started at its first block,
+    # not at the first chord that renders in parallel
+    threads.set_priming(True)
     voice = None if instruments is None else instruments.get(preset_name)
     if voice is None:
         voice = build_voice(preset_name, overrides)
