@@ -270,3 +270,22 @@ def test_stiff_targets():
 def test_errors_name_the_parameter(call, name):
     with pytest.raises(ValueError, match=rf"^{name} = "):
         call()
+
+
+def test_the_tuning_allpass_is_allpass_for_phase_delay_to_the_bit():
+    """_Problem.tune writes allpass_for_phase_delay out (no call per value,
+    for start-up time): the same floats for every remainder, and the grid's
+    section delays shared by every M give the same errors as computed per M."""
+    from synth.physics.dispersion.first_order import _Problem
+    from synth.physics.losses import allpass_for_phase_delay
+
+    pb = _Problem(261.6, 4e-4, 48000.0, 12, -0.01)
+    disp = np.linspace(0.0, 3.0, 257)
+    N, extra, eta = pb.tune(disp)
+    rest = pb.P1 - pb.lp1 - disp - pb.fixed
+    rem = rest - 2.0 * np.floor((rest - 0.5) / 2.0) - extra
+    assert eta.tolist() == [allpass_for_phase_delay(float(r), pb.w1) for r in rem]
+    a = np.expm1(np.linspace(-16.0, 0.6, 101))
+    d = pb.section_delays(a)
+    for M in (1, 3):
+        assert np.array_equal(pb.cents(M, a, d)[0], pb.cents(M, a)[0])

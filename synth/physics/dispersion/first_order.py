@@ -50,7 +50,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..losses import allpass_for_phase_delay, allpass_phase_delay, one_pole_phase_delay
+from ..losses import allpass_phase_delay, one_pole_phase_delay
 from .common import (
     CENTS_PER_LN,
     F_MAX_HZ,
@@ -156,15 +156,27 @@ class _Problem:
         rem = rest - 2.0 * N                          # in [0.5, 2.5)
         extra = (rem >= 1.5).astype(int)
         rem = rem - extra
-        eta = np.array([allpass_for_phase_delay(float(r), self.w1) for r in rem.ravel()])
+        # allpass_for_phase_delay(r, w1) for each r, written out: the same
+        # operations on the same floats, without a call per value (a grand's
+        # sympathetic strings ask for 236 000 of them at start-up)
+        w, sin = self.w1, math.sin
+        eta = np.array([sin((1.0 - r) * w / 2.0) / sin((1.0 + r) * w / 2.0)
+                        for r in rem.ravel().tolist()])
         return N.astype(np.int64), extra, eta.reshape(rem.shape)
 
-    def cents(self, M: int, a):
+    def section_delays(self, a) -> np.ndarray:
+        """Phase delay (samples) of one section of each ``a`` at every
+        partial, (A, K): what :meth:`cents` computes first, for any M."""
+        a = np.atleast_1d(np.asarray(a, dtype=float))
+        return section_phase_delay(a[:, None], self.w[None, :])
+
+    def cents(self, M: int, a, d=None):
         """Signed errors (cents) of every partial for M sections of each ``a``
-        (array of shape (A,) -> (A, K)), and the tuning (N, extra, eta)."""
+        (array of shape (A,) -> (A, K)), and the tuning (N, extra, eta).
+        ``d``: :meth:`section_delays` of ``a`` if known (the same for every M)."""
         a = np.atleast_1d(np.asarray(a, dtype=float))
         if M:
-            d = section_phase_delay(a[:, None], self.w[None, :])
+            d = self.section_delays(a) if d is None else d
             disp1 = M * d[:, 0]
             Dd = M * (d - d[:, :1])
         else:
@@ -211,8 +223,9 @@ def _design(f0_hz: float, B: float, fs: float, m_max: int, K: int, tol_cents: fl
     a = np.expm1(u)                                   # -1 < a <= 0.9
     Ms = np.arange(1, m_max + 1)
     cum = np.empty((m_max, len(u), K))
+    d = pb.section_delays(a)                          # the same for every M
     for i, M in enumerate(Ms):
-        c, N, _, _, _ = pb.cents(int(M), a)
+        c, N, _, _, _ = pb.cents(int(M), a, d)
         c = np.abs(c)
         c[N < MIN_CELLS] = np.inf                     # no room left for the grid
         cum[i] = np.maximum.accumulate(c, axis=1)     # worst over 1 .. k+1
