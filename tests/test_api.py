@@ -66,7 +66,8 @@ def test_import_synth_and_help_load_no_numpy_until_the_api_is_used():
         "print(sorted(synth.__all__))\n")
     p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
-    assert "['Audio', 'Instrument', 'presets', 'render_midi', 'render_note']" in p.stdout
+    assert ("['Audio', 'Instrument', 'MidiStream', 'presets', 'render_midi', 'render_note', "
+            "'stream_midi']") in p.stdout
 
 
 def test_the_package_names_the_api_and_nothing_else():
@@ -347,6 +348,59 @@ def test_render_midi_refuses_a_broken_file(tmp_path):
         synth.render_midi(tmp_path / "missing.mid", preset="sitar")
     with pytest.raises(ValueError, match="is not a MIDI file's path or a mido.MidiFile"):
         synth.render_midi(b"MThd", preset="sitar")
+
+
+def test_stream_midi_gives_render_midi_s_samples_block_by_block(tmp_path):
+    """The blocks (float64, (frames, channels)) are render_midi's samples;
+    the stream runs once; its notes are said to log as they come."""
+    lines = []
+    s = synth.stream_midi(_phrase(), "sitar", max_seconds=0.3, log=lines.append)
+    assert isinstance(s, synth.MidiStream)
+    assert (s.fs, s.channels, s.seconds) == (48_000, 1, 0.3)
+    assert lines == s.notes and "rendering its first 0.3 s (--max-seconds 0.3)" in lines[0]
+    blocks = list(s)
+    assert len(blocks) > 1 and all(b.dtype == np.float64 and b.shape[1] == 1 for b in blocks)
+    y = np.concatenate(blocks)
+    assert s.cut and len(y) == round(0.3 * 48_000)
+    assert np.array_equal(y.astype(np.float32),
+                          synth.render_midi(_phrase(), "sitar", max_seconds=0.3).samples)
+    with pytest.raises(RuntimeError, match="already run"):
+        next(iter(s))
+
+
+@pytest.mark.parametrize("kw, fragment", [
+    (dict(internal_rate=1000), "internal_rate = 1000 is out of range (20000 <= value <= 2e+06 Hz)"),
+    (dict(mpe="middle"), "mpe = 'middle': 'middle' is not a zone"),
+    (dict(mpe=7), "mpe = 7 is not a text of MPE zones"),
+    (dict(log="stderr"), "log = 'stderr' is not callable"),
+])
+def test_stream_midi_errors_name_the_parameter(kw, fragment):
+    with pytest.raises(ValueError) as e:
+        synth.stream_midi(_phrase(), "sitar", **kw)
+    assert fragment in str(e.value), str(e.value)
+
+
+def test_synth_render_renders_through_the_api(tmp_path, monkeypatch):
+    """The command line is built on the API (issue 39): ``synth render``
+    takes its blocks from synth.api.stream_midi, with its options as the
+    API's arguments (channels numbered 1-16, MPE zones as text)."""
+    import synth.api.render as AR
+
+    calls = []
+    real = AR.stream_midi
+
+    def spy(*a, **kw):
+        calls.append((a, kw))
+        return real(*a, **kw)
+
+    monkeypatch.setattr(AR, "stream_midi", spy)
+    path = tmp_path / "phrase.mid"
+    _phrase(path)
+    assert main(["render", str(path), "--preset", "sitar", "--max-seconds", "0.3",
+                 "--channels", "1,3", "--mpe", "lower:7", "-o", str(tmp_path / "r.wav")]) == 0
+    (a, kw), = calls
+    assert a[:2] == (str(path), "sitar")
+    assert kw["channels"] == [1, 3] and kw["mpe"] == "lower:7" and kw["max_seconds"] == 0.3
 
 
 # --------------------------------------------------------------------------

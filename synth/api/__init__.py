@@ -9,6 +9,9 @@
 * :func:`render_note`: one note of a preset (``synth note``);
 * :func:`render_midi`: a MIDI file, by path or as a ``mido.MidiFile``
   (``synth render``);
+* :func:`stream_midi`: the same render block by block (a
+  :class:`MidiStream`), one block in memory at a time: ``synth render``
+  writes its file from it;
 * :class:`Instrument`: events given one by one, the audio rendered chunk by
   chunk, :meth:`Instrument.reset`;
 * :func:`presets`: the preset names (``synth presets``);
@@ -23,13 +26,15 @@ Its layer, ``api``, sits beside the command line (tests/test_layers.py):
 like a command it takes MIDI units at the edge and checks them
 (:mod:`synth.api.checks`, ValueError naming the parameter, the value and
 the range) before it reaches ``apps``, ``io`` and the engine below it,
-and ``synth note`` renders through it (:mod:`synth.api.render`).
+and ``synth note`` and ``synth render`` render through it
+(:mod:`synth.api.render`).
 """
 
 from __future__ import annotations
 
 from .audio import Audio
 from .instrument import Instrument
-from .render import presets, render_midi, render_note
+from .render import MidiStream, presets, render_midi, render_note, stream_midi
 
-__all__ = ["Audio", "Instrument", "presets", "render_midi", "render_note"]
+__all__ = ["Audio", "Instrument", "MidiStream", "presets", "render_midi", "render_note",
+           "stream_midi"]

@@ -14,11 +14,12 @@ from contextlib import contextmanager
 
 import numpy as np
 
+from ..apps.render import PreparedRender
 from ..io.errors import SynthError
 from .audio import Audio
 from .checks import API_NAMES, check_note, check_real, check_set
 
-__all__ = ["render_note", "render_midi", "presets", "note_engine", "check_playable", "play_note",
+__all__ = ["render_note", "render_midi", "stream_midi", "MidiStream", "presets", "note_engine", "check_playable", "play_note",
            "user_errors", "check_preset", "check_rate"]
 
 
@@ -186,8 +187,139 @@ def _check_channels(channels):
     return out
 
 
+def _check_mpe(mpe):
+    """MPE zones as ``--mpe`` writes them (``"lower"``, ``"lower:7,upper:7"``)
+    -> the engine's ((manager channel, members), ...); None: none."""
+    if mpe is None:
+        return ()
+    if not isinstance(mpe, str):
+        raise ValueError(f"mpe = {mpe!r} is not a text of MPE zones (lower, upper, lower:N, "
+                         "upper:N, e.g. 'lower:7,upper:7')")
+    from ..engine.mpe import parse_mpe
+
+    try:
+        return parse_mpe(mpe)
+    except ValueError as e:
+        raise ValueError(str(e).replace("--mpe = ", "mpe = ", 1)) from None
+
+
+def _check_internal_rate(internal_rate):
+    if internal_rate is None:
+        return None
+    return check_real("internal_rate", internal_rate, 20_000.0, 2_000_000.0, unit="Hz")
+
+
+class MidiStream(PreparedRender):
+    """A MIDI file's render, block by block (:func:`stream_midi`): iterate
+    it once for the blocks, float64 arrays of shape (frames, channels) at
+    :attr:`fs`, the samples :func:`render_midi` returns (as float32) and
+    ``synth render`` writes, a block at a time (about 50 ms each).
+
+    Attributes
+    ----------
+    fs : int
+        Output sample rate (Hz).
+    channels : int
+        1 or 2.
+    seconds : float
+        The least audio the render gives (s): up to the last event plus
+        0.5 s of tail, or ``max_seconds`` when the file is cut there (the
+        release tail may add up to 30 s).
+    notes : list of str
+        What ``synth render`` says on stderr before rendering
+        (``warning: ...`` of a file of more than 30 min, ``note: ...`` of a
+        cut file or of keys outside the preset's range).
+    cut : bool
+        After the iteration: whether the sound was cut at ``max_seconds``.
+    ignored : dict
+        Messages of the file not played, by name, with their counts (after
+        the iteration: with those the engine ignored).
+    """
+
+    def __init__(self, prep: PreparedRender) -> None:
+        super().__init__(prep.plan, prep.engine, prep.shown, prep.preset, prep.notes,
+                         prep.ignored, prep.max_seconds)
+
+    @property
+    def fs(self) -> int:
+        return int(self.engine.fs_out)
+
+    @property
+    def channels(self) -> int:
+        return int(self.engine.channels)
+
+    @property
+    def seconds(self) -> float:
+        return float(self.plan.expected_s)
+
+    def __iter__(self):
+        for b in self.blocks():
+            yield b.reshape(len(b), -1)
+
+
+def stream_midi(midi, preset, set=None, *, max_seconds: float | None = None, channels=None,
+                drums: bool = False, rate: int | None = None,
+                internal_rate: float | None = None, mpe: str | None = None,
+                log=None) -> MidiStream:
+    """Render a Standard MIDI File with a preset block by block, holding
+    one block in memory at a time (``synth render`` writes its file from
+    it): :func:`render_midi`'s arguments, and
+
+    Parameters
+    ----------
+    internal_rate : float or None
+        Internal sample rate of the strings (Hz), 20000-2000000; None: the
+        preset's (``--internal-rate``).
+    mpe : str or None
+        MPE zones, as ``--mpe`` takes them: ``"lower"``, ``"upper"``,
+        ``"lower:N"``, ``"upper:N"`` or ``"lower:7,upper:7"``; None: plain
+        MIDI.
+    log : callable or None
+        Called with each line of :attr:`MidiStream.notes` as soon as it is
+        known (the file's length before the engine is built).
+
+    Returns
+    -------
+    MidiStream
+        Iterate it once: float64 blocks of shape (frames, channels).
+
+    Raises
+    ------
+    ValueError
+        As :func:`render_midi`, before any rendering.
+
+    Examples
+    --------
+    >>> s = stream_midi("song.mid", "sitar", max_seconds=10)        # doctest: +SKIP
+    >>> peak = max(abs(b).max() for b in s)                         # doctest: +SKIP
+    """
+    from ..apps.render import prepare_render
+
+    preset = check_preset(preset)
+    overrides = check_set(set)
+    if max_seconds is not None:
+        from ..io.midi import MAX_DURATION_S
+
+        max_seconds = check_real("max_seconds", max_seconds, 0.0, MAX_DURATION_S, lo_open=True,
+                                 unit="s")
+    chans = _check_channels(channels)
+    fs = check_rate(rate)
+    internal_rate = _check_internal_rate(internal_rate)
+    zones = _check_mpe(mpe)
+    if log is not None and not callable(log):
+        raise ValueError(f"log = {log!r} is not callable (a function of one line of text)")
+    ignored: dict = {}
+    with user_errors():
+        raw, shown = _midi_events(midi, ignored)
+        prep = prepare_render(raw, shown, preset, overrides, ignored=ignored,
+                              internal_rate=internal_rate, rate=fs, max_seconds=max_seconds,
+                              channels=chans, drums=bool(drums), mpe=zones, log=log)
+    return MidiStream(prep)
+
+
 def render_midi(midi, preset, set=None, *, max_seconds: float | None = None, channels=None,
-                drums: bool = False, rate: int | None = None) -> Audio:
+                drums: bool = False, rate: int | None = None, internal_rate: float | None = None,
+                mpe: str | None = None) -> Audio:
     """Render a Standard MIDI File with a preset (``synth render``).
 
     Parameters
@@ -209,6 +341,8 @@ def render_midi(midi, preset, set=None, *, max_seconds: float | None = None, cha
         default its messages are skipped (``--drums``).
     rate : int or None
         Output sample rate (Hz), 22050-192000; None: 48000.
+    internal_rate, mpe
+        As :func:`stream_midi` (``--internal-rate``, ``--mpe``).
 
     Returns
     -------
@@ -223,32 +357,11 @@ def render_midi(midi, preset, set=None, *, max_seconds: float | None = None, cha
         An unreadable or broken file, a file without notes, a bad preset
         or override, an argument out of range: one line naming it.
     """
-    from ..apps.render import CUT_FADE_S, TAIL_S, _Cut, plan_render
-    from ..io.factory import build_engine
-    from ..io.midi import MAX_DURATION_S, midi_to_events
-
-    preset = check_preset(preset)
-    overrides = check_set(set)
-    if max_seconds is not None:
-        max_seconds = check_real("max_seconds", max_seconds, 0.0, MAX_DURATION_S, lo_open=True,
-                                 unit="s")
-    chans = _check_channels(channels)
-    fs = check_rate(rate)
-    ignored: dict = {}
-    with user_errors():
-        raw, shown = _midi_events(midi, ignored)
-        events = midi_to_events(raw, channels=chans, drums=bool(drums), ignored=ignored)
-        plan = plan_render(events, max_seconds, shown)
-        eng = build_engine(preset, overrides, fs_out=fs, extra_low_key=min(plan.keys))
-    if plan.duration_s is not None:
-        blocks = eng.render_blocks(plan.events, duration_s=plan.duration_s)
-    else:
-        blocks = eng.render_blocks(plan.events, tail_s=TAIL_S, max_tail_s=plan.max_tail_s)
-    n_max = None if max_seconds is None else int(round(max_seconds * fs))
-    parts = [np.asarray(b, dtype=np.float32).reshape(len(b), -1)
-             for b in _Cut(blocks, n_max, int(round(CUT_FADE_S * fs)), plan.cut)]
-    y = np.concatenate(parts) if parts else np.zeros((0, eng.channels), dtype=np.float32)
-    return Audio(y, eng.fs_out)
+    s = stream_midi(midi, preset, set, max_seconds=max_seconds, channels=channels, drums=drums,
+                    rate=rate, internal_rate=internal_rate, mpe=mpe)
+    parts = [np.asarray(b, dtype=np.float32) for b in s]
+    y = np.concatenate(parts) if parts else np.zeros((0, s.channels), dtype=np.float32)
+    return Audio(y, s.fs)
 
 
 def presets() -> list[str]:

@@ -34,6 +34,7 @@ import os
 import sys
 import time
 from collections.abc import Callable, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -49,6 +50,11 @@ __all__ = [
     "plan_render",
     "render_midi",
     "render_midi_file",
+    "PreparedRender",
+    "prepare_render",
+    "write_render",
+    "output_interruptible",
+    "log_stderr",
     "ignored_lines",
     "format_length",
     "LONG_RENDER_S",
@@ -397,16 +403,30 @@ def render_midi(req: RenderRequest, *, log: Callable[[str], None] | None = None,
         no temporary file left; its ``detail`` says so.
     """
     if log is None:
-        def log(line: str) -> None:
-            print(line, file=sys.stderr, flush=True)
+        log = log_stderr
     if stream is None:
         stream = sys.stderr
     _check_max_seconds(req.max_seconds)
-    shown_out = display_path(req.output)
-    existed = os.path.lexists(req.output)
+    with output_interruptible(req.output):
+        return _render(req, log, stream)
+
+
+def log_stderr(line: str) -> None:
+    """A ``note:``/``warning:`` line on stderr, at once."""
+    print(line, file=sys.stderr, flush=True)
+
+
+@contextmanager
+def output_interruptible(output: str):
+    """SIGINT and SIGTERM stop the work within (:func:`synth.io.interrupt.
+    interruptible`) with an :class:`Interrupted` whose ``detail`` says what
+    became of ``output``: "was not written", or "was left as it was" when it
+    existed before."""
+    shown_out = display_path(output)
+    existed = os.path.lexists(output)
     with interruptible():
         try:
-            return _render(req, log, stream)
+            yield
         except Interrupted as e:
             kept = "was left as it was" if existed else "was not written"
             raise Interrupted(e.signum, f"{shown_out} {kept}") from None
@@ -424,72 +444,200 @@ def render_midi_file(req: RenderRequest, *, log: Callable[[str], None] | None = 
 
 
 def _render(req: RenderRequest, log, stream) -> RenderResult:
-    from ..io.factory import build_engine
-    from ..io.midi import midi_to_events, read_midi_file     # looked up now: tests patch them
-    from ..io.wav import wav_max_frames, write_wav_stream
+    from ..io.midi import read_midi_file     # looked up now: tests patch it
 
-    shown = display_path(req.midi_file)
     ignored: dict = {}
-    events = midi_to_events(read_midi_file(req.midi_file, dropped=ignored),
-                            channels=None if req.channels is None else set(req.channels),
-                            drums=req.drums, ignored=ignored)
-    plan = plan_render(events, req.max_seconds, shown)
-    for line in plan.notes:
-        log(line)
-    eng = build_engine(req.preset, req.overrides, fs_internal=req.internal_rate,
+    raw = read_midi_file(req.midi_file, dropped=ignored)
+    prep = prepare_render(raw, display_path(req.midi_file), req.preset, req.overrides,
+                          ignored=ignored, internal_rate=req.internal_rate, rate=req.rate,
+                          max_seconds=req.max_seconds,
+                          channels=None if req.channels is None else set(req.channels),
+                          drums=req.drums, mpe=req.mpe, log=log)
+    return write_render(prep, req.output, pcm24=req.pcm24, fmt=req.fmt, log=log, stream=stream)
+
+
+class PreparedRender:
+    """A MIDI file's render made ready: its events planned
+    (:func:`plan_render`), the engine built, nothing rendered yet
+    (:func:`prepare_render`).  :meth:`blocks` runs it once;
+    :func:`write_render` writes it to a file.  The Python API's
+    :class:`synth.api.MidiStream` is one.
+
+    Attributes
+    ----------
+    plan : RenderPlan
+    engine : synth.engine.engine.Engine
+    shown : str
+        The file's name in messages.
+    preset : str
+        The preset as given (messages).
+    notes : list of str
+        The ``note:``/``warning:`` lines of the plan and the preset's range,
+        said before rendering.
+    ignored : dict
+        Messages of the file not played, by name, with their counts; after
+        the render, with those the engine ignored.
+    max_seconds : float or None
+        The cap (s), or None.
+    cut : bool
+        After :meth:`blocks`: whether the sound was cut at ``max_seconds``.
+    """
+
+    def __init__(self, plan: RenderPlan, engine, shown: str, preset: str, notes: list,
+                 ignored: dict, max_seconds: float | None) -> None:
+        self.plan, self.engine, self.shown, self.preset = plan, engine, shown, preset
+        self.notes, self.ignored, self.max_seconds = notes, ignored, max_seconds
+        self.cut = plan.cut
+        self._started = False
+
+    def blocks(self, progress=None, *, interruptible: bool = False):
+        """The render's blocks as the engine gives them (float64,
+        ``(frames,)`` mono or ``(frames, channels)``), cut at
+        ``max_seconds`` with the fade-out; ``progress`` is called with the
+        output samples done (``Engine.render_blocks``); with
+        ``interruptible`` it stops with :class:`Interrupted` between
+        blocks once a signal has arrived (:func:`_checked`).  Runs once:
+        an engine renders from time 0 only once."""
+        if self._started:
+            raise RuntimeError("this render has already run (prepare it again to render again)")
+        self._started = True
+        eng, plan = self.engine, self.plan
+        if plan.duration_s is not None:
+            blocks = eng.render_blocks(plan.events, duration_s=plan.duration_s, progress=progress)
+        else:
+            blocks = eng.render_blocks(plan.events, tail_s=TAIL_S, max_tail_s=plan.max_tail_s,
+                                       progress=progress)
+        if interruptible:
+            blocks = _checked(blocks)
+        fs = eng.fs_out
+        n_max = None if self.max_seconds is None else int(round(self.max_seconds * fs))
+        cut = _Cut(blocks, n_max, int(round(CUT_FADE_S * fs)), plan.cut)
+        yield from cut
+        self.cut = cut.cut
+        for what, n in eng.ignored.items():
+            self.ignored[what] = self.ignored.get(what, 0) + n
+
+
+def prepare_render(raw, shown: str, preset, overrides=(), *, ignored: dict | None = None,
+                   internal_rate: float | None = None, rate: int | None = None,
+                   max_seconds: float | None = None, channels=None, drums: bool = False,
+                   mpe=(), log: Callable[[str], None] | None = None) -> PreparedRender:
+    """Plan a MIDI file's events and build the engine that plays them.
+
+    Parameters
+    ----------
+    raw : list of synth.io.midi.MidiEvent
+        The file's messages (:func:`synth.io.midi.read_midi_file`).
+    shown : str
+        The file's name in messages.
+    preset, overrides
+        Preset name or ``.toml`` path, and its ``--set`` texts.
+    ignored : dict or None
+        Messages the reader dropped, by name (added to, with those of
+        ``channels`` and ``drums``).
+    internal_rate, rate : float or None
+        The strings' rate and the output rate (Hz); None: the preset's and
+        48 kHz.
+    max_seconds : float or None
+        ``--max-seconds`` (checked here).
+    channels : set of int or None
+        The 0-based MIDI channels that play; None: all.
+    drums : bool
+        Play channel 10 too.
+    mpe : tuple of (int, int)
+        MPE zones (:attr:`RenderRequest.mpe`).
+    log : callable or None
+        Receives the ``note:``/``warning:`` lines as soon as they are known
+        (they are kept in :attr:`PreparedRender.notes` too).
+
+    Raises
+    ------
+    SynthError
+        One line: bad ``--max-seconds``, no notes, a bad preset or override.
+    """
+    from ..io.factory import build_engine
+    from ..io.midi import midi_to_events     # looked up now: tests patch it
+
+    _check_max_seconds(max_seconds)
+    ignored = {} if ignored is None else ignored
+    events = midi_to_events(raw, channels=channels, drums=drums, ignored=ignored)
+    plan = plan_render(events, max_seconds, shown)
+    notes = list(plan.notes)
+    for line in notes:
+        if log is not None:
+            log(line)
+    eng = build_engine(preset, overrides, fs_internal=internal_rate,
                        extra_low_key=min(plan.keys),
-                       **({} if req.rate is None else {"fs_out": int(req.rate)}))
-    eng.set_mpe_zones(req.mpe)
-    preset = eng.inst.preset
-    if preset.kind == "musical":
-        lo, hi = preset.play.key_low, preset.play.key_high
+                       **({} if rate is None else {"fs_out": int(rate)}))
+    eng.set_mpe_zones(mpe)
+    p = eng.inst.preset
+    if p.kind == "musical":
+        lo, hi = p.play.key_low, p.play.key_high
         out_of = sum(1 for k in plan.keys if not (lo <= k <= hi))
         if out_of:
-            log(f"note: {out_of} of {len(plan.keys)} notes are outside {req.preset}'s range "
-                f"{lo}..{hi}; they are played on the string retuned or fretted to that pitch")
+            line = (f"note: {out_of} of {len(plan.keys)} notes are outside {os.fspath(preset)}'s "
+                    f"range {lo}..{hi}; they are played on the string retuned or fretted to "
+                    "that pitch")
+            notes.append(line)
+            if log is not None:
+                log(line)
+    return PreparedRender(plan, eng, shown, os.fspath(preset), notes, ignored, max_seconds)
+
+
+def write_render(prep: PreparedRender, output: str, *, pcm24: bool = False, fmt: str = "wav",
+                 log: Callable[[str], None] | None = None, stream=None) -> RenderResult:
+    """Render ``prep`` into the audio file ``output``, written as rendered
+    (atomically: :func:`synth.io.wav.write_wav_stream`), with the progress
+    bar on ``stream`` if it is a terminal, stopping between blocks once
+    SIGINT or SIGTERM has arrived (run it within
+    :func:`synth.io.interrupt.interruptible`, as :func:`render_midi` does).
+
+    Raises
+    ------
+    SynthError
+        A length beyond what a WAV file holds, a failed write.
+    Interrupted
+        A signal: nothing written.
+    """
+    from ..io.wav import wav_max_frames, write_wav_stream
+
+    log = log or (lambda line: None)
+    eng, plan, shown = prep.engine, prep.plan, prep.shown
     fs = eng.fs_out
-    subtype = "pcm24" if req.pcm24 else "float"
+    subtype = "pcm24" if pcm24 else "float"
     limit_s = wav_max_frames(eng.channels, subtype) / fs
-    if req.fmt == "wav" and plan.expected_s > limit_s:
+    if fmt == "wav" and plan.expected_s > limit_s:
         kind = {1: "mono", 2: "stereo"}.get(eng.channels, f"{eng.channels}-channel")
         raise SynthError(f"{shown}: {format_length(plan.expected_s)} of {kind} "
-                         f"{'24-bit PCM' if req.pcm24 else '32-bit float'} audio is more than a WAV "
+                         f"{'24-bit PCM' if pcm24 else '32-bit float'} audio is more than a WAV "
                          f"file holds ({format_length(limit_s)}); give --max-seconds "
                          f"(0 < value <= {math.floor(limit_s)} s)")
     bar = (_Progress(plan.expected_s, fs, stream, f"rendering {shown}")
            if stream is not None and _is_terminal(stream) else None)
-    if plan.duration_s is not None:
-        blocks = eng.render_blocks(plan.events, duration_s=plan.duration_s, progress=bar)
-    else:
-        blocks = eng.render_blocks(plan.events, tail_s=TAIL_S, max_tail_s=plan.max_tail_s,
-                                   progress=bar)
-    n_max = None if req.max_seconds is None else int(round(req.max_seconds * fs))
-    cut = _Cut(_checked(blocks), n_max, int(round(CUT_FADE_S * fs)), plan.cut)
+    blocks = prep.blocks(bar, interruptible=True)
     from ..dsp.compile_notice import compile_seconds, timing_note
 
     c0 = compile_seconds()
     t = time.perf_counter()
     try:
         # written as rendered: the whole render is never in memory
-        res = write_wav_stream(req.output, cut, fs, eng.channels, subtype, fmt=req.fmt)
+        res = write_wav_stream(output, blocks, fs, eng.channels, subtype, fmt=fmt)
     finally:
         if bar is not None:
             bar.close()
     comp = compile_seconds() - c0
     el = time.perf_counter() - t - comp
-    if cut.cut and not plan.cut:
-        log(f"note: the sound is cut at {format_length(req.max_seconds)} "
-            f"(--max-seconds {req.max_seconds:g}), before it has died away")
+    if prep.cut and not plan.cut:
+        log(f"note: the sound is cut at {format_length(prep.max_seconds)} "
+            f"(--max-seconds {prep.max_seconds:g}), before it has died away")
     clip = f", {res.n_clipped} samples clipped" if res.n_clipped else ""
     dur = res.frames / fs
-    for what, n in eng.ignored.items():
-        ignored[what] = ignored.get(what, 0) + n
-    for line in ignored_lines(ignored):
+    for line in ignored_lines(prep.ignored):
         log(line)
     stolen = f", {eng.n_stolen} voices stolen (polyphony {eng.polyphony})" if eng.n_stolen else ""
-    summary = (f"{req.output}: {dur:.1f} s, {len(plan.keys)} notes on {req.preset}{stolen}, "
+    summary = (f"{output}: {dur:.1f} s, {len(plan.keys)} notes on {prep.preset}{stolen}, "
                f"peak {res.peak_dbfs:.1f} dBFS{clip}, "
                f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)"
                f"{timing_note(comp)}")
-    return RenderResult(dur, len(plan.keys), el, summary, eng.n_stolen, dict(ignored),
-                        res.peak_dbfs, res.n_clipped, float(preset.output.gain))
+    return RenderResult(dur, len(plan.keys), el, summary, eng.n_stolen, dict(prep.ignored),
+                        res.peak_dbfs, res.n_clipped, float(eng.inst.preset.output.gain))

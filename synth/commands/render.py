@@ -1,4 +1,5 @@
-"""`synth render`: a MIDI file through a preset into an audio file (synth.apps.render)."""
+"""`synth render`: a MIDI file through a preset into an audio file (synth.api.stream_midi,
+written by synth.apps.render.write_render)."""
 
 from __future__ import annotations
 
@@ -57,10 +58,16 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    """A MIDI file through a preset into an audio file (synth.apps.render:
-    the 30-minute warning, --max-seconds, the progress bar, Ctrl-C and
-    SIGTERM)."""
-    from ..apps.render import RenderRequest, render_midi
+    """A MIDI file through a preset into an audio file: the Python API's
+    stream (:func:`synth.api.stream_midi`: its checks, the file read and
+    planned, the engine built), written as it renders by
+    :func:`synth.apps.render.write_render` (the 30-minute warning,
+    --max-seconds, the progress bar, Ctrl-C and SIGTERM, the atomic
+    write).  Options are checked here first, under their own names."""
+    from ..api.render import stream_midi
+    from ..apps.render import (_check_max_seconds, log_stderr, output_interruptible,
+                               write_render)
+    from ..engine.mpe import LOWER
 
     check_output(args.output, "-o")
     fmt = audio_format(args.output, "-o")
@@ -68,13 +75,19 @@ def run(args) -> int:
         fail(f"--pcm24 is for WAV files: -o {args.output} is Ogg Vorbis (give a .wav file)")
     check_not_inputs([("-o", args.output)], [("MIDI file", args.midi_file),
                                               ("preset", preset_file(args.preset))])
+    _check_max_seconds(args.max_seconds)
+    if args.internal_rate is not None and not (20_000 <= args.internal_rate <= 2_000_000):
+        fail(f"--internal-rate = {args.internal_rate} is out of range (20000 <= value <= 2000000 Hz)")
     args.set = list(args.set) + quality_overrides(args)
-    req = RenderRequest(midi_file=args.midi_file, preset=args.preset, output=args.output,
-                        overrides=tuple(args.set), internal_rate=args.internal_rate,
-                        pcm24=args.pcm24, max_seconds=args.max_seconds,
-                        channels=args.channels, drums=args.drums, rate=output_rate(args),
-                        mpe=args.mpe, fmt=fmt)
-    res = render_midi(req)
+    rate = output_rate(args)
+    mpe = ",".join(f"{'lower' if m == LOWER else 'upper'}:{n}" for m, n in args.mpe) or None
+    with output_interruptible(args.output):
+        midi = stream_midi(args.midi_file, args.preset, args.set, max_seconds=args.max_seconds,
+                             channels=None if args.channels is None else [c + 1 for c in args.channels],
+                             drums=args.drums, rate=rate, internal_rate=args.internal_rate,
+                             mpe=mpe, log=log_stderr)
+        res = write_render(midi, args.output, pcm24=args.pcm24, fmt=fmt, log=log_stderr,
+                           stream=sys.stderr)
     warn = peak_warning(args.output, res.peak_dbfs, res.output_gain, res.n_clipped)
     if warn:
         print(warn, file=sys.stderr)
