@@ -19,7 +19,8 @@ from ..io.errors import SynthError
 from .audio import Audio
 from .checks import API_NAMES, check_note, check_real, check_set
 
-__all__ = ["render_note", "render_midi", "stream_midi", "MidiStream", "presets", "note_engine", "check_playable", "play_note",
+__all__ = ["render_note", "render_midi", "stream_midi", "MidiStream", "presets", "note_engine",
+           "check_playable", "play_note",
            "user_errors", "check_preset", "check_rate"]
 
 

@@ -54,6 +54,7 @@ __all__ = [
     "prepare_render",
     "write_render",
     "output_interruptible",
+    "check_max_seconds",
     "log_stderr",
     "ignored_lines",
     "format_length",
@@ -221,7 +222,8 @@ def format_length(seconds: float) -> str:
     return f"{hms} ({s} s)"
 
 
-def _check_max_seconds(max_seconds: float | None) -> None:
+def check_max_seconds(max_seconds: float | None) -> None:
+    """``--max-seconds``: None, or 0 < value <= MAX_DURATION_S (SynthError naming it)."""
     if max_seconds is None:
         return
     if not (0.0 < max_seconds <= MAX_DURATION_S):     # also NaN
@@ -251,7 +253,7 @@ def plan_render(events: Sequence, max_seconds: float | None = None, shown: str =
         ``--max-seconds`` out of range, a file without notes, or no note
         starting before ``--max-seconds``.
     """
-    _check_max_seconds(max_seconds)
+    check_max_seconds(max_seconds)
     events = list(events)
     notes = [e for e in events if e.kind == "note_on" and e.value > 0]
     if not notes:
@@ -406,7 +408,7 @@ def render_midi(req: RenderRequest, *, log: Callable[[str], None] | None = None,
         log = log_stderr
     if stream is None:
         stream = sys.stderr
-    _check_max_seconds(req.max_seconds)
+    check_max_seconds(req.max_seconds)
     with output_interruptible(req.output):
         return _render(req, log, stream)
 
@@ -439,7 +441,7 @@ def render_midi_file(req: RenderRequest, *, log: Callable[[str], None] | None = 
     (:mod:`synth.apps.batch_worker`), whose process its nanny stops.  The write is
     atomic all the same.  ``log`` defaults to nothing; ``stream`` to none
     (no progress bar)."""
-    _check_max_seconds(req.max_seconds)
+    check_max_seconds(req.max_seconds)
     return _render(req, log or (lambda line: None), stream)
 
 
@@ -558,7 +560,7 @@ def prepare_render(raw, shown: str, preset, overrides=(), *, ignored: dict | Non
     from ..io.factory import build_engine
     from ..io.midi import midi_to_events     # looked up now: tests patch it
 
-    _check_max_seconds(max_seconds)
+    check_max_seconds(max_seconds)
     ignored = {} if ignored is None else ignored
     events = midi_to_events(raw, channels=channels, drums=drums, ignored=ignored)
     plan = plan_render(events, max_seconds, shown)

@@ -65,7 +65,7 @@ def run(args) -> int:
     --max-seconds, the progress bar, Ctrl-C and SIGTERM, the atomic
     write).  Options are checked here first, under their own names."""
     from ..api.render import stream_midi
-    from ..apps.render import (_check_max_seconds, log_stderr, output_interruptible,
+    from ..apps.render import (check_max_seconds, log_stderr, output_interruptible,
                                write_render)
     from ..engine.mpe import LOWER
 
@@ -75,17 +75,18 @@ def run(args) -> int:
         fail(f"--pcm24 is for WAV files: -o {args.output} is Ogg Vorbis (give a .wav file)")
     check_not_inputs([("-o", args.output)], [("MIDI file", args.midi_file),
                                               ("preset", preset_file(args.preset))])
-    _check_max_seconds(args.max_seconds)
+    check_max_seconds(args.max_seconds)
     if args.internal_rate is not None and not (20_000 <= args.internal_rate <= 2_000_000):
-        fail(f"--internal-rate = {args.internal_rate} is out of range (20000 <= value <= 2000000 Hz)")
+        fail(f"--internal-rate = {args.internal_rate} is out of range "
+             "(20000 <= value <= 2000000 Hz)")
     args.set = list(args.set) + quality_overrides(args)
     rate = output_rate(args)
     mpe = ",".join(f"{'lower' if m == LOWER else 'upper'}:{n}" for m, n in args.mpe) or None
+    channels = None if args.channels is None else [c + 1 for c in args.channels]   # 1-16
     with output_interruptible(args.output):
         midi = stream_midi(args.midi_file, args.preset, args.set, max_seconds=args.max_seconds,
-                             channels=None if args.channels is None else [c + 1 for c in args.channels],
-                             drums=args.drums, rate=rate, internal_rate=args.internal_rate,
-                             mpe=mpe, log=log_stderr)
+                           channels=channels, drums=args.drums, rate=rate,
+                           internal_rate=args.internal_rate, mpe=mpe, log=log_stderr)
         res = write_render(midi, args.output, pcm24=args.pcm24, fmt=fmt, log=log_stderr,
                            stream=sys.stderr)
     warn = peak_warning(args.output, res.peak_dbfs, res.output_gain, res.n_clipped)
