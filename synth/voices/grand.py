@@ -90,13 +90,13 @@ import numpy as np
 
 from ..dsp.bank import HammerTemplate, SlotTemplate, StringBank, hammer_template, slot_template
 from ..kernels import strings as K
-from ..physics import dampers as damper_laws
 from ..physics import piano as P
 from ..physics.dispersion import BridgeLag, retune_sos_loop, tune_stiff_loop_sos
 from ..physics.profiles import Termination, capo
 from ..physics.soundboard import knock_impulse_ns
 from ..physics.dispersion import tune_stiff_loop
 from .base import BankSizes, SympatheticDesign, Voice
+from .dampers import KeyboardDampers
 from .quality import quality_level
 from .registry import register_voice
 
@@ -146,7 +146,7 @@ class GrandStringSetup:
 
 
 @register_voice("grand")
-class GrandPianoInstrument(Voice):
+class GrandPianoInstrument(KeyboardDampers, Voice):
     """The 88-key grand (voice ``grand``)."""
 
     KEY_LOW, KEY_HIGH = 21, 108
@@ -523,30 +523,6 @@ class GrandPianoInstrument(Voice):
             if bridge is not None or j < struck:
                 bank.activate(slot)
 
-    @property
-    def damper_land_s(self) -> float:
-        """Time constant (s) over which a damper takes hold of its string or
-        lets go (``dampers.land_s``): the loss glide of the strings' slots
-        (the bank's ``F_B0S``).  A damper's felt does not stop a string in
-        one step, and a pedal let up drops every lifted damper at once: with
-        the bank's 5 ms, a MIDI file's pedal-up (a step from 1 to 0) under a
-        held chord read as a 30 dB click (docs/voicing.md, "The dampers'
-        landing")."""
-        return float(self.preset.dampers.land_s)
-
-    def release_t60_s(self, key: int) -> float:
-        """T60 of the damped string (s) (:func:`synth.physics.dampers.damped_t60_s`)."""
-        d = self.preset.dampers
-        return damper_laws.damped_t60_s(key, self.KEY_LOW, self.KEY_HIGH, d.release_t60_bass_s,
-                                        d.release_t60_treble_s)
-
-    def damper_lift(self, pedal: float) -> float:
-        """How far the sustain pedal (0..1) lifts the dampers: 0 below
-        ``dampers.half_pedal_low``, 1 above ``half_pedal_high``, linear
-        between (half pedal; :func:`synth.physics.dampers.damper_lift`)."""
-        d = self.preset.dampers
-        return damper_laws.damper_lift(pedal, d.half_pedal_low, d.half_pedal_high)
-
     def note_off(self, bank: StringBank, slots, key, f0_hz, pedal: float) -> None:
         """Key up: the damper falls on the strings, as far as the sustain
         pedal lets it (half pedal: partly; the felt resting more or less
@@ -556,4 +532,4 @@ class GrandPianoInstrument(Voice):
         if key is None or not (self.KEY_LOW <= int(round(key)) <= self.KEY_HIGH):
             return
         n = len(self.setup(int(round(key))))
-        bank.apply_dampers(np.asarray(slots[:n], dtype=np.int64), self.damper_lift(pedal))
+        self.drop_dampers(bank, slots[:n], pedal)

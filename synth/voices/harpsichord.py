@@ -43,14 +43,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-import numpy as np
 
 from ..dsp.bank import SlotTemplate, StringBank, slot_template
-from ..physics import dampers as damper_laws
 from ..physics import piano as P
 from ..physics.dispersion import tune_stiff_loop
 from ..physics.string import IdealString
 from .base import BankSizes, Voice
+from .dampers import KeyboardDampers
 from .registry import exciter_for, register_voice
 
 
@@ -75,7 +74,7 @@ VOICING_EXPONENT = 0.5
 
 
 @register_voice("harpsichord")
-class Harpsichord(Voice):
+class Harpsichord(KeyboardDampers, Voice):
     """A plucked piano string per key (voice ``harpsichord``)."""
 
     KEY_LOW, KEY_HIGH = 21, 108
@@ -116,13 +115,6 @@ class Harpsichord(Voice):
         t = self.preset.tuning
         return P.stretched_f0_hz(int(round(key)), None, a4_hz=t.a4_hz, stretch=t.stretch)
 
-    def release_t60_s(self, key: int) -> float:
-        """T60 of the damped string (s), geometric from bass to treble
-        (:func:`synth.physics.dampers.damped_t60_s`)."""
-        d = self.preset.dampers
-        return damper_laws.damped_t60_s(key, self.KEY_LOW, self.KEY_HIGH, d.release_t60_bass_s,
-                                        d.release_t60_treble_s)
-
     def setup(self, key: int) -> PluckedPianoString:
         """The key's string (designed once, then cached)."""
         key = int(key)
@@ -150,7 +142,7 @@ class Harpsichord(Voice):
                              tension_over_dx=gs.tension_n / (gs.c_m_per_s * dt),
                              b0=loop.b0, a1=loop.a1, eta=loop.eta, extra_delay=loop.extra_delay,
                              lossy=True, n_disp=loop.M, a_disp=loop.a_disp,
-                             glide_s=pre.dampers.land_s,
+                             glide_s=self.damper_land_s,
                              bend_glide_s=StringBank.BEND_GLIDE_S)
         string = IdealString(gs.speaking_length_m, gs.tension_n, gs.linear_density_kg_per_m)
         t_damped = min(self.release_t60_s(key), t_lo)
@@ -179,12 +171,6 @@ class Harpsichord(Voice):
         self.exciter.start(bank, slot, su, velocity, amplitude_scale=su.pluck_scale)
         bank.activate(slot)
 
-    def damper_lift(self, pedal: float) -> float:
-        """How far the sustain pedal (0..1) lifts the dampers (half pedal;
-        :func:`synth.physics.dampers.damper_lift`)."""
-        d = self.preset.dampers
-        return damper_laws.damper_lift(pedal, d.half_pedal_low, d.half_pedal_high)
-
     def note_off(self, bank, slots, key, f0_hz, pedal) -> None:
         """Key up: the damper falls as far as the sustain pedal lets it."""
-        bank.apply_dampers(np.asarray(slots[:1], dtype=np.int64), self.damper_lift(pedal))
+        self.drop_dampers(bank, slots[:1], pedal)
