@@ -152,3 +152,24 @@ def test_all_sound_off_empties_the_limiters_delay_line():
         e.render_block(block)
     after = np.concatenate([e.render_block(block).copy() for _ in range(4)])
     assert np.max(np.abs(after)) < 1e-7
+
+
+def test_the_output_policy_is_the_engines_stage_built_from_the_preset():
+    """Issue 38: the gain and the limiter are one stage the engine owns
+    (synth.engine.output), configured from ``[output]``; the voice has no
+    say in how its output is limited."""
+    from helpers import engine
+    from synth.engine.output import OutputStage
+    from synth.voices.base import Voice
+
+    assert not hasattr(Voice, "limiter")
+    off = engine("biwa")
+    assert off.output.limiter is None and off.output.latency_samples == 0
+    assert off.output.gain == off.inst.preset.output.gain
+    on = engine("biwa", ["output.limiter=on", "output.limit_dbfs=-3", "output.gain=0.5"])
+    st = on.output
+    assert isinstance(st, OutputStage) and st.gain == 0.5 and on.limiter is st.limiter
+    assert st.latency_samples == st.limiter.latency_samples > 0
+    assert on.latency_samples == int(on.dec.latency_samples) + st.latency_samples
+    assert st.force_to_output(2.0) == 1.0
+    assert OutputStage.from_preset(object(), 48_000, 1).gain == 1.0

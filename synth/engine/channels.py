@@ -444,9 +444,9 @@ class ChannelControls(MpeZones):
         if self.sym is not None:
             self.sym.restart()
             self._sym_dirty = True
-        for stage in (self.body, self.limiter):
-            if stage is not None:
-                stage.reset()
+        if self.body is not None:
+            self.body.reset()
+        self.output.reset()
         for d in self.decs:
             d.clear()
         for grp in self.groups.values():

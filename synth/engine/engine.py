@@ -20,7 +20,6 @@ import numpy as np
 
 from ..dsp.bank import StringBank
 from ..dsp.body import Body
-from ..dsp.limiter import Limiter
 from ..dsp.decimator import Decimator
 from ..kernels import strings as K
 from ..physics.soundboard import knock_pulse
@@ -31,6 +30,7 @@ from .channels import (  # noqa: F401  (re-exported: the engine's controller num
     VOLUME_DEFAULT, ChannelControls)
 from .mixing import ChannelGroup
 from .order import order_events
+from .output import OutputStage
 from .sympathetic import Sympathetic
 from .taraf import Taraf
 
@@ -267,9 +267,11 @@ class Engine(ChannelControls):
         self._knock_tail = self._knock_lag + len(self._knock_unit)
         self._knock = np.zeros((self.n_dec, self.MAX_BLOCK_OUT + self._knock_tail))
         self._knocking = False
-        #: the output's peak limiter (``[output] limiter = "on"``), the last stage
-        lim = instrument.limiter()
-        self.limiter = None if lim is None else Limiter(self.fs_out, *lim, channels=self.channels)
+        #: the output policy (the preset's ``[output]``: the gain of what the
+        #: engine adds to the buses, the peak limiter), the last stage
+        self.output = OutputStage.from_preset(instrument.preset, self.fs_out, self.channels)
+        #: its peak limiter (``[output] limiter = "on"``), or None
+        self.limiter = self.output.limiter
         self.time_out = 0                    # output samples rendered so far
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
@@ -500,8 +502,7 @@ class Engine(ChannelControls):
     def latency_samples(self) -> int:
         """Output samples between an event and its sound: the decimator's
         integer latency plus the limiter's look-ahead (when it is on)."""
-        lim = self.limiter.latency_samples if self.limiter is not None else 0
-        return int(self.dec.latency_samples) + lim
+        return int(self.dec.latency_samples) + self.output.latency_samples
 
     def _out_sample(self, at: int) -> int:
         """The output sample of internal sample ``at``, counted from the
@@ -523,7 +524,7 @@ class Engine(ChannelControls):
             return
         j = self._out_sample(at)
         j = min(max(int(j), 0), self.MAX_BLOCK_OUT - 1) + self._knock_lag
-        g = J * self.inst.preset.output.gain
+        g = self.output.force_to_output(J)
         grp = self.groups.get(ev.channel)
         kb = self._knock
         if grp is not None:
@@ -678,8 +679,7 @@ class Engine(ChannelControls):
                 for c in range(self.n_dec):
                     self.decs[c].process(mix[c], d[c])
                 self.body.process(d, out=y)
-        if self.limiter is not None:
-            self.limiter.process(y, out=y)
+        self.output.process(y)
         if self._hush_out is not None:
             self._hush_block(y, n_out)
         self._reap(n_in)

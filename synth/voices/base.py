@@ -348,15 +348,6 @@ class Voice:
         on the key's place along the bridge.  Default 0: no knock."""
         return 0.0
 
-    def limiter(self) -> tuple[float, float] | None:
-        """``(ceiling_dbfs, release_s)`` of the output's peak limiter
-        (:class:`synth.dsp.limiter.Limiter`) from ``[output]``, or None when
-        it is off (the default)."""
-        o = getattr(self.preset, "output", None)
-        if o is None or getattr(o, "limiter", "off") != "on":
-            return None
-        return (float(o.limit_dbfs), float(o.limit_release_s))
-
     def knock_duration_s(self) -> float:
         """Duration (s) of the knock's force pulse (:meth:`knock_impulse_ns`);
         default the piano action's 5 ms."""
