@@ -32,16 +32,18 @@ def test_the_levels_are_the_schemas_choices_cheapest_first():
     assert rates == sorted(rates) and Q.BY_NAME["standard"].rate_factor == 1.0
     costs = [lv.cost for lv in Q.LEVELS]
     assert costs == sorted(costs) and Q.BY_NAME["standard"].cost == 1.0
-    # measured for every shipped musical preset; over them all, the finer the
-    # level the smaller its worst error
+    # measured for every shipped musical preset, in its own data; over them
+    # all, the finer the level the smaller its worst error
     from synth.io.presets import list_presets
+    from synth.io.presets.quality import shipped_worst_errors
 
-    musical = {n for n, _ in list_presets() if load_preset(n).kind == "musical"}
-    assert musical == set(Q.ERRORS)
-    worst = [Q.errors(lv.name) for lv in Q.LEVELS]
-    assert all(math.isfinite(v) for w in worst for v in w)
-    for a, b in zip(worst, worst[1:]):
-        assert b[0] < a[0] and b[1] < a[1]
+    musical = [load_preset(n) for n, _ in list_presets() if load_preset(n).kind == "musical"]
+    assert musical and all(p.quality_error is not None for p in musical), \
+        [p.name for p in musical if p.quality_error is None]
+    worst = shipped_worst_errors()
+    assert all(math.isfinite(v) for lv in Q.LEVELS for v in worst[lv.name])
+    for a, b in zip(Q.LEVELS, Q.LEVELS[1:]):
+        assert worst[b.name][0] < worst[a.name][0] and worst[b.name][1] < worst[a.name][1]
 
 
 def test_a_level_sets_the_rate_and_the_stiffness_filters():
@@ -63,19 +65,37 @@ def test_a_level_sets_the_rate_and_the_stiffness_filters():
     assert n_ref > n_std
 
 
-def test_max_error_picks_the_cheapest_level_within_the_budget():
+def test_max_error_picks_the_cheapest_level_within_the_budget(tmp_path):
+    from synth.io.presets.quality import level_within, measured_errors, shipped_worst_errors
+
     d, s, r = Q.LEVELS
-    assert Q.cheapest_within(1e3, 1e3) is d
-    # per preset: the grand needs the reference's finer stiffness filters for 1 cent
-    assert Q.errors("standard", "grand-piano") == Q.ERRORS["grand-piano"]["standard"]
-    assert Q.cheapest_within(1.0, 1.0, "grand-piano") is r
-    assert Q.cheapest_within(*Q.ERRORS["sitar"]["standard"], "sitar") is s
-    # a preset not measured: the worst over the shipped ones
-    assert Q.errors("draft", "my-own") == Q.errors("draft")
+    assert level_within(1e3, 1e3) is d
+    # per preset, from its [quality_error]: the grand needs the reference's
+    # finer stiffness filters for 1 cent
+    grand = load_preset("grand-piano")
+    assert measured_errors("grand-piano") == (grand.quality_error.table(), "for grand-piano")
+    assert grand.quality_error.of("standard") == (grand.quality_error.standard_cents,
+                                                  grand.quality_error.standard_db)
+    assert level_within(1.0, 1.0, "grand-piano") is r
+    assert level_within(*load_preset("sitar").quality_error.of("standard"), "sitar") is s
+    # a preset not measured (or not found): the worst over the shipped ones
+    worst = shipped_worst_errors()
+    assert measured_errors("my-own") == (worst, "(the worst over the shipped presets)")
+    own = tmp_path / "own.toml"
+    own.write_text("\n".join(line for line in
+                             (ROOT / "synth/presets/biwa.toml").read_text().splitlines()
+                             if not line.startswith(("draft_", "standard_", "reference_",
+                                                     "[quality_error]"))))
+    assert load_preset(str(own)).quality_error is None
+    assert measured_errors(str(own))[0] == worst
+    # a .toml path is read as it is (its own table), not by its stem
+    assert measured_errors(str(ROOT / "synth/presets/biwa.toml"))[1] == "for biwa"
     with pytest.raises(ValueError, match="no level is that accurate for sitar"):
-        Q.cheapest_within(0.01, 0.01, "sitar")
+        level_within(0.01, 0.01, "sitar")
     with pytest.raises(ValueError, match="is out of range"):
-        Q.cheapest_within(0.0, 1.0)
+        level_within(0.0, 1.0)
+    with pytest.raises(ValueError, match="is out of range"):
+        Q.cheapest_within(1.0, -1.0, worst, "for x")
     with pytest.raises(ValueError, match="quality = 'fast' is not allowed"):
         Q.quality_level("fast")
 

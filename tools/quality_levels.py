@@ -14,8 +14,9 @@ Partials 1..16 (under 10 kHz, within 40 dB of the strongest of the
 converged note) over 0.05-1.05 s (:func:`synth.analysis.track_partials`):
 the worst frequency error (cents) and level error (dB) of each level
 against the converged note, and its run time (median of ``--repeats``)
-over ``standard``'s.  The worst over all presets and keys is what
-:data:`synth.voices.quality.LEVELS` states.
+over ``standard``'s.  Each preset's worst over its keys is what its
+``[quality_error]`` table states (the preset's data); every musical preset
+is measured (:func:`synth.apps.levels.musical_presets`).
 
 ``files``: the five piano files of ``../shared/midi`` on ``grand-piano``
 and the three folk tunes on ``sitar`` and ``biwa`` (the first
@@ -41,8 +42,9 @@ import numpy as np
 
 from synth.apps.work_precision import note_partials, partial_errors
 
+from synth.apps.levels import musical_presets  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
-MUSICAL = ("grand-piano", "harpsichord", "sitar", "hammered-sitar", "biwa")
 LEVELS = ("draft", "standard", "reference")
 CONVERGED_HZ = 1_300_000.0
 PIANO_FILES = ("chpn_op25_e11.mid", "deb_clai.mid", "rac_op23_5.mid", "hp956bx4547_exp.mid",
@@ -112,7 +114,7 @@ def _keys_of(name):
 
 
 def cmd_notes(a) -> int:
-    names = ("sitar",) if a.quick else MUSICAL
+    names = ("sitar",) if a.quick else tuple(musical_presets())
     print("| preset | key | level | partials | worst cents | worst dB | time (s) | x standard |")
     print("|---|---:|---|---:|---:|---:|---:|---:|")
     worst = {lv: [0.0, 0.0, []] for lv in LEVELS}

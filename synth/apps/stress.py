@@ -89,6 +89,10 @@ ENERGY_KIND = {"ideal": None, "case1": ("jawari_case1", (0.008, 0.015)),
 FROZEN = {"output.gain", "output.limit_dbfs", "output.limit_release_s", "play.polyphony",
           "play.key_low", "play.key_high", "body.seed", "grid.cells"}
 
+#: preset tables never drawn: data about the preset, not its sound (the
+#: quality levels' measured errors)
+FROZEN_SECTIONS = {"quality_error"}
+
 
 class Rejected(Exception):
     """The preset (or its physics) refused the drawn values with a one-line error."""
@@ -133,7 +137,7 @@ def numeric_fields(preset: str):
     out = []
     for sec in SECTIONS:
         table = raw.get(sec.name)
-        if not isinstance(table, dict):
+        if not isinstance(table, dict) or sec.name in FROZEN_SECTIONS:
             continue
         seen = set()
         for f in sec.fields:

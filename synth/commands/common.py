@@ -178,17 +178,14 @@ def quality_overrides(args) -> list:
     if q is not None and me is not None:
         fail("--quality and --max-error are exclusive: give one of them")
     if me is not None:
-        from ..voices.quality import cheapest_within
+        from ..io.presets.quality import level_within
 
         try:
             c, d = (float(v) for v in me.split(","))
         except ValueError:
             fail(f"--max-error = {me!r} is not CENTS,DB (two numbers, e.g. 0.5,1)")
-        name = getattr(args, "preset", None)
-        if name is not None and str(name).endswith(".toml"):
-            name = os.path.splitext(os.path.basename(str(name)))[0]
         try:
-            q = cheapest_within(c, d, name).name
+            q = level_within(c, d, getattr(args, "preset", None)).name
         except ValueError as e:
             fail(f"--max-error: {e}")
     return [] if q is None else [f"play.quality={q}"]

@@ -30,9 +30,10 @@ Each level's error is measured against the same notes at 1.3 MHz with
 study (``python tools/quality_levels.py notes``, docs/quality.md): the
 worst partial-frequency error (cents) and partial-level error (dB) over
 the first second of a low, a middle and a high note of each shipped
-musical preset (:data:`ERRORS`).  ``--max-error CENTS,DB`` picks the
-cheapest level within both for the preset played (a preset not measured
-here: the worst over the shipped ones).
+musical preset, kept in the preset's data (its ``[quality_error]``
+table).  ``--max-error CENTS,DB`` picks the cheapest level within both for
+the preset played (:func:`cheapest_within`; a preset not measured: the
+worst over the shipped ones, :func:`synth.io.presets.quality.level_within`).
 
 The names are the schema's ``play.quality`` choices
 (:data:`synth.io.presets.QUALITIES`); a study preset keeps the thesis's
@@ -69,19 +70,6 @@ LEVELS: tuple[QualityLevel, ...] = (
     QualityLevel("reference", 2.0, 0.5, cost=1.72),
 )
 
-#: measured errors (cents, dB) per shipped musical preset and level: the worst
-#: over keys low, middle and high (``python tools/quality_levels.py notes``,
-#: 2026-11-25; docs/quality.md)
-ERRORS: dict[str, dict[str, tuple[float, float]]] = {
-    "grand-piano": {"draft": (1.96, 5.65), "standard": (1.93, 5.23), "reference": (0.02, 0.82)},
-    "harpsichord": {"draft": (1.11, 3.15), "standard": (0.62, 2.50), "reference": (0.62, 3.18)},
-    "sitar": {"draft": (7.14, 5.65), "standard": (2.40, 1.32), "reference": (0.26, 0.79)},
-    "hammered-sitar": {"draft": (7.04, 3.72), "standard": (5.84, 3.53),
-                       "reference": (5.10, 3.58)},
-    # the biwa's with the sawari's sub-cell contact (2026-11-29, issue 40)
-    "biwa": {"draft": (0.07, 0.30), "standard": (0.05, 0.87), "reference": (0.02, 0.14)},
-}
-
 BY_NAME = {lv.name: lv for lv in LEVELS}
 
 #: the level a preset without ``play.quality`` plays at
@@ -98,29 +86,23 @@ def quality_level(name: str | None) -> QualityLevel:
     return lv
 
 
-def errors(level: str, preset: str | None = None) -> tuple[float, float]:
-    """The measured error (cents, dB) of ``level`` for ``preset`` (a
-    shipped preset's name), or the worst over the shipped presets."""
-    table = ERRORS.get(str(preset)) if preset is not None else None
-    if table is not None:
-        return table[level]
-    return (max(t[level][0] for t in ERRORS.values()),
-            max(t[level][1] for t in ERRORS.values()))
+def cheapest_within(max_cents: float, max_db: float, errors: dict, who: str) -> QualityLevel:
+    """The cheapest level whose measured errors are within ``max_cents``
+    (cents, > 0) and ``max_db`` (dB, > 0).
 
-
-def cheapest_within(max_cents: float, max_db: float, preset: str | None = None) -> QualityLevel:
-    """The cheapest level whose measured errors for ``preset`` (see
-    :func:`errors`) are within ``max_cents`` (cents, > 0) and ``max_db``
-    (dB, > 0)."""
+    errors : {level name: (cents, dB)} for every level (a preset's
+        ``[quality_error]``, :meth:`synth.io.presets.model.QualityErrorSpec.table`).
+    who : str
+        Whose errors they are, for the message (``"for sitar"``).
+    """
     if not (max_cents > 0.0) or not (max_db > 0.0):
         raise ValueError(f"max error = {max_cents!r} cents, {max_db!r} dB is out of range "
                          f"(both > 0)")
     for lv in LEVELS:
-        c, d = errors(lv.name, preset)
+        c, d = errors[lv.name]
         if c <= max_cents and d <= max_db:
             return lv
-    shown = " and ".join(f"{lv.name} {errors(lv.name, preset)[0]:g} cents, "
-                         f"{errors(lv.name, preset)[1]:g} dB" for lv in LEVELS)
-    who = f"for {preset}" if preset in ERRORS else "(the worst over the shipped presets)"
+    shown = " and ".join(f"{lv.name} {errors[lv.name][0]:g} cents, {errors[lv.name][1]:g} dB"
+                         for lv in LEVELS)
     raise ValueError(f"max error = {max_cents:g} cents, {max_db:g} dB is out of range: no level "
                      f"is that accurate {who} ({shown})")

@@ -271,6 +271,30 @@ class PlaySpec:
 
 
 @dataclass(frozen=True)
+class QualityErrorSpec:
+    """The measured error of each quality level on this preset: the worst
+    partial-frequency error (cents) and partial-level error (dB) over the
+    first second of a low, a middle and a high note, against the same
+    notes at 1.3 MHz with 0.5-cent stiffness filters (``python
+    tools/quality_levels.py notes``; docs/quality.md)."""
+
+    draft_cents: float
+    draft_db: float
+    standard_cents: float
+    standard_db: float
+    reference_cents: float
+    reference_db: float
+
+    def of(self, level: str) -> tuple[float, float]:
+        """(cents, dB) of the quality level called ``level``."""
+        return (float(getattr(self, f"{level}_cents")), float(getattr(self, f"{level}_db")))
+
+    def table(self) -> dict[str, tuple[float, float]]:
+        """{level: (cents, dB)} for every level."""
+        return {lv: self.of(lv) for lv in ("draft", "standard", "reference")}
+
+
+@dataclass(frozen=True)
 class Preset:
     """A validated preset.
 
@@ -302,3 +326,4 @@ class Preset:
     body: BodySpec | None
     output: OutputSpec
     play: PlaySpec | None
+    quality_error: QualityErrorSpec | None = None

@@ -32,6 +32,7 @@ from .model import (
     OutputSpec,
     PlaySpec,
     PluckSpec,
+    QualityErrorSpec,
     StringSpec,
     StringsSpec,
     TarafSpec,
@@ -397,4 +398,14 @@ SECTIONS: tuple[Section, ...] = (
               "docs/quality.md gives each one's error and cost", choices=QUALITIES,
               default="standard"),
     ), when=When("kind", ("musical",)), checks=(OrderCheck("key_low", "<=", "key_high"),)),
+    Section("quality_error", "the measured error of each quality level on this preset "
+            "(`python tools/quality_levels.py notes`; docs/quality.md): --max-error picks the "
+            "cheapest level within it (optional: absent, the worst over the shipped presets)",
+            QualityErrorSpec, tuple(
+                row for q in QUALITIES for row in (
+                    Field(f"{q}_cents", "float", f"worst partial-frequency error at {q}, cents",
+                          0.0, 1200.0),
+                    Field(f"{q}_db", "float", f"worst partial-level error at {q}, dB",
+                          0.0, 100.0))),
+            when=When("kind", ("musical",)), optional=True),
 )
