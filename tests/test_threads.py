@@ -21,7 +21,7 @@ from synth.dsp import threads
 from synth.dsp.bank import StringBank
 from synth.engine.engine import Event
 from synth.io.factory import build_engine
-from synth.io.presets.loader import list_presets
+from synth.io.presets.loader import list_presets, load_preset
 from synth.kernels import render as KR
 from synth.kernels import strings as K
 
@@ -33,17 +33,21 @@ FS_IN = 325_000.0
 
 def phrase(preset):
     """A short phrase reaching every path the preset has: a chord (pedal
-    down, so that the grand's undamped strings ring along), the ends of its
-    range, a restrike, a release."""
-    keys = {"grand-piano": (21, 36, 55, 60, 64, 79, 96, 108), "harpsichord": (29, 48, 60, 64, 89),
-            "biwa": (43, 52, 57, 62, 74), "sitar": (36, 43, 50, 57, 62, 67, 74),
-            "hammered-sitar": (43, 55, 62, 74)}.get(preset)
-    assert keys is not None or preset.startswith("paper/"), f"{preset}: give it a phrase"
+    down, so that the grand's undamped strings ring along) over its range,
+    both ends included (the grand's top keys, undamped, on the capo bar's
+    finer grid), a drone stroke where the preset has drones, a restrike, a
+    release.  Derived from the preset's data: a new preset needs no entry."""
+    p = load_preset(preset)
     evs = [Event(0.0, "control", 64, 1.0)]
-    if keys is None:
+    if p.kind == "study":
         # a study preset: its own string (key -1, as `synth note` sends it)
         return evs + [Event(0.0, "note_on", -1, 0.8)]
-    evs += [Event(0.002 * i, "note_on", k, 0.5 + 0.06 * i) for i, k in enumerate(keys)]
+    lo, hi = p.play.key_low, p.play.key_high
+    keys = tuple(sorted({int(round(lo + (hi - lo) * i / 7)) for i in range(8)}))
+    ch = getattr(p, "chikari", None)
+    if ch is not None and ch.trigger_key_low is not None:
+        keys = (ch.trigger_key_low,) + keys          # a stroke across the drones
+    evs += [Event(0.002 * i, "note_on", k, 0.5 + 0.05 * i) for i, k in enumerate(keys)]
     return evs + [Event(0.15, "note_on", keys[1], 0.9), Event(0.2, "note_off", keys[0], 0.0)]
 
 
