@@ -150,7 +150,7 @@ class ChannelControls(MpeZones):
                 self._fade(v, HUSH_T60_S)
         self._hushed = {v: vo for v, vo in self.voices.items()}
         if self.taraf is not None:
-            self.taraf.fade(HUSH_T60_S, self.fs_in_exact)
+            self.taraf.fade(HUSH_T60_S)
         if self.sym is not None:
             self._sym_hush = True     # at the event's output sample (:meth:`_sympathetic_block`)
         # the output fades with them; once it has, what is left of them (a
@@ -440,9 +440,9 @@ class ChannelControls(MpeZones):
                 self._free(v)
         self._hushed = {}
         if self.taraf is not None:
-            self.taraf.silence()
+            self.taraf.rest()
         if self.sym is not None:
-            self.sym.restart()
+            self.sym.rest()
             self._sym_dirty = True
         if self.body is not None:
             self.body.reset()

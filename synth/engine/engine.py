@@ -23,6 +23,7 @@ from ..dsp.body import Body
 from ..dsp.decimator import Decimator
 from ..kernels import strings as K
 from ..physics.soundboard import knock_pulse
+from ..voices.base import SympatheticDesign, TarafDesign
 from .channels import (  # noqa: F401  (re-exported: the engine's controller numbers)
     CC_ALL_NOTES_OFF, CC_ALL_SOUND_OFF, CC_DATA_LSB, CC_DATA_MSB, CC_EXPRESSION, CC_MODE,
     CC_NAMES, CC_NRPN_LSB, CC_NRPN_MSB, CC_PAN, CC_RESET_ALL, CC_RPN_LSB, CC_RPN_MSB,
@@ -133,10 +134,15 @@ class Engine(ChannelControls):
         #: output buses the strings write (the bridge's bass and treble ends)
         self.buses = int(instrument.buses)
         max_in = self.dec.inputs_needed(self.MAX_BLOCK_OUT) + 16
-        #: the strings on the bridge that no key stops (a sitar's taraf and
-        #: chikari, :mod:`synth.engine.taraf`): in the bank after the voices'
-        #: slots, on one bridge with every sounding played string
-        td = instrument.taraf()
+        #: the strings on the bridge that no key stops (one component, two
+        #: configurations, :mod:`synth.engine.free_strings`; the voice's
+        #: design picks one): a sitar's taraf and chikari in the bank after
+        #: the voices' slots, on one bridge with every sounding played string
+        #: (:mod:`synth.engine.taraf`), or a piano's undamped strings at the
+        #: output rate (:mod:`synth.engine.sympathetic`, below)
+        fd = instrument.free_strings(self.fs_out)
+        td = fd if isinstance(fd, TarafDesign) else None
+        sd = fd if isinstance(fd, SympatheticDesign) else None
         n_voice_slots = self.n_index * self.spv
         n_taraf = 0 if td is None else len(td.slots) + len(td.drone_slots)
         max_cells, max_region, max_group = sizes.max_cells, sizes.max_region, K.MAX_CPL
@@ -159,6 +165,11 @@ class Engine(ChannelControls):
         #: output channels (1: mono, 2: stereo)
         self.channels = self.body.outputs if self.body is not None else self.n_dec
         self.decs = [self.dec] + [Decimator(self.fs_in, self.fs_out) for _ in range(self.n_dec - 1)]
+        #: the output policy (the preset's ``[output]``: the gain of what the
+        #: engine adds to the buses, the peak limiter), the last stage
+        self.output = OutputStage.from_preset(instrument.preset, self.fs_out, self.channels)
+        #: its peak limiter (``[output] limiter = "on"``), or None
+        self.limiter = self.output.limiter
         self.mix = np.zeros((self.buses, max_in))
         self.probe = probe
         self._probe: list[np.ndarray] = []
@@ -244,9 +255,9 @@ class Engine(ChannelControls):
         self.silence_level = 10.0 ** (silence_dbfs / 20.0)
         #: the strings that ring along through the bridge (the voice's
         #: sympathetic strings, at the output rate), or None
-        sd = instrument.sympathetic(self.fs_out)
         self.sym = None if sd is None else Sympathetic(sd, self.fs_out, self.n_dec,
-                                                       self.MAX_BLOCK_OUT, self.silence_level)
+                                                       self.MAX_BLOCK_OUT, self.silence_level,
+                                                       1.0 / self.output.gain)
         self._sym_dirty = True
         #: threads the strings render on (:meth:`set_threads`)
         self.threads = 1
@@ -267,11 +278,6 @@ class Engine(ChannelControls):
         self._knock_tail = self._knock_lag + len(self._knock_unit)
         self._knock = np.zeros((self.n_dec, self.MAX_BLOCK_OUT + self._knock_tail))
         self._knocking = False
-        #: the output policy (the preset's ``[output]``: the gain of what the
-        #: engine adds to the buses, the peak limiter), the last stage
-        self.output = OutputStage.from_preset(instrument.preset, self.fs_out, self.channels)
-        #: its peak limiter (``[output] limiter = "on"``), or None
-        self.limiter = self.output.limiter
         self.time_out = 0                    # output samples rendered so far
         self._pending: list[tuple[int, int, Event]] = []
         self._seq = 0
@@ -727,7 +733,7 @@ class Engine(ChannelControls):
         for j, lift, muted, hush in self._sym_events:
             sym.process(d, c0, j - c0)
             if hush:
-                sym.fade_all(HUSH_T60_S)       # all sound off
+                sym.fade(HUSH_T60_S)       # all sound off
             sym.set_dampers(lift, muted)
             c0 = j
         self._sym_events.clear()

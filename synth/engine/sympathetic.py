@@ -7,8 +7,9 @@ where its own partials meet the played ones: the pedal's halo, and the
 ring of a held chord's strings under a staccato note.
 
 How it runs.  The voice describes the strings
-(:meth:`synth.voices.base.Voice.sympathetic`: one per key, at the output
-rate, hanging on an external bridge, :meth:`StringBank.set_external_bridge`).
+(:meth:`synth.voices.base.Voice.free_strings`, a ``SympatheticDesign``: one
+per key, at the output rate, hanging on an external bridge,
+:meth:`StringBank.set_external_bridge`).
 Per output block the engine hands this stage the played strings' decimated
 bridge force (the dry buses, before the body); the board's bridge follows it
 (:func:`synth.kernels.bridge.bridge_follow`: u_b = integral of F / R, with a
@@ -37,14 +38,17 @@ import numpy as np
 
 from ..dsp.bank import StringBank
 from ..kernels.bridge import bridge_follow
+from .free_strings import FreeStrings
 
 
 #: a stop that never comes
 _NEVER = np.iinfo(np.int64).max
 
 
-class Sympathetic:
-    """The sympathetic strings of one engine.
+class Sympathetic(FreeStrings):
+    """The sympathetic strings of one engine, on a bank of their own: the
+    one-way configuration of :class:`synth.engine.free_strings.FreeStrings`
+    (string i in slot i).
 
     Parameters
     ----------
@@ -57,29 +61,32 @@ class Sympathetic:
         Longest block (output samples).
     silence_level : float
         Output level under which a string counts as quiet (the engine's).
+    force_per_unit : float
+        N of bridge force per unit of the played strings' output (1 / the
+        output gain they write with: the engine's
+        :class:`~synth.engine.output.OutputStage`).
     """
 
     #: a muted string's fade (s, 60 dB), and how long after the mute it stops (s)
     MUTE_T60_S = 0.02
     MUTE_HOLD_S = 0.1
 
-    def __init__(self, design, fs_out: int, buses: int, max_block: int, silence_level: float):
-        self.design = design
+    def __init__(self, design, fs_out: int, buses: int, max_block: int, silence_level: float,
+                 force_per_unit: float):
+        n = len(design.keys)
+        super().__init__(design, StringBank(max(n, 1), design.max_cells + 2, 1, max_block), 0,
+                         float(fs_out))
         self.keys = tuple(int(k) for k in design.keys)
-        self.n = len(self.keys)
-        self.fs = float(fs_out)
+        self.n = n
         self.buses = int(buses)
         self.slot_of = {k: i for i, k in enumerate(self.keys)}
-        self.bank = StringBank(max(self.n, 1), design.max_cells + 2, 1, max_block)
-        for i, t in enumerate(design.slots):
-            self.bank.configure_from(i, t)
-            self.bank.set_external_bridge(i)
-            self.bank.set_damper(i, design.dampers[i])
+        for i in range(self.n):
+            self.configure(i)
         self._has_damper = np.array(design.has_damper, dtype=bool)
         dt = 1.0 / self.fs
         self.a = math.exp(-2.0 * math.pi * design.return_hz * dt)
         self.b = dt / design.resistance_ns_per_m
-        self.force_per_unit = float(design.force_per_unit)
+        self.force_per_unit = float(force_per_unit)
         self.state = np.zeros(1)
         self.force = np.zeros(max_block)
         self.ub = np.zeros(max_block)
@@ -118,7 +125,7 @@ class Sympathetic:
         for i in np.flatnonzero(back):
             # the played note has gone: the string starts again from rest
             self.bank.deactivate(int(i))
-            self._configure(int(i))
+            self.configure(int(i))
         changed = (~muted) & ((lift != self.lift) | back)
         self.muted = muted.copy()
         self.lift = lift
@@ -132,19 +139,13 @@ class Sympathetic:
                 self.bank.join_bridge(int(i), float(self.state[0]))
                 self.bank.activate(int(i))
 
-    def fade_all(self, t60_s: float) -> None:
-        """All sound off: every sounding string fades out, 60 dB in
-        ``t60_s`` (s); :meth:`restart` then brings them back from rest."""
-        for i in np.flatnonzero(self.bank._is_active[:self.n]):
-            self.bank.fade(int(i), t60_s, self.fs)
-
-    def restart(self) -> None:
-        """After :meth:`fade_all`, once they are silent: every string starts
+    def rest(self) -> None:
+        """After :meth:`fade`, once they are silent: every string starts
         again from rest, and the next :meth:`set_dampers` lifts (and
         starts) those its dampers leave free."""
         for i in np.flatnonzero(self.bank._is_active[:self.n]):
             self.bank.deactivate(int(i))
-            self._configure(int(i))
+            self.configure(int(i))
         self.state[:] = 0.0                        # the bridge at rest too
         self.lift = np.full(self.n, -1.0)
         self.muted[:] = False
@@ -155,8 +156,10 @@ class Sympathetic:
         st = self._stop_at[self.muted]
         self._next_stop = int(st.min()) if st.size else _NEVER
 
-    def _configure(self, i: int) -> None:
-        self.bank.configure_from(i, self.design.slots[i])
+    def configure(self, i: int) -> None:
+        """String ``i`` from its template, at rest, hanging on the external
+        bridge, with its damper row."""
+        super().configure(i)
         self.bank.set_external_bridge(i)
         self.bank.set_damper(i, self.design.dampers[i])
 
@@ -199,7 +202,7 @@ class Sympathetic:
             pos = k
             for i in due[self._stop_at[due] == ts]:
                 self.bank.deactivate(int(i))
-                self._configure(int(i))
+                self.configure(int(i))
                 self._stop_at[i] = _NEVER
             self._update_next_stop()
             if self.bank.n_active == 0:
@@ -227,7 +230,7 @@ class Sympathetic:
             done = self.bank.reap(n, self.level, int(0.05 * self.fs))
             for s in done.tolist():
                 self.bank.deactivate(int(s))
-                self._configure(int(s))
+                self.configure(int(s))
                 # the next :meth:`set_dampers` starts it again if it is free
                 # (it stayed silent for good while its lift did not change:
                 # the top keys' undamped strings no longer answered a note

@@ -37,8 +37,12 @@ render give the same samples).
 
 from __future__ import annotations
 
-class Taraf:
-    """The taraf and chikari of one engine, in its bank.
+from .free_strings import FreeStrings
+
+
+class Taraf(FreeStrings):
+    """The taraf and chikari of one engine, in its bank: the two-way
+    configuration of :class:`synth.engine.free_strings.FreeStrings`.
 
     Parameters
     ----------
@@ -53,18 +57,12 @@ class Taraf:
     """
 
     def __init__(self, design, bank, first: int, fs_hz: float):
-        self.design = design
-        self.bank = bank
-        self.fs = float(fs_hz)
+        super().__init__(design, bank, first, fs_hz,
+                         templates=tuple(design.slots) + tuple(design.drone_slots))
         self.n_taraf = len(design.slots)
         self.n_drones = len(design.drone_slots)
-        self.templates = tuple(design.slots) + tuple(design.drone_slots)
-        self.slots = tuple(range(int(first), int(first) + len(self.templates)))
-        self.first = int(first)
         #: the bridge's leader: the first taraf string (else the first drone)
         self.lead = self.slots[0]
-        self.R = float(design.resistance_ns_per_m)
-        self.return_hz = float(design.return_hz)
         #: pending drone plucks: (internal sample, drone, amplitude m)
         self._plucks: list = []
         self.n_strums = 0
@@ -80,12 +78,12 @@ class Taraf:
         rest, their ends where the bridge is."""
         bank = self.bank
         if not self.awake:
-            bank.configure_from(self.lead, self.templates[0])
+            self.configure(0)
             bank.open_bridge(self.lead, self.R, self.return_hz)
             bank.activate(self.lead)
         for i, s in enumerate(self.slots):
             if not bank.is_active(s):
-                bank.configure_from(s, self.templates[i])
+                self.configure(i)
                 bank.join(self.lead, s)
                 bank.activate(s)
 
@@ -95,9 +93,6 @@ class Taraf:
         for s in slots:
             if bank.is_active(s):
                 bank.join(self.lead, s)
-
-    def owns(self, s: int) -> bool:
-        return self.first <= int(s) < self.first + len(self.slots)
 
     # -- the drones --------------------------------------------------------------
     def is_trigger(self, channel: int, key) -> bool:
@@ -139,15 +134,14 @@ class Taraf:
             bank.reset_quiet(s, before)
 
     # -- silence -------------------------------------------------------------------
-    def fade(self, t60_s: float, fs_hz: float) -> None:
+    def fade(self, t60_s: float) -> None:
         """All sound off: every sounding string fades out, 60 dB in
-        ``t60_s`` (s) at the rate ``fs_hz`` (Hz); pending strokes go.  The
-        strings are freed, silent, as usual and start again from rest."""
+        ``t60_s`` (s); pending strokes go.  The strings are freed, silent,
+        as usual and start again from rest."""
         self._plucks.clear()
-        for s in self.slots:
-            self.bank.fade(s, t60_s, fs_hz)
+        super().fade(t60_s)
 
-    def silence(self) -> None:
+    def rest(self) -> None:
         """All sound off: every string stops and rests; pending strokes go."""
         self._plucks.clear()
         for s in self.slots[1:] + self.slots[:1]:        # the leader last
@@ -167,8 +161,3 @@ class Taraf:
                     self.bank.deactivate(s)
         if lead and len(self.bank.group(self.lead)) <= 1:
             self.bank.deactivate(self.lead)
-
-    @property
-    def n_active(self) -> int:
-        """Strings rendering now (taraf and drones)."""
-        return int(sum(1 for s in self.slots if self.bank.is_active(s)))

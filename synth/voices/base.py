@@ -41,33 +41,49 @@ from .quality import quality_level
 
 
 @dataclass(frozen=True)
-class SympatheticDesign:
-    """The strings of an instrument that ring along without being played
-    (a piano's undamped strings, sympathetic resonance and the pedal's
-    halo), for the engine to run at its output rate.
+class FreeStringsDesign:
+    """Strings no key stops, hanging on one bridge with the played strings
+    (:class:`synth.engine.free_strings.FreeStrings`): what both of the
+    component's configurations share.  A voice returns one of the two
+    configurations from :meth:`Voice.free_strings`:
 
-    keys : tuple of int            the MIDI key of each string
-    slots : tuple of SlotTemplate  each string at the output rate (lossy far
-                                   end, bridge-force output, no excitation)
-    dampers : tuple of tuple       each string's damper row
-                                   (:meth:`StringBank.set_damper`)
-    has_damper : tuple of bool     whether the key has a damper at all
-    resistance_ns_per_m : float    the board's bridge as the strings all hang
-                                   on it: u_b = integral of F / R (N s/m)
+    * :class:`SympatheticDesign`: the strings of a keyboard whose dampers are
+      off (a piano's), at the output rate on a bank of their own, driven
+      one way by the played strings' force on the board;
+    * :class:`TarafDesign`: the sympathetic and drone strings of a sitar,
+      at the voice's internal rate in the engine's bank, on one two-way
+      bridge with the played strings.
+
+    slots : tuple of SlotTemplate  each string (lossy far end, bridge-force
+                                   output, no excitation)
+    keys : tuple of int            the MIDI key each is tuned to
+    resistance_ns_per_m : float    the bridge they hang on: u_b = integral of
+                                   F / R (N s/m)
     return_hz : float              its spring's slow return (Hz)
-    force_per_unit : float         N of bridge force per unit of the main
-                                   strings' output (1 / their output gain)
     max_cells : int                the longest string's cells
     """
 
-    keys: tuple
     slots: tuple
-    dampers: tuple
-    has_damper: tuple
+    keys: tuple
     resistance_ns_per_m: float
     return_hz: float
-    force_per_unit: float
     max_cells: int
+
+
+@dataclass(frozen=True)
+class SympatheticDesign(FreeStringsDesign):
+    """Free strings of a keyboard (a piano's undamped strings, sympathetic
+    resonance and the pedal's halo), for the engine to run at its output
+    rate: one per key, ringing while its damper is off and its key is not
+    itself sounding.
+
+    dampers : tuple of tuple       each string's damper row
+                                   (:meth:`StringBank.set_damper`)
+    has_damper : tuple of bool     whether the key has a damper at all
+    """
+
+    dampers: tuple = ()
+    has_damper: tuple = ()
 
 
 class DronePluck(NamedTuple):
@@ -83,42 +99,30 @@ class DronePluck(NamedTuple):
 
 
 @dataclass(frozen=True)
-class TarafDesign:
-    """The strings on an instrument's bridge that no key stops: a sitar's
-    sympathetic strings (taraf), always free, ringing with whatever the
-    played strings and the drones put into the bridge, and its drone strings
-    (chikari), strummed by a key range or a MIDI channel and ringing along
-    too.  The engine runs them in its bank, at its internal rate, on one
-    bridge with the played strings (:class:`synth.engine.taraf.Taraf`).
+class TarafDesign(FreeStringsDesign):
+    """Free strings on an instrument's bridge at the voice's internal rate:
+    a sitar's sympathetic strings (taraf, ``slots``), always free, ringing
+    with whatever the played strings and the drones put into the bridge,
+    and its drone strings (chikari), strummed by a key range or a MIDI
+    channel and ringing along too.  The engine runs them in its bank, on
+    one bridge with the played strings (:class:`synth.engine.taraf.Taraf`).
 
-    slots : tuple of SlotTemplate   the taraf strings (lossy, bridge-force
-                                    output, at the voice's rate; no dampers)
-    keys : tuple of int             the MIDI key each is tuned to
     drone_slots : tuple of SlotTemplate  the drone strings (as ``slots``)
     drone_keys : tuple of int       their tunings
-    resistance_ns_per_m : float     the bridge all of them and the played
-                                    strings hang on: u_b = integral of F / R
-                                    (N s/m)
-    return_hz : float               its spring's slow return (Hz)
     trigger : tuple (lo, hi) or None  MIDI keys that strum the drones
     channel : int or None           MIDI channel (0-15) whose notes strum them
     pluck : DronePluck              how the drones are plucked
     strum_s : float                 delay between successive drones (s)
-    max_cells, max_region : int     the bank's sizes
+    max_region : int                the largest termination region (points)
     """
 
-    slots: tuple
-    keys: tuple
-    drone_slots: tuple
-    drone_keys: tuple
-    resistance_ns_per_m: float
-    return_hz: float
-    trigger: tuple | None
-    channel: int | None
-    pluck: DronePluck
-    strum_s: float
-    max_cells: int
-    max_region: int
+    drone_slots: tuple = ()
+    drone_keys: tuple = ()
+    trigger: tuple | None = None
+    channel: int | None = None
+    pluck: DronePluck | None = None
+    strum_s: float = 0.0
+    max_region: int = 1
 
 
 @dataclass(frozen=True)
@@ -358,17 +362,14 @@ class Voice:
         split of its knock.  Default: the middle."""
         return 0.5
 
-    def sympathetic(self, fs_out: float) -> SympatheticDesign | None:
-        """The strings that ring along through the bridge, designed at the
-        engine's output rate ``fs_out`` (Hz), or None (the default: none).
-        The engine runs them on a bank of their own, driven by the played
-        strings' force on the bridge, and lets each ring while its damper
-        is off (the sustain pedal, the sostenuto, a key without damper) and
-        its key is not itself sounding."""
-        return None
-
-    def taraf(self) -> TarafDesign | None:
-        """The strings on the bridge that no key stops (sympathetic taraf
-        and drone chikari), designed at the voice's internal rate, or None
-        (the default: none)."""
+    def free_strings(self, fs_out: float) -> FreeStringsDesign | None:
+        """The strings on the bridge that no key stops, or None (the
+        default: none): a :class:`SympatheticDesign` (a keyboard's undamped
+        strings, designed at the engine's output rate ``fs_out`` (Hz): the
+        engine runs them on a bank of their own, driven by the played
+        strings' force on the bridge, each ringing while its damper is off
+        and its key is not itself sounding) or a :class:`TarafDesign`
+        (sympathetic and drone strings designed at the voice's internal
+        rate: the engine runs them in its bank on one two-way bridge with
+        the played strings)."""
         return None

@@ -41,7 +41,7 @@ through the bridge.  A trichord's bridge also moves as a mass above
 bridge_mass_hz`): the prompt sound takes its energy from the low partials,
 and the upper ones keep their own decay, as a recorded grand's; the mass's
 reactance raises the in-phase motion, which the loops are tuned with
-(:meth:`GrandPianoInstrument.bridge_lag`).
+(:meth:`GrandVoice.bridge_lag`).
 
 Dampers: a key's release damps its strings (T60 from
 ``dampers.release_t60_bass_s`` to ``..._treble_s`` across the keyboard),
@@ -64,7 +64,7 @@ low partials lose energy to the high ones, as the thesis's study finds
 (Publication I).  That colour is made in the attack (``tools/study_capo.py
 window``: the bar's first 5-20 ms give most of it), so after
 ``strings.capo_window_s`` the strings go on at the engine's rate
-(:meth:`GrandPianoInstrument.leave_fine_grid`, :meth:`synth.dsp.bank.
+(:meth:`GrandVoice.leave_fine_grid`, :meth:`synth.dsp.bank.
 StringBank.hand_over`: the rings resampled with the bar's end in place,
 the loop filters' states fitted to go on where the finer ones would), and
 a sustaining treble note costs what it did on the engine's grid.  A key
@@ -76,7 +76,7 @@ the key's place along the bridge (bus 0 the bass end, bus 1 the treble
 end).
 
 The soundboard is a modal bank on the decimated bridge signal(s): the voice
-describes it (:meth:`GrandPianoInstrument.body`, from ``[body]``: one or two
+describes it (:meth:`GrandVoice.body`, from ``[body]``: one or two
 bridge inputs, one or two outputs) and the engine builds it
 (:class:`synth.dsp.body.Body`).
 """
@@ -146,7 +146,7 @@ class GrandStringSetup:
 
 
 @register_voice("grand")
-class GrandPianoInstrument(KeyboardDampers, Voice):
+class GrandVoice(KeyboardDampers, Voice):
     """The 88-key grand (voice ``grand``)."""
 
     KEY_LOW, KEY_HIGH = 21, 108
@@ -205,7 +205,7 @@ class GrandPianoInstrument(KeyboardDampers, Voice):
                          max_cells=self.max_cells(extra_low_key),
                          max_region=self.max_region_points())
 
-    def sympathetic(self, fs_out: float) -> SympatheticDesign | None:
+    def free_strings(self, fs_out: float) -> SympatheticDesign | None:
         """One string per key (standing for its unison: output x the
         strings per key) at the output rate, for the keys whose loop holds
         at least 12 cells there (up to about D7 at 48 kHz: the halo is the
@@ -261,8 +261,9 @@ class GrandPianoInstrument(KeyboardDampers, Voice):
             keys.append(key)
             max_cells = max(max_cells, loop.cells)
         R = float(np.median([P.bridge_resistance_ns_per_m(k) for k in keys])) / amount
-        return SympatheticDesign(tuple(keys), tuple(slots), tuple(dampers), tuple(has_damper),
-                                 R, BRIDGE_RETURN_HZ, 1.0 / self.preset.output.gain, max_cells)
+        return SympatheticDesign(slots=tuple(slots), keys=tuple(keys), resistance_ns_per_m=R,
+                                 return_hz=BRIDGE_RETURN_HZ, max_cells=max_cells,
+                                 dampers=tuple(dampers), has_damper=tuple(has_damper))
 
     # -- physics at note-on -------------------------------------------------------
     def tuning_hz(self, key: int) -> float:

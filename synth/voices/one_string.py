@@ -24,7 +24,7 @@ at x = 0 (``[termination]``: any registered profile of
 * A musical plucked preset may carry a ``[taraf]`` table (sympathetic
   strings on the bridge, each on a jawari of its own) and a ``[chikari]``
   table (drone strings on the main bridge's jawari, strummed by a key range
-  or a MIDI channel): :meth:`OneStringVoice.taraf` designs them and the
+  or a MIDI channel): :meth:`OneStringVoice.free_strings` designs them and the
   engine runs them (:mod:`synth.engine.taraf`).
 * A musical preset may carry a ``[body]`` table (:meth:`Voice.body`: the
   sitar's gourd and tabli, the biwa's wooden box, as named resonances over
@@ -73,7 +73,7 @@ from .registry import exciter_for, register_voice
 
 
 @dataclass(frozen=True)
-class StringSetup:
+class OneStringSetup:
     """Everything the bank needs for one note (derived at note-on)."""
 
     string: IdealString
@@ -103,7 +103,7 @@ class _Drain:
     its target (samples), and the delay the bend line gives back (samples);
     ``token`` tells this note's drain from a later one's in the same slot."""
 
-    su: StringSetup
+    su: OneStringSetup
     token: int
     db: float
     tau: float
@@ -224,7 +224,7 @@ class OneStringVoice(Voice):
             return mid + (own - mid) * (v / c)
         return own + (edge - own) * ((v - c) / (1.0 - c))
 
-    def excitation_cell(self, su: StringSetup, value: float) -> int:
+    def excitation_cell(self, su: OneStringSetup, value: float) -> int:
         """The grid point a note of setup ``su`` is excited at for CC74
         ``value`` (:meth:`position_for`): 64 the preset's own (``su.k``);
         0 the middle of the sounding string, whose length is half the loop,
@@ -245,7 +245,7 @@ class OneStringVoice(Voice):
         return min(max(int(round(k)), lo), su.cells - 1)
 
     def setup(self, key: float | None = None, f0_hz: float | None = None,
-              k: int | None = None) -> StringSetup:
+              k: int | None = None) -> OneStringSetup:
         """The string for a note (cached per pitch, and per excitation
         point: ``k``, the grid point, None: the exciter's own)."""
         if k is not None:
@@ -318,7 +318,7 @@ class OneStringVoice(Voice):
         k = int(round(self.excitation_position * cells))
         k = min(max(k, 1), cells - 1)
         bl = blen if (not self.study and not own and pre.play.pitch_bend_semitones > 0) else 0
-        s = StringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0,
+        s = OneStringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0,
                         bl, D0 if bl else 0.0, n_disp, a_disp, subcell)
         self._setups[ck] = s
         return s
@@ -363,7 +363,7 @@ class OneStringVoice(Voice):
     def strike_log(self):
         return self.exciter.strike_log
 
-    def _configure(self, bank: StringBank, slot: int, su: StringSetup, probe_row: int) -> None:
+    def _configure(self, bank: StringBank, slot: int, su: OneStringSetup, probe_row: int) -> None:
         U = self._region(su)
         own = U is su.U                # the cached profile (not a buzz depth's)
         hit = self._templates.get(id(su)) if own else None
@@ -396,7 +396,7 @@ class OneStringVoice(Voice):
         return int(math.ceil(loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0
                              + loop * (2.0 ** (r / 12.0) - 1.0))) + 6 + self._rise_margin(loop)
 
-    def _region(self, su: StringSetup):
+    def _region(self, su: OneStringSetup):
         """The note's profile at the current buzz depth (:func:`buzz_profile`;
         the cached one itself at full depth)."""
         if su.U is None or self.buzz == 1.0:
@@ -463,10 +463,10 @@ class OneStringVoice(Voice):
         d = getattr(p, "bachi_duration_s", None)
         return float(d) if d else super().knock_duration_s()
 
-    def taraf(self) -> TarafDesign | None:
+    def free_strings(self, fs_out: float | None = None) -> TarafDesign | None:
         """The ``[taraf]`` and ``[chikari]`` strings at the voice's internal
-        rate (the played strings': one bridge steps them all), or None
-        without a ``[taraf]`` table.
+        rate (the played strings': one bridge steps them all; ``fs_out`` is
+        not theirs), or None without a ``[taraf]`` table.
 
         Taraf: one string per ``taraf.keys``, on a jawari of its own
         (:func:`synth.physics.profiles.jawari` with the table's radius,
@@ -535,9 +535,10 @@ class OneStringVoice(Voice):
             channel = None if c.channel == 0 else int(c.channel) - 1
             strum = float(c.strum_s)
         R = t.bridge_resistance_ns_per_m / t.coupling
-        return TarafDesign(tuple(slots), tuple(keys), tuple(drones), tuple(dkeys), R,
-                           self.BRIDGE_RETURN_HZ, trigger, channel, pluck, strum, max_cells,
-                           max_region)
+        return TarafDesign(slots=tuple(slots), keys=tuple(keys), resistance_ns_per_m=R,
+                           return_hz=self.BRIDGE_RETURN_HZ, max_cells=max_cells,
+                           drone_slots=tuple(drones), drone_keys=tuple(dkeys), trigger=trigger,
+                           channel=channel, pluck=pluck, strum_s=strum, max_region=max_region)
 
     # -- voice contract ------------------------------------------------------------
     #: lowering the buzz depth by 1 (from 1 to 0) drains DRAIN_DB (dB) from
@@ -647,7 +648,7 @@ class OneStringVoice(Voice):
                   _glide_ticking=False, _slot_su={})
         return st
 
-    def _note_setup(self, slot: int, key, f0_hz) -> StringSetup:
+    def _note_setup(self, slot: int, key, f0_hz) -> OneStringSetup:
         """The setup the note sounding in ``slot`` was configured with (its
         own excitation point), or the pitch's."""
         su = self._slot_su.get(slot)
@@ -699,7 +700,7 @@ class OneStringVoice(Voice):
         else:
             self._glide_ticking = False
 
-    def _drain(self, bank: StringBank, slot: int, su: StringSetup, db: float) -> None:
+    def _drain(self, bank: StringBank, slot: int, su: OneStringSetup, db: float) -> None:
         """Start (or add ``db`` dB to) the drain of the note in ``slot``."""
         if self.study or not su.lossy or su.a1 > 0.0 or su.b0 / (1.0 + su.a1) >= 1.0:
             return                  # the thesis's lossless strings: nothing to drain into
@@ -768,7 +769,7 @@ class OneStringVoice(Voice):
             d.comp = min(2.0 * d.mid - d.tau - tau0, room)
             self._retune(bank, slot, su)
 
-    def _pole_delay(self, su: StringSetup, q: float) -> float:
+    def _pole_delay(self, su: OneStringSetup, q: float) -> float:
         """Phase delay (samples) at the note's f0 of the loss pole ``q``."""
         return one_pole_phase_delay(-q, 2.0 * math.pi * su.f0_hz / self.fs)
 
@@ -786,7 +787,7 @@ class OneStringVoice(Voice):
         q = B - math.sqrt(B * B - 1.0)
         return min(max(q, p), max(p, self.DRAIN_POLE_MAX))
 
-    def _drain_room(self, slot: int, su: StringSetup) -> float:
+    def _drain_room(self, slot: int, su: OneStringSetup) -> float:
         """Samples of delay the note's bend line can give back now: its
         bend's delay above 2 samples (the line's shortest is 1; the
         tune-out only lengthens it); without a bend line the drain's pole
@@ -853,7 +854,7 @@ class OneStringVoice(Voice):
         rise = self.preset.termination.pitch_rise_cents or 0.0
         return int(math.ceil(loop * (2.0 ** (rise / 1200.0) - 1.0))) if rise > 0.0 else 0
 
-    def _retune(self, bank: StringBank, slot: int, su: StringSetup) -> None:
+    def _retune(self, bank: StringBank, slot: int, su: OneStringSetup) -> None:
         """Set the bend line of ``slot`` from its bend."""
         if not su.bend_len:
             return
@@ -863,7 +864,7 @@ class OneStringVoice(Voice):
         comp = d.comp if d is not None else 0.0     # a drain's pole's delay, given back
         bank.set_bend_delay(slot, su.bend_delay + loop * (2.0 ** (-r / 12.0) - 1.0) - comp)
 
-    def _tune_out(self, bank: StringBank, slot: int, su: StringSetup, velocity: float) -> None:
+    def _tune_out(self, bank: StringBank, slot: int, su: OneStringSetup, velocity: float) -> None:
         """Start the note's decaying tune-out (``StringBank.set_tune_out``):
         the cents the player's tuning takes off the note so that it sounds
         its key with the termination touching it, ``termination.pitch_rise_cents``
