@@ -20,7 +20,7 @@ from synth.engine.engine import Event
 from synth.io.presets import load_preset
 from synth.kernels import strings as K
 from synth.physics.profiles import buzz_profile, jawari, jawari_angle
-from synth.voices.exciters import Pluck
+from synth.voices.exciters import PluckExciter
 
 #: the sitar on an open jawari and a stiff steel wire (docs/voicing.md, "How the
 #: buzz is made"): the voicing measured for issue 12, as overrides of the preset
@@ -256,12 +256,12 @@ def test_the_sitar_string_is_stiff_steel():
 
 def test_the_sitar_pluck_keeps_its_shape_on_every_fret():
     sitar = load_preset("sitar")
-    p = Pluck(sitar.pluck, sitar, 325_000.0)
+    p = PluckExciter(sitar.pluck, sitar, 325_000.0)
     assert p.duration_s(1.0) == sitar.pluck.duration_s
     assert p.duration_s(0.34) == pytest.approx(0.34 * sitar.pluck.duration_s)
     assert p.duration_s(1.5) == sitar.pluck.duration_s      # retuned below: the open string's
     biwa = load_preset("biwa")
-    assert Pluck(biwa.pluck, biwa, 325_000.0).duration_s(0.34) == biwa.pluck.duration_s
+    assert PluckExciter(biwa.pluck, biwa, 325_000.0).duration_s(0.34) == biwa.pluck.duration_s
 
 
 _MIDI = __import__("helpers").shared_dir() / "midi" / "ButchersMarchiiThe.mid"

@@ -239,6 +239,6 @@ def test_one_string_voice_takes_either_exciter():
     preset's section."""
     s, p = build_voice("sitar"), build_voice("paper/piano-a7-ideal")
     assert type(s) is type(p)
-    assert type(s.exciter).__name__ == "Pluck" and type(p.exciter).__name__ == "FeltHammer"
+    assert type(s.exciter).__name__ == "PluckExciter" and type(p.exciter).__name__ == "HammerExciter"
     assert s.sizes().max_gtable == 0 and p.sizes().max_gtable == int(0.05 * p.fs) + 2
     assert math.isclose(p.excitation_position, p.preset.hammer.position)

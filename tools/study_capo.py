@@ -327,7 +327,7 @@ def switch(args) -> None:
 
 def hand_over_cost_ms(key: int, repeats: int = 20) -> float:
     """Median time (ms) of one hand-over of ``key``'s strings 20 ms after
-    a strike (velocity 0.8; :meth:`GrandPianoInstrument.leave_fine_grid`,
+    a strike (velocity 0.8; :meth:`GrandVoice.leave_fine_grid`,
     warm: after one untimed call, each from the same bank state)."""
     import time
 

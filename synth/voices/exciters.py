@@ -68,7 +68,7 @@ class Exciter:
         su : the note's string as configured in the slot: any object with
             ``string`` (:class:`synth.physics.string.IdealString`), ``cells``,
             ``k``, ``dt_s`` and ``U`` (profile or None), such as
-            :class:`synth.voices.one_string.StringSetup`.
+            :class:`synth.voices.one_string.OneStringSetup`.
         velocity : normalised, 0 < value <= 1.
         amplitude_scale : factor on the excitation's size for this note
             (a fretted string: its speaking length over the open string's,
@@ -84,7 +84,7 @@ class Exciter:
 
 
 @register_exciter("pluck")
-class Pluck(Exciter):
+class PluckExciter(Exciter):
     """The thesis's plucks (``[pluck]``): the sitar's kinematic g(t)
     (eq. 1.13) or the biwa's force pluck (eqs. 1.10-1.11).
 
@@ -126,7 +126,7 @@ class Pluck(Exciter):
 
 
 @register_exciter("hammer")
-class FeltHammer(Exciter):
+class HammerExciter(Exciter):
     """A felt hammer (``[hammer]``): the hammer-string system of eq. 1.4 at
     x = l with the three-parameter felt (eq. 1.5) or the four-parameter one
     (Publication III eq. 3), integrated by the kernel (implicit, second
