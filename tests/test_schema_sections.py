@@ -92,6 +92,7 @@ OUT_OF_RANGE = {
     "action": ("grand-piano", "soft_stiffness", 0.05, "0.1 <= value <= 1"),
     "strings": ("grand-piano", "dispersion_sections", 17, "0 <= value <= 16"),
     "dampers": ("grand-piano", "half_pedal_high", 1.5, "0 <= value <= 1"),
+    "quality_error": ("biwa", "draft_db", -1.0, "0 <= value <= 100"),
     "body": ("grand-piano", "modes", 0, "1 <= value <= 1024"),
     "output": ("grand-piano", "gain", 0.0, "1e-06 <= value <= 1e+09"),
     "play": ("sitar", "key_high", 128, "0 <= value <= 127"),
