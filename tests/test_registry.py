@@ -44,6 +44,26 @@ def test_every_exciter_is_configured_by_a_schema_section():
     assert set(exciter_sections()) <= sections
 
 
+def test_class_names_follow_one_pattern():
+    """Issue 38: a voice is <Name>Voice, its strings' design <Name>Setup,
+    an exciter <Name>Exciter (named for its section)."""
+    import inspect
+
+    from synth.voices import exciters
+    from synth.voices.registry import _EXCITERS
+
+    for name in voice_names():
+        cls = voice_class(name)
+        assert cls.__name__.endswith("Voice"), cls
+        mod = inspect.getmodule(cls)
+        setups = [c for n, c in vars(mod).items() if inspect.isclass(c)
+                  and c.__module__ == mod.__name__ and n.endswith("Setup")]
+        assert [c.__name__ for c in setups] == [cls.__name__[:-len("Voice")] + "Setup"], cls
+    for section, cls in _EXCITERS.items():
+        assert cls.__name__ == section.capitalize() + "Exciter", (section, cls)
+        assert issubclass(cls, exciters.Exciter)
+
+
 def test_every_schema_profile_is_registered_with_its_parameters():
     """PROFILES in the schema = the registry plus "none"; each profile's
     parameters are exactly the termination keys the schema requires for it

@@ -120,7 +120,7 @@ DISPERSION_TOL_CENTS = quality_level("standard").dispersion_tol_cents
 
 
 @dataclass(frozen=True)
-class GrandStringSetup:
+class GrandSetup:
     """One string of a key, ready for the bank."""
 
     cells: int
@@ -160,7 +160,7 @@ class GrandVoice(KeyboardDampers, Voice):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (100000 <= value <= 2000000)")
         # per-key designs are shared by every instrument of the same preset
         # and rate in this process (designing a key takes ~17 ms)
-        self._keys: dict[int, tuple[GrandStringSetup, ...]] = _DESIGNS.setdefault(
+        self._keys: dict[int, tuple[GrandSetup, ...]] = _DESIGNS.setdefault(
             (preset, self.fs, self.quality.dispersion_tol_cents), {})
         st = preset.strings
         self._capo = capo(st.capo_radius_m)
@@ -278,7 +278,7 @@ class GrandVoice(KeyboardDampers, Voice):
             return float(f0_hz)
         return self.tuning_hz(int(round(key)))
 
-    def setup(self, key: int) -> tuple[GrandStringSetup, ...]:
+    def setup(self, key: int) -> tuple[GrandSetup, ...]:
         """The key's strings as a strike sets them up: on the finer grid
         from ``strings.capo_grid_from_key`` up (the capo keys)."""
         key = int(key)
@@ -288,7 +288,7 @@ class GrandVoice(KeyboardDampers, Voice):
             self._keys[key] = self._design(key, M)
         return self._keys[key]
 
-    def coarse_setup(self, key: int) -> tuple[GrandStringSetup, ...]:
+    def coarse_setup(self, key: int) -> tuple[GrandSetup, ...]:
         """The key's strings on the engine's grid: where they go on after
         a strike on the finer grid (:meth:`leave_fine_grid`); the same as
         :meth:`setup` for a key that has no finer grid."""
@@ -325,7 +325,7 @@ class GrandVoice(KeyboardDampers, Voice):
         return bank.hand_over([sl for sl, _ in use], [su.slot for _, su in use],
                               [su.damper for _, su in use])
 
-    def _design(self, key: int, M: int) -> tuple[GrandStringSetup, ...]:
+    def _design(self, key: int, M: int) -> tuple[GrandSetup, ...]:
         """The key's strings designed on a grid of ``M`` steps per engine
         sample."""
         gs = P.grand_string(key)
@@ -363,7 +363,7 @@ class GrandVoice(KeyboardDampers, Voice):
                 R = max(1, int(round(sp.capo_region_m / dx)))
                 R = min(R, cells // 3)
                 U = Termination(self._capo, 1, R).sample(dx)
-            out.append(GrandStringSetup(cells, k, dt, U, loop.b0, loop.a1, loop.eta,
+            out.append(GrandSetup(cells, k, dt, U, loop.b0, loop.a1, loop.eta,
                                         loop.extra_delay, loop.n_fo, loop.a_fo, loop.sos,
                                         gs.tension_n, gs.c_m_per_s, fj, sub=M))
         # validated bank rows, so that a note-on in the audio thread only
@@ -467,7 +467,7 @@ class GrandVoice(KeyboardDampers, Voice):
             self._speeds[velocity] = V
         return V
 
-    def _hammer(self, key: int, n_strings: int, su: GrandStringSetup) -> dict:
+    def _hammer(self, key: int, n_strings: int, su: GrandSetup) -> dict:
         """The key's felt hammer for one of its ``n_strings`` strings
         (:func:`synth.dsp.bank.hammer_template` arguments but dt; the
         speed and the soft pedal's stiffness factor come per strike)."""

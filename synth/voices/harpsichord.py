@@ -54,7 +54,7 @@ from .registry import exciter_for, register_voice
 
 
 @dataclass(frozen=True)
-class HarpsichordStringSetup:
+class HarpsichordSetup:
     """One key's string, ready for the bank and the exciter."""
 
     string: IdealString
@@ -94,7 +94,7 @@ class HarpsichordVoice(KeyboardDampers, Voice):
             raise ValueError(f"play.key_low..key_high = {lo}..{hi} is out of range "
                              f"({self.KEY_LOW} <= key <= {self.KEY_HIGH}: the piano's strings)")
         self.exciter = exciter_for(preset, self.fs)
-        self._keys: dict[int, HarpsichordStringSetup] = {}
+        self._keys: dict[int, HarpsichordSetup] = {}
 
     def warm(self) -> None:
         lo, hi = self.key_range
@@ -115,7 +115,7 @@ class HarpsichordVoice(KeyboardDampers, Voice):
         t = self.preset.tuning
         return P.stretched_f0_hz(int(round(key)), None, a4_hz=t.a4_hz, stretch=t.stretch)
 
-    def setup(self, key: int) -> HarpsichordStringSetup:
+    def setup(self, key: int) -> HarpsichordSetup:
         """The key's string (designed once, then cached)."""
         key = int(key)
         if key in self._keys:
@@ -147,7 +147,7 @@ class HarpsichordVoice(KeyboardDampers, Voice):
         string = IdealString(gs.speaking_length_m, gs.tension_n, gs.linear_density_kg_per_m)
         t_damped = min(self.release_t60_s(key), t_lo)
         ref = P.grand_string(self.KEY_REF)
-        su = HarpsichordStringSetup(string, cells, k, dt, None, loop.b0, f1, slot,
+        su = HarpsichordSetup(string, cells, k, dt, None, loop.b0, f1, slot,
                                 (loop.b0, f1, t_damped, t_lo),
                                 ref.impedance_ns_per_m / gs.impedance_ns_per_m
                                 * (ref.f0_hz / gs.f0_hz) ** VOICING_EXPONENT)
