@@ -210,3 +210,34 @@ def test_a_soft_bridge_stays_bounded_under_a_chord_and_strokes():
     y = engine("sitar", ["taraf.bridge_resistance_ns_per_m=1"]).render(ev, duration_s=8.0)
     assert np.all(np.isfinite(y))
     assert np.max(np.abs(y[7 * FS:])) < 0.1 * np.max(np.abs(y[:FS]))
+
+
+def test_the_taraf_and_the_pianos_sympathetic_strings_are_one_component():
+    """Issue 38: free strings on a bridge (synth.engine.free_strings), in two
+    configurations picked by the design the voice returns from its one hook:
+    the sitar's in the engine's bank (two-way), the grand's on a bank of
+    their own at the output rate (one way); the same set-up, membership
+    and all-sound-off on both."""
+    from synth.engine.free_strings import FreeStrings
+    from synth.voices.base import FreeStringsDesign, SympatheticDesign, TarafDesign, Voice
+
+    assert not hasattr(Voice, "taraf") and not hasattr(Voice, "sympathetic")
+    sitar, grand = engine("sitar"), engine("grand-piano")
+    assert isinstance(sitar.inst.free_strings(sitar.fs_out), TarafDesign)
+    assert isinstance(grand.inst.free_strings(grand.fs_out), SympatheticDesign)
+    assert sitar.sym is None and grand.taraf is None
+    # the played strings' force per unit of their output: the engine's gain
+    assert grand.sym.force_per_unit == 1.0 / grand.output.gain
+    grand.render([Event(0.0, "control", 64, 1.0)] + note(48, vel=0.9), duration_s=0.1)
+    sitar.render(note(57, vel=0.9), duration_s=0.1)
+    for fs, bank in ((sitar.taraf, sitar.bank), (grand.sym, grand.sym.bank)):
+        assert isinstance(fs, FreeStrings) and isinstance(fs.design, FreeStringsDesign)
+        assert fs.bank is bank and len(fs.slots) == len(fs.templates) >= 11
+        assert all(fs.owns(s) for s in fs.slots) and not fs.owns(fs.slots[-1] + 1)
+        assert fs.R == fs.design.resistance_ns_per_m and fs.return_hz == fs.design.return_hz
+        assert fs.n_active > 0
+        before = bank.fpar.copy()
+        fs.fade(0.01)                       # all sound off: a fade ...
+        assert not np.array_equal(bank.fpar, before)
+        fs.rest()                           # ... then rest
+        assert fs.n_active == 0
