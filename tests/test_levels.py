@@ -4,9 +4,12 @@ themselves are held by the shipped check specs, ``synth check --shipped``)."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from synth.apps import levels as cl
+from synth.apps.check import load_spec
 from synth.io.midi import midi_to_events, read_midi_file
 from synth.io.presets import load_preset, shipped_checks_dir
 
@@ -50,5 +53,13 @@ def test_the_shipped_phrase_is_the_tools_and_its_spec_checks_the_level(name, tmp
     fresh = tmp_path / f"{name}.mid"
     cl.write_midi(cl.phrase_events(load_preset(name)), fresh)
     assert shipped.read_bytes() == fresh.read_bytes()
-    spec = (shipped_checks_dir() / f"{name}.toml").read_text()
-    assert f'midi = "phrases/{name}.mid"' in spec and "lufs = -20.0" in spec
+    # the spec as synth check reads it (not its text): a render of this
+    # preset plays the shipped phrase, with the calibrated preset's settings,
+    # and a loudness check of that render holds it at -20 LUFS
+    spec = load_spec(shipped_checks_dir() / f"{name}.toml")
+    plays = [r for r in spec.renders if r.get("midi") is not None
+             and Path(r["midi"]).resolve() == shipped.resolve()]
+    assert [(r["preset"], r["set"]) for r in plays] == [(name, [])], spec.renders
+    levels = [e for e in spec.expects
+              if e.get("check") == "loudness" and e.get("render") == plays[0]["name"]]
+    assert len(levels) == 1 and levels[0]["lufs"] == -20.0, levels
