@@ -213,6 +213,7 @@ def test_f0_track_resolves_glide_and_small_steps():
     assert np.max(np.abs(after - 200.1)) < 0.002  # Hz
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~3 s of CPU
 def test_fit_inharmonicity_exact_and_from_spectrum():
     f0, B = 27.5, 4e-4
     n = np.arange(1, 31)

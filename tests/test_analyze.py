@@ -36,6 +36,7 @@ def test_two_stage_decay_finds_the_knee_and_both_slopes():
     assert 1.0 < d["t60_s"] < 6.0
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~5 s of CPU, two analyses of a 2 s tone
 def test_the_report_of_a_stiff_string_tone():
     r = analyze_audio(_stiff(), FS, f0_hz=220.0 * np.sqrt(1.001), n_partials=10)
     assert r["schema"] == 2 and r["onset_s"] == pytest.approx(0.01, abs=1e-4)
@@ -61,11 +62,28 @@ def test_the_report_of_a_stiff_string_tone():
 
 
 def _cli(*args):
+    """``synth analyze ARGS`` as a program: a fresh interpreter, its exit
+    status and streams (the command's contract; a cold start costs 1-2 s
+    of imports, so most tests call :func:`_run` instead)."""
     return subprocess.run([sys.executable, "-m", "synth.cli", "analyze", *map(str, args)],
                           capture_output=True, text=True)
 
 
-def test_cli_on_a_wav_file_table_json_and_plot(tmp_path):
+def _run(capsys, *args):
+    """``synth analyze ARGS`` through :func:`synth.cli.main` in this process:
+    the same parsing, errors and exit status as the program, without a cold
+    start.  Returns what :func:`_cli` does (returncode, stdout, stderr)."""
+    from synth.cli import main
+
+    capsys.readouterr()
+    rc = main(["analyze", *map(str, args)])
+    cap = capsys.readouterr()
+    assert "Traceback" not in cap.err, cap.err
+    return subprocess.CompletedProcess(args, rc, cap.out, cap.err)
+
+
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~9 s of CPU, the program with its plot and an analysis
+def test_cli_on_a_wav_file_table_json_and_plot(tmp_path, capsys):
     pytest.importorskip("matplotlib", reason="--plot needs the [plots] extra")
     wav = tmp_path / "tone.wav"
     sf.write(wav, np.column_stack([_stiff(), _stiff()]).astype(np.float32), FS, subtype="FLOAT")
@@ -73,20 +91,23 @@ def test_cli_on_a_wav_file_table_json_and_plot(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "2 channels; analysing their mean" in r.stderr
     assert "n  freq Hz  level dB" in r.stdout and (tmp_path / "a.png").read_bytes()[:4] == b"\x89PNG"
-    j = json.loads(_cli(wav, "--json").stdout)
+    r = _run(capsys, wav, "--json")
+    assert r.returncode == 0, r.stderr
+    j = json.loads(r.stdout)
     assert j["schema"] == 2 and len(j["partials"]) == 12
     # found without a hint, and partials 11-12 (none there) do not spoil the fit
     assert j["partials"][0]["freq_hz"] == pytest.approx(220 * np.sqrt(1.001), abs=0.01)
     assert j["inharmonicity_b"] == pytest.approx(1e-3, rel=0.01)
 
 
-def test_cli_renders_a_preset_note_and_measures_the_piano_string():
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~4 s of CPU, 2 s of the grand and its analysis
+def test_cli_renders_a_preset_note_and_measures_the_piano_string(capsys):
     """C4 on the grand: partial 1 is the voice's tuning; the fitted B is the
     string's (synth.physics.piano: 3.16e-4; measured 3.07e-4, the dispersion
     allpasses fit the law over the lowest partials only: within 10 %)."""
     from synth.physics import piano as P
 
-    r = _cli("grand-piano", "--key", 60, "--seconds", 2, "--json")
+    r = _run(capsys, "grand-piano", "--key", 60, "--seconds", 2, "--json")
     assert r.returncode == 0, r.stderr
     j = json.loads(r.stdout)
     assert abs(1200 * np.log2(j["partial1_hz"] / j["expected_hz"])) < 0.1
@@ -100,8 +121,8 @@ def test_cli_renders_a_preset_note_and_measures_the_piano_string():
     (["grand-piano", "--key", "60", "--plot", "/no/such/dir/a.png"], "directory /no/such/dir does not exist"),
     (["grand-piano", "--key", "60", "--partials", "0"], "--partials = 0 is out of range"),
 ])
-def test_bad_input_is_one_line_exit_2(args, fragment):
-    r = _cli(*args)
+def test_bad_input_is_one_line_exit_2(args, fragment, capsys):
+    r = _run(capsys, *args)
     assert r.returncode == 2 and r.stderr.startswith("synth: error: ") and fragment in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1
 
@@ -109,21 +130,22 @@ def test_bad_input_is_one_line_exit_2(args, fragment):
 def test_a_file_that_is_not_audio(tmp_path):
     p = tmp_path / "fake.wav"
     p.write_text("not audio")
-    r = _cli(p)
+    r = _cli(p)                  # the program: exit 2, one line on stderr
     assert r.returncode == 2 and f"not a WAV file: {p}" in r.stderr
+    assert r.stderr.startswith("synth: error: ") and len(r.stderr.strip().splitlines()) == 1
 
 
-def test_contacts_are_summarised_per_string_and_over_time():
+def test_contacts_are_summarised_per_string_and_over_time(capsys):
     """The sitar of Publication II Case 2 keeps touching its jawari; C4 of the
     grand has three strings, a hammer and no capo bar."""
-    j = json.loads(_cli("paper/sitar-case2", "--seconds", 0.3, "--partials", 3, "--contacts",
+    j = json.loads(_run(capsys, "paper/sitar-case2", "--seconds", 0.3, "--partials", 3, "--contacts",
                         "--json").stdout)
     (c,) = j["contacts"]
     assert c["termination"]["episodes"] > 10 and c["termination"]["max_points"] > 0
     assert c["hammer"]["episodes"] == 0
     assert len(c["frames"]["time_s"]) == 30 and max(c["frames"]["termination_contact_share"]) > 0
-    r = _cli("grand-piano", "--key", 60, "--seconds", 0.5, "--partials", 3, "--contacts")
+    r = _run(capsys, "grand-piano", "--key", 60, "--seconds", 0.5, "--partials", 3, "--contacts")
     lines = [ln for ln in r.stdout.splitlines() if ln.startswith("contacts, string")]
     assert len(lines) == 3 and all("termination 0.00 ms" in ln and "peak" in ln for ln in lines)
-    r = _cli("x.wav", "--contacts")
+    r = _run(capsys, "x.wav", "--contacts")
     assert r.returncode == 2

@@ -238,6 +238,7 @@ def test_two_workers_render_a_spec_a_second_run_renders_nothing(tmp_path, cluste
     assert len(pd.read_parquet(out / "manifest.parquet")) == 20
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~7 s of CPU, six renders with fresh voices
 def test_the_same_spec_gives_the_same_bytes_in_one_process(tmp_path, cluster):
     """Against render_job in this process, voices fresh and reused alike."""
     jobs = load_spec(_spec(tmp_path, SPEC_20))
@@ -248,6 +249,7 @@ def test_the_same_spec_gives_the_same_bytes_in_one_process(tmp_path, cluster):
         assert hashlib.sha256(render_job(j)["wav"]).hexdigest() == _sha(out / j.path)
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~8 s of CPU, a cluster of its own
 def test_a_killed_worker_s_job_is_done_again(tmp_path):
     """SIGKILL one of two workers while it renders: the scheduler reruns its
     job on the restarted worker; every job is in the manifest once."""

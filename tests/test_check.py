@@ -223,6 +223,7 @@ max_db = {hi}
     assert [r.passed for r in run_spec(spec)] == [True, True, True, False]
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~3 s of CPU
 def test_the_python_api(tmp_path):
     y, fs, f = testing.render_note("biwa", 52, 100, 1.0)
     assert testing.check_f0(y, fs, f, cents=1.0).passed
@@ -266,6 +267,7 @@ def _stiff(path, f0=110.0, B=1e-4, n=30, seconds=1.5, bend=None, two_stage=False
     return path
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~4 s of CPU
 def test_partials_law_and_two_stage_on_closed_form_tones(tmp_path):
     """partials_law fits the stiff-string law and finds a partial moved by
     3 cents (not one moved by 0.5); two_stage finds a knee where a tone has
@@ -420,6 +422,7 @@ max_dbfs = 0.0
 """, "bad.toml"))
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~3 s of CPU
 def test_the_halo_leaves_out_a_stiff_strings_own_partials():
     """The halo check leaves out the note's own partials on the stiff-string
     law fitted to the note (until 2026-11-27 on n f1: a piano's partial 40

@@ -52,6 +52,7 @@ def _note(tmp_path, *args):
     return r.stdout, list(csv.DictReader(log.open()))
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~2.5 s of CPU in its subprocesses
 def test_the_biwa_touches_its_sawari_and_a_grand_note_logs_every_string(tmp_path):
     out, rows = _note(tmp_path, "paper/biwa-sawari", "--seconds", "0.0164")
     assert "string 0: termination" in out and "hammer 0.000 ms" in out

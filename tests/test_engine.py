@@ -153,6 +153,7 @@ def _harmonic_pitch_hz(y, fs, f_lo, f_hi, n_harm=6):
         (k0 + int(np.argmax(mag[k0:k1]))) * df
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~4 s of CPU
 def test_every_midi_key_plays_on_a_musical_preset():
     """Every key 0-127, far outside the sitar's range 43..74 too, sounds at its
     pitch (the string retuned or fretted there; the termination region shrinks

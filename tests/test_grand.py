@@ -164,6 +164,7 @@ THESIS_VELOCITY = 98
 
 
 @pytest.mark.parametrize("key", [84, 90, 96])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: 1-3.5 s of CPU per key
 def test_the_capo_bar_colours_every_treble_note_at_the_default(key):
     """Issue 11: at the preset's settings the treble strings reach the bar
     after the hammer has left, and the partials a listener hears move as

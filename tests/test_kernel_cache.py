@@ -261,6 +261,7 @@ def _toy(root, pkg, init, value):
 
 
 @pytest.mark.parametrize("numba_cache_dir", [True, False], ids=["NUMBA_CACHE_DIR", "default"])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~3 s of CPU, a compile in a subprocess
 def test_callee_edit_gives_fresh_code(tmp_path, numba_cache_dir):
     """The toy package ``keyed`` loads its modules with :func:`load_keyed`;
     ``plain`` (the control) is the same without it.  After the callee's

@@ -169,6 +169,7 @@ def test_taraf_tables_are_validated():
         validate_dict(dict(raw, taraf=dict(taraf, grid=4)), "x")
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: a benchmark in a subprocess
 def test_the_cost_benchmark_runs_in_its_quick_mode():
     """tools/bench.py taraf (docs/benchmarks.md, "Sitar taraf") in CI's quick mode."""
     import subprocess
@@ -183,6 +184,7 @@ def test_the_cost_benchmark_runs_in_its_quick_mode():
         assert f"{name}: median" in p.stdout
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: a study in a subprocess
 def test_the_bridge_study_runs_in_its_quick_mode():
     """tools/taraf_bridge.py (docs/voicing.md, "Taraf and chikari") in
     CI's quick mode: the shipped bridge keeps keys 60 and 72 within 1 cent

@@ -9,11 +9,14 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from synth.apps import work_precision as wp
 
 ROOT = Path(__file__).resolve().parents[1]
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: the tool in a subprocess
 def test_quick_mode_asserts_the_orders():
     """``python tools/work_precision.py --quick`` (the tool as its users run
     it): exit 0 when its own checks of the orders hold."""
