@@ -428,6 +428,7 @@ print("JSON " + json.dumps(dict(blocks=st.blocks, errors=st.errors, underruns=st
 
 
 @needs_portaudio
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~3 s of CPU in its subprocess
 def test_real_stream_on_the_null_device_plays_messages(null_home, tmp_path):
     import soundfile
 
@@ -501,6 +502,7 @@ def test_virtual_midi_port_into_synth_play(null_home):  # pragma: no cover - nee
     assert "4 MIDI messages, 2 notes" in rest and "blocks of 128 at 48000 Hz" in rest
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~3 s of CPU, two engines readied
 def test_set_overrides_the_first_preset_of_live_play():
     """``synth play --set`` reaches the engine the stream plays."""
     from synth.io.live import ready_engine

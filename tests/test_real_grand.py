@@ -47,6 +47,7 @@ def test_file_names_give_the_key_and_the_layer():
     assert midi_of("notes.txt") is None and midi_of("Cb4v10.ogg") is None
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~2.3 s of CPU
 def test_the_measures_of_known_notes(tmp_path):
     """A note with a prompt sound (T60 2 s) falling to an aftersound 25 dB
     down (T60 20 s) reads a visible two-stage decay with late/early near 10;

@@ -561,6 +561,7 @@ def test_full_disk_on_a_small_tmpfs(capsys, tmp_path, small_tmpfs):
     assert os.listdir(small_tmpfs) == ["out.wav"] and out.read_bytes() == b"RIFF old"
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~3.5 s of CPU
 def test_a_long_render_is_written_as_it_is_rendered(tmp_path):
     """``synth render`` streams its blocks into the WAV file: the memory it
     holds does not grow with the render (a 3-hour stereo render held whole

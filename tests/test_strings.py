@@ -258,6 +258,7 @@ def test_probe_records_contacts_and_displacement():
         assert np.all(u[1:26] <= 1e-15)
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~4 s of CPU
 def test_dispersion_cascade_in_the_kernel_gives_the_designed_partials():
     """A stiff loop (tune_stiff_loop) run by the kernel: the rendered
     partials sit where synth.physics.dispersion.loop_partials puts them."""

@@ -24,6 +24,7 @@ def _row(out, key):
     return [float(v) for v in re.findall(r"-?\d+(?:\.\d+)?", row)[1:]]
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~2.5 s of CPU
 def test_the_fitted_state_hands_over_where_a_zero_state_clicks():
     """Key 96 after 20 ms on the 1.3 MHz grid: with the far-end filter's
     state fitted, the coarse string's wave follows the fine one's within
@@ -50,6 +51,7 @@ def test_bad_arguments_exit_2_with_one_line(argv):
     assert err and "study_capo.py" in err[-1]
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~2.5 s of CPU
 def test_the_hand_over_stops_the_bars_faint_contact_noise():
     """Key 96 at V = 5 m/s: before the hand-over the two renders are one
     (the same median between the partials over 8-18 ms); after it the

@@ -58,6 +58,7 @@ def test_the_halo_rings_at_the_taraf_pitches_after_the_note_is_damped():
     assert abs(window_energy_db(y, FS, 0.05, 0.9) - window_energy_db(y0, FS, 0.05, 0.9)) < 3.0
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~2.3 s of CPU
 def test_each_taraf_string_touches_its_own_jawari():
     """The C4 taraf string under a C4 note reaches its own open jawari (the
     thread at the drop: grazing) on a bridge of 300 N s/m (``taraf.coupling``
