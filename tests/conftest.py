@@ -3,6 +3,8 @@
 import os
 import signal
 
+import pytest
+
 # OpenMP's threads (numba's "omp" layer, the renders on several threads) wait
 # for the next parallel loop by spinning, by default: in a test run, with a
 # second worker (pytest-xdist) and the tests' own subprocesses on the same
@@ -57,9 +59,13 @@ XDIST_GROUPS = {
 }
 
 
+# tryfirst: xdist's own hook (on each worker) reads the xdist_group marks to
+# name each test's group; run after it, as a plain conftest hook did, the
+# marks came too late and every group was split over the workers (a module
+# fixture built on both, the realtime tests on both at once).
+# tests/test_conftest_groups.py checks it.
+@pytest.hookimpl(tryfirst=True)
 def pytest_collection_modifyitems(config, items):
-    import pytest
-
     for item in items:
         group = XDIST_GROUPS.get(item.path.name)
         if group is not None:
