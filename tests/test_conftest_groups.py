@@ -13,6 +13,7 @@ def test_every_test_of_a_grouped_module_carries_its_group(request):
     if not hasattr(cfg, "workerinput") or not cfg.getvalue("loadgroup"):
         pytest.skip("only an xdist worker under --dist loadgroup names the groups")
     grouped = [it for it in request.session.items if it.path.name in XDIST_GROUPS]
-    assert grouped, "no test of a grouped module was collected"
+    if not grouped:
+        pytest.skip("no test of a grouped module was collected in this run (run the suite)")
     wrong = [it.nodeid for it in grouped if not it.nodeid.endswith("@" + XDIST_GROUPS[it.path.name])]
     assert not wrong, f"{len(wrong)} tests left out of their group, e.g. {wrong[:3]}"

@@ -110,7 +110,12 @@ def test_the_command_line_options(tmp_path):
     p = _synth("note", "biwa", "--key", "50", "--seconds", "0.2", "--max-error", "1000,1000",
                "-o", str(out))
     assert p.returncode == 0 and "(draft)" in p.stdout
-    p = _synth("note", "biwa", "--key", "50", "--seconds", "0.2", "--max-error", "0.2,1",
+    # the biwa's [quality_error]: draft 0.07 cents / 0.30 dB, standard 0.05 / 0.87,
+    # reference 0.02 / 0.14: the cheapest level within both
+    p = _synth("note", "biwa", "--key", "50", "--seconds", "0.2", "--max-error", "0.06,1",
+               "-o", str(out))
+    assert p.returncode == 0 and "(standard)" in p.stdout
+    p = _synth("note", "biwa", "--key", "50", "--seconds", "0.2", "--max-error", "0.03,0.2",
                "-o", str(out))
     assert p.returncode == 0 and "(reference)" in p.stdout
     for args, msg in [

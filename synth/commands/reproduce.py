@@ -1,5 +1,5 @@
 """`synth reproduce`: the thesis's results reproduced, as Markdown
-(docs/reproduction.md; synth.apps.reproduce)."""
+(the guide ``synth help reproduction``; synth.apps.reproduce)."""
 
 from __future__ import annotations
 
@@ -8,13 +8,13 @@ import argparse
 from .common import fail, require_extra
 
 NAME = "reproduce"
-HELP = "reproduce the thesis's numbers and print them as Markdown (docs/reproduction.md)"
+HELP = "reproduce the thesis's numbers and print them as Markdown (synth help reproduction)"
 
 #: the parts and their one-line help
 PARTS = {
     "thesis": "Publications I-II: the jawari cases, the biwa's sawari, the A7 hammer (about 20 s)",
     "felt": "chapter 2: deformation waves in hammer felt, with its checks (about 40 s)",
-    "felt-study": "the A7 strike with the felt-layer hammer against the lumped law (docs/felt.md)",
+    "felt-study": "the A7 strike with the felt-layer hammer against the lumped law (synth help felt)",
 }
 #: the options each part takes
 OPTIONS = {"thesis": ("--energy",), "felt": ("--png", "--quick"),
@@ -24,7 +24,7 @@ EPILOG = ("parts:\n" + "".join(f"  {p:<11} {h}\n" for p, h in PARTS.items())
           + "\nexamples:\n"
           "  synth reproduce                       # the thesis's tables (the part 'thesis')\n"
           "  synth reproduce --energy              # the grid energy, step by step\n"
-          "  synth reproduce felt --png docs/img   # chapter 2, and its figures felt-*.png\n"
+          "  synth reproduce felt --png figures    # chapter 2, and its figures felt-*.png\n"
           "  synth reproduce felt-study --quick    # the felt layer's checks on coarse settings\n"
           "\nA part whose checks against the thesis fail exits with status 1.")
 
@@ -34,12 +34,13 @@ def add_arguments(parser) -> None:
                         metavar="PART", help=f"what to reproduce: {', '.join(PARTS)} "
                                              "(default thesis)")
     parser.add_argument("--energy", action="store_true",
-                        help="thesis: only the grid energy, step by step after the pluck")
+                        help="thesis: only the grid energy, step by step after the pluck (default: "
+                             "off, the whole reproduction)")
     parser.add_argument("--png", metavar="DIR",
-                        help="felt: also draw the figures into DIR (felt-*.png)")
+                        help="felt: also draw the figures into DIR (felt-*.png; default: none drawn)")
     parser.add_argument("--quick", action="store_true",
                         help="felt: pulses on a grid twice as coarse; felt-study: the checks "
-                             "only, on coarse settings")
+                             "only, on coarse settings (default: off, the full settings)")
     parser.add_argument("--repeats", type=int, default=None,
                         help="felt-study: runs per cost figure, their median (default 3)")
 
