@@ -59,14 +59,16 @@ XDIST_GROUPS = {
 }
 
 
-# tryfirst: xdist's own hook (on each worker) reads the xdist_group marks to
-# name each test's group; run after it, as a plain conftest hook did, the
-# marks came too late and every group was split over the workers (a module
-# fixture built on both, the realtime tests on both at once).
+# The marks go on each test as it is collected (pytest_itemcollected), before
+# any pytest_collection_modifyitems hook: xdist's hook on each worker reads
+# them there and appends the group to the test's node id, which its loadgroup
+# scheduler reads.  Set in a plain conftest modifyitems hook, they came after
+# xdist's (every group split over the workers: a module fixture built on
+# both, the realtime tests on both at once).  pytest 9.2 derives node ids from
+# a structured id and ignores xdist 3.8's rewrite, so no group holds there
+# (pytest-dev/pytest-xdist#1386): pyproject's test extra keeps pytest < 9.2.
 # tests/test_conftest_groups.py checks it.
-@pytest.hookimpl(tryfirst=True)
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        group = XDIST_GROUPS.get(item.path.name)
-        if group is not None:
-            item.add_marker(pytest.mark.xdist_group(group))
+def pytest_itemcollected(item):
+    group = XDIST_GROUPS.get(item.path.name)
+    if group is not None:
+        item.add_marker(pytest.mark.xdist_group(group))
