@@ -157,13 +157,13 @@ SAWARI_FALL_MAX_DB = 15.0
 
 def _sawari_fall(key, extra=()):
     """(largest 200 ms fall dB, into t s, the band's level over 0.3-0.6 s dB)."""
-    from synth.analysis import band_decay, largest_fall_db
+    from synth.analysis import band_decay
 
     e = engine("biwa", list(extra))
     y = np.asarray(e.render(note(key, 0.0, 100 / 127), duration_s=2.6))
     d = band_decay(y, e.fs_out, 6000.0, 12000.0, 0.1)
     early = 10.0 * np.log10(np.mean(10.0 ** (d.band_db[3:6] / 10.0)))
-    return largest_fall_db(y, e.fs_out, 6000.0, 12000.0, 0.2, 0.3, 2.5) + (float(early),)
+    return d.largest_fall(0.2, 0.3, 2.5) + (float(early),)
 
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine

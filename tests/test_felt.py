@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from synth.apps.reproduce.felt import thesis_closed_form
 from synth.physics import felt as F
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -25,19 +26,6 @@ def _reproduce(*argv):
                        capture_output=True, text=True, cwd=ROOT, timeout=600)
     assert p.returncode == 0, p.stdout[-3000:] + p.stderr[-3000:]
     return p.stdout
-
-
-def _thesis_closed_form(k, d):
-    """The thesis's eqs. 2.21-2.23 for omega(k) and mu(k) (1/9 < delta < 1),
-    taken literally with principal complex roots: the slow reference."""
-    k = np.asarray(k, complex)
-    Q = 4 * k ** 4 * d - k ** 2 * (1 + 18 * d - 27 * d * d) + 4
-    S = (2 - 9 * k * k * d * (1 - 3 * d) + 3 * k * d * np.sqrt(3 * Q)) ** (1 / 3)
-    a = 1 - 3 * k * k * d
-    om = math.sqrt(6) / (12 * d * S) * np.sqrt(2 ** (1 / 3) * S ** 4 - 4 * S * S * a
-                                                + 2 * 4 ** (1 / 3) * a * a)
-    mu = 1 / (12 * d * S) * (4 ** (1 / 3) * S * S - 4 * S + 2 * 2 ** (1 / 3) * a)
-    return om.real, mu.real
 
 
 def test_the_thesis_felt_constants():
@@ -85,7 +73,7 @@ def test_the_dispersion_relation_and_the_thesis_closed_form(d):
     res = k * k * (1 - 1j * O) - O * O * (1 - 1j * d * O)
     assert np.max(np.abs(res) / (k * k)) < 1e-12
     assert np.all(mu <= 0)
-    om_c, mu_c = _thesis_closed_form(k, d)
+    om_c, mu_c = thesis_closed_form(k, d)
     assert np.max(np.abs(om - om_c)) < 1e-10 and np.max(np.abs(mu - mu_c)) < 1e-10
 
 

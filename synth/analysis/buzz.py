@@ -62,33 +62,38 @@ class BandDecay:
                     best, at = float(d), float(self.t_s[i + 1])
         return best, at
 
+    def largest_fall(self, span_s: float = 0.2, start_s: float = 0.3, end_s: float = 2.5):
+        """(fall dB, t_s): the largest fall of ``band_db`` over ``span_s``
+        (s, a whole number of windows) between two windows that both lie
+        within ``start_s`` .. ``end_s`` (s); ``t_s`` is the start of the
+        window it falls into; (0.0, nan) when no pair of windows fits."""
+        w = self.window_s
+        k = int(round(span_s / w))
+        if k < 1 or abs(k * w - span_s) > 1e-9 * max(1.0, span_s):
+            raise ValueError(f"span_s = {span_s!r} is out of range (a whole number >= 1 of "
+                             f"window_s = {w:g} s)")
+        if not (0.0 <= start_s < end_s):
+            raise ValueError(f"start_s..end_s = {start_s!r}..{end_s!r} is out of range "
+                             f"(0 <= start_s < end_s)")
+        b, t = self.band_db, self.t_s
+        best, at = 0.0, float("nan")
+        for i in range(len(t) - k):
+            if t[i] >= start_s - 1e-9 and t[i + k] + w <= end_s + 1e-9:
+                fall = float(b[i] - b[i + k])
+                if fall > best:
+                    best, at = fall, float(t[i + k])
+        return best, at
+
 
 def largest_fall_db(y, fs_hz: float, f_lo_hz: float, f_hi_hz: float, span_s: float = 0.2,
                     start_s: float = 0.3, end_s: float = 2.5, window_s: float = 0.1):
-    """(fall dB, t_s): the largest fall of the band f_lo..f_hi (Hz) of
-    ``y`` over ``span_s`` (s, a whole number of ``window_s``), between two
-    windows of :func:`band_decay` that both lie within ``start_s`` ..
-    ``end_s`` (s); ``t_s`` is the start of the window it falls into.  A
+    """(fall dB, t_s): :meth:`BandDecay.largest_fall` of the band f_lo..f_hi
+    (Hz) of ``y`` in windows of ``window_s`` (:func:`band_decay`).  A
     contact that ends in one step shows as one large fall (the biwa's
     sawari on the grid: 31 dB in 200 ms at its knee); a buzz that fades with
     the note falls about as fast as the note's own high partials (issue
-    40: at most 15 dB).  (0.0, nan) when no pair of windows fits."""
-    k = int(round(span_s / window_s))
-    if k < 1 or abs(k * window_s - span_s) > 1e-9 * max(1.0, span_s):
-        raise ValueError(f"span_s = {span_s!r} is out of range (a whole number >= 1 of "
-                         f"window_s = {window_s:g} s)")
-    if not (0.0 <= start_s < end_s):
-        raise ValueError(f"start_s..end_s = {start_s!r}..{end_s!r} is out of range "
-                         f"(0 <= start_s < end_s)")
-    d = band_decay(y, fs_hz, f_lo_hz, f_hi_hz, window_s)
-    b, t = d.band_db, d.t_s
-    best, at = 0.0, float("nan")
-    for i in range(len(t) - k):
-        if t[i] >= start_s - 1e-9 and t[i + k] + window_s <= end_s + 1e-9:
-            fall = float(b[i] - b[i + k])
-            if fall > best:
-                best, at = fall, float(t[i + k])
-    return best, at
+    40: at most 15 dB)."""
+    return band_decay(y, fs_hz, f_lo_hz, f_hi_hz, window_s).largest_fall(span_s, start_s, end_s)
 
 
 def band_decay(y, fs_hz: float, f_lo_hz: float = 6000.0, f_hi_hz: float = 20000.0,

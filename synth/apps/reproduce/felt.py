@@ -71,8 +71,10 @@ def row(section, item, thesis, command, ours, diff, check=None):
             "ours": ours, "diff": diff, "check": check}
 
 
-def _closed_form(k, d):
-    """The thesis's eqs. 2.21-2.23, literally (principal complex roots)."""
+def thesis_closed_form(k, d):
+    """omega(k) and mu(k) by the thesis's eqs. 2.21-2.23 (1/9 < delta < 1),
+    taken literally with principal complex roots: the slow reference the
+    reproduction and tests/test_felt.py check synth.physics.felt against."""
     k = np.asarray(k, complex)
     Q = 4 * k ** 4 * d - k ** 2 * (1 + 18 * d - 27 * d * d) + 4
     S = (2 - 9 * k * k * d * (1 - 3 * d) + 3 * k * d * np.sqrt(3 * Q)) ** (1 / 3)
@@ -167,7 +169,7 @@ def linear_rows(png):
     err = 0.0
     for d in (0.128, 0.15, 0.2, 0.5, 0.8):
         om, mu = F.dispersion(k, d)
-        oc, mc = _closed_form(k, d)
+        oc, mc = thesis_closed_form(k, d)
         err = max(err, float(np.max(np.abs(om - oc))), float(np.max(np.abs(mu - mc))))
     out.append(row(S, "eqs. 2.21-2.23, omega(k) and mu(k) in closed form (case ii, 1/9 < "
                    "delta < 1)", "the closed form", "synth reproduce felt",

@@ -198,17 +198,12 @@ SECTIONS: tuple[Section, ...] = (
         Field("thread_m", "float", "jawari thread diameter (it lifts the string off the bridge's "
               "front edge; at extent_m^2/(2 radius_m) the string grazes the bridge), m", 0.0, 0.005,
               when=_prof("jawari")),
-        Field("contact", "str", "subcell: the string wraps the bridge's curve between x = 0 and "
-              "the first grid point too (a grazing contact that shrinks with the amplitude); "
-              "grid: the clamp at grid points alone (the thesis's scheme; the buzz then stops "
-              "when the first point's gap exceeds the string's reach)",
-              choices=JAWARI_CONTACTS, when=_prof("jawari"), default="subcell"),
-        Field("contact", "str", "subcell: the string wraps the sawari's curve between x = 0 "
-              "and the first grid point too (a grazing contact that shrinks with the "
-              "amplitude, so the buzz fades with the note); grid: the clamp at grid points "
-              "alone (the thesis's scheme, eq. 1.12; the buzz then stops in one step when "
+        Field("contact", "str", "subcell: the string wraps the curve of the jawari (or the "
+              "sawari) between x = 0 and the first grid point too (a grazing contact that "
+              "shrinks with the amplitude, so the buzz fades with the note); grid: the clamp "
+              "at grid points alone (the thesis's scheme; the buzz then stops in one step when "
               "the first point's gap exceeds the string's reach)",
-              choices=JAWARI_CONTACTS, when=_prof("sawari"), default="subcell"),
+              choices=JAWARI_CONTACTS, when=_prof("jawari", "sawari"), default="subcell"),
         Field("slope", "float", "jawari slope (dimensionless)", 0.0, 0.2,
               when=_prof("jawari-case1", "jawari-case2", "jawari-case3")),
         Field("x_c_m", "float", "jawari case-1 contact end, m", 1e-4, 0.2,
