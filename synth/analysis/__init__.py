@@ -5,7 +5,7 @@ Used by the tests, the reproduction scripts and the analysis commands;
 never imports numba or other ``synth`` layers (loudness uses pyloudnorm).
 """
 
-from synth.analysis.bands import band_levels_db, halo, highband_db, highband_energy, window_energy_db
+from synth.analysis.bands import band_centroid_hz, band_db, band_levels_db, halo, highband_db, highband_energy, window_energy_db
 from synth.analysis.buzz import band_decay, largest_fall_db
 from synth.analysis.clicks import click_scan
 from synth.analysis.decay import decay_curve_db, t60_s, two_stage_decay, two_stage_summary

@@ -25,7 +25,8 @@ import numpy as np
 
 from .spectrum import _positive, _real, _signal
 
-__all__ = ["band_levels_db", "halo", "highband_db", "highband_energy", "window_energy_db"]
+__all__ = ["band_centroid_hz", "band_db", "band_levels_db", "halo", "highband_db", "highband_energy",
+           "window_energy_db"]
 
 
 def _bins(n, fs):
@@ -194,4 +195,48 @@ def window_energy_db(x, fs, start_s, end_s):
     they are all zero)."""
     x = np.asarray(x, float)[int(round(start_s * fs)):int(round(end_s * fs))]
     e = float(np.sum(x * x))
+    return 10.0 * np.log10(e) if e > 0 else -np.inf
+
+
+def _band_spectrum(x, fs, lo_hz, hi_hz, start_s, end_s):
+    """Power spectrum (squared magnitudes of one Hann-windowed FFT) of
+    ``x[start_s:end_s]`` and its frequencies, within ``lo_hz <= f < hi_hz``."""
+    fs = _positive("fs", fs)
+    x = _signal("x", x, min_len=2)
+    lo, hi = _real("lo_hz", lo_hz, 0.0), _real("hi_hz", hi_hz, 0.0, fs / 2)
+    if not lo < hi:
+        raise ValueError(f"lo_hz = {lo_hz!r} is out of range (below hi_hz = {hi_hz!r})")
+    a, b = int(round(_real("start_s", start_s, 0.0) * fs)), int(round(_real("end_s", end_s, 0.0) * fs))
+    seg = x[a:b]
+    if len(seg) < 2 or b - a > len(seg):
+        raise ValueError(f"end_s = {end_s!r} is out of range (after start_s = {start_s!r}, "
+                         f"within the signal's {len(x) / fs:g} s)")
+    S = np.abs(np.fft.rfft(seg * np.hanning(len(seg)))) ** 2
+    f = np.fft.rfftfreq(len(seg), 1.0 / fs)
+    sel = (f >= lo) & (f < hi)
+    return f[sel], S[sel]
+
+
+def band_centroid_hz(x, fs, lo_hz, hi_hz, start_s, end_s):
+    """Spectral centroid (Hz) of ``x`` (1-D, sampled at ``fs`` Hz) within the
+    band ``lo_hz`` .. ``hi_hz`` over ``start_s`` .. ``end_s`` (s): the power-
+    weighted mean frequency sum(f S) / sum(S) of one Hann-windowed spectrum
+    of that span.  The tanpura's signature (issue 40) is this centre over
+    2-8 kHz falling as the note decays: the jawari's band of overtones (the
+    "precursor" of van Walstijn & Chatziioannou, ISMA 2014) moves down as
+    the swing, and with it the string's wrap over the bridge, shrinks.
+    NaN when the band holds no energy."""
+    f, S = _band_spectrum(x, fs, lo_hz, hi_hz, start_s, end_s)
+    tot = float(np.sum(S))
+    return float(np.sum(f * S) / tot) if tot > 0 else float("nan")
+
+
+def band_db(x, fs, lo_hz, hi_hz, start_s, end_s):
+    """Energy (dB re a unit sum of squared spectrum magnitudes; -inf if
+    none) of ``x`` within ``lo_hz`` .. ``hi_hz`` over ``start_s`` ..
+    ``end_s`` (s), from the same spectrum as :func:`band_centroid_hz`: two
+    takes of a note compared over one span and band (the tanpura's band over
+    the same note at ``termination.buzz = 0``)."""
+    _, S = _band_spectrum(x, fs, lo_hz, hi_hz, start_s, end_s)
+    e = float(np.sum(S))
     return 10.0 * np.log10(e) if e > 0 else -np.inf

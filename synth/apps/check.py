@@ -62,6 +62,8 @@ from ..analysis import (
     estimate_f0,
     fit_inharmonicity,
     halo,
+    band_centroid_hz,
+    band_db,
     highband_db,
     largest_fall_db,
     loudness,
@@ -420,15 +422,45 @@ def _c_centroid_ratio(items, e, others):
 
 def _c_highband_diff(items, e, others):
     out = []
+    top = e.get("below_hz")
     for a, b in _pairs(items, e, others):
         w = (e.get("start_s"), e.get("length_s"))
-        d = (highband_db(a.audio, a.fs, e["above_hz"], *w)
-             - highband_db(b.audio, b.fs, e["above_hz"], *w))
+        if top is None:
+            d = (highband_db(a.audio, a.fs, e["above_hz"], *w)
+                 - highband_db(b.audio, b.fs, e["above_hz"], *w))
+        else:
+            t0 = w[0] or 0.0
+            t1 = min(len(a.audio) / a.fs, len(b.audio) / b.fs) if w[1] is None else t0 + w[1]
+            d = (band_db(as_mono(a.audio), a.fs, e["above_hz"], top, t0, t1)
+                 - band_db(as_mono(b.audio), b.fs, e["above_hz"], top, t0, t1))
         span = ("" if w == (None, None) else
                 f" ({w[0] or 0.0:g}-" + ("end" if w[1] is None else f"{(w[0] or 0.0) + w[1]:g} s") + ")")
-        out.append((f"energy above {e['above_hz']:g} Hz{span}, {a.label} - {b.label}", f"{d:+.1f} dB",
+        band = f"above {e['above_hz']:g} Hz" if top is None else f"in {e['above_hz']:g}-{top:g} Hz"
+        out.append((f"energy {band}{span}, {a.label} - {b.label}", f"{d:+.1f} dB",
                     f"{e['min_db']:g} .. {e['max_db']:g} dB", bool(e["min_db"] <= d <= e["max_db"])))
     return out
+
+
+def _span(e, name):
+    v = tuple(float(x) for x in e[name])
+    if len(v) != 2 or not v[0] < v[1]:
+        raise SpecError(f"{name} = {list(e[name])!r} is out of range (two times, start < end, s)")
+    return v
+
+
+def _c_centroid_fall(it, e):
+    lo, hi = e["above_hz"], e["below_hz"]
+    (a0, a1), (b0, b1) = _span(e, "early_s"), _span(e, "late_s")
+    y = as_mono(it.audio)
+    if b1 > len(y) / it.fs:
+        raise SpecError(f"late_s = {list(e['late_s'])!r} is out of range (within the render's "
+                        f"{len(y) / it.fs:g} s)")
+    c0 = band_centroid_hz(y, it.fs, lo, hi, a0, a1)
+    c1 = band_centroid_hz(y, it.fs, lo, hi, b0, b1)
+    fall = 100.0 * (1.0 - c1 / c0)
+    return (f"centre of {lo:g}-{hi:g} Hz, {a0:g}-{a1:g} s -> {b0:g}-{b1:g} s, {it.label}",
+            f"{c0:.0f} -> {c1:.0f} Hz ({fall:.1f} % down)", f">= {e['min_fall_percent']:g} % down",
+            bool(fall >= e["min_fall_percent"]))
 
 
 def _c_band_fall(it, e):
@@ -628,6 +660,7 @@ CHECKS = {
     "partials_law": Check(_per_item(_c_partials_law)),
     "halo": Check(_c_halo),
     "band_fall": Check(_per_item(_c_band_fall)),
+    "centroid_fall": Check(_per_item(_c_centroid_fall)),
 }
 
 
@@ -698,7 +731,16 @@ EXPECT = Section("expect", "what must hold", dict, (
     Field("max_db", "float", "largest fall, dB", 0.0, 200.0, when=_on("band_fall")),
     Field("span_s", "float", "the fall's time span, s (a multiple of 0.1)", 0.1, 10.0,
           when=_on("band_fall")),
-    Field("below_hz", "float", "the band's upper edge, Hz", 1.0, 24000.0, when=_on("band_fall")),
+    Field("below_hz", "float", "the band's upper edge, Hz", 1.0, 24000.0,
+          when=_on("band_fall", "centroid_fall")),
+    Field("below_hz", "float", "the band's upper edge, Hz (default: none)", 1.0, 24000.0,
+          when=_on("highband_diff"), optional=True),
+    Field("early_s", "float", "the early span: start and end, s", 0.0, 60.0, many="list",
+          when=_on("centroid_fall")),
+    Field("late_s", "float", "the late span: start and end, s", 0.0, 60.0, many="list",
+          when=_on("centroid_fall")),
+    Field("min_fall_percent", "float", "smallest fall of the band's centre, % of the early "
+          "centre", -100.0, 100.0, when=_on("centroid_fall")),
     Field("min_s", "float", "shortest T60, s", 0.0, 1000.0, when=_on("t60")),
     Field("max_s", "float", "longest T60, s", 0.0, 1000.0, when=_on("t60")),
     Field("lufs", "float", "target loudness, LUFS", -100.0, 10.0, when=_on("loudness")),
@@ -721,7 +763,7 @@ EXPECT = Section("expect", "what must hold", dict, (
     Field("window_s", "float", "the part read, s (default 1)", 0.01, 60.0,
           when=_on("centroid_ratio"), optional=True),
     Field("above_hz", "float", "the band's lower edge, Hz", 1.0, 24000.0,
-          when=_on("highband_diff", "band_fall")),
+          when=_on("highband_diff", "band_fall", "centroid_fall")),
     Field("start_s", "float", "start of the part read, s", 0.0, 60.0, optional=True,
           when=_on("partial_level", "highband_diff", "partial_diff", "halo", "band_fall")),
     Field("length_s", "float", "length of the part read, s", 0.01, 60.0, optional=True,
