@@ -95,6 +95,7 @@ from ..physics.dispersion import BridgeLag, retune_sos_loop, tune_stiff_loop_sos
 from ..physics.profiles import Termination, capo
 from ..physics.soundboard import knock_impulse_ns
 from ..physics.dispersion import tune_stiff_loop
+from . import design_store
 from .base import BankSizes, SympatheticDesign, Voice
 from .dampers import KeyboardDampers
 from .quality import quality_level
@@ -171,11 +172,24 @@ class GrandVoice(KeyboardDampers, Voice):
         self._speeds: dict = {}
 
     def warm(self) -> None:
-        """Design every key now (about 1.5 s), so that no note-on has to:
-        call before a live stream opens."""
+        """Design every key now (about 0.4 s), so that no note-on has to:
+        call before a live stream opens.  The designs are kept on disk
+        between runs (:mod:`synth.voices.design_store`: named by the code,
+        the preset, the rate and the tolerance, so never stale)."""
+        store = self._store_key()
+        if not self._keys:
+            kept = design_store.load("grand-keys", store)
+            if isinstance(kept, dict):
+                self._keys.update(kept)
+        n = len(self._keys)
         for key in range(self.KEY_LOW, self.KEY_HIGH + 1):
             self.setup(key)
             self.coarse_setup(key)
+        if len(self._keys) > n:
+            design_store.save("grand-keys", store, dict(self._keys))
+
+    def _store_key(self) -> tuple:
+        return (self.preset, self.fs, self.quality.dispersion_tol_cents)
 
     # -- sizes for the engine -----------------------------------------------------
     @property
@@ -221,8 +235,13 @@ class GrandVoice(KeyboardDampers, Voice):
         fs = float(fs_out)
         k = (self.preset, fs)
         if k not in _SYMPATHETIC:
-            # (the design is data: the bank copies the templates into its slots)
-            _SYMPATHETIC[k] = self._design_sympathetic(fs, amount)
+            # (the design is data: the bank copies the templates into its
+            # slots); kept on disk between runs, as the keys' designs
+            kept = design_store.load("grand-sympathetic", k)
+            if not isinstance(kept, SympatheticDesign):
+                kept = self._design_sympathetic(fs, amount)
+                design_store.save("grand-sympathetic", k, kept)
+            _SYMPATHETIC[k] = kept
         return _SYMPATHETIC[k]
 
     def _design_sympathetic(self, fs: float, amount: float) -> SympatheticDesign:

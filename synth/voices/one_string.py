@@ -67,6 +67,7 @@ from ..physics.losses import allpass_for_phase_delay, one_pole_phase_delay, tune
 from ..physics.profiles import (Termination, buzz_profile, jawari, termination_from_spec,
                                 trim_unreachable)
 from ..physics.string import IdealString, fretted_string, midi_key_to_hz
+from . import design_store
 from .base import BankSizes, DronePluck, TarafDesign, Voice
 from .exciters import PLUCK_MODELS
 from .registry import exciter_for, register_voice
@@ -176,12 +177,25 @@ class OneStringVoice(Voice):
         self._slot_su: dict = {}
 
     def warm(self, keys=range(128)) -> None:
-        """Derive every key's string now, so that no note-on has to."""
+        """Derive every key's string now, so that no note-on has to.  The
+        designs of all 128 keys are kept on disk between runs
+        (:mod:`synth.voices.design_store`: named by the code, the preset and
+        the rate, so never stale)."""
+        keys = tuple(keys)
+        every = keys == tuple(range(128))
+        store = (type(self).__name__, self.preset, self.fs)
+        if every and not self._setups:
+            kept = design_store.load("setups", store)
+            if isinstance(kept, dict):
+                self._setups.update(kept)
+        n = len(self._setups)
         for k in keys:
             try:
                 self.setup(k)
             except ValueError:
                 pass    # a pitch this rate cannot hold
+        if every and len(self._setups) > n:
+            design_store.save("setups", store, dict(self._setups))
 
     # -- physics at note-on -------------------------------------------------------
     @property
