@@ -78,6 +78,14 @@ EXTRA_DOCS: dict[str, dict] = {
                  "pitch_bend_semitones": 2.0, "buzz_cc": 1},
     },
 }
+# the drone player (synth.engine.drone) on the open-jawari string, every key given
+EXTRA_DOCS["extra/sitar-drone"] = {
+    **EXTRA_DOCS["extra/sitar-open-jawari"],
+    "description": "Sitar string plucked by the drone player",
+    "drone": {"player": "on", "pattern": "Ma Sa Sa Sa", "cycle_s": 5, "onsets": [0, 0.25, 0.5, 0.7],
+              "velocity": 0.5, "timing_jitter_s": 0.01, "force_jitter_db": 1.0, "seed": 3,
+              "tempo_cc": 20, "pattern_cc": 21},
+}
 ALL_DOCS: dict[str, dict] = {**DOCS, **EXTRA_DOCS}
 
 # One hand-written out-of-range case per section: (document, key, value, allowed range).
@@ -98,6 +106,7 @@ OUT_OF_RANGE = {
     "play": ("sitar", "key_high", 128, "0 <= value <= 127"),
     "taraf": ("sitar", "coupling", 9, "0 <= value <= 4"),
     "chikari": ("sitar", "strum_s", 0.5, "0 <= value <= 0.1"),
+    "drone": ("extra/sitar-drone", "cycle_s", 20.0, "1 <= value <= 16"),
 }
 
 
@@ -201,6 +210,8 @@ def check_values(doc: str, section: str) -> None:
             assert all(type(c) is float for p in got for c in p)
         elif row.type == "keys":
             assert got == tuple(want) and all(type(k) is int for k in got)
+        elif row.type == "ascending":
+            assert got == tuple(float(x) for x in want) and all(type(x) is float for x in got)
         elif row.type == "peaks":
             assert got == tuple(tuple(float(c) for c in p) for p in want)
             assert all(type(c) is float for p in got for c in p)

@@ -276,6 +276,13 @@ class ChannelControls(MpeZones):
         if (cc in ZONE_WIDE or cc in self._ctl_default) and self.mpe_manager[c] == c:
             for ch in self._zone_members(c):
                 self._control(cc, value, ch, at)
+        if self.drone is not None:
+            if cc in (CC_ALL_NOTES_OFF, CC_ALL_SOUND_OFF):
+                self.drone.stop()           # a sequencer's stop, a panic (then as below)
+            elif cc == CC_RESET_ALL:
+                self.drone.reset_controls()
+            elif self.drone.control(cc, value):
+                return                      # the drone's tempo or pattern
         if cc == CC_SUSTAIN:
             self._sustain(c, value)
         elif cc == CC_SOFT:

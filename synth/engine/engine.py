@@ -30,7 +30,8 @@ from .channels import (  # noqa: F401  (re-exported: the engine's controller num
     CC_SOFT, CC_SOSTENUTO, CC_SUSTAIN, CC_VOLUME, CHANNELS, HUSH_T60_S, PAN_CENTRE,
     VOLUME_DEFAULT, ChannelControls)
 from .mixing import ChannelGroup
-from .order import order_events
+from .drone import Drone
+from .order import note_identity, order_events
 from .output import OutputStage
 from .sympathetic import Sympathetic
 from .taraf import Taraf
@@ -62,6 +63,11 @@ class Event:
     channel : int         0..15
     f0_hz : float | None  explicit pitch instead of the key (note_on only)
     speed_m_per_s : float | None  hammer speed instead of the velocity's
+    string : int | None   which of the key's own strings (a tanpura's two
+                          middle Sa strings share a key): part of the
+                          note's identity when set, so that each string is
+                          a voice of its own (:mod:`synth.engine.drone`
+                          plucks with it); None: the key's one voice
     """
 
     time_s: float
@@ -71,11 +77,12 @@ class Event:
     channel: int = 0
     f0_hz: float | None = None
     speed_m_per_s: float | None = None
+    string: int | None = None
 
 
 @dataclass
 class _Voice:
-    key: object            # (channel, key) identity
+    key: object            # (channel, key) identity (+ string, Event.string)
     start: int             # internal sample of the (last) note-on
     slots: tuple           # bank slots of its strings
     key_arg: object        # MIDI key for the instrument, or None
@@ -156,6 +163,9 @@ class Engine(ChannelControls):
                                max_bend=sizes.max_bend, max_group=max_group)
         self.taraf = None if td is None else Taraf(td, self.bank, n_voice_slots,
                                                    self.fs_in_exact)
+        #: the drone player (the preset's ``[drone]``: a key starts and stops
+        #: a cycle of plucks of its strings, :mod:`synth.engine.drone`), or None
+        self.drone = Drone.from_preset(instrument.preset, self.fs_in_exact)
         #: the body (soundboard) stage after decimation, if the instrument has one
         design = instrument.body()
         self.body = None if design is None else Body.from_design(fs_out, design)
@@ -410,8 +420,10 @@ class Engine(ChannelControls):
 
     @staticmethod
     def _voice_key(ev: Event):
-        """Identity of a sounding note: channel and key (or explicit f0)."""
-        return (ev.channel, ev.key if ev.f0_hz is None else ("f0", ev.f0_hz))
+        """Identity of a sounding note: channel and key (or explicit f0),
+        and the string when the event names one
+        (:func:`synth.engine.order.note_identity`)."""
+        return note_identity(ev)
 
     def _extra(self, ev: Event) -> dict:
         x = {"soft": float(self.soft[ev.channel])}
@@ -422,7 +434,7 @@ class Engine(ChannelControls):
     def _note_on(self, ev: Event, at: int, vk) -> None:
         key = None if ev.key is None or ev.key < 0 else ev.key
         if self.taraf is not None:
-            if self.taraf.is_trigger(ev.channel, key):
+            if ev.string is None and self.taraf.is_trigger(ev.channel, key):
                 # a stroke across the drones (no played note)
                 self.taraf.strum(at, float(ev.value))
                 return
@@ -485,6 +497,14 @@ class Engine(ChannelControls):
             self._track(v, ev.key if ev.f0_hz is None else None)
 
     def _apply(self, ev: Event, at: int) -> None:
+        if self.drone is not None and ev.string is None and ev.f0_hz is None \
+                and ev.kind in (NOTE_ON, NOTE_OFF) and ev.key is not None and ev.key >= 0:
+            # the drone player's keys: a note-on starts, stops or moves the
+            # drone (its plucks come back here with their string); a
+            # note-off does nothing
+            if ev.kind == NOTE_ON and ev.value > 0:
+                self.drone.press(ev.key, ev.channel, at)
+            return
         vk = self._voice_key(ev)
         if ev.kind in (NOTE_ON, NOTE_OFF, CONTROL):
             self._sym_dirty = True
@@ -604,6 +624,7 @@ class Engine(ChannelControls):
         cursor = 0
         pend = self._pending
         taraf = self.taraf
+        drone = self.drone
         while True:
             if self._hand_over:
                 # strings leaving a finer grid, at their own sample (block
@@ -616,6 +637,20 @@ class Engine(ChannelControls):
                         cursor = off
                     self._hand_overs_due(start + off)
                     continue
+            dp = None if drone is None else drone.next_due()
+            if dp is not None and dp < end and (not pend or dp < pend[0][0]):
+                # the drone's plucks (and the start of its next cycle) at
+                # their own internal sample; an event at the same sample
+                # comes first (a key that stops the drone there)
+                off = max(dp - start, 0)
+                if off > cursor:
+                    bank.render(self.mix, cursor, off - cursor)
+                    cursor = off
+                for i, key, vel, ch in drone.due(start + off):
+                    self._apply(Event((start + off) / self.fs_in_exact, NOTE_ON, key, vel, ch,
+                                      string=i), start + off)
+                    self._sym_event(start + off, n_out)
+                continue
             tp = None if taraf is None else taraf.next_pluck()
             if tp is not None and tp < end and (not pend or tp < pend[0][0]):
                 # a drone of a stroke is plucked (a stroke's later strings
@@ -634,14 +669,7 @@ class Engine(ChannelControls):
                 bank.render(self.mix, cursor, off - cursor)
                 cursor = off
             self._apply(ev, start + off)
-            if self.sym is not None and self._sym_dirty:
-                # the sympathetic strings' new state, from the output sample
-                # of this event's internal sample (block-size independent)
-                j = self._out_sample(start + off)
-                self._sym_events.append((min(max(j, 0), n_out), *self._sympathetic_state(),
-                                         self._sym_hush))
-                self._sym_dirty = False
-                self._sym_hush = False
+            self._sym_event(start + off, n_out)
         if cursor < n_in:
             bank.render(self.mix, cursor, n_in - cursor)
         self.time_in = end
@@ -691,6 +719,17 @@ class Engine(ChannelControls):
         self._reap(n_in)
         self.time_out += n_out
         return y
+
+    def _sym_event(self, at: int, n_out: int) -> None:
+        """After an event at internal sample ``at``: the sympathetic strings'
+        new state, from the output sample of that internal sample
+        (block-size independent)."""
+        if self.sym is not None and self._sym_dirty:
+            j = self._out_sample(at)
+            self._sym_events.append((min(max(j, 0), n_out), *self._sympathetic_state(),
+                                     self._sym_hush))
+            self._sym_dirty = False
+            self._sym_hush = False
 
     def _knock_into(self, kb: np.ndarray, d: np.ndarray, n_out: int) -> bool:
         """Add the knock buffer's next ``n_out`` samples to ``d`` and shift

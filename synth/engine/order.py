@@ -50,9 +50,13 @@ def note_role(ev) -> int:
 
 def note_identity(ev):
     """The identity of a sounding note: (channel, key), or (channel,
-    ("f0", f0_hz)) for an event that gives its pitch in Hz."""
+    ("f0", f0_hz)) for an event that gives its pitch in Hz; an event that
+    names one of the key's strings (``string``, not None: a tanpura's two
+    Sa strings share a key) adds it, (channel, key, string)."""
     f0 = getattr(ev, "f0_hz", None)
-    return (ev.channel, ev.key if f0 is None else ("f0", f0))
+    ident = (ev.channel, ev.key if f0 is None else ("f0", f0))
+    s = getattr(ev, "string", None)
+    return ident if s is None else ident + (int(s),)
 
 
 def order_events(events: Sequence, time_of: Callable | None = None,

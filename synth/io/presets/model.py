@@ -29,6 +29,7 @@ __all__ = [
     "LossSpec",
     "OutputSpec",
     "PlaySpec",
+    "DroneSpec",
     "Preset",
 ]
 
@@ -295,6 +296,29 @@ class QualityErrorSpec:
 
 
 @dataclass(frozen=True)
+class DroneSpec:
+    """The drone player (synth.engine.drone): a key starts and stops a cycle
+    of plucks of four strings (the first, Sa, Sa, the low Sa).  ``player``
+    "on" (a key plays the drone) or "off" (a key plucks one string);
+    ``pattern`` the strings in pluck order ("Pa Sa Sa Sa": the first token
+    Pa, Ma, Ni or Sa tunes the first string); ``cycle_s`` the cycle's
+    length (s); ``onsets`` each pluck's time as a fraction of the cycle;
+    ``velocity`` the plucks' (0-1); the humanisation's bounds (s, dB) and
+    its seed; the controllers of the cycle's length and the first string."""
+
+    player: str
+    pattern: str
+    cycle_s: float
+    onsets: tuple
+    velocity: float
+    timing_jitter_s: float
+    force_jitter_db: float
+    seed: int
+    tempo_cc: int
+    pattern_cc: int
+
+
+@dataclass(frozen=True)
 class Preset:
     """A validated preset.
 
@@ -327,3 +351,4 @@ class Preset:
     output: OutputSpec
     play: PlaySpec | None
     quality_error: QualityErrorSpec | None = None
+    drone: DroneSpec | None = None

@@ -24,6 +24,7 @@ TYPE_TEXT = {
     "line": "one-line text",
     "points": "[[x_m, U_m], ...]",
     "keys": "[key, ...]",
+    "ascending": "[number, ...], increasing",
     "peaks": "[[f_hz, q, level_db], ...]",
 }
 
@@ -36,8 +37,10 @@ def _cell(text: str) -> str:
 def _allowed(f: Field) -> str:
     if f.choices is not None:
         return ", ".join(f"`{_fmt_value(c)}`" for c in f.choices)
-    if f.type in ("float", "int", "keys", "peaks") and (f.lo is not None or f.hi is not None):
-        return f.range_text()
+    if f.type in ("float", "int", "keys", "peaks", "ascending") and (f.lo is not None
+                                                                     or f.hi is not None):
+        text = f.range_text()
+        return text if f.count is None else f"{f.count} values, each {text}"
     return ""
 
 

@@ -102,7 +102,10 @@ class Field:
         ``"str"``, ``"line"`` (non-empty single-line string), ``"points"``
         (array of ``[x_m, U_m]`` pairs, at least 2, x >= 0 strictly increasing)
         ``"keys"`` (array of 1 to 24 integers within ``lo``..``hi``: MIDI
-        keys, stored as a tuple) or ``"peaks"`` (array of 0 to 32
+        keys, stored as a tuple), ``"ascending"`` (array of 1 to 24 numbers
+        within ``lo``..``hi``, strictly increasing, exactly ``count`` of them
+        when ``count`` is set: times within a cycle, stored as a tuple) or
+        ``"peaks"`` (array of 0 to 32
         ``[f_hz, q, level_db]`` triples, f strictly increasing within
         ``lo``..``hi`` Hz, q 1 .. 500, level -30 .. 30 dB: a body's named
         resonances, stored as a tuple of tuples).
@@ -140,6 +143,8 @@ class Field:
     mapping : bool
         The value is a table of free keys (e.g. ``--set`` paths), each holding
         a value shaped as above; it comes out as a tuple of (key, value).
+    count : int or None
+        Type ``"ascending"``: the array's exact length (None: 1 to 24).
     excludes : tuple of str
         Earlier keys of the same table this key may not be given with: when
         one of them is given, this key does not apply (and is not required);
@@ -168,6 +173,7 @@ class Field:
     pattern: tuple[str, str] | None = None
     mapping: bool = False
     excludes: tuple[str, ...] = ()
+    count: int | None = None
 
     def range_text(self) -> str:
         lo_op = "<" if self.lo_open else "<="

@@ -26,6 +26,7 @@ from .model import (
     BodySpec,
     ChikariSpec,
     DampersSpec,
+    DroneSpec,
     GridSpec,
     HammerSpec,
     LossSpec,
@@ -40,6 +41,14 @@ from .model import (
     TuningSpec,
 )
 from synth.physics.soundboard import PEAK_HZ_RANGE
+
+#: the drone player's cycle length range (s); synth.engine.drone.CYCLE_RANGE_S
+#: (the range its tempo controller sweeps) is the same, checked by
+#: tests/test_drone.py (io may not be imported by the engine, nor the engine here)
+DRONE_CYCLE_RANGE_S = (1.0, 16.0)
+#: a drone pattern: four tokens in pluck order, the first string's note then Sa Sa Sa
+DRONE_PATTERN = (r"(?i)\s*(pa|ma|ni|sa)\s+sa\s+sa\s+sa\s*",
+                 "four tokens in pluck order: Pa, Ma, Ni or Sa, then Sa Sa Sa")
 
 from .schema import Field, OrderCheck, Section, When, _when_not
 
@@ -403,4 +412,34 @@ SECTIONS: tuple[Section, ...] = (
                     Field(f"{q}_db", "float", f"worst partial-level error at {q}, dB",
                           0.0, 100.0))),
             when=When("kind", ("musical",)), optional=True),
+    Section("drone", "the drone player: a key starts a cycle of plucks of four strings (the "
+            "first, two Sa in unison, the low Sa an octave below), the same key stops it, "
+            "another key moves Sa from the next cycle (optional; synth drone, docs/drone.md)",
+            DroneSpec, (
+        Field("player", "str", "on: a note-on plays the drone as above; off: a note-on plucks "
+              "one string, as on the other plucked presets", choices=("on", "off"),
+              default="on"),
+        Field("pattern", "str", "the strings in pluck order: the first token (Pa, Ma or Ni: "
+              "Sa -5, -7 or -1 semitones; or Sa) tunes the first string, then the two middle "
+              "Sa strings (Sa) and the low Sa (Sa -12); live: pattern_cc",
+              pattern=DRONE_PATTERN, default="Pa Sa Sa Sa"),
+        Field("cycle_s", "float", "the cycle's length, s; live: tempo_cc", *DRONE_CYCLE_RANGE_S,
+              default=4.0),
+        Field("onsets", "ascending", "each string's pluck time in the cycle, as a fraction of "
+              "its length, in pluck order", 0.0, 1.0, hi_open=True, count=4,
+              default=(0.0, 0.3, 0.45, 0.6)),
+        Field("velocity", "float", "the plucks' velocity (1: MIDI 127)", 0.0, 1.0,
+              lo_open=True, default=0.6),
+        Field("timing_jitter_s", "float", "humanisation: each pluck moves by up to this, "
+              "uniformly, s (never before its cycle's start)", 0.0, 0.1, default=0.02),
+        Field("force_jitter_db", "float", "humanisation: each pluck's amplitude varies by up "
+              "to this, uniformly, dB (velocity held within 0-1)", 0.0, 6.0, default=1.5),
+        Field("seed", "int", "seed of the humanisation's draws (the same seed, the same "
+              "render)", 0, 2 ** 31 - 1, default=1),
+        Field("tempo_cc", "int", "MIDI controller of the cycle's length, from the next cycle: "
+              "0 the longest (16 s), 127 the shortest (1 s), geometrically (64: 4 s)",
+              1, 119, default=16),
+        Field("pattern_cc", "int", "MIDI controller of the first string, from the next cycle: "
+              "0-31 Pa, 32-63 Ma, 64-95 Ni, 96-127 Sa", 1, 119, default=17),
+    ), when=When("kind", ("musical",)), optional=True),
 )

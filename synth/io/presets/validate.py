@@ -44,6 +44,7 @@ _TYPE_TEXT = {
     "line": "a string",
     "points": "an array of [x_m, U_m] pairs",
     "keys": "an array of MIDI keys",
+    "ascending": "an array of numbers, strictly increasing",
     "peaks": "an array of [f_hz, q, level_db] triples",
     "path": "a file name",
     "any": "a value (not a table)",
@@ -86,7 +87,8 @@ def _check_fields(prefix: str, fields: Sequence[Field], known: list[str]) -> lis
                 raise AssertionError(f"{where}: unknown type {r.type!r} or shape {r.many!r}")
             if (r.span and (r.type != "int" or r.many is None or r.lo is None or r.hi is None)
                     or (r.literals and r.many is None)
-                    or (r.pattern and r.type not in ("str", "line"))):
+                    or (r.pattern and r.type not in ("str", "line"))
+                    or (r.count is not None and (r.type != "ascending" or not 1 <= r.count <= 24))):
                 raise AssertionError(f"{where}: span, literals or pattern do not fit the row")
             for other in r.excludes:
                 if other not in names[:i]:
@@ -306,6 +308,8 @@ class _Validator:
             return self.points(key, v)
         elif t == "keys":
             return self.keys(key, row, v)
+        elif t == "ascending":
+            return self.ascending(key, row, v)
         elif t == "peaks":
             return self.peaks(key, row, v)
         else:  # pragma: no cover - schema error
@@ -354,6 +358,28 @@ class _Validator:
                 raise self.fail(f"{key}[{i}] = {self.show(k)}{o} is not a MIDI key "
                                 f"(an integer, {row.range_text()})")
         return tuple(int(k) for k in v)
+
+    def ascending(self, key: str, row: Field, v: Any) -> tuple[float, ...]:
+        o = self._origin(key)
+        n = row.count
+        many = f"{n} numbers" if n is not None else "1 to 24 numbers"
+        if (not isinstance(v, list) or not v
+                or any(isinstance(x, bool) or not isinstance(x, (int, float)) for x in v)):
+            raise self.fail(f"{key} = {self.show(v)}{o} has the wrong type "
+                            f"(expected an array of {many}, strictly increasing)")
+        if (n is not None and len(v) != n) or len(v) > 24:
+            raise self.fail(f"{key} = {self.show(v)}{o} has {len(v)} values (expected {many})")
+        out: list[float] = []
+        for i, x in enumerate(v):
+            x = _float(x)
+            if not (math.isfinite(x) and row.in_range(x)):
+                raise self.fail(f"{key}[{i}] = {self.show(v[i])}{o} is out of range "
+                                f"({row.range_text()})")
+            if out and x <= out[-1]:
+                raise self.fail(f"{key}[{i}] = {self.show(v[i])}{o} is not strictly increasing "
+                                f"(previous value {self.show(out[-1])})")
+            out.append(x)
+        return tuple(out)
 
     def peaks(self, key: str, row: Field, v: Any) -> tuple[tuple[float, float, float], ...]:
         o = self._origin(key)
