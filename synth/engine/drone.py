@@ -110,7 +110,7 @@ def first_from_cc(value: float) -> str:
 def cycle_from_cc(value: float) -> float:
     """``drone.tempo_cc``'s value (0..1) as the cycle's length (s): 0 the
     longest of :data:`CYCLE_RANGE_S`, 1 the shortest, geometrically
-    between (MIDI 64: 4.05 s)."""
+    between (MIDI 64: 3.96 s)."""
     lo, hi = CYCLE_RANGE_S
     v = min(max(float(value), 0.0), 1.0)
     return hi * (lo / hi) ** v
