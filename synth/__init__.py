@@ -19,8 +19,8 @@ Layers (dependencies point down):
 __version__ = "0.1.0"
 
 #: the names of :mod:`synth.api`, imported from it when first used
-__all__ = ["Audio", "Instrument", "MidiStream", "presets", "render_midi", "render_note",
-           "stream_midi"]
+__all__ = ["Audio", "Instrument", "MidiStream", "presets", "render_drone", "render_midi",
+           "render_note", "stream_midi"]
 
 
 def __getattr__(name: str):

@@ -7,6 +7,8 @@
                [--set PATH=VALUE ...] -o OUT.wav [--probe OUT.npy]
     synth render MIDI_FILE --preset PRESET [--set PATH=VALUE ...] [--max-seconds S]
                  [--quality LEVEL | --max-error CENTS,DB] -o OUT.wav
+    synth drone --preset PRESET --sa KEY|NOTE [--pattern "Pa Sa Sa Sa"] [--cycle-s S]
+                [--seconds S] [--seed N] [--velocity V] [--set PATH=VALUE ...] -o OUT.wav
     synth check SPEC.toml [...] [--shipped] [--junit OUT.xml]
     synth analyze AUDIO.wav|PRESET [--key K | --f0 HZ] [--velocity V] [--json] [--plot OUT.png]
     synth play --preset PRESET [--midi-api auto|alsa|jack] [--midi-port NAME]
@@ -44,8 +46,8 @@ import os
 import sys
 
 from . import __version__
-from .commands import (analyze, batch, check, compare, demo, felt, help as help_cmd, note, play,
-                       presets, render, reproduce, warmup)
+from .commands import (analyze, batch, check, compare, demo, drone, felt, help as help_cmd, note,
+                       play, presets, render, reproduce, warmup)
 from .commands.common import arm_compile_notice, os_error_line, parse_channels, parse_mpe_option
 from .io.errors import SynthError
 from .io.interrupt import Interrupted
@@ -53,8 +55,8 @@ from .io.interrupt import Interrupted
 __all__ = ["COMMANDS", "build_parser", "main", "parse_channels", "parse_mpe_option"]
 
 #: the command modules, in the order ``synth --help`` lists them
-COMMANDS = (demo, presets, note, render, analyze, check, felt, batch, play, compare, reproduce,
-            warmup, help_cmd)
+COMMANDS = (demo, presets, note, render, drone, analyze, check, felt, batch, play, compare,
+            reproduce, warmup, help_cmd)
 
 EPILOG = """examples:
   synth demo                                         # demo.wav: a phrase on the sitar and biwa
@@ -65,7 +67,7 @@ EPILOG = """examples:
   synth help                                         # the user guides shipped with synth"""
 #: the commands that render with the kernels: from the command line, they say
 #: within a second when the kernels are about to compile (a cold cache)
-RENDERING = {"demo", "note", "render", "analyze", "check", "felt", "batch", "play", "compare",
+RENDERING = {"demo", "note", "render", "drone", "analyze", "check", "felt", "batch", "play", "compare",
              "reproduce", "warmup"}
 
 

@@ -18,7 +18,8 @@ import numpy as np
 
 from .spectrum import _positive, _signal
 
-__all__ = ["loudness", "momentary_lufs", "max_momentary_lufs", "peak_dbfs", "crest_factor_db"]
+__all__ = ["loudness", "momentary_lufs", "max_momentary_lufs", "peak_dbfs", "crest_factor_db",
+           "IntegratedLoudness"]
 
 #: loudness reported for silence (LUFS): below BS.1770's absolute gate
 SILENT_LUFS = -np.inf
@@ -107,3 +108,91 @@ def loudness(x, fs):
         "peak_dbfs": peak_dbfs(x),
         "crest_factor_db": crest_factor_db(x),
     }
+
+
+class IntegratedLoudness:
+    """The integrated loudness (BS.1770, as :func:`loudness` reads it) of a
+    signal given block by block, holding one number per 100 ms: a long
+    render is measured as it is written, without being kept.
+
+    The K-weighting is pyloudnorm's filters run on with their state from
+    block to block, and the gating blocks (400 ms every 100 ms, the last
+    one cut at the end, mono or up to five channels with BS.1770's
+    weights) are pyloudnorm's: the same number as
+    ``pyloudnorm.Meter(fs).integrated_loudness`` on the whole signal, to
+    round-off (tests/test_drone.py).
+
+    Parameters
+    ----------
+    fs : float
+        Sample rate (Hz); 0.1 s must be a whole number of samples.
+    channels : int
+        1 to 5.
+    """
+
+    G = (1.0, 1.0, 1.0, 1.41, 1.41)
+
+    def __init__(self, fs, channels: int = 1):
+        from scipy.signal import lfilter_zi
+
+        self.fs = _positive("fs", fs)
+        self.hop = int(round(0.1 * self.fs))
+        if abs(self.hop - 0.1 * self.fs) > 1e-9 or not 1 <= int(channels) <= 5:
+            raise ValueError(f"fs = {fs!r}, channels = {channels!r}: 0.1 s must be whole samples, "
+                             "1 <= channels <= 5")
+        self.channels = int(channels)
+        meter = _meter(self.fs)
+        self._stages = [(f.b, f.a, f.passband_gain) for f in meter._filters.values()]
+        self._zi = [np.zeros((self.channels, len(lfilter_zi(b, a)))) for b, a, _ in self._stages]
+        self._sums: list = []               # per 100 ms: sum of squares per channel
+        self._acc = np.zeros(self.channels)  # the 100 ms under way
+        self._fill = 0
+        self.n = 0
+
+    def add(self, x) -> None:
+        """The next samples: shape (frames,) or (frames, channels)."""
+        from scipy.signal import lfilter
+
+        x = np.asarray(x, dtype=np.float64)
+        x = x.reshape(len(x), -1)
+        if x.shape[1] != self.channels:
+            raise ValueError(f"{x.shape[1]} channels given, {self.channels} expected")
+        y = x.T.copy()
+        for k, (b, a, g) in enumerate(self._stages):
+            y, self._zi[k] = lfilter(b, a, y, axis=1, zi=self._zi[k])
+            y = g * y
+        sq = y * y
+        i = 0
+        n = sq.shape[1]
+        while i < n:
+            take = min(self.hop - self._fill, n - i)
+            self._acc += sq[:, i:i + take].sum(axis=1)
+            self._fill += take
+            i += take
+            if self._fill == self.hop:
+                self._sums.append(self._acc.copy())
+                self._acc[:] = 0.0
+                self._fill = 0
+        self.n += n
+
+    def lufs(self) -> float:
+        """The integrated loudness so far (LUFS; -inf: silent, or under 400 ms)."""
+        n_block = 4 * self.hop
+        if self.n < n_block:
+            return SILENT_LUFS
+        sums = list(self._sums) + ([self._acc.copy()] if self._fill else [])
+        s = np.array(sums)                                   # (hops, channels)
+        n_blocks = int(np.round((self.n / self.fs - 0.4) / 0.1)) + 1
+        z = np.array([s[j:j + 4].sum(axis=0) for j in range(n_blocks)]) / n_block
+        g = np.array(self.G[:self.channels])
+        with np.errstate(divide="ignore"):
+            lj = -0.691 + 10.0 * np.log10(z @ g)
+        keep = lj >= -70.0
+        if not keep.any():
+            return SILENT_LUFS
+        gamma_r = -0.691 + 10.0 * np.log10(z[keep].mean(axis=0) @ g) - 10.0
+        keep = (lj > gamma_r) & (lj > -70.0)
+        if not keep.any():
+            return SILENT_LUFS
+        v = -0.691 + 10.0 * np.log10(z[keep].mean(axis=0) @ g)
+        return float(v) if np.isfinite(v) else SILENT_LUFS

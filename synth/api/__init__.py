@@ -14,6 +14,8 @@
   writes its file from it;
 * :class:`Instrument`: events given one by one, the audio rendered chunk by
   chunk, :meth:`Instrument.reset`;
+* :func:`render_drone`: a preset's drone player (its ``[drone]``: a
+  tanpura's four strings plucked in a cycle) from Sa (``synth drone``);
 * :func:`presets`: the preset names (``synth presets``);
 * :class:`Audio`: what each render returns (float32 samples (frames,
   channels), their rate, ``to_wav``, a player in Jupyter).
@@ -33,8 +35,9 @@ and ``synth note`` and ``synth render`` render through it
 from __future__ import annotations
 
 from .audio import Audio
+from .drone import render_drone
 from .instrument import Instrument
 from .render import MidiStream, presets, render_midi, render_note, stream_midi
 
-__all__ = ["Audio", "Instrument", "MidiStream", "presets", "render_midi", "render_note",
-           "stream_midi"]
+__all__ = ["Audio", "Instrument", "MidiStream", "presets", "render_drone", "render_midi",
+           "render_note", "stream_midi"]

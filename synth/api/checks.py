@@ -16,9 +16,11 @@ is out of range (0 <= value <= 127)``): the messages are one text.
 
 from __future__ import annotations
 
+import re
 from numbers import Integral, Real
 
-__all__ = ["check_int", "check_real", "check_note", "check_set", "API_NAMES", "CLI_NAMES",
+__all__ = ["check_int", "check_real", "check_note", "check_set", "check_key", "key_of_name",
+           "API_NAMES", "CLI_NAMES",
            "KEY_RANGE", "VELOCITY_RANGE", "SECONDS_MAX", "F0_RANGE_HZ", "MAX_TIME_S"]
 
 #: MIDI keys
@@ -70,6 +72,48 @@ def check_real(name: str, value, lo: float, hi: float, *, lo_open: bool = False,
     if not ok:                                  # (NaN fails both)
         raise ValueError(f"{name} = {value} is out of range ({rng})")
     return v
+
+
+#: pitch classes of the note names (C4 = 60)
+_PITCH_CLASS = {"c": 0, "d": 2, "e": 4, "f": 5, "g": 7, "a": 9, "b": 11}
+_ACCIDENTAL = {"": 0, "#": 1, "\u266f": 1, "b": -1, "\u266d": -1}
+_NOTE_NAME = re.compile(r"([A-Ga-g])(#|b|\u266f|\u266d)?(-?\d+)")
+
+
+def key_of_name(text: str) -> int | None:
+    """The MIDI key of a note name: a letter A-G, an optional sharp (``#``,
+    U+266F) or flat (``b``, U+266D) and an octave, scientific pitch (C4 =
+    60, A4 = 69, C#3 = Db3 = 49, C-1 = 0); None if ``text`` is not one."""
+    m = _NOTE_NAME.fullmatch(text.strip())
+    if m is None:
+        return None
+    return 12 * (int(m[3]) + 1) + _PITCH_CLASS[m[1].lower()] + _ACCIDENTAL[m[2] or ""]
+
+
+def check_key(name: str, value, lo: int = 0, hi: int = 127) -> int:
+    """A MIDI key given as an integer, a string of digits or a note name
+    (:func:`key_of_name`: ``"C#3"``, ``"Db3"``, ``"A4"``), within [lo, hi];
+    ValueError naming ``name``, the value and the range otherwise."""
+    rng = f"{lo} <= key <= {hi}, C4 = 60"
+    if isinstance(value, str):
+        text = value.strip()
+        if re.fullmatch(r"[+-]?\d+", text):
+            key = int(text)
+        else:
+            key = key_of_name(text)
+            if key is None:
+                raise ValueError(f"{name} = {value!r} is not a MIDI key or a note name such as "
+                                 f"C#3 or Db3 ({rng})")
+        if not lo <= key <= hi:
+            shown = value if str(key) == text else f"{value} (key {key})"
+            raise ValueError(f"{name} = {shown} is out of range ({rng})")
+        return key
+    if isinstance(value, bool) or not isinstance(value, Integral):
+        raise ValueError(f"{name} = {value!r} is not a MIDI key or a note name such as C#3 "
+                         f"({rng})")
+    if not lo <= value <= hi:
+        raise ValueError(f"{name} = {value} is out of range ({rng})")
+    return int(value)
 
 
 def check_note(key, f0, velocity, seconds, names: dict = API_NAMES):

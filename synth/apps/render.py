@@ -201,6 +201,8 @@ class RenderResult:
     peak_dbfs: float = -math.inf
     n_clipped: int = 0
     output_gain: float | None = None
+    #: the integrated loudness written (LUFS), when measured (write_render's ``loudness``)
+    lufs: float | None = None
 
 
 def ignored_lines(ignored: dict) -> list[str]:
@@ -586,13 +588,26 @@ def prepare_render(raw, shown: str, preset, overrides=(), *, ignored: dict | Non
     return PreparedRender(plan, eng, shown, os.fspath(preset), notes, ignored, max_seconds)
 
 
+def _metered(blocks, meter):
+    """The blocks, each given to ``meter.add`` on the way."""
+    for b in blocks:
+        meter.add(b)
+        yield b
+
+
 def write_render(prep: PreparedRender, output: str, *, pcm24: bool = False, fmt: str = "wav",
-                 log: Callable[[str], None] | None = None, stream=None) -> RenderResult:
+                 log: Callable[[str], None] | None = None, stream=None,
+                 what=None, loudness: bool = False) -> RenderResult:
     """Render ``prep`` into the audio file ``output``, written as rendered
     (atomically: :func:`synth.io.wav.write_wav_stream`), with the progress
     bar on ``stream`` if it is a terminal, stopping between blocks once
     SIGINT or SIGTERM has arrived (run it within
     :func:`synth.io.interrupt.interruptible`, as :func:`render_midi` does).
+    ``what`` words the render in the summary (a text, or a function
+    giving it once rendered; default: "N notes on PRESET"); with ``loudness`` the summary gives the integrated loudness
+    of the samples written (BS.1770, measured as they are written:
+    :class:`synth.analysis.loudness.IntegratedLoudness`), also in
+    :attr:`RenderResult.lufs`.
 
     Raises
     ------
@@ -617,6 +632,12 @@ def write_render(prep: PreparedRender, output: str, *, pcm24: bool = False, fmt:
     bar = (_Progress(plan.expected_s, fs, stream, f"rendering {shown}")
            if stream is not None and _is_terminal(stream) else None)
     blocks = prep.blocks(bar, interruptible=True)
+    meter = None
+    if loudness:
+        from ..analysis.loudness import IntegratedLoudness
+
+        meter = IntegratedLoudness(fs, eng.channels)
+        blocks = _metered(blocks, meter)
     from ..dsp.compile_notice import compile_seconds, timing_note
 
     c0 = compile_seconds()
@@ -637,9 +658,15 @@ def write_render(prep: PreparedRender, output: str, *, pcm24: bool = False, fmt:
     for line in ignored_lines(prep.ignored):
         log(line)
     stolen = f", {eng.n_stolen} voices stolen (polyphony {eng.polyphony})" if eng.n_stolen else ""
-    summary = (f"{output}: {dur:.1f} s, {len(plan.keys)} notes on {prep.preset}{stolen}, "
-               f"peak {res.peak_dbfs:.1f} dBFS{clip}, "
+    lufs = None if meter is None else meter.lufs()
+    level = "" if lufs is None else f"{lufs:.1f} LUFS integrated, "
+    if what is None:
+        what = f"{len(plan.keys)} notes on {prep.preset}"
+    elif callable(what):
+        what = what()
+    summary = (f"{output}: {dur:.1f} s, {what}{stolen}, "
+               f"{level}peak {res.peak_dbfs:.1f} dBFS{clip}, "
                f"rendered in {el:.1f} s ({el / max(dur, 1e-9):.2f} x real time)"
                f"{timing_note(comp)}")
     return RenderResult(dur, len(plan.keys), el, summary, eng.n_stolen, dict(prep.ignored),
-                        res.peak_dbfs, res.n_clipped, float(eng.inst.preset.output.gain))
+                        res.peak_dbfs, res.n_clipped, float(eng.inst.preset.output.gain), lufs)

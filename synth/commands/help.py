@@ -19,7 +19,8 @@ EPILOG = ("examples:\n"
 
 #: the guides the commands' --help texts cite as ``synth help TOPIC``
 #: (tests/test_cli_safety.py checks each is shipped)
-CITED = ("analyze", "batch", "check", "felt", "midi", "presets", "quality", "reproduction")
+CITED = ("analyze", "batch", "check", "drone", "felt", "midi", "presets", "quality",
+         "reproduction")
 
 
 def docs_dir() -> Path:
