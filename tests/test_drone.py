@@ -285,3 +285,125 @@ def test_live_play_gives_the_offline_render_s_samples(presets):
     assert [k for _, i, k, _ in plucks(eng) if i == 0][:2] == [44, 47]
     ref = offline[: len(live)].astype(np.float32)
     assert np.max(np.abs(live - ref)) <= 2 * np.max(np.spacing(np.abs(ref)))
+
+
+# -- note names -----------------------------------------------------------------------
+
+
+def test_note_names_parse_with_sharps_flats_and_octave():
+    from synth.api.checks import check_key, key_of_name
+
+    assert [key_of_name(n) for n in ("C4", "C#3", "Db3", "A4", "C-1", "G9", "Bb2", "c\u266f3",
+                                      "D\u266d3", " e2 ")] == [60, 49, 49, 69, 0, 127, 46, 49,
+                                                                49, 40]
+    for bad in ("H3", "C", "C#", "3", "C##3", "Cx3", ""):
+        assert key_of_name(bad) is None, bad
+    assert check_key("--sa", "C#3", 12, 127) == 49
+    assert check_key("--sa", "49", 12, 127) == 49 and check_key("--sa", 49, 12, 127) == 49
+    for value, message in (
+            ("H3", "--sa = 'H3' is not a MIDI key or a note name such as C#3 or Db3 "
+                   "(12 <= key <= 127, C4 = 60)"),
+            ("C-1", "--sa = C-1 (key 0) is out of range (12 <= key <= 127, C4 = 60)"),
+            ("128", "--sa = 128 is out of range (12 <= key <= 127, C4 = 60)"),
+            (11, "--sa = 11 is out of range (12 <= key <= 127, C4 = 60)"),
+            (49.0, "--sa = 49.0 is not a MIDI key or a note name such as C#3 "
+                   "(12 <= key <= 127, C4 = 60)"),
+            (True, "--sa = True is not a MIDI key")):
+        with pytest.raises(ValueError) as info:
+            check_key("--sa", value, 12, 127)
+        assert str(info.value).startswith(message), str(info.value)
+
+
+# -- the loudness of what synth drone writes --------------------------------------------
+
+
+@pytest.mark.parametrize("channels", [1, 2])
+def test_integrated_loudness_block_by_block_is_pyloudnorm_s(channels):
+    import pyloudnorm
+
+    from synth.analysis.loudness import IntegratedLoudness
+
+    rng = np.random.default_rng(4)
+    for n in (FS * 3 + 1234, 20_000, FS * 2):
+        x = rng.standard_normal((n, channels)) * np.linspace(0.01, 0.3, n)[:, None]
+        x[: n // 3] *= 1e-3                        # a quiet stretch: the relative gate acts
+        m = IntegratedLoudness(FS, channels)
+        i = 0
+        while i < n:
+            b = int(rng.integers(1, 5000))
+            m.add(x[i:i + b] if channels > 1 else x[i:i + b, 0])
+            i += b
+        want = pyloudnorm.Meter(FS).integrated_loudness(x if channels > 1 else x[:, 0])
+        assert m.lufs() == pytest.approx(want, abs=1e-9)
+    assert IntegratedLoudness(FS).lufs() == -np.inf
+
+
+# -- synth drone ----------------------------------------------------------------------
+
+
+@pytest.mark.slow   # a 20-s drone (about 3 s)
+def test_synth_drone_writes_exactly_the_seconds_with_its_plucks_and_loudness(presets, tmp_path,
+                                                                              capsys):
+    import soundfile as sf
+
+    from synth.analysis.loudness import loudness
+    from synth.cli import main
+
+    out = tmp_path / "drone.wav"
+    rc = main(["drone", "--preset", NAME, "--sa", "C#3", "--pattern", "Pa Sa Sa Sa",
+               "--cycle-s", "4", "--seconds", "20", "-o", str(out)])
+    summary = capsys.readouterr().out.strip()
+    assert rc == 0
+    x, fs = sf.read(out)
+    assert fs == FS and len(x) == 20 * FS                # 20 s exactly (target: 20 +- 0.5 s)
+    plucks_ = int(re.search(r", (\d+) plucks,", summary)[1])
+    assert plucks_ == 20 >= 12                            # 5 cycles of 4 strings
+    lufs = float(re.search(r"(-?\d+\.\d) LUFS integrated", summary)[1])
+    assert lufs == pytest.approx(loudness(x, fs)["integrated_lufs"], abs=0.051)
+    assert "Sa C#3 (key 49)" in summary and summary.startswith(f"{out}: 20.0 s, a drone on")
+    # the same command and seed: the same file; another seed: another file
+    again = tmp_path / "again.wav"
+    assert main(["drone", "--preset", NAME, "--sa", "49", "--cycle-s", "4", "--seconds", "20",
+                 "-o", str(again)]) == 0
+    assert np.array_equal(sf.read(again)[0], x)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--sa", "H3"], "--sa = 'H3' is not a MIDI key or a note name"),
+    (["--sa", "C-1"], "--sa = C-1 (key 0) is out of range (12 <= key <= 127"),
+    (["--sa", "49", "--cycle-s", "0.5"], "--cycle-s = 0.5 is out of range (1 <= value <= 16 s)"),
+    (["--sa", "49", "--pattern", "Pa Sa"], "--pattern = 'Pa Sa' is not allowed (four tokens"),
+    (["--sa", "49", "--seconds", "0"], "--seconds = 0.0 is out of range (0 < value <= 21600 s)"),
+    (["--sa", "49", "--velocity", "0"], "--velocity = 0 is out of range (1 <= value <= 127)"),
+    (["--sa", "49", "--seed", "-1"], "--seed = -1 is out of range (0 <= value <= 2147483647)"),
+    (["--sa", "49", "--set", "drone.timing_jitter_s=1"],
+     "drone.timing_jitter_s = 1 (from --set) is out of range (0 <= value <= 0.1)"),
+    (["--sa", "49", "--preset", "sitar"], "sitar: the preset has no [drone] table"),
+    (["--sa", "49", "--set", "drone.player=off"], "drone.player = 'off': synth drone needs 'on'"),
+])
+def test_synth_drone_bad_input_is_one_line_exit_2_and_no_file(presets, tmp_path, capsys, args,
+                                                              words):
+    from synth.cli import main
+
+    out = tmp_path / "drone.wav"
+    argv = ["drone", "--preset", NAME, "--seconds", "1", "-o", str(out)] + args
+    rc = main(argv)
+    err = capsys.readouterr().err
+    assert rc == 2 and not out.exists()
+    assert err.startswith("synth: error: ") and err.count("\n") == 1 and words in err, err
+    # an output file already there is left as it was
+    out.write_bytes(b"old")
+    assert main(argv) == 2 and out.read_bytes() == b"old"
+
+
+def test_render_drone_from_python(presets):
+    import synth
+
+    a = synth.render_drone(NAME, sa="C#3", seconds=1.2, cycle_s=1, seed=2)
+    assert a.samples.shape == (int(1.2 * FS), 1) and a.fs == FS
+    b = synth.render_drone(NAME, sa=49, seconds=1.2, cycle_s=1, seed=2)
+    assert np.array_equal(a.samples, b.samples)
+    with pytest.raises(ValueError, match=r"^cycle_s = 20 is out of range \(1 <= value <= 16 s\)$"):
+        synth.render_drone(NAME, sa=49, cycle_s=20)
+    with pytest.raises(ValueError, match=r"^sitar: the preset has no \[drone\] table"):
+        synth.render_drone("sitar", sa=49)
