@@ -448,7 +448,7 @@ def _help_texts():
 
 def test_every_option_says_its_meaning_and_default():
     _, parsers = _parsers()
-    assert len(parsers) == 13 + 5              # the commands and felt's modes
+    assert len(parsers) == 14 + 5              # the commands and felt's modes
     missing = []
     for name, p in parsers:
         for a in p._actions:
