@@ -548,3 +548,58 @@ def test_bench_live_jack_quick_measures_the_loop(server):
     assert "xruns during play" in out
     if "0 xruns during play: yes" in out:
         assert "spread <= 0.1 ms: yes" in out, out
+
+
+@pytest.mark.slow  # over 2 s: a JACK server, synth play and 3.5 s of a drone
+def test_the_drone_player_plays_live_through_jack(server, tmp_path, monkeypatch):
+    """``synth play --jack`` on a preset with a [drone] table: one key sent
+    through JACK MIDI starts the drone (a key-up does nothing), the same key
+    again stops it; the captured audio is the offline render of those two
+    note-ons, sample for sample once aligned (the engine plays the player:
+    nothing special in the live path)."""
+    from test_drone import NAME, drone_preset_text
+
+    from synth.engine.engine import Event
+    from synth.io.factory import build_engine
+    from synth.io.presets import ENV_PRESET_PATH
+
+    folder = tmp_path / "presets"
+    folder.mkdir()
+    (folder / f"{NAME}.toml").write_text(drone_preset_text(), "utf-8")
+    monkeypatch.setenv(ENV_PRESET_PATH, str(folder))
+    proc = _synth_play(server, "--preset", NAME, "--set", "drone.cycle_s=1", "--jack-name",
+                       "synthdrone")
+    tester = None
+    stop_s, seconds = 2.2, 3.5
+    try:
+        probe = jack.Client("waiter", no_start_server=True, servername=server)
+        wait_ports(probe, "synthdrone", 2, proc)
+        probe.close()
+        tester = Loopback(server, 1, seconds + 1.0)
+        tester.client.activate()
+        connect(tester.client, [(tester.midi_out, "synthdrone:midi_in"),
+                                 ("synthdrone:out_1", tester.ins[0])])
+        time.sleep(0.2)
+        at = tester.client.last_frame_time + FS // 2
+        tester.events += [(at, bytes([0x90, 49, 100])), (at + FS // 10, bytes([0x80, 49, 64])),
+                          (at + int(stop_s * FS), bytes([0x90, 49, 90]))]
+        time.sleep(seconds + 1.0)
+        tester.client.deactivate()
+        rec, t0 = tester.rec[:, 0], tester.t0
+    finally:
+        out, err = _stop(proc, tester)
+    assert proc.returncode == 0, err
+    eng = build_engine(NAME, ["drone.cycle_s=1"])
+    ref = eng.render([Event(0.0, "note_on", 49, 100 / 127),
+                      Event(stop_s, "note_on", 49, 90 / 127)], duration_s=seconds)
+    # 9 plucks before the key stops it at 2.2 s (the cycles at 0 and 1 s, the
+    # first string of the one at 2 s), none after
+    assert eng.drone.n_plucks == 9 and not eng.drone.running
+    seg = rec[at - t0:]
+    n = FS                       # a second: one string's period (10 ms) would alias a shorter window
+    lag = max(range(0, 1024), key=lambda L: float(np.dot(seg[L:L + n], ref[:n])))
+    a, b = seg[lag:lag + len(ref)], ref[:len(seg) - lag]
+    corr = float(np.dot(a, b) / np.sqrt(np.dot(a, a) * np.dot(b, b)))
+    # (an xrun of the dummy server can spoil a few periods of the capture)
+    assert corr >= 0.99, (lag, corr)
+    assert lag == 128 + eng.latency_samples
