@@ -105,6 +105,13 @@ def test_drone_keys_are_checked_when_the_preset_loads(presets):
             load_preset(NAME, [override])
     with pytest.raises(Exception, match="drone.tempo_cc = 17 and drone.pattern_cc = 17"):
         build_engine(NAME, ["drone.tempo_cc=17"])
+    # a controller the engine or the voice plays is not the drone's
+    with pytest.raises(Exception, match=re.escape(
+            "drone.tempo_cc = 1 is taken (the voice's own control, modulation): give another "
+            "controller (1 <= value <= 119)")):
+        build_engine(NAME, ["drone.tempo_cc=1"])
+    with pytest.raises(Exception, match=re.escape("drone.pattern_cc = 64 is taken (sustain pedal)")):
+        build_engine(NAME, ["drone.pattern_cc=64"])
 
 
 # -- the cycle ------------------------------------------------------------------------

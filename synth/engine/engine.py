@@ -216,6 +216,8 @@ class Engine(ChannelControls):
         #: notes to come (``_inst_ctl``), set to a note's channel's value at
         #: its note-on
         self._ctl_default = dict(instrument.controls())
+        if self.drone is not None:
+            self._check_drone_controls()
         self._ctl = [dict(self._ctl_default) for _ in range(CHANNELS)]
         self._inst_ctl = dict(self._ctl_default)
         #: how a new note finds a voice when all are sounding (``play.steal``)
@@ -295,6 +297,20 @@ class Engine(ChannelControls):
         #: :meth:`contact_telemetry`)
         self.telemetry = False
         self._telem: tuple | None = None     # (voice index, key) of the counted note
+
+    def _check_drone_controls(self) -> None:
+        """The drone's controllers must be free: not the engine's own (the
+        pedals, volume, expression, pan, parameter selection and data entry)
+        nor the voice's (the buzz, the pluck point).  ValueError naming it."""
+        engine_ccs = (CC_SUSTAIN, CC_SOSTENUTO, CC_SOFT, CC_VOLUME, CC_EXPRESSION, CC_PAN,
+                      CC_DATA_MSB, CC_DATA_LSB, CC_RPN_MSB, CC_RPN_LSB, CC_NRPN_MSB, CC_NRPN_LSB)
+        for name, cc in (("tempo_cc", self.drone.tempo_cc), ("pattern_cc", self.drone.pattern_cc)):
+            if cc in engine_ccs or cc in self._ctl_default:
+                what = CC_NAMES.get(cc, "the voice's own control")
+                if cc in self._ctl_default:
+                    what = "the voice's own control" + (f", {what}" if cc in CC_NAMES else "")
+                raise ValueError(f"drone.{name} = {cc} is taken ({what}): give another "
+                                 "controller (1 <= value <= 119)")
 
     # -- events -----------------------------------------------------------------
     def sample_of(self, time_s: float) -> int:
