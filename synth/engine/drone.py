@@ -55,6 +55,22 @@ held within (0, 1]).  The draws come from a numpy Generator seeded with
 the same events give the same plucks, whatever the blocks.  A pluck is
 never moved before its cycle's start (a first pluck at onset 0 is only
 ever late; it cannot sound before the key that starts the drone).
+
+Beyond the first sketch of this player (issue 40, item 3), and why:
+
+* ``drone.player = "off"`` turns the player off while the table stays: a
+  drone preset's own checks (tuning, level) and ``synth note`` must pluck
+  one string, and a key that starts a cycle would play the first string
+  (Pa) instead.
+* All Notes Off and All Sound Off stop the drone: a sequencer sends them
+  when it stops, a panic button on every channel; a drone that went on
+  plucking after either would be stuck on.
+* The key's velocity is not the plucks': a key only starts and stops the
+  figure (a player's hand on the tanpura is steady); ``drone.velocity``
+  (and channel volume, CC7) set its level.
+* The "same key" is the one that last set Sa (a pending move's key too):
+  pressed again it stops the drone; the old Sa pressed during a pending
+  move takes the move back.
 """
 
 from __future__ import annotations
