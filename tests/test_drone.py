@@ -214,6 +214,10 @@ def test_another_key_moves_sa_from_the_next_cycle(presets):
     assert keys[:4] == [44, 49, 49, 37]              # the cycle under way ends on the old Sa
     assert keys[4:12] == [46, 51, 51, 39] * 2
     assert eng.drone.key == 51
+    # the old Sa pressed before the next cycle takes the move back
+    eng = build_engine(NAME, _short(presets, timing_jitter_s=0))
+    eng.render([on(0.0, 49), on(0.35, 51), on(0.5, 49)], duration_s=1.2)
+    assert [k for _, _, k, _ in plucks(eng)][4] == 44 and eng.drone.running
 
 
 def test_controllers_change_the_cycle_and_the_first_string_from_the_next_cycle(presets):
