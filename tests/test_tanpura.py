@@ -165,3 +165,27 @@ def test_raising_the_thread_ends_the_upper_band_sooner():
         early.append(band_centroid_hz(y, a.fs, 2000.0, 8000.0, 0.5, 1.5))
     assert late[0] - late[1] > 20.0 and late[1] > late[2]
     assert early[0] > early[1] > early[2]
+
+
+@pytest.mark.slow
+def test_the_drone_command_plays_the_tanpura_for_20_s_at_the_presets_level(tmp_path):
+    """Issue 40's drone target: ``synth drone --preset tanpura --sa 49
+    --seconds 20`` lasts 20 +- 0.5 s with at least 12 plucks, at the
+    presets' -20 LUFS (its phrase is the drone: synth.apps.levels)."""
+    import re
+    import subprocess
+    import sys
+
+    import pyloudnorm
+
+    out = tmp_path / "drone.wav"
+    p = subprocess.run([sys.executable, "-m", "synth", "drone", "--preset", "tanpura", "--sa", "49",
+                        "--seconds", "20", "-o", str(out)], capture_output=True, text=True,
+                       timeout=600)
+    assert p.returncode == 0, p.stderr
+    plucks = int(re.search(r"(\d+) plucks", p.stdout + p.stderr).group(1))
+    assert plucks >= 12
+    x, fs = sf.read(out)
+    assert abs(len(x) / fs - 20.0) <= 0.5
+    lufs = pyloudnorm.Meter(fs).integrated_loudness(x)
+    assert abs(lufs - (-20.0)) <= 2.0, lufs

@@ -72,8 +72,9 @@ def note_engine(preset, overrides, key: int | None, f0: float | None, *,
     if f0 is not None:
         low = int(math.floor(69 + 12 * math.log2(f0 / 440.0)))
     kw = {} if rate is None else {"fs_out": rate}
+    # one note: a drone preset's key plucks its one string (no drone cycle)
     return build_engine(preset, overrides, fs_internal=internal_rate, probe=probe,
-                        extra_low_key=low, **kw)
+                        extra_low_key=low, drone=False, **kw)
 
 
 def check_playable(eng, shown: str, key: int | None, f0: float | None,

@@ -144,7 +144,7 @@ def render_job(job: Job) -> dict:
             if sha != job.preset_sha256:
                 raise BatchError(f"{job.path}: this worker's preset {job.preset} differs from "
                                  "the client's (is the same synth version installed?)")
-            eng = build_engine(voice.preset, voice=voice, extra_low_key=job.key)
+            eng = build_engine(voice.preset, voice=voice, extra_low_key=job.key, drone=False)
             key = -1 if job.key is None else job.key
             ev = [Event(0.0, NOTE_ON, key, job.velocity / 127.0)]
             if job.hold_s is not None:

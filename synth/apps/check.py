@@ -212,7 +212,7 @@ def render_note(preset, key: int, velocity: int = 100, seconds: float = 2.0,
     from ..io.factory import build_engine
 
     eng = engine if engine is not None else build_engine(preset, overrides, fs_out=FS_OUT,
-                                                         extra_low_key=key)
+                                                         extra_low_key=key, drone=False)
     ev = [Event(0.0, "control", cc, v) for cc, v in ((64, sustain), (67, soft)) if v > 0]
     ev.append(Event(0.0, "note_on", key, velocity / 127.0))
     if hold_s is not None:
@@ -250,8 +250,9 @@ def _render(spec_src: str, r: dict) -> list[Item]:
     for key in r["keys"]:
         for vel in r["velocities"]:
             # one voice per preset; a fresh engine per note (no leftovers)
+            # (a drone preset's key plucks its one string: drone=False)
             eng = build_engine(r["preset"], r["set"], fs_out=FS_OUT, extra_low_key=key,
-                               voice=None if eng is None else eng.inst)
+                               voice=None if eng is None else eng.inst, drone=False)
             y, fs, f = render_note(None, key, vel, r["seconds"], hold_s=r["hold_s"], engine=eng,
                                    sustain=r["sustain"], soft=r["soft"])
             out.append(Item(r["name"], y, fs, key, vel, f, pitch_of=eng.inst.pitch_hz))

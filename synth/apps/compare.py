@@ -226,7 +226,8 @@ def _render_preset(stim: Stimulus, req: CompareRequest, events, keys, plan=None)
     from synth.io.factory import build_engine
 
     low = min(keys) if keys else req.key
-    eng = build_engine(stim.source, stim.overrides, extra_low_key=low)
+    # one note (no MIDI file): a drone preset's key plucks its one string
+    eng = build_engine(stim.source, stim.overrides, extra_low_key=low, drone=events is not None)
     preset, inst = eng.inst.preset, eng.inst
     notes = []
     if events is None:

@@ -48,8 +48,14 @@ def phrase_events(preset) -> list[tuple[float, float, int, int]]:
     The melody starts where 1.5 octaves fit in the playable range (centred,
     at most from key 60); keyboards (grand, harpsichord) add a dyad an
     octave and a fifth below the melody's first note under each group of
-    four notes."""
+    four notes.  A drone preset (``[drone]`` with its player on) plays its
+    drone instead: one key at the lowest Sa of its range starts the cycle."""
     lo, hi = preset.play.key_low, preset.play.key_high
+    drone = getattr(preset, "drone", None)
+    if drone is not None and drone.player == "on":
+        # a drone preset's keys start its player: the phrase is the drone
+        # itself, from the lowest Sa whose low Sa the range holds
+        return [(0.0, 0.5, min(lo + 12, hi), VELOCITY)]
     span = max(MELODY)
     base = min(60, lo + max(0, (hi - lo - span) // 2))
     ev = []

@@ -114,13 +114,17 @@ class Engine(ChannelControls):
     silence_dbfs : float
         A released/decayed voice whose output stays below this level for two
         periods (and at least 20 ms) is freed.
+    drone : bool
+        Whether the preset's drone player plays (its ``[drone]`` with
+        ``player = "on"``): False for single notes, each key plucking its
+        own string.
     """
 
     MAX_BLOCK_OUT = 4096
 
     def __init__(self, instrument, fs_out: int = 48_000, polyphony: int | None = None,
                  probe: bool = False, silence_dbfs: float = -110.0, extra_low_key: int | None = None,
-                 threads: int = 1):
+                 threads: int = 1, drone: bool = True):
         self.inst = instrument
         self.fs_in_exact = float(instrument.fs)
         # the decimator needs an integer rate with a small ratio; the physics
@@ -165,7 +169,7 @@ class Engine(ChannelControls):
                                                    self.fs_in_exact)
         #: the drone player (the preset's ``[drone]``: a key starts and stops
         #: a cycle of plucks of its strings, :mod:`synth.engine.drone`), or None
-        self.drone = Drone.from_preset(instrument.preset, self.fs_in_exact)
+        self.drone = Drone.from_preset(instrument.preset, self.fs_in_exact) if drone else None
         #: the body (soundboard) stage after decimation, if the instrument has one
         design = instrument.body()
         self.body = None if design is None else Body.from_design(fs_out, design)

@@ -63,7 +63,8 @@ def build_engine(preset: str | os.PathLike | Preset, overrides: Sequence[str] = 
                  fs_out: int = 48_000, fs_internal: float | None = None,
                  polyphony: int | None = None, probe: bool = False,
                  extra_low_key: int | None = None, warm: bool = False, block: int = 128,
-                 voice=None, silence_dbfs: float = -110.0, threads: int | None = None) -> Engine:
+                 voice=None, silence_dbfs: float = -110.0, threads: int | None = None,
+                 drone: bool = True) -> Engine:
     """Build the engine that plays ``preset``.
 
     Parameters
@@ -101,6 +102,12 @@ def build_engine(preset: str | os.PathLike | Preset, overrides: Sequence[str] = 
         Threads the strings render on (the same samples for any number);
         None: ``SYNTH_THREADS``, else every core this process may use
         (:func:`synth.dsp.threads.default_threads`).
+    drone : bool
+        Whether a preset's drone player (``[drone]``, :mod:`synth.engine.drone`)
+        plays: a key then starts and stops the cycle of its strings.  False
+        for the renders of single notes (``synth note``, a check's keys, a
+        batch's jobs): each key plucks its one string, as on the other
+        plucked presets.
 
     Raises
     ------
@@ -118,6 +125,6 @@ def build_engine(preset: str | os.PathLike | Preset, overrides: Sequence[str] = 
     try:
         if warm:
             warm_up(voice, fs_out=fs_out, block=block, **kw)
-        return Engine(voice, fs_out=fs_out, **kw)
+        return Engine(voice, fs_out=fs_out, drone=drone, **kw)
     except ValueError as e:
         raise SynthError(f"{voice.preset.name}: {e}") from None
