@@ -3,6 +3,7 @@
 Usage
 -----
     python tools/figures.py tanpura-thread [-o docs/img/tanpura/thread.png]
+    python tools/figures.py drone [-o docs/img/tanpura/drone.png]
     python tools/figures.py list
 
 ``tanpura-thread``: the tanpura's Sa (key 49, velocity 90, 5 s) with the
@@ -10,6 +11,12 @@ thread (jiva) at 1.0, 1.15 (the preset) and 1.4 times the open jawari's
 extent^2 / (2 radius), and the linear string (``termination.buzz=0``):
 spectrograms to 8 kHz with the centre of the 2-8 kHz band
 (:func:`synth.analysis.band_centroid_hz`) over 0.5 s windows.
+
+``drone``: 60 s of the tanpura's drone (``synth drone --preset tanpura
+--sa 49``: Pa Sa Sa Sa every 4 s) beside the sitar plucked at the same
+times, keys and velocities (its taraf ringing along): spectrograms to 8
+kHz with the 2-8 kHz centre, and the momentary loudness (400 ms, BS.1770)
+of both over time.
 
 Needs matplotlib (the ``[plots]`` extra).  Exit 0 after writing the PNG;
 2 with a one-line error.
@@ -69,7 +76,44 @@ def tanpura_thread(out: str) -> None:
     fig.savefig(out, dpi=80)
 
 
-FIGURES = {"tanpura-thread": (tanpura_thread, "docs/img/tanpura/thread.png")}
+def drone(out: str, seconds: float = 60.0) -> None:
+    from synth.analysis import as_mono, momentary_lufs
+    from synth.engine.engine import Event
+    from synth.io.factory import build_engine
+
+    plt = _plt()
+    tan = build_engine("tanpura", extra_low_key=37)
+    y_t = as_mono(tan.render([Event(0.0, "note_on", 49, 0.8)], duration_s=seconds))
+    fs_in = tan.fs_in_exact
+    plucks = [Event(t / fs_in, "note_on", key, vel, string=i)
+              for t, i, key, vel in tan.drone.history if t / fs_in < seconds]
+    sit = build_engine("sitar", extra_low_key=37)
+    y_s = as_mono(sit.render(plucks, duration_s=seconds))
+    fs = tan.fs_out
+    fig = plt.figure(figsize=(16, 8))
+    grid = fig.add_gridspec(2, 2, height_ratios=(2, 1))
+    for col, (name, y) in enumerate((("tanpura", y_t), ("sitar, the same plucks", y_s))):
+        ax = fig.add_subplot(grid[0, col])
+        _spectrogram(ax, y, fs, f"{name}: key 49, Pa Sa Sa Sa every 4 s")
+        if col == 0:
+            ax.set_ylabel("Hz")
+            ax.legend(loc="upper right", fontsize=8)
+    ax = fig.add_subplot(grid[1, :])
+    for name, y in (("tanpura", y_t), ("sitar", y_s)):
+        t, m = momentary_lufs(y, fs)
+        ax.plot(t, m, label=name)
+    ax.set_ylabel("momentary loudness (LUFS)")
+    ax.set_xlabel("s")
+    ax.set_ylim(-45, -5)
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.suptitle(f"{seconds:g} s of the drone, tanpura beside the sitar")
+    fig.tight_layout()
+    fig.savefig(out, dpi=70)
+
+
+FIGURES = {"tanpura-thread": (tanpura_thread, "docs/img/tanpura/thread.png"),
+           "drone": (drone, "docs/img/tanpura/drone.png")}
 
 
 def main(argv=None) -> int:
