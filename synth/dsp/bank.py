@@ -162,6 +162,27 @@ def _index(name: str, v, hi: int) -> int:
     return i
 
 
+def _tension_args(tension, bend_len: int) -> tuple:
+    """The four ``F_TM*`` columns of :func:`slot_template`'s ``tension``
+    (all 0: off), checked."""
+    if tension is None:
+        return 0.0, 0.0, 0.0, 0.0
+    kappa, loop, every, alpha = (float(v) for v in tension)
+    if not (math.isfinite(kappa) and kappa >= 0.0):
+        raise ValueError(f"tension kappa = {kappa!r} is out of range (value >= 0)")
+    if kappa == 0.0:
+        return 0.0, 0.0, 0.0, 0.0
+    if not bend_len:
+        raise ValueError("tension kappa > 0 needs a bend line (bend_len > 0): the modulation moves it")
+    if not (math.isfinite(loop) and loop > 0.0):
+        raise ValueError(f"tension loop = {loop!r} is out of range (value > 0 samples)")
+    if not (every >= 1.0 and every == int(every) and every <= 1e6):
+        raise ValueError(f"tension every = {every!r} is out of range (integer, 1 <= value <= 1000000)")
+    if not (0.0 < alpha <= 1.0):
+        raise ValueError(f"tension alpha = {alpha!r} is out of range (0 < value <= 1)")
+    return kappa, loop, every, alpha
+
+
 def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side: int = 1,
                   out_mode: int = 0, gain: float = 1.0, tension_over_dx: float = 0.0,
                   b0: float = 1.0, a1: float = 0.0, eta: float = 0.0,
@@ -170,10 +191,17 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
                   bend_delay: float = 0.0, glide_s: float = 0.002,
                   bend_glide_s: float = 0.02, sos=None,
                   pan: float | None = None, sub: int = 1,
-                  subcell: float = 0.0) -> SlotTemplate:
+                  subcell: float = 0.0, tension=None) -> SlotTemplate:
     """Validate a string configuration once (parameters as
     :meth:`StringBank.configure`); the bank's own limits (cells, region and
-    bend-line sizes) are checked when it is written into a slot."""
+    bend-line sizes) are checked when it is written into a slot.
+
+    ``tension``: None (no tension modulation), or (kappa, loop, every,
+    alpha) for :mod:`synth.kernels.tension`: dT / T0 per unit of the ring's
+    slope sum (1/m^2, >= 0; 0: off), the loop's delay at T0 (samples, > 0),
+    the samples between two readings (an integer >= 1) and a reading's
+    weight in the smoothed sum (0 < value <= 1); kappa > 0 needs a bend
+    line, which the modulation moves."""
     if not (8 <= cells <= 1_000_000):
         raise ValueError(f"cells = {cells!r} is out of range (8 <= value <= 1000000)")
     if not (1 <= k <= cells - 1):
@@ -208,6 +236,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     if subcell > 0.0 and k < 3:
         raise ValueError(f"k = {k!r} is out of range with subcell > 0 (value >= 3: the sub-cell "
                          f"contact reads points 1 and 2)")
+    tm = _tension_args(tension, bend_len)
     ip = np.zeros(K.I_NI, dtype=np.int64)
     ip[K.I_N] = cells
     ip[K.I_K] = k
@@ -251,6 +280,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     fp[K.F_BDS] = 1.0 - math.exp(-dt_s / bend_glide_s)
     fp[K.F_REACH] = region_reach(U, side, subcell)
     fp[K.F_CURV] = subcell
+    fp[K.F_TMK], fp[K.F_TML], fp[K.F_TMM], fp[K.F_TMA] = tm
     Uc = None if U is None else np.array(U, dtype=float)
     return SlotTemplate(ip, fp, Uc, float(bend_delay))
 
@@ -541,7 +571,7 @@ class StringBank(Excitations, Bridges):
                   probe_row: int = -1, force_per_sample: bool = False,
                   n_disp: int = 0, a_disp: float = 0.0, bend_len: int = 0,
                   bend_delay: float = 0.0, sos=None, pan: float | None = None,
-                  sub: int = 1, subcell: float = 0.0) -> None:
+                  sub: int = 1, subcell: float = 0.0, tension=None) -> None:
         """Set up slot s as an idle string (zero state, no excitation).
 
         cells : N, 8 .. max_cells.  k : excitation/pickup point, 1 .. N-1.
@@ -561,6 +591,7 @@ class StringBank(Excitations, Bridges):
         U(1) that is the profile's curvature, 1 - theta dx / U(1) with
         theta its slope at x = 0 (1 for the open jawari;
         :meth:`synth.physics.profiles.Termination.subcell`).
+        tension : the tension's modulation (:func:`slot_template`), or None.
         (Voices that configure at note-on build a :func:`slot_template`
         once and call :meth:`configure_from`.)
         """
@@ -570,7 +601,7 @@ class StringBank(Excitations, Bridges):
                           force_per_sample=force_per_sample, n_disp=n_disp, a_disp=a_disp,
                           bend_len=bend_len, bend_delay=bend_delay,
                           glide_s=self.LOSS_GLIDE_S, bend_glide_s=self.BEND_GLIDE_S, sos=sos,
-                          pan=pan, sub=sub, subcell=subcell)
+                          pan=pan, sub=sub, subcell=subcell, tension=tension)
         self.configure_from(s, t, probe_row)
 
     def configure_from(self, s: int, t: SlotTemplate, probe_row: int = -1) -> None:
@@ -593,6 +624,8 @@ class StringBank(Excitations, Bridges):
         if blen:
             self.U[ip[K.I_BOFF]: ip[K.I_BOFF] + blen] = 0.0
         self.fst[s, K.S_BD] = t.bend_delay
+        # the tension's first reading (synth.kernels.tension) F_TMM samples in
+        self.fst[s, K.S_TMC] = self.fpar[s, K.F_TMM]
 
     def _write_template(self, s: int, t: SlotTemplate, keep_cols) -> None:
         """Slot s's parameters and profile from template t, its ``ipar``

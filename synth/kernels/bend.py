@@ -3,9 +3,11 @@
 A string with a bend line (``I_BLEN`` > 0) passes its loop filter's output
 through a delay line read with third-order Lagrange interpolation
 (:func:`_lagrange3`) at a gliding delay plus a decaying tune-out (the
-contact's pitch rise, undone): sample by sample (:func:`_bend_line`, the
-per-sample path) or over a fast-path chunk (:func:`_bend_chunk`), the same
-operations for the same samples.  Compiled without re-association
+contact's pitch rise, undone) plus the tension's modulation (``S_TM``,
+:mod:`synth.kernels.tension`: negative, down to a delay of 1; 0 adds
+nothing): sample by sample (:func:`_bend_line`, the per-sample path) or
+over a fast-path chunk (:func:`_bend_chunk`, the modulation constant over
+it), the same operations for the same samples.  Compiled without re-association
 (``SERIAL_OPTS``, :mod:`synth.kernels.config` says why).
 
 May import: :mod:`~synth.kernels.config`, :mod:`~synth.kernels.layout`,
@@ -17,7 +19,7 @@ from __future__ import annotations
 from numba import njit
 
 from .config import SERIAL_OPTS
-from .layout import S_BD, S_BW, S_TO
+from .layout import S_BD, S_BW, S_TM, S_TO
 from .ring import _ring_get, _ring_put
 
 
@@ -43,6 +45,12 @@ def _bend_line(y, st, U, boff, blen, bdt, bds, tor, tog):
     st[S_BD] = D
     to = st[S_TO]
     D += tog * to
+    tm = st[S_TM]
+    if tm != 0.0:
+        # the tension's modulation (synth.kernels.tension): shorter, down to 1
+        D += tm
+        if D < 1.0:
+            D = 1.0
     to *= tor
     if abs(to) < 1e-9:
         to = 0.0
@@ -88,11 +96,21 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
         for i in range(n):
             yb[b + i] = _bend_line(yb[b + i], st, U, boff, blen, bdt, bds, tor, tog)
         return
+    tm = st[S_TM]                 # the tension's modulation, constant over a chunk
     D = bdt + tog * to
+    if tm != 0.0:
+        D += tm
+        if D < 1.0:
+            D = 1.0
     iD = int(D)
     if to != 0.0:
         # the history covers the run's integer delays (monotonic: its ends)
-        iE = int(bdt + tog * (to * tor ** n))
+        E = bdt + tog * (to * tor ** n)
+        if tm != 0.0:
+            E += tm
+            if E < 1.0:
+                E = 1.0
+        iE = int(E)
         if iE > iD:
             iD = iE
         iD += 1
@@ -120,6 +138,10 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
         for i in range(n):
             D = bdt
             D += tog * to
+            if tm != 0.0:
+                D += tm
+                if D < 1.0:
+                    D = 1.0
             to *= tor
             if abs(to) < 1e-9:
                 to = 0.0

@@ -151,7 +151,14 @@ F_CURV = F_REACH + 1   # sub-cell contact in the first cell (0: off; see _subcel
 #                        of U(1) that is the profile's curvature, 1 - theta dx / U(1) (0 < value <= 1)
 F_BRMU = F_CURV + 1   # the bridge's mass (coupled group, on its leader): mu = M / (R_b dt)
 #                        (0: a dashpot, the old bridge; see _bridge)
-F_NF = F_BRMU + 1
+# tension modulation (synth.kernels.tension; 0 in F_TMK: off, no operation):
+F_TMK = F_BRMU + 1    # dT / T0 per unit of the ring's slope sum S (1/m^2): E A loop / (4 L T0 N dx),
+#                        times string.tension_modulation
+F_TML = F_TMK + 1     # the loop's delay at T0 (samples): the bend line reads F_TML (1 / sqrt(1 + x) - 1)
+#                        samples less at dT / T0 = x
+F_TMM = F_TML + 1     # samples between two readings of the tension (a whole number, >= 1)
+F_TMA = F_TMM + 1     # a reading's weight in the smoothed slope sum (one pole, 0 < value <= 1)
+F_NF = F_TMA + 1
 
 # ---- float state columns (fst[s, :]) ----------------------------------------
 S_G = 0          # current g (m)
@@ -194,7 +201,10 @@ S_TO = S_UBOFF + 1            # pitch bend: the tune-out, extra delay of the ben
                               #   rise, undone)
 S_U1P = S_TO + 1              # sub-cell contact (F_CURV > 0): u(1) at the last sample (m), after
                               #   point 1's clamp
-S_NS = S_U1P + 1
+S_TM = S_U1P + 1              # tension modulation: the bend line's delay change now (samples, <= 0)
+S_TMS = S_TM + 1              # its smoothed slope sum (m^2)
+S_TMC = S_TMS + 1             # samples until the next reading (>= 1; the bank sets F_TMM at note-on)
+S_NS = S_TMC + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)

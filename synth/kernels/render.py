@@ -64,6 +64,7 @@ from .contact import _region_step
 from .coupled import _bridge, _bridge_steps, _far_lanes, _force_row, _lanes_ok
 from .excite import _excite_chunk, _excite_group
 from .far_end import _far_filter, _far_prep, _far_write
+from .tension import tension_after, tension_limit
 from .layout import (
     CPL_NONE, EXC_FELT, EXC_HAMMER3, EXC_NONE, F_BRA, F_BRB, F_BRMU,
     F_BTDX, F_CURV, F_GAIN, F_PAN, F_TDX, GROUP, GROUP_CHUNK, ROWS, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL,
@@ -569,7 +570,7 @@ def _coupled_diag(lead, G, ipar):
 
 
 @njit(inline="always", **JIT_OPTS)
-def _coupled_next(lead, G, ipar, avail, diag):
+def _coupled_next(lead, G, ipar, fpar, fst, avail, diag):
     """The next piece of a coupled group's render, of at most ``avail``
     samples: (C, slow), a lockstep chunk of C samples if every member
     allows one and at most ROWS of them excite (GROUP hammers), else C
@@ -591,6 +592,7 @@ def _coupled_next(lead, G, ipar, avail, diag):
             left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
             if left < c:
                 c = left
+        c = tension_limit(s, fpar, fst, c)   # (a chunk ends at a tension's reading)
         if c <= 0 or exc == EXC_FELT:
             slow = True
         elif c < C:
@@ -601,6 +603,16 @@ def _coupled_next(lead, G, ipar, avail, diag):
     if slow and not diag and C > 64:
         C = 64                     # look again soon: the fast path may apply
     return C, slow
+
+
+@njit(inline="always", **JIT_OPTS)
+def _coupled_tension(lead, G, ring, ipar, fpar, fst, C):
+    """After a lockstep chunk of C samples: each member's tension reading,
+    if due (:func:`synth.kernels.tension.tension_after`)."""
+    s = lead
+    for m in range(G):
+        tension_after(s, ring, ipar, fpar, fst, C)
+        s = ipar[s, I_CPLNX]
 
 
 @njit(**JIT_OPTS)
@@ -619,16 +631,18 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
     one = scratch[scratch.shape[0] - 2:]
     done = 0
     while done < n:
-        C, slow = _coupled_next(lead, G, ipar, n - done, diag)
+        C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
             _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
                                 one, po0 + (done // psub), psub)
-        elif G > BLOCK:
-            _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw,
-                               ist, pb, tw, ib, nt)
         else:
-            _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
-                                 iw, ist)
+            if G > BLOCK:
+                _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
+                                   iw, ist, pb, tw, ib, nt)
+            else:
+                _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix,
+                                     scratch, iw, ist)
+            _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
 
@@ -642,13 +656,14 @@ def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scrat
     one = scratch[scratch.shape[0] - 2:]
     done = 0
     while done < n:
-        C, slow = _coupled_next(lead, G, ipar, n - done, diag)
+        C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
             _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
                                 one, o0 + done, ONE)
         else:
             _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw,
                                ist, pb, tw, ib, nt)
+            _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
 
@@ -661,13 +676,14 @@ def _render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scr
     one = scratch[scratch.shape[0] - 2:]
     done = 0
     while done < n:
-        C, slow = _coupled_next(lead, G, ipar, n - done, diag)
+        C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
             _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
                                 one, o0 + done, ONE)
         else:
             _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
                                  iw, ist)
+            _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
 

@@ -104,7 +104,9 @@ this list, and none points up:
 * :mod:`~synth.kernels.excite` (step 2: plucks, g tables, the felt
   hammers), :mod:`~synth.kernels.contact` (step 3: the termination region,
   the sub-cell contact, the reach test), :mod:`~synth.kernels.bend` (the
-  pitch-bend line);
+  pitch-bend line), :mod:`~synth.kernels.tension` (the tension's reading
+  from the rails, which the bend line follows; the drivers below end a
+  chunk at a reading);
 * :mod:`~synth.kernels.far_end` (step 4: the loop filter and the bridge
   force), then :mod:`~synth.kernels.hand_over` (a loop moved to a coarser
   grid) and :mod:`~synth.kernels.coupled` (a coupled group's bridge and
@@ -159,6 +161,7 @@ from .hand_over import _dot, _lerp, hand_over_loop
 from .layout import *  # noqa: F401,F403  (every column, kind and limit)
 from .layout import _CW, _GIB, _GROW, _SCRATCH_GROUP
 from .ring import _hmax4, _ring_add, _ring_get, _ring_get_in, _ring_put, _ring_put_in
+from .tension import slope_sum, tension_after, tension_limit, tension_read
 
 #: 1 as an int64 argument (a literal 1 in a call compiles the callee, and
 #: everything below it, once more for ``Literal[int](1)``; render.ONE)
@@ -240,6 +243,7 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
     hep = st[S_HC_EP]
     hgap = st[S_HC_GAP]
     hpk = st[S_HF_PK]
+    tmk = fp[F_TMK]
     for i in range(n):
         if exc == EXC_ENDED:
             # the excitation ended on the previous sample: fold its constant
@@ -423,6 +427,14 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
             probe[prow, P_F, pi] = F
             probe[prow, P_W, pi] = st[S_HW]
             probe[prow, P_Z, pi] = st[S_HZ]
+        if tmk > 0.0:
+            # the tension's reading (synth.kernels.tension), at the same
+            # samples as the fast path's (the ring as it stands after this one)
+            st[S_TMC] -= 1.0
+            if st[S_TMC] <= 0.0:
+                ipar[s, I_POS] = pm
+                ipar[s, I_EXC] = exc
+                tension_read(s, ring, ipar, fpar, fst)
     ipar[s, I_POS] = pm
     ipar[s, I_EXC] = exc
     ipar[s, I_EXC_M] = e
@@ -606,7 +618,9 @@ def _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx,
             left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
             if C > left:
                 C = left
+        C = tension_limit(s, fpar, fst, C)
         _chunk_fast(s, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, ubx)
+        tension_after(s, ring, ipar, fpar, fst, C)
         done += C
         if ipar[s, I_EXC] <= EXC_NONE:
             cmax = ipar[s, I_CHUNK_FREE]
@@ -631,6 +645,7 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
             left = ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1
             if left < c:
                 c = left
+            c = tension_limit(s, fpar, fst, c)
             if c < C:
                 C = c
         _excite_group(ring, ipar, fpar, fst, C, mem, live, scratch, ist)
@@ -639,6 +654,7 @@ def _render_group(mem, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
             _chunk_rest(mem[m], ring, ipar, fpar, fst, U, C, o0 + done, mix, work,
                         scratch[m * _GROW:m * _GROW + C],
                         ipar[mem[m], I_EXC] != EXC_NONE, ubx)   # (True; not a constant: see _ring_get)
+            tension_after(mem[m], ring, ipar, fpar, fst, C)
         done += C
         j = 0
         for m in range(live):

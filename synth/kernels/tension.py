@@ -1,0 +1,126 @@
+"""Tension modulation: a string's tension read from its own rails (numba).
+
+A string that swings is longer than at rest, so its tension rises (Kirchhoff
+and Carrier; Tolonen, Valimaki & Karjalainen, "Modeling of tension
+modulation nonlinearity in plucked strings", IEEE Trans. Speech Audio
+Process. 8(3), 2000).  Its elongation is dL = 1/2 int u_x^2 dx (to second
+order in the slope u_x), and the tension
+
+    T = T0 + E A dL / L = T0 + (E A / (2 L)) int u_x^2 dx,
+
+with Young's modulus E, the cross-section A and the length L.  The wave
+speed follows, c = sqrt(T / mu), and with it every partial: the loop's
+delay is D0 / sqrt(1 + dT / T0) (D0 the loop at T0, samples).
+
+What is read.  The waves of a string, u = u_r + u_l, give u_x^2 = (u_r' +
+u_l')^2, whose cross term averages out over a period: the time average is
+<int u_x^2 dx> = int (u_r'^2 + u_l'^2) dx = E_wave / T0, the wave energy
+over the tension, which is constant on a lossless string and falls with
+the note on a lossy one.  On the ring (both rails in one loop, see
+:mod:`synth.kernels.strings`) it is the sum S of the squared differences
+of neighbouring samples over dx, less the pair at x = L (the sample the
+loop filter wrote last and the one arriving at it are a loop filter and a
+bend line apart, not dx); the ring holds 2N of the loop's D0 samples and
+the rest are in the loop filter and the bend line, so that
+int (u_r'^2 + u_l'^2) dx = S D0 / (2 N dx), and
+
+    dT / T0 = kappa S,    kappa = E A D0 / (4 L T0 N dx)   (``F_TMK``).
+
+It is the mean tension that a plucked string's pitch glide follows (the
+2 f0 ripple of the instantaneous tension moves no partial to first
+order).  Reading the mean from the energy costs a pass over the ring every
+``F_TMM`` samples (256 at 325 kHz: 0.8 ms, 7 or more readings a period
+below D5) and a one-pole smoothing of the readings over two periods
+(``F_TMA``; what the loop filter and the bend line hold at a reading is not
+in S, and a sharp corner there leaves a reading up to 2x low, on the
+sitar); a per-sample int u_x^2 from the displacement field would cost a
+pass per sample, 2N operations, for the same glide
+(docs/lab/2026-11-29-tension-modulation.md has the measurements).
+
+Where it acts.  The reading sets ``S_TM``, the change of the bend line's
+delay (:mod:`synth.kernels.bend`): D0 (1 / sqrt(1 + kappa S) - 1) samples,
+negative (shorter: higher) and read by the bend line from the next sample
+on, per sample and in fast-path chunks alike (the drivers end a chunk at a
+reading, so that a string renders the same samples whatever its blocks).
+With ``F_TMK`` = 0 nothing is read and the bend line adds nothing: the
+samples are those of a string without it, bit for bit.
+
+May import: :mod:`~synth.kernels.config`, :mod:`~synth.kernels.layout`.
+"""
+
+from __future__ import annotations
+
+import math
+
+from numba import njit
+
+from .config import JIT_OPTS
+from .layout import (
+    EXC_NONE, F_TMA, F_TMK, F_TML, F_TMM, I_EXC, I_N, I_OFF, I_POS, S_TM, S_TMC, S_TMS,
+)
+
+
+@njit(**JIT_OPTS)
+def slope_sum(ring, off, P, jn):
+    """Sum over the ring ``ring[off:off+P]`` of (ring[j+1] - ring[j])^2
+    over its P neighbour pairs (circular), less the pair (jn, jn + 1) (m^2
+    for displacement waves)."""
+    acc = 0.0
+    # pairs jn + 1 .. P - 2, then the wrap (P - 1, 0), then 0 .. jn - 1
+    for j in range(off + jn + 1, off + P - 1):
+        d = ring[j + 1] - ring[j]
+        acc += d * d
+    if jn != P - 1:
+        d = ring[off] - ring[off + P - 1]
+        acc += d * d
+    for j in range(off, off + jn):
+        d = ring[j + 1] - ring[j]
+        acc += d * d
+    return acc
+
+
+@njit(**JIT_OPTS)
+def tension_read(s, ring, ipar, fpar, fst):
+    """Read string s's tension now (after its last sample): the smoothed
+    slope sum and the bend line's delay change ``S_TM``; the countdown to
+    the next reading restarts.  While an excitation runs the ring holds
+    its injection's step at the excitation point: the reading is skipped."""
+    fp = fpar[s]
+    st = fst[s]
+    st[S_TMC] = fp[F_TMM]
+    if ipar[s, I_EXC] != EXC_NONE:
+        return
+    N = ipar[s, I_N]
+    P = 2 * N
+    jn = ipar[s, I_POS] - N
+    if jn < 0:
+        jn += P
+    S = slope_sum(ring, ipar[s, I_OFF], P, jn)
+    m = st[S_TMS]
+    m += fp[F_TMA] * (S - m)
+    st[S_TMS] = m
+    st[S_TM] = fp[F_TML] * (1.0 / math.sqrt(1.0 + fp[F_TMK] * m) - 1.0)
+
+
+@njit(inline="always", **JIT_OPTS)
+def tension_limit(s, fpar, fst, C):
+    """The longest chunk (at most C) that ends no later than string s's
+    next reading (C when it has no tension modulation)."""
+    if fpar[s, F_TMK] > 0.0:
+        c = int(fst[s, S_TMC])
+        if c < 1:
+            c = 1                 # (a countdown the bank has not set: read after one sample)
+        if c < C:
+            return c
+    return C
+
+
+@njit(inline="always", **JIT_OPTS)
+def tension_after(s, ring, ipar, fpar, fst, C):
+    """After C samples of string s: count them down, and read its tension
+    if the reading is due (no operation without tension modulation)."""
+    if fpar[s, F_TMK] > 0.0:
+        c = fst[s, S_TMC] - C
+        fst[s, S_TMC] = c
+        if c <= 0.0:
+            tension_read(s, ring, ipar, fpar, fst)
