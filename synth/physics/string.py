@@ -112,3 +112,19 @@ def fretted_string(open_string: IdealString, f0_hz: float) -> IdealString:
 def midi_key_to_hz(key: float, a4_hz: float = 440.0) -> float:
     """Equal-temperament frequency of a (possibly fractional) MIDI key (Hz)."""
     return a4_hz * 2.0 ** ((float(key) - 69.0) / 12.0)
+
+
+def tension_gain(string: IdealString, youngs_modulus_pa: float, diameter_m: float) -> float:
+    """dT / T0 per unit of int u_x^2 dx (1/m) of ``string`` (its length L
+    and tension T0): E A / (2 L T0), with A = pi d^2 / 4.
+
+    The Kirchhoff-Carrier tension T = T0 + (E A / L) dL of a string whose
+    swing u(x) stretches it by dL = 1/2 int u_x^2 dx (Tolonen, Valimaki &
+    Karjalainen, IEEE TSAP 8(3), 2000, eq. 4); its wave speed, and every
+    partial, follow sqrt(T / T0).  For a triangular pluck of amplitude a at
+    the fraction p of L, int u_x^2 dx = a^2 / (p (1 - p) L) at release and
+    half that in the time average (the mean tension, which sets the pitch).
+    """
+    E = _check("youngs_modulus_pa", youngs_modulus_pa, 1e8, 1e12)
+    d = _check("diameter_m", diameter_m, 1e-5, 0.01)
+    return E * math.pi * d * d / 4.0 / (2.0 * string.length_m * string.tension_n)

@@ -66,7 +66,7 @@ from ..physics.dispersion import tune_stiff_loop
 from ..physics.losses import allpass_for_phase_delay, one_pole_phase_delay, tune_loop
 from ..physics.profiles import (Termination, buzz_profile, jawari, termination_from_spec,
                                 trim_unreachable)
-from ..physics.string import IdealString, fretted_string, midi_key_to_hz
+from ..physics.string import IdealString, fretted_string, midi_key_to_hz, tension_gain
 from . import design_store
 from .base import BankSizes, DronePluck, TarafDesign, Voice
 from .exciters import PLUCK_MODELS
@@ -94,6 +94,7 @@ class OneStringSetup:
     n_disp: int = 0            # stiffness: first-order dispersion allpasses ...
     a_disp: float = 0.0        # ... and their coefficient
     subcell: float = 0.0       # the first cell's sub-cell contact (Termination.subcell), 0: off
+    tension: tuple | None = None   # tension modulation (slot_template's ``tension``), None: off
 
 
 @dataclass
@@ -142,6 +143,13 @@ class OneStringVoice(Voice):
             self.fs = self.cells * c / sp.length_m
         else:
             self.cells = None          # (self.fs: the quality level's rate, Voice.__init__)
+        #: the tension's modulation by the swing (``string.tension_modulation``, 0: off)
+        self.tension_modulation = 0.0 if self.study else float(sp.tension_modulation or 0.0)
+        if self.tension_modulation > 0.0:
+            for name in ("youngs_modulus_pa", "diameter_m"):
+                if getattr(sp, name) is None:
+                    raise ValueError(f"string.{name} is missing: string.tension_modulation = "
+                                     f"{self.tension_modulation!r} needs it (or 0: off)")
         if not (20_000 <= self.fs <= 2_000_000):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (20000 <= value <= 2000000)")
         # the region keeps its metres at any rate: region_points counts at
@@ -301,10 +309,11 @@ class OneStringVoice(Voice):
                 loop = fs / f0
                 r = pre.play.pitch_bend_semitones
                 # the bend line: at rest D0, down to 2 samples for +r semitones,
-                # up to D0 + loop (2^(r/12) - 1) for -r
-                D0 = loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0 if r > 0 else 0.0
+                # up to D0 + loop (2^(r/12) - 1) for -r (without pitch bend, a
+                # tension's modulation has a line of TENSION_ROOM_CENTS)
+                D0 = self._bend_rest(loop)
                 blen = (int(math.ceil(D0 + loop * (2.0 ** (r / 12.0) - 1.0))) + 6
-                        + self._rise_margin(loop) if r > 0 else 0)
+                        + self._rise_margin(loop) if D0 > 0 else 0)
                 B = self.inharmonicity(st)
                 if B > 0.0:
                     # partial 1 on the key, partials n f0 sqrt(1 + B n^2) above it
@@ -331,11 +340,45 @@ class OneStringVoice(Voice):
                 subcell = self.termination.subcell(dx)
         k = int(round(self.excitation_position * cells))
         k = min(max(k, 1), cells - 1)
-        bl = blen if (not self.study and not own and pre.play.pitch_bend_semitones > 0) else 0
+        bl = blen if (not self.study and not own and D0 > 0) else 0
+        tension = None
+        if bl and self.tension_modulation > 0.0:
+            tension = self._tension(st, int(cells), dx, self.fs / f0)
         s = OneStringSetup(st, int(cells), k, dt, U, side, b0, a1, eta, xd, lossy, f0,
-                        bl, D0 if bl else 0.0, n_disp, a_disp, subcell)
+                        bl, D0 if bl else 0.0, n_disp, a_disp, subcell, tension)
         self._setups[ck] = s
         return s
+
+    #: without pitch bend, the bend line a tension's modulation moves has
+    #: room for this rise (cents)
+    TENSION_ROOM_CENTS = 100.0
+    #: internal samples between two readings of the tension (0.79 ms at 325 kHz)
+    TENSION_EVERY = 256
+    #: the readings are smoothed over this many periods (one pole)
+    TENSION_PERIODS = 2.0
+
+    def _bend_rest(self, loop: float) -> float:
+        """The bend line's delay at rest (samples; 0: no line): 2 samples
+        plus the shortening of ``play.pitch_bend_semitones`` up, else of
+        ``TENSION_ROOM_CENTS`` for a tension's modulation."""
+        r = self.preset.play.pitch_bend_semitones
+        if r <= 0 and self.tension_modulation > 0.0:
+            r = self.TENSION_ROOM_CENTS / 100.0
+        return loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0 if r > 0 else 0.0
+
+    def _tension(self, st: IdealString, cells: int, dx: float, loop: float) -> tuple:
+        """The string's tension modulation (:mod:`synth.kernels.tension`):
+        (kappa, loop, every, alpha) with kappa = tension_modulation E A loop
+        / (4 L T0 N dx), the ring's slope sum S to dT / T0 (the ring's 2N
+        samples of the loop's ``loop``: int (u_r'^2 + u_l'^2) dx = S loop /
+        (2 N dx), the time average of int u_x^2 dx, times E A / (2 L T0):
+        :func:`synth.physics.string.tension_gain`)."""
+        sp = self.preset.string
+        g = tension_gain(st, sp.youngs_modulus_pa, sp.diameter_m)
+        kappa = self.tension_modulation * g * loop / (2.0 * cells * dx)
+        every = float(self.TENSION_EVERY)
+        alpha = 1.0 - math.exp(-every / (self.TENSION_PERIODS * loop))
+        return kappa, loop, every, alpha
 
     #: largest B a note gets (:meth:`inharmonicity`)
     B_MAX = 2e-3
@@ -390,7 +433,8 @@ class OneStringVoice(Voice):
                               b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
                               lossy=su.lossy, bend_len=su.bend_len, bend_delay=su.bend_delay,
                               n_disp=su.n_disp, a_disp=su.a_disp, subcell=su.subcell,
-                              glide_s=bank.LOSS_GLIDE_S, bend_glide_s=bank.BEND_GLIDE_S)
+                              glide_s=bank.LOSS_GLIDE_S, bend_glide_s=bank.BEND_GLIDE_S,
+                              tension=su.tension)
             if own:
                 # (the setup is kept beside it: its id names no other object)
                 self._templates[id(su)] = (su, t)
@@ -403,11 +447,11 @@ class OneStringVoice(Voice):
 
     def max_bend_len(self) -> int:
         """Longest pitch-bend line any playable note needs (samples)."""
-        if self.study or self.preset.play.pitch_bend_semitones <= 0:
+        loop = self.fs / midi_key_to_hz(0)
+        if self.study or self._bend_rest(loop) <= 0:
             return 0
         r = self.preset.play.pitch_bend_semitones
-        loop = self.fs / midi_key_to_hz(0)
-        return int(math.ceil(loop * (1.0 - 2.0 ** (-r / 12.0)) + 2.0
+        return int(math.ceil(self._bend_rest(loop)
                              + loop * (2.0 ** (r / 12.0) - 1.0))) + 6 + self._rise_margin(loop)
 
     def _region(self, su: OneStringSetup):

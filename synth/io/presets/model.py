@@ -37,12 +37,17 @@ __all__ = [
 @dataclass(frozen=True)
 class StringSpec:
     """Physical string: speaking length (m), tension (N), linear density (kg/m),
-    and the open string's inharmonicity coefficient B (musical presets)."""
+    and the open string's inharmonicity coefficient B (musical presets); the
+    tension's modulation by the string's swing (0..1, musical presets) and
+    the wire's Young's modulus (Pa) and diameter (m) it needs."""
 
     length_m: float
     tension_n: float
     linear_density_kg_per_m: float
     inharmonicity: float | None = None
+    tension_modulation: float | None = None
+    youngs_modulus_pa: float | None = None
+    diameter_m: float | None = None
 
 
 @dataclass(frozen=True)

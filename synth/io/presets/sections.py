@@ -122,6 +122,17 @@ SECTIONS: tuple[Section, ...] = (
         Field("inharmonicity", "float", "the open string's stiffness B = pi^3 E d^4 / (64 T L^2) "
               "(partials n f0 sqrt(1 + B n^2); fretted and retuned strings scale it); 0: an "
               "ideal string", 0.0, 0.01, when=When("kind", ("musical",)), default=0.0),
+        Field("tension_modulation", "float", "the tension follows the string's stretch as it "
+              "swings (Kirchhoff-Carrier: a hard pluck starts sharp and settles): a scale on the "
+              "effect, 0 (off: a constant tension) to 1 (the full effect of the string's E and d; "
+              "needs youngs_modulus_pa and diameter_m)", 0.0, 1.0,
+              when=When("kind", ("musical",)), default=0.0),
+        Field("youngs_modulus_pa", "float", "Young's modulus E of the string's material, Pa "
+              "(steel 2.0e11; for tension_modulation)", 1e8, 1e12,
+              when=When("kind", ("musical",)), optional=True),
+        Field("diameter_m", "float", "the string's diameter d, m (its cross-section pi d^2 / 4; "
+              "for tension_modulation)", 1e-5, 0.01,
+              when=When("kind", ("musical",)), optional=True),
     ), when=_ONE_STRING),
     Section("grid", "study grid (c*dt = dx exactly)", GridSpec, (
         Field("cells", "int", "number of cells N; internal rate = N*c/L", 20, 100000),
