@@ -4,7 +4,7 @@ Usage
 -----
     python tools/bench.py ab --preset sitar --b termination.pitch_rise_cents=0
                              [--a PATH=VALUE ...] [--keys 43,55,67,74]
-                             [--velocity 102] [--seconds 4] [--runs 9]
+                             [--velocity 102] [--seconds 4] [--runs 9] [--clock cpu]
                              [--cpu-name {host,haswell,generic,all}]
 
 Each run renders one note per key (``synth note``'s way: one note-on at
@@ -29,16 +29,22 @@ import time
 from synth.apps.bench import harness  # noqa: E402
 
 
-def run(preset, overrides, keys, velocity, seconds):
+#: the clocks of ``--clock``: wall time, or this thread's CPU time (with
+#: NUMBA_NUM_THREADS=1 the render runs in the calling thread: on a machine
+#: loaded by other work, CPU time leaves out the time it waits for a core)
+CLOCKS = {"wall": time.perf_counter, "cpu": time.thread_time}
+
+
+def run(preset, overrides, keys, velocity, seconds, clock=time.perf_counter):
     from synth.engine.engine import Event
     from synth.io.factory import build_engine
 
     t = 0.0
     for k in keys:
         eng = build_engine(preset, list(overrides))
-        t0 = time.perf_counter()
+        t0 = clock()
         eng.render([Event(0.0, "note_on", k, velocity / 127.0)], duration_s=seconds)
-        t += time.perf_counter() - t0
+        t += clock() - t0
     return t
 
 
@@ -53,6 +59,9 @@ def main(argv=None) -> int:
     ap.add_argument("--velocity", type=float, default=102.0)
     ap.add_argument("--seconds", type=float, default=4.0)
     ap.add_argument("--runs", type=int, default=9)
+    ap.add_argument("--clock", choices=sorted(CLOCKS), default="wall",
+                    help="wall time, or the rendering thread's CPU time (cpu; with "
+                         "NUMBA_NUM_THREADS=1) on a loaded machine")
     harness.add_target_option(ap)
     a = ap.parse_args(argv)
     rc = harness.dispatch("ab", a.cpu_name, argv)
@@ -69,11 +78,13 @@ def main(argv=None) -> int:
     print(harness.header())
     run(a.preset, a.a, keys, a.velocity, 0.2)
     run(a.preset, a.b, keys, a.velocity, 0.2)
+    clk = CLOCKS[a.clock]
     t = harness.alternate({
-        "A": lambda: run(a.preset, a.a, keys, a.velocity, a.seconds),
-        "B": lambda: run(a.preset, a.b, keys, a.velocity, a.seconds)}, a.runs)
+        "A": lambda: run(a.preset, a.a, keys, a.velocity, a.seconds, clk),
+        "B": lambda: run(a.preset, a.b, keys, a.velocity, a.seconds, clk)}, a.runs)
     r_med, r_lo, r_hi = harness.summary(harness.ratios(t["A"], t["B"]))
-    print(f"preset {a.preset}; keys {keys}, velocity {a.velocity:g}, {a.seconds:g} s each, {a.runs} runs")
+    print(f"preset {a.preset}; keys {keys}, velocity {a.velocity:g}, {a.seconds:g} s each, {a.runs} runs, "
+          f"{a.clock} time")
     print(f"A ({' '.join(a.a) or 'as shipped'}): median {harness.summary(t['A'])[0]:.3f} s")
     print(f"B ({' '.join(a.b) or 'as shipped'}): median {harness.summary(t['B'])[0]:.3f} s")
     print(f"A / B: median {r_med:.3f} (range {r_lo:.3f}-{r_hi:.3f})")
