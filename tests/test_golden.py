@@ -78,6 +78,11 @@ def _cases():
     out = [(f"study {p}", ["note", p, "--seconds", "0.05"], True) for p in STUDY]
     out += [(f"note {p} {k}", ["note", p, "--key", str(k), "--velocity", "100",
                                "--seconds", "0.3"], False) for p, k in NOTES]
+    # the biwa with its tension modulation off: the fingerprint of its note
+    # before the modulation (on by default since) -- off is bit for bit
+    out.append(("note biwa 52 off", ["note", "biwa", "--key", "52", "--velocity", "100",
+                                     "--seconds", "0.3", "--set", "string.tension_modulation=0"],
+                False))
     out.append(("render phrase grand-piano", None, False))
     return out
 
