@@ -197,8 +197,9 @@ def check_values(doc: str, section: str) -> None:
     spec = getattr(preset, section)
     assert type(spec) is sec.cls
     rows = active_rows(sec, context(preset))
-    # an optional key (a row with a default) the file leaves out takes its default
-    optional = {n for n, r in rows.items() if r.default is not None and n not in table}
+    # an optional key (a row with a default, or optional: None) the file leaves out
+    optional = {n for n, r in rows.items()
+                if (r.default is not None or r.optional) and n not in table}
     assert set(rows) - optional == set(table), f"{doc}: [{section}] keys vs the schema's active rows"
     for name, row in rows.items():
         if name in optional:

@@ -46,7 +46,7 @@ def _allowed(f: Field) -> str:
 
 def _default(f: Field) -> str:
     if f.default is None:
-        return "required"
+        return "optional" if f.optional else "required"
     v = f.default
     if isinstance(v, (int, float)) and not isinstance(v, bool):
         return f"`{_fmt_num(v)}`"
@@ -100,7 +100,8 @@ def reference_markdown() -> str:
         A title, how to read the tables, the top-level keys, then one
         section per TOML table in validation order, each a table of its
         keys: meaning and unit, type, allowed range or choices, default
-        ("required" where none) and the condition under which the key
+        ("required" where none; "optional" for a key that may be left out
+        without one, its value then None) and the condition under which the key
         applies (elsewhere it is refused).
     """
     lines = [
