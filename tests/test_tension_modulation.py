@@ -212,9 +212,16 @@ def test_the_preset_keys_and_their_errors():
                       tension=(1.0, 200.0, 256.0, 0.0))
 
 
-def test_a_preset_without_pitch_bend_gets_a_line_for_the_modulation():
-    """play.pitch_bend_semitones = 0 has no bend line; with the modulation
-    on the voice gives the string one (TENSION_ROOM_CENTS of room), in tune."""
+def test_the_bend_line_room_for_the_modulation():
+    """With pitch bend the string's design is the same with the modulation
+    on as off (its bend line's rest delay; a full bend up leaves it one
+    sample, the line's shortest); play.pitch_bend_semitones = 0 has no
+    bend line, and with the modulation on the voice gives the string one
+    (TENSION_ROOM_CENTS of room), in tune."""
+    on, off = (engine("sitar", ["string.tension_modulation=%d" % m]).inst.setup(43)
+               for m in (1, 0))
+    assert on.tension is not None and off.tension is None
+    assert (on.bend_delay, on.bend_len, on.cells) == (off.bend_delay, off.bend_len, off.cells)
     e = engine("biwa", ["play.pitch_bend_semitones=0"])
     su = e.inst.setup(52)
     assert su.bend_len > 0 and su.tension is not None
