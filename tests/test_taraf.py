@@ -244,3 +244,12 @@ def test_the_taraf_and_the_pianos_sympathetic_strings_are_one_component():
         assert not np.array_equal(bank.fpar, before)
         fs.rest()                           # ... then rest
         assert fs.n_active == 0
+
+
+def test_a_coupling_too_small_for_the_bridge_is_the_rigid_bridge():
+    """taraf.coupling > 0 so small that R / coupling overflows (2.2e-311, a
+    draw of tests/test_stress.py) plays the string alone, as coupling 0."""
+    e = engine("sitar", ["taraf.coupling=2.225073858507e-311"])
+    assert e.inst.free_strings(48_000.0) is None
+    y = e.render(note(55, 0.0, 0.8), duration_s=0.03)
+    assert np.all(np.isfinite(y)) and np.max(np.abs(y)) > 0.0

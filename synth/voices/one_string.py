@@ -549,7 +549,9 @@ class OneStringVoice(Voice):
 
     def _design_taraf(self) -> TarafDesign | None:
         t = self.preset.taraf
-        if t is None or self.study or t.coupling <= 0.0:
+        if (t is None or self.study or t.coupling <= 0.0
+                or not math.isfinite(t.bridge_resistance_ns_per_m / t.coupling)):
+            # (a coupling so small that the bridge's resistance overflows: rigid too)
             return None
         fs = float(self.fs)
         # the taraf's own jawari: the clamp at grid points alone.  Their
