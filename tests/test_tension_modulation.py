@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from helpers import engine, note
-from synth.analysis import cents, estimate_f0, grid_energy
+from synth.analysis import cents, estimate_f0
 from synth.dsp.bank import StringBank, slot_template
 from synth.io.presets import load_preset
 from synth.io.presets.loader import find_preset_file
