@@ -453,6 +453,8 @@ class ChannelControls(MpeZones):
             self._sym_dirty = True
         if self.body is not None:
             self.body.reset()
+        if self.listener is not None:
+            self.listener.reset()
         self.output.reset()
         for d in self.decs:
             d.clear()

@@ -21,6 +21,7 @@ import numpy as np
 from ..dsp.bank import StringBank
 from ..dsp.body import Body
 from ..dsp.decimator import Decimator
+from ..dsp.listener import Listener
 from ..kernels import strings as K
 from ..physics.soundboard import knock_pulse
 from ..voices.base import SympatheticDesign, TarafDesign
@@ -184,6 +185,11 @@ class Engine(ChannelControls):
         self.output = OutputStage.from_preset(instrument.preset, self.fs_out, self.channels)
         #: its peak limiter (``[output] limiter = "on"``), or None
         self.limiter = self.output.limiter
+        #: the listening position (the preset's ``[listener]``: distance,
+        #: directivity, air, the room's reflections and reverberation), a
+        #: stage after the body, before the output stage; None: the body's
+        #: output as it is
+        self.listener = Listener.from_preset(instrument.preset, self.fs_out, self.channels)
         self.mix = np.zeros((self.buses, max_in))
         self.probe = probe
         self._probe: list[np.ndarray] = []
@@ -733,6 +739,8 @@ class Engine(ChannelControls):
                 for c in range(self.n_dec):
                     self.decs[c].process(mix[c], d[c])
                 self.body.process(d, out=y)
+        if self.listener is not None:
+            self.listener.process(y, out=y)
         self.output.process(y)
         if self._hush_out is not None:
             self._hush_block(y, n_out)
@@ -977,6 +985,8 @@ class Engine(ChannelControls):
                 if (t > last and not self._pending and not self.voices
                         and (self.taraf is None or self.taraf.n_active == 0)):
                     if quiet_after is None:
-                        quiet_after = n_done + int(tail_s * self.fs_out) + lat
+                        # (and the room's reverberation dies away)
+                        ring = 0.0 if self.listener is None else self.listener.tail_s
+                        quiet_after = n_done + int((tail_s + ring) * self.fs_out) + lat
                     if n_done >= quiet_after:
                         break

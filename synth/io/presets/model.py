@@ -263,6 +263,23 @@ class OutputSpec:
 
 
 @dataclass(frozen=True)
+class ListenerSpec:
+    """The listening position (synth.physics.listener): ``position`` ("close",
+    "player", "hall"), ``room`` (a designed room's name, "none", or a WAV
+    file's path; None: the position's), ``distance_m`` and ``directivity_db``
+    (None: the position's), the air (C, % relative humidity) and how the
+    level is set ("matched" or "distance")."""
+
+    position: str
+    room: str | None = None
+    distance_m: float | None = None
+    directivity_db: float | None = None
+    temperature_c: float = 20.0
+    humidity_percent: float = 50.0
+    level: str = "matched"
+
+
+@dataclass(frozen=True)
 class PlaySpec:
     """Musical play range and behaviour."""
 
@@ -357,3 +374,4 @@ class Preset:
     play: PlaySpec | None
     quality_error: QualityErrorSpec | None = None
     drone: DroneSpec | None = None
+    listener: ListenerSpec | None = None

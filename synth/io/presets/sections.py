@@ -29,6 +29,7 @@ from .model import (
     DroneSpec,
     GridSpec,
     HammerSpec,
+    ListenerSpec,
     LossSpec,
     OutputSpec,
     PlaySpec,
@@ -40,6 +41,9 @@ from .model import (
     TerminationSpec,
     TuningSpec,
 )
+from synth.physics.listener import (
+    DIRECTIVITY_RANGE_DB, DISTANCE_RANGE_M, HUMIDITY_RANGE_PERCENT, LEVELS, POSITIONS, ROOM_NAMES,
+    TEMPERATURE_RANGE_C)
 from synth.physics.soundboard import PEAK_HZ_RANGE
 
 #: the drone player's cycle length range (s); synth.engine.drone.CYCLE_RANGE_S
@@ -452,5 +456,29 @@ SECTIONS: tuple[Section, ...] = (
               1, 119, default=16),
         Field("pattern_cc", "int", "MIDI controller of the first string, from the next cycle: "
               "0-31 Pa, 32-63 Ma, 64-95 Ni, 96-127 Sa", 1, 119, default=17),
+    ), when=When("kind", ("musical",)), optional=True),
+    Section("listener", "where the instrument is heard from: the body's sound radiated to a "
+            "position in a room (distance, directivity, air absorption, early reflections, "
+            "late reverberation; optional: absent, the body's output as it is; docs/listener.md)",
+            ListenerSpec, (
+        Field("position", "str", "close (microphones 0.5 m over the strings, as recorded piano "
+              "libraries are made), player (the player's seat, 1 m) or hall (a seat 12 m away)",
+              choices=tuple(POSITIONS)),
+        Field("room", "str", "the room: " + ", ".join(repr(r) for r in ROOM_NAMES) + " (none: "
+              "the direct sound alone), or a measured impulse response's WAV file (its decay "
+              "and early reflections drive the designed reverberation); absent: the position's "
+              "(close, player: studio; hall: hall)", optional=True),
+        Field("distance_m", "float", "distance from the board's centre, m (absent: the "
+              "position's: 0.5, 1, 12)", *DISTANCE_RANGE_M, optional=True),
+        Field("directivity_db", "float", "the direct sound's level at high frequencies re the "
+              "board's power average, dB (+ on the board's axis, - off it; absent: the "
+              "position's: +3, -3, +3)", *DIRECTIVITY_RANGE_DB, optional=True),
+        Field("temperature_c", "float", "air temperature, degrees C (the air's absorption, "
+              "ISO 9613-1)", *TEMPERATURE_RANGE_C, default=20.0),
+        Field("humidity_percent", "float", "relative humidity of the air, %",
+              *HUMIDITY_RANGE_PERCENT, default=50.0),
+        Field("level", "str", "matched (the same mean level, 125 Hz - 4 kHz, at every position: "
+              "output.gain holds) or distance (the direct sound at 1 m is unity: farther is "
+              "quieter)", choices=LEVELS, default="matched"),
     ), when=When("kind", ("musical",)), optional=True),
 )
