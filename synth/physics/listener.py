@@ -75,6 +75,10 @@ DIRECTIVITY_HZ = 1000.0
 EARLY_MAX_S = 0.1
 #: early reflections kept per channel (the strongest)
 EARLY_TAPS = 24
+#: what the instrument's body takes off a reflection arriving at microphones over
+#: the strings from below the board (dB): a designed figure (a rigid screen's
+#: shadow at 1 kHz, several wavelengths across, is 15-25 dB)
+SHADOW_DB = -20.0
 #: the allowed ranges of the [listener] keys (units in the names)
 DISTANCE_RANGE_M = (0.1, 50.0)
 DIRECTIVITY_RANGE_DB = (-12.0, 12.0)
@@ -114,7 +118,17 @@ class Position:
     """A listening position: its distance from the board's centre (m), the
     height of the ear or microphone above the floor (m), the direct sound's
     directivity re the board's power average (dB, high frequencies), its
-    room, and whether the microphones are a spaced pair."""
+    room; a stereo output's two microphones (or ears) are ``pair_m`` apart
+    along the room's length, their centre ``pair_shift_m`` from the point
+    at the distance (each channel's reflections arrive at their own
+    delays).  ``cardioid``: the microphones are cardioids aimed at the
+    board's centre (a reflection from angle t to their axis is heard with
+    (1 + cos t) / 2, the diffuse field with a third of its power, the
+    cardioid's random-energy efficiency); omnidirectional (ears) otherwise.
+    ``over_board``: the microphones are over the strings, so that the
+    instrument itself (board, rim and case) stands between them and every
+    reflection that arrives from below the board: those are heard
+    :data:`SHADOW_DB` lower."""
 
     name: str
     distance_m: float
@@ -122,6 +136,10 @@ class Position:
     directivity_db: float
     room: str
     doc: str
+    pair_m: float = 0.0
+    pair_shift_m: float = 0.0
+    cardioid: bool = False
+    over_board: bool = False
 
 
 #: the designed rooms (absorption per octave band 125 Hz - 8 kHz; designed for
@@ -141,11 +159,15 @@ ROOM_NAMES = ("none",) + tuple(ROOMS)
 POSITIONS = {
     "close": Position("close", 0.5, 1.5, 3.0, "studio",
                       "close microphones 0.5 m over the strings, on the board's axis, as "
-                      "recorded piano libraries are made"),
+                      "recorded piano libraries are made: a bass and a treble microphone "
+                      "0.7 m apart, towards the hammers; cardioids aimed at the board",
+                      0.7, -0.25, cardioid=True, over_board=True),
     "player": Position("player", 1.0, 1.2, -3.0, "studio",
-                       "the player's seat: the board seen from its edge, the lid opening away"),
+                       "the player's seat: the board seen from its edge, the lid opening "
+                       "away; the ears 0.17 m apart", 0.17, 0.0),
     "hall": Position("hall", 12.0, 1.2, 3.0, "hall",
-                     "a seat in a hall, 12 m away, in the open lid's beam"),
+                     "a seat in a hall, 12 m away, in the open lid's beam; a pair 0.5 m apart",
+                     0.5, 0.0),
 }
 
 
@@ -216,15 +238,16 @@ def critical_distance_m(room: Room, f_hz=1000.0, temperature_c=20.0, humidity_pe
     return np.sqrt(absorption_area_m2(room, f_hz, temperature_c, humidity_percent) / (16.0 * math.pi))
 
 
-def image_sources(size_m, source_m, listener_m, order: int = 2):
+def image_sources(size_m, source_m, listener_m, order: int = 2, with_positions: bool = False):
     """The image sources of a shoebox room up to ``order`` reflections (Allen
     and Berkley 1979).
 
     Returns
     -------
-    list of (distance_m, reflections)
+    list of (distance_m, reflections) or (distance_m, reflections, position_m)
         Each image's distance to the listener and the number of walls it
-        met; the direct sound (0 reflections) first.
+        met (and, ``with_positions``, where the image is); the direct sound
+        (0 reflections) first.
     """
     out = []
     rng = range(-order, order + 1)
@@ -238,7 +261,7 @@ def image_sources(size_m, source_m, listener_m, order: int = 2):
                 for k, s, L in zip((kx, ky, kz), source_m, size_m):
                     p.append(s + k * L if k % 2 == 0 else -s + (k + 1) * L)
                 d = math.dist(p, listener_m)
-                out.append((d, n))
+                out.append((d, n, tuple(p)) if with_positions else (d, n))
     out.sort(key=lambda t: (t[1], t[0]))
     return out
 
@@ -400,11 +423,20 @@ def design_listener(fs: float, channels: int, position: str = "close", room: str
         b1k = float(beta(1000.0))
         refl = []
         for ch in range(C):
-            # a spaced pair: the right microphone 0.3 m across the room from the left
-            lc = (lst[0], lst[1] + (0.3 * (ch - 0.5) if C == 2 else 0.0), lst[2])
+            # a spaced pair along the room's length (one microphone: at the pair's centre)
+            dx = pos.pair_shift_m + (pos.pair_m * (ch - 0.5) if C == 2 else 0.0)
+            lc = (min(max(lst[0] + dx, 0.1), rm.size_m[0] - 0.1), lst[1], lst[2])
             d0 = math.dist(rm.source_m, lc)
-            imgs = [(d - d0, b1k ** n / d) for d, n in image_sources(rm.size_m, rm.source_m, lc)[1:]]
-            refl.append([(t, g) for t, g in imgs if 0.0 < t / c_air <= EARLY_MAX_S])
+            axis = np.subtract(rm.source_m, lc) / max(d0, 1e-9)
+            imgs = []
+            for d, nref, img in image_sources(rm.size_m, rm.source_m, lc, with_positions=True)[1:]:
+                g = b1k ** nref / d
+                if pos.cardioid:
+                    g *= 0.5 * (1.0 + float(np.dot(np.subtract(img, lc) / d, axis)))
+                if pos.over_board and img[2] < sz:
+                    g *= 10.0 ** (SHADOW_DB / 20.0)
+                imgs.append((d - d0, g))
+            refl.append([(t, g) for t, g in imgs if 0.0 < t / c_air <= EARLY_MAX_S and g > 0.0])
         mean_path = float(np.mean([r + t for ch in refl for t, _ in ch])) if refl[0] else r
         early_fir = min_phase_fir(lambda f: beta(f) / b1k * air(f, mean_path), fs, taps)
     else:
@@ -434,7 +466,7 @@ def design_listener(fs: float, channels: int, position: str = "close", room: str
     pre = int(lag.max()) // 2 if K else int(round(0.01 * fs))
     t_late = (pre + int(fdn_len.min())) / fs
     t60_1k = float(np.exp(np.interp(math.log(1000.0), np.log(T60_HZ), np.log(t60))))
-    late_energy = (1.0 / rc ** 2) * math.exp(-6.0 * math.log(10.0) * t_late / t60_1k)
+    late_energy = (1.0 / 3.0 if pos.cardioid else 1.0) / rc ** 2 * math.exp(-6.0 * math.log(10.0) * t_late / t60_1k)
     fdn_in = _hadamard_signs(FDN_LINES, 3)
     fdn_out = np.array([_hadamard_signs(FDN_LINES, 5 + 2 * ch) for ch in range(C)])
     return ListenerDesign(fs, C, direct, early_fir, lag, gain, pre, fdn_len, fdn_a, fdn_b,

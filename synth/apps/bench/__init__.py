@@ -30,6 +30,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     "heads": ("heads", "the far end's loop-filter variants of the grand"),
     "reach": ("reach", "what skipping an out-of-reach termination saves (--callgrind: instructions)"),
     "decimator": ("decimator", "the streaming decimator, ns per output sample"),
+    "listener": ("listener", "the listening position's stage, alone and in the grand, live and offline"),
     "startup": ("startup", "live play's start-up: import, build and warm the engine"),
     "compile": ("compile", "which kernels a synth command compiles, and what each costs"),
     "callgrind": ("callgrind", "one grand note's instructions per numba function (valgrind)"),
