@@ -248,3 +248,105 @@ def load_recording(path) -> np.ndarray:
         y = resample_poly(y, FS // g, int(fs) // g)
     i0 = int(np.argmax(np.abs(y) > 0.01 * np.max(np.abs(y))))
     return y[max(0, i0 - int(0.002 * FS)):]
+
+
+# -- issue 41's measures: a note against a recorded grand, per octave ------------------------
+
+#: the octaves of issue 41's table: (name, lowest key, highest key)
+OCTAVES = (("C2-B2", 36, 47), ("C3-B3", 48, 59), ("C4-B4", 60, 71), ("C5-B5", 72, 83),
+           ("C6-B6", 84, 95), ("C7-C8", 96, 108))
+#: the onset: the first sample within this level of the note's peak (dB)
+ONSET_DB = -40.0
+
+
+def onset_index(y) -> int:
+    """The first sample of ``y`` within :data:`ONSET_DB` of its peak."""
+    a = np.abs(np.asarray(y, float))
+    return int(np.argmax(a >= a.max() * 10.0 ** (ONSET_DB / 20.0)))
+
+
+def _partial_power(seg, f_hz, half_width_hz):
+    """Power of ``seg`` (Hann window, numpy FFT) within ``half_width_hz`` of ``f_hz``."""
+    P = np.abs(np.fft.rfft(seg * np.hanning(len(seg)))) ** 2
+    fr = np.fft.rfftfreq(len(seg), 1.0 / FS)
+    return float(P[np.abs(fr - f_hz) < half_width_hz].sum()) + 1e-300
+
+
+def partial1_at_db(y, key, t_s=3.0):
+    """Partial 1's level at ``t_s`` after the onset, dB re its own peak
+    (frames of max(0.1 s, 8 periods), hop a quarter of that; the partial's
+    power within 0.3 f0 of it)."""
+    f0, B = _f0_law(y, key)
+    f1 = f0 * math.sqrt(1.0 + B)
+    y = np.asarray(y, float)[onset_index(y):]
+    win = max(0.1, 8.0 / f1)
+    n = int(win * FS)
+    hop = n // 4
+    lv = []
+    for i in range(0, max(1, len(y) - n), hop):
+        lv.append(_partial_power(y[i:i + n], f1, 0.3 * f0))
+    lv = 10.0 * np.log10(np.array(lv))
+    j = min(int(round((t_s - win / 2) * FS / hop)), len(lv) - 1)
+    return float(lv[j] - lv.max())
+
+
+def upper_partials_db(y, key, t0=0.05, t1=0.5, n=10):
+    """Partials 2..``n`` together re partial 1 over ``t0``..``t1`` s after
+    the onset: 10 log10(sum P_2..n / P_1), each partial's power within
+    0.45 f0 of it on the stiff string's law (numpy FFT, Hann window)."""
+    f0, B = _f0_law(y, key)
+    y = np.asarray(y, float)[onset_index(y):]
+    seg = y[int(t0 * FS):int(t1 * FS)]
+    P = [_partial_power(seg, j * f0 * math.sqrt(1.0 + B * j * j), 0.45 * f0) for j in range(1, n + 1)]
+    return float(10.0 * np.log10(sum(P[1:]) / P[0]))
+
+
+def attack_centroid_50ms_hz(y):
+    """The spectral centroid (Hz, magnitude-weighted, numpy FFT, Hann
+    window) of the first 50 ms after the onset."""
+    y = np.asarray(y, float)
+    seg = y[onset_index(y):][:int(0.05 * FS)]
+    m = np.abs(np.fft.rfft(seg * np.hanning(len(seg)), 1 << 13))
+    f = np.fft.rfftfreq(1 << 13, 1.0 / FS)
+    return float((f * m).sum() / m.sum())
+
+
+def time_to_rms_peak_ms(y, frame_s=0.01, hop_s=0.001, within_s=0.5):
+    """Time (ms) from the onset to the peak of the RMS level (``frame_s``
+    frames every ``hop_s``, centred; searched over the first ``within_s``)."""
+    y = np.asarray(y, float)
+    y = y[onset_index(y):][:int(within_s * FS)]
+    n, h = int(frame_s * FS), int(hop_s * FS)
+    y2 = np.concatenate([np.zeros(n // 2), y * y, np.zeros(n)])
+    c = np.concatenate([[0.0], np.cumsum(y2)])
+    starts = np.arange(0, len(y), h)
+    e = c[starts + n] - c[starts]
+    return float(starts[int(np.argmax(e))] / FS * 1e3)
+
+
+def issue41_measures(y, key) -> dict:
+    """Issue 41's four measures of one note (48 kHz, mono): partial 1 at
+    3 s (dB re its peak), partials 2-10 re partial 1 over 0.05-0.5 s (dB),
+    the first 50 ms's centroid (Hz), the time to the RMS peak (ms)."""
+    return {"p1_3s_db": partial1_at_db(y, key), "upper_db": upper_partials_db(y, key),
+            "centroid_hz": attack_centroid_50ms_hz(y), "peak_ms": time_to_rms_peak_ms(y)}
+
+
+def octave_table(model: dict, real: dict) -> list[dict]:
+    """Per-octave medians of :data:`OCTAVES` from ``model`` and ``real``
+    (key -> :func:`issue41_measures`): model minus recording for the levels
+    (dB), model / recording for the centroid, and each one's time to peak
+    (ms)."""
+    rows = []
+    for name, lo, hi in OCTAVES:
+        ks = [k for k in sorted(real) if lo <= k <= hi and k in model]
+        if not ks:
+            continue
+        med = lambda f: float(np.median([f(k) for k in ks]))
+        rows.append({"octave": name, "keys": ks,
+                     "p1_3s_db": med(lambda k: model[k]["p1_3s_db"] - real[k]["p1_3s_db"]),
+                     "upper_db": med(lambda k: model[k]["upper_db"] - real[k]["upper_db"]),
+                     "centroid_ratio": med(lambda k: model[k]["centroid_hz"] / real[k]["centroid_hz"]),
+                     "peak_ms_real": med(lambda k: real[k]["peak_ms"]),
+                     "peak_ms_model": med(lambda k: model[k]["peak_ms"])})
+    return rows
