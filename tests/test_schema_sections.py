@@ -103,6 +103,7 @@ OUT_OF_RANGE = {
     "quality_error": ("biwa", "draft_db", -1.0, "0 <= value <= 100"),
     "body": ("grand-piano", "modes", 0, "1 <= value <= 1024"),
     "output": ("grand-piano", "gain", 0.0, "1e-06 <= value <= 1e+09"),
+    "listener": ("grand-piano", "distance_m", 80.0, "0.1 <= value <= 50"),
     "play": ("sitar", "key_high", 128, "0 <= value <= 127"),
     "taraf": ("sitar", "coupling", 9, "0 <= value <= 4"),
     "chikari": ("sitar", "strum_s", 0.5, "0 <= value <= 0.1"),

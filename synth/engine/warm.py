@@ -1,9 +1,11 @@
 """Warm-up: take an engine through every path a performance uses before a
 live stream opens, so the first real note costs no more than the others.
 
-Warming compiles or loads the numba kernels (the first call of each), faults
-the engine's buffers in and, through :meth:`synth.voices.base.Voice.warm`,
-derives every key's physics.  It renders on a throwaway engine, so it
+Warming compiles or loads the numba kernels (the first call of each: the
+strings', the decimator's, the body's, the listening position's,
+:mod:`synth.kernels.listener`, when the preset has a ``[listener]``, and the
+limiter's), faults the engine's buffers in and, through
+:meth:`synth.voices.base.Voice.warm`, derives every key's physics.  It renders on a throwaway engine, so it
 leaves no sound behind.
 """
 
