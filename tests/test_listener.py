@@ -234,3 +234,31 @@ def test_without_a_room_the_stage_is_the_direct_sound_alone():
     assert L.tail_s == 0.0
     h = L._ir(2048, True, True, True)
     assert np.all(h[0, 1] == 0.0) and np.all(h[0, 0, 200:] == 0.0)
+
+
+def test_a_block_allocates_no_samples():
+    """The live callback's rule: with ``out`` given, a block allocates no
+    array (a 1024-sample stereo block is 16 kB; the views' headers are not)."""
+    import tracemalloc
+
+    L = Listener.design(FS, 2, "hall")
+    x = np.random.default_rng(0).standard_normal((2, 1024))
+    L.process(x, out=x)
+    tracemalloc.start()
+    for _ in range(50):
+        L.process(x, out=x)
+    _, peak = tracemalloc.get_traced_memory()
+    tracemalloc.stop()
+    assert peak < 4096
+
+
+def test_an_offline_render_waits_for_the_rooms_reverberation():
+    """Rendered until the notes are silent, a render from the hall lasts the
+    room's ring longer than one without a listener."""
+    evs = note(57, 0.0, 0.8, off=0.1)
+    dry = engine("sitar").render(evs, block=1024)
+    hall = engine("sitar", ["listener.position=hall"])
+    wet = hall.render(evs, block=1024)
+    extra = (len(wet) - len(dry)) / FS
+    assert extra == pytest.approx(hall.listener.tail_s, abs=1024 / FS + 1e-9)
+    assert hall.listener.tail_s > 1.5
