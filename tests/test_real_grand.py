@@ -91,3 +91,31 @@ def test_an_empty_folder_is_a_one_line_error(tmp_path):
     assert p.stderr.count("\n") == 1 and "no samples named like C4v10.ogg" in p.stderr
     p = _run(str(tmp_path / "missing"))
     assert p.returncode == 2 and "is not a folder" in p.stderr
+
+
+def test_octaves_without_the_layer_is_a_one_line_error(tmp_path):
+    layer = tmp_path / "piano-velocity4" / "audio"
+    layer.mkdir(parents=True)
+    y, fs = _note(261.63, 1.0, 2.0, 20.0, -25.0)
+    sf.write(str(layer / "C4v4.ogg"), np.c_[y, y], fs)
+    p = _run(str(tmp_path), "--octaves")
+    assert p.returncode == 2 and p.stderr.count("\n") == 1
+    assert "no samples of layer 10" in p.stderr
+
+
+@pytest.mark.slow  # renders a 6 s grand note
+def test_octaves_tables_the_grand_against_the_recording(tmp_path):
+    """Issue 41's table (--octaves) from one recorded C4: a row for C4-B4,
+    the JSON holding both sides' measures."""
+    layer = tmp_path / "piano-velocity10" / "audio"
+    layer.mkdir(parents=True)
+    y, fs = _note(261.63, 6.0, 2.0, 20.0, -25.0)
+    sf.write(str(layer / "C4v10.ogg"), np.c_[y, y], fs)
+    out = tmp_path / "t.json"
+    p = _run(str(tmp_path), "--octaves", "--positions", "body", "--json", str(out))
+    assert p.returncode == 0, p.stderr
+    assert "position: body" in p.stdout and "| C4-B4 |" in p.stdout
+    data = json.loads(out.read_text())
+    assert set(data) == {"real", "body"} and [r["octave"] for r in data["body"]["rows"]] == ["C4-B4"]
+    # the synthetic note's partial 1 falls 60 dB in 2 s, then sits 25 dB down with a 20 s T60
+    assert -40.0 < data["real"]["60"]["p1_3s_db"] < -25.0

@@ -22,6 +22,15 @@ A recording holds a room and two microphones, which the model's output does
 not: read the figures as what the measures give on a real instrument, not
 as targets to the decibel.
 
+``--octaves`` (issue 41) prints instead, per listening position of
+``--positions`` (``body``: the grand without its listening stage; ``close``,
+``player``, ``hall``), the per-octave table of the grand against layer
+``--layer`` (default 10), its keys played at ``--velocity`` (105) for 6 s:
+medians per octave of :func:`synth.apps.grand_study.issue41_measures`
+(partial 1 at 3 s and partials 2-10 re partial 1, model minus recording;
+the first 50 ms's centroid, model / recording; the time to the RMS peak,
+recording / model); ``--json`` then writes every key's measures.
+
 Exit 0 after printing the tables; 2 with a one-line error on stderr (no
 such folder, no samples in it).
 """
@@ -37,7 +46,8 @@ from pathlib import Path
 import numpy as np
 
 from synth.analysis import attack_centroid_hz, estimate_f0, max_momentary_lufs, track_partials
-from synth.apps.grand_study import load_recording, midi_of
+from synth.apps.grand_study import (
+    OCTAVES, issue41_measures, load_recording, midi_of, octave_markdown, octave_model, octave_table)
 from synth.apps.voicing import FS, decay
 from synth.physics.piano import grand_string
 
@@ -115,15 +125,47 @@ def report(notes: dict) -> str:
     return "\n".join(out)
 
 
+def octaves(folder: Path, a) -> int:
+    """Issue 41's table per listening position (``--octaves``)."""
+    files = {}
+    for p in folder.rglob("*"):
+        m = midi_of(p.name) if p.is_file() else None
+        if m and m[1] == a.layer:
+            files[m[0]] = p
+    keys = sorted(k for k in files if k >= OCTAVES[0][1])
+    if not keys:
+        print(f"real_grand: error: no samples of layer {a.layer} (named like C4v{a.layer}.ogg) "
+              f"under {folder}", file=sys.stderr)
+        return 2
+    real = {k: issue41_measures(load_recording(files[k]), k) for k in keys}
+    result = {"real": real}
+    for pos in [p.strip() for p in a.positions.split(",") if p.strip()]:
+        model = octave_model(keys, pos, a.velocity)
+        rows = octave_table(model, real)
+        result[pos] = {"model": model, "rows": rows}
+        print(f"position: {pos}\n\n{octave_markdown(rows)}\n")
+    if a.json:
+        Path(a.json).write_text(json.dumps(result, indent=1, default=float))
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("folder", help="folder holding the samples (searched recursively)")
     ap.add_argument("--json", metavar="OUT", help="also write every measure as JSON")
+    ap.add_argument("--octaves", action="store_true",
+                    help="issue 41's per-octave table, the grand at each listening position")
+    ap.add_argument("--positions", default="body,close,player,hall",
+                    help="with --octaves: body (no listening stage), close, player, hall")
+    ap.add_argument("--layer", type=int, default=10, help="with --octaves: the recorded layer")
+    ap.add_argument("--velocity", type=int, default=105, help="with --octaves: the model's velocity")
     a = ap.parse_args(argv)
     folder = Path(a.folder)
     if not folder.is_dir():
         print(f"real_grand: error: {folder} is not a folder", file=sys.stderr)
         return 2
+    if a.octaves:
+        return octaves(folder, a)
     try:
         notes = measure(folder)
     except SystemExit as e:

@@ -350,3 +350,38 @@ def octave_table(model: dict, real: dict) -> list[dict]:
                      "peak_ms_real": med(lambda k: real[k]["peak_ms"]),
                      "peak_ms_model": med(lambda k: model[k]["peak_ms"])})
     return rows
+
+
+def octave_model(keys, position: str, velocity: int = 105, seconds: float = 6.0, voice=None) -> dict:
+    """The grand's notes for :func:`octave_table`: each of ``keys`` played at
+    ``velocity`` for ``seconds`` on a fresh engine, heard at ``position``
+    (``"body"``: without the listening stage; ``"close"``, ``"player"``,
+    ``"hall"``: ``[listener] position``), the mean of its channels; key ->
+    :func:`issue41_measures`."""
+    from ..dsp.listener import Listener
+    from ..engine.engine import NOTE_ON, Event
+    from ..io.factory import build_engine, build_voice
+
+    voice = voice if voice is not None else build_voice("grand-piano")
+    lst = None
+    out = {}
+    for k in keys:
+        eng = build_engine("grand-piano", (), voice=voice, threads=1)
+        if position != "body":
+            if lst is None:
+                lst = Listener.design(eng.fs_out, eng.channels, position)
+            lst.reset()
+        eng.listener = lst
+        y = eng.render([Event(0.0, NOTE_ON, k, velocity / 127.0)], duration_s=seconds)
+        out[k] = issue41_measures(y.mean(axis=1) if y.ndim == 2 else y, k)
+    return out
+
+
+def octave_markdown(rows) -> str:
+    """:func:`octave_table`'s rows as a Markdown table."""
+    lines = ["| octave | partial 1 at 3 s, dB | partials 2-10 re 1, dB | centroid 50 ms, model/rec "
+             "| time to RMS peak, rec / model ms |", "|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['octave']} | {r['p1_3s_db']:+.0f} | {r['upper_db']:+.0f} | "
+                     f"{r['centroid_ratio']:.2f}x | {r['peak_ms_real']:.0f} / {r['peak_ms_model']:.0f} |")
+    return "\n".join(lines)
