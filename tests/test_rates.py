@@ -75,16 +75,25 @@ def _third_octave_levels(y, fs):
                      for a, b in zip(edges[:-1], edges[1:])]), edges[1:]
 
 
-@pytest.mark.parametrize("preset,key", [("grand-piano", 60), ("sitar", 57)])
-def test_a_note_sounds_the_same_at_every_card_rate(preset, key):
+@pytest.mark.parametrize("preset,key,sets,tol_db", [
+    ("grand-piano", 60, ("listener.room=none",), (0.2, 0.5)),
+    ("sitar", 57, (), (0.2, 0.5)),
+    ("grand-piano", 60, (), (1.0, 1.0))])
+def test_a_note_sounds_the_same_at_every_card_rate(preset, key, sets, tol_db):
     """The same note at 44.1, 88.2 and 96 kHz as at 48 kHz: the strings run
-    at the same internal rate, so below 20 kHz only the decimator and the
-    body could differ; third-octave levels over the first second within
-    0.2 dB of 48 kHz's up to 5 kHz and 0.5 dB up to 16 kHz, the
-    fundamental's peak on the same 1 Hz bin."""
+    at the same internal rate, so below 20 kHz only the decimator, the
+    body and the listening position could differ; third-octave levels over
+    the first second within 0.2 dB of 48 kHz's up to 5 kHz and 0.5 dB up to
+    16 kHz, the fundamental's peak on the same 1 Hz bin.  The grand as
+    shipped hears a room (``[listener]``), whose reflections and
+    reverberation are designed for each rate with delays in its whole
+    samples: its response at a note's partials differs a little from rate
+    to rate, as two nearby seats in one room do (0.61, 0.42 and 0.28 dB at
+    most at 44.1, 88.2 and 96 kHz, 2026-11-29): within 1 dB; without the
+    room, the strict figures."""
     levels = {}
     for fs in CARD_RATES_HZ:
-        eng = build_engine(preset, fs_out=fs)
+        eng = build_engine(preset, sets, fs_out=fs)
         assert eng.fs_out == fs and eng.dec.fs_out == fs
         y = eng.render([Event(0.0, "note_on", key, 0.8)], duration_s=1.0)
         y = y if y.ndim == 1 else y.mean(axis=1)
@@ -97,8 +106,8 @@ def test_a_note_sounds_the_same_at_every_card_rate(preset, key):
     for fs in (44_100, 88_200, 96_000):
         lv, _, pk = levels[fs]
         d = lv - ref
-        assert np.abs(d[top <= 5000]).max() < 0.2, (preset, fs, np.round(d, 2))
-        assert np.abs(d).max() < 0.5, (preset, fs, np.round(d, 2))
+        assert np.abs(d[top <= 5000]).max() < tol_db[0], (preset, fs, np.round(d, 2))
+        assert np.abs(d).max() < tol_db[1], (preset, fs, np.round(d, 2))
         assert pk == peak
 
 

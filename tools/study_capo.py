@@ -89,8 +89,11 @@ def render_note(key: int, velocity: int, sets=(), seconds: float = 0.6,
     """The preset's output (mono, 48 kHz) of one note, and its engine; with
     ``lift_after_s`` the key's strings lose their termination region (the
     bar: an ideal support from then on) at the first block boundary after
-    that time."""
+    that time.  The strings through the board, not a room: the listening
+    position (``[listener]``) is taken off, as its reverberation would fill
+    the gaps between the partials that the ``hash`` study reads."""
     e = build_engine("grand-piano", tuple(sets))
+    e.listener = None
     e.schedule([Event(0.0, "note_on", key, velocity / 127)])
     out, n, lifted = [], 0, lift_after_s is None
     while n < int(seconds * FS):

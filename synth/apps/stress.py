@@ -219,7 +219,9 @@ def cases():
         block = draw(st.integers(7, 1024))
         # heard from a listening position (the grand has its own, close): its
         # room's reverberation must not depend on the blocks either
-        sets = () if name == "grand-piano" else draw(st.sampled_from(LISTENERS))
+        # (from the block size, not a draw of its own: the cases drawn after
+        # this one stay those drawn before the listener existed)
+        sets = () if name == "grand-piano" else LISTENERS[block % len(LISTENERS)]
         return Case("scene", name, sets, tuple(sorted(ev, key=lambda e: e[0])), T, block,
                     extra={"style": style})
 

@@ -33,7 +33,11 @@ Directivity.  ``directivity_db`` is the direct sound's level at high
 frequencies re the board's power average (its directivity index at the
 position's angle): + on the board's axis (above the strings, or in the
 open lid's beam), - off it (the player sees the board's edge, the lid opens
-away from him).  The shape is ``directivity_db f^2 / (f^2 + f_d^2)`` with
+away from him).  Close microphones, 0.5 m over a board some 1.5 m across,
+are in its near field, where no far-field directivity has formed: 0 dB
+there (with +3 dB the una corda's darkening of keys 90 and 96, -11.6 and
+-11.8 % at the body, read -9.6 and -7.9 %, against issue 11's -10 %:
+``docs/lab/2026-11-29-listener.md``).  The shape is ``directivity_db f^2 / (f^2 + f_d^2)`` with
 ``f_d`` = :data:`DIRECTIVITY_HZ`: a board radiates evenly below about
 1 kHz and ever more unevenly above (J. Meyer, *Acoustics and the
 Performance of Music*, 5th ed., Springer 2009, ch. 4.5, the grand piano's
@@ -157,7 +161,7 @@ ROOM_NAMES = ("none",) + tuple(ROOMS)
 
 #: the listening positions
 POSITIONS = {
-    "close": Position("close", 0.5, 1.5, 3.0, "studio",
+    "close": Position("close", 0.5, 1.5, 0.0, "studio",
                       "close microphones 0.5 m over the strings, on the board's axis, as "
                       "recorded piano libraries are made: a bass and a treble microphone "
                       "0.7 m apart, towards the hammers; cardioids aimed at the board",

@@ -472,7 +472,7 @@ SECTIONS: tuple[Section, ...] = (
               "position's: 0.5, 1, 12)", *DISTANCE_RANGE_M, optional=True),
         Field("directivity_db", "float", "the direct sound's level at high frequencies re the "
               "board's power average, dB (+ on the board's axis, - off it; absent: the "
-              "position's: +3, -3, +3)", *DIRECTIVITY_RANGE_DB, optional=True),
+              "position's: 0, -3, +3)", *DIRECTIVITY_RANGE_DB, optional=True),
         Field("temperature_c", "float", "air temperature, degrees C (the air's absorption, "
               "ISO 9613-1)", *TEMPERATURE_RANGE_C, default=20.0),
         Field("humidity_percent", "float", "relative humidity of the air, %",
