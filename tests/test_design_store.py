@@ -113,6 +113,9 @@ def test_the_folder_keeps_the_newest(store, monkeypatch):
 def test_the_grand_keeps_its_keys_and_its_sympathetic_strings(store):
     from synth.voices import grand
 
+    # a fresh process's caches: another test of this process (any grand
+    # engine) may have designed the sympathetic strings already
+    grand._SYMPATHETIC.clear()
     v = build_voice("grand-piano", [])
     v.warm()
     v.free_strings(48_000.0)
