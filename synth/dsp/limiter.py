@@ -32,6 +32,8 @@ import numpy as np
 
 from synth.kernels.limiter import limiter_process as _kernel
 
+from .signal import channel_blocks
+
 __all__ = ["Limiter", "LOOKAHEAD_S", "CEILING_RANGE_DBFS", "RELEASE_RANGE_S", "FLOAT32_MARGIN"]
 
 #: Look-ahead (s): the gain's ramp before a peak, and the latency.
@@ -127,16 +129,7 @@ class Limiter:
         ndarray
             The limited block, delayed by ``latency_samples``.
         """
-        if not isinstance(x, np.ndarray) or x.dtype != np.float64:
-            raise ValueError("x must be a float64 ndarray")
-        x2 = x.reshape(1, -1) if x.ndim == 1 else x
-        if x2.ndim != 2 or x2.shape[0] != self.channels:
-            raise ValueError(f"x has shape {x.shape}; must be (n,) or ({self.channels}, n)")
-        if out is None:
-            out = np.empty_like(x)
-        if out.shape != x.shape or out.dtype != np.float64:
-            raise ValueError(f"out has shape {out.shape}; must be {x.shape} (float64)")
-        o2 = out.reshape(1, -1) if out.ndim == 1 else out
+        x2, out, o2 = channel_blocks(x, out, self.channels)
         _kernel(x2, x2.shape[1], self.ceiling * FLOAT32_MARGIN, self.release_coef, self._delay, self._box,
                 self._dq_val, self._dq_idx, self._f, self._i, o2)
         return out

@@ -37,6 +37,8 @@ from synth.physics.listener import (
     DIRECTIVITY_RANGE_DB, DISTANCE_RANGE_M, HUMIDITY_RANGE_PERCENT, LEVELS, POSITIONS, ROOM_NAMES,
     TEMPERATURE_RANGE_C, ListenerDesign, design_listener)
 
+from .signal import channel_blocks
+
 __all__ = ["Listener", "LEVEL_BANDS_HZ"]
 
 #: the octave bands whose mean power gain ``level = "matched"`` holds at 1
@@ -219,16 +221,7 @@ class Listener:
         out : ndarray of float64, optional
             Same shape as ``x`` (may be ``x``: in place).
         """
-        if not isinstance(x, np.ndarray) or x.dtype != np.float64:
-            raise ValueError("x must be a float64 ndarray")
-        x2 = x.reshape(1, -1) if x.ndim == 1 else x
-        if x2.ndim != 2 or x2.shape[0] != self.channels:
-            raise ValueError(f"x has shape {x.shape}; must be (n,) or ({self.channels}, n)")
-        if out is None:
-            out = np.empty_like(x)
-        if out.shape != x.shape or out.dtype != np.float64:
-            raise ValueError(f"out has shape {out.shape}; must be {x.shape} (float64)")
-        o2 = out.reshape(1, -1) if out.ndim == 1 else out
+        x2, out, o2 = channel_blocks(x, out, self.channels)
         _kernel(x2, x2.shape[1], self._hd, self._le, self._ge, self._he, self._pre, self._lens,
                 self._off, self._fa, self._fb, self._fin, self._fout, self._hist, self._ehist,
                 self._lines, self._lpos, self._z, self._w, self._i, o2)

@@ -37,3 +37,21 @@ def output_block(out, n: int, what: str) -> np.ndarray:
     if not out.flags.writeable:
         raise ValueError("out must be writeable")
     return out
+
+
+def channel_blocks(x, out, channels: int):
+    """A multichannel stage's input and output checked: ``x`` float64 of
+    shape (n,) (one channel) or (``channels``, n); ``out`` the same shape
+    (may be ``x``: in place) or None for a new array.  Returns (x as 2-D,
+    out, out as 2-D); a one-line ValueError otherwise.  (The limiter and
+    the listener take their blocks this way.)"""
+    if not isinstance(x, np.ndarray) or x.dtype != np.float64:
+        raise ValueError("x must be a float64 ndarray")
+    x2 = x.reshape(1, -1) if x.ndim == 1 else x
+    if x2.ndim != 2 or x2.shape[0] != channels:
+        raise ValueError(f"x has shape {x.shape}; must be (n,) or ({channels}, n)")
+    if out is None:
+        out = np.empty_like(x)
+    if out.shape != x.shape or out.dtype != np.float64:
+        raise ValueError(f"out has shape {out.shape}; must be {x.shape} (float64)")
+    return x2, out, (out.reshape(1, -1) if out.ndim == 1 else out)
