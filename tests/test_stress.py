@@ -13,9 +13,11 @@ from synth.apps import stress
 
 
 @pytest.mark.slow
-def test_two_thousand_cases_none_fails():
-    counts, failures, secs = stress.run(2000, seed=0)
-    assert sum(counts.values()) >= 2000
+def test_five_hundred_cases_none_fails():
+    """CI's quick mode of the stress tool (``python tools/stress.py`` runs
+    2,000 by default; 2,000 here took 105 s of the suite, 2026-11-29)."""
+    counts, failures, secs = stress.run(500, seed=0)
+    assert sum(counts.values()) >= 500
     kinds = {k for k, _ in counts}
     assert kinds == {"preset", "scene", "rate", "energy", "silence"}
     assert not failures, "\n".join(f"{c.describe()}: {'; '.join(p)}" for c, p in failures[:10])
