@@ -136,11 +136,13 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     # 36's "no xrun" is not yet met, so two of the 24 may miss)
     good = [lag for lag, c in zip(lags, corr) if c >= 0.9]
     assert len(good) >= 22 and np.median(corr) >= 0.99, corr
-    assert max(good) - min(good) == 0, lags
     # the loop through the tester adds one period; the rest is the engine's
     # own delay (the decimator and the grand's limiter, which an offline
-    # render removes)
-    assert good[0] == 128 + build_engine("grand-piano", ()).latency_samples, lags
+    # render removes).  Every note lands at it to the sample, but for a note
+    # the server moved by whole periods in an xrun it reported (the dummy
+    # backend skips a cycle when the VM loses time; seen once in CI, 2026-11-29)
+    expected = 128 + build_engine("grand-piano", ()).latency_samples
+    _assert_constant_lag(good, expected, tester.xruns, _xruns_reported(out), lags)
     # --record holds what the client sent: the captured audio, one period earlier
     import soundfile
 
@@ -148,11 +150,28 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     assert fs == FS and y.shape[1] == 2 and "recorded " in out
     peak = np.max(np.abs(rec))
     assert np.max(np.abs(y)) == pytest.approx(peak, rel=1e-6)
-    # the report counts the server's xruns (any client's: this test's own
-    # activation may make some; issue 36's "no xrun" is not yet met)
+
+
+def _xruns_reported(out: str) -> int:
+    """The xruns ``synth play``'s report counted (its "N JACK xruns" line)."""
     import re
 
-    assert re.search(r"\n\d+ JACK xruns\n", out), out
+    m = re.search(r"\n(\d+) JACK xruns\n", out)
+    assert m, out
+    return int(m.group(1))
+
+
+def _assert_constant_lag(lags, expected, tester_xruns, synth_xruns, shown, period=128,
+                         most_off=2):
+    """Every lag is ``expected`` to the sample, except at most ``most_off``
+    that are whole periods late, and those only when the server reported an
+    xrun (to the tester or to the synth): the dummy backend then delivers a
+    period one cycle late.  A lag off by anything else fails."""
+    off = [lag for lag in lags if lag != expected]
+    assert all((lag - expected) % period == 0 and lag > expected for lag in off), (
+        expected, shown)
+    assert len(off) <= most_off, (expected, shown)
+    assert not off or tester_xruns or synth_xruns, (expected, shown, "no xrun reported")
 
 
 def test_no_server_is_one_line(server):
@@ -596,10 +615,23 @@ def test_the_drone_player_plays_live_through_jack(server, tmp_path, monkeypatch)
     # first string of the one at 2 s), none after
     assert eng.drone.n_plucks == 9 and not eng.drone.running
     seg = rec[at - t0:]
-    n = FS                       # a second: one string's period (10 ms) would alias a shorter window
-    lag = max(range(0, 1024), key=lambda L: float(np.dot(seg[L:L + n], ref[:n])))
-    a, b = seg[lag:lag + len(ref)], ref[:len(seg) - lag]
-    corr = float(np.dot(a, b) / np.sqrt(np.dot(a, a) * np.dot(b, b)))
-    # (an xrun of the dummy server can spoil a few periods of the capture)
-    assert corr >= 0.99, (lag, corr)
-    assert lag == 128 + eng.latency_samples
+    # window by window against the offline render at the loop's lag (a
+    # period plus the engine's latency), or whole periods later where the
+    # server reported an xrun (the dummy backend then delivers a period a
+    # cycle late); a window is a second and a half: one string's period
+    # (10 ms) would alias a much shorter one
+    expected = 128 + eng.latency_samples
+    win, lags, corrs = int(0.5 * FS), [], []
+    for w0 in range(0, min(len(ref), len(seg) - expected - 4 * 128) - win + 1, win):
+        b = ref[w0:w0 + win]
+        best = max((expected + 128 * k for k in range(4)),
+                   key=lambda L: float(np.dot(seg[w0 + L:w0 + L + win], b)))
+        a = seg[w0 + best:w0 + best + win]
+        lags.append(best)
+        corrs.append(float(np.dot(a, b) / np.sqrt(np.dot(a, a) * np.dot(b, b))))
+    # (a window in which the server slipped holds both alignments)
+    n_xruns = _xruns_reported(out)
+    torn = [c < 0.99 for c in corrs]
+    assert len(lags) >= 6 and sum(torn) <= 1 and min(corrs) >= 0.5, (lags, corrs)
+    assert not any(torn) or tester.xruns or n_xruns, (lags, corrs, "no xrun reported")
+    _assert_constant_lag(lags, expected, tester.xruns, n_xruns, (lags, corrs))
