@@ -299,6 +299,30 @@ def test_callee_edit_gives_fresh_code(tmp_path, numba_cache_dir):
     assert folder.is_dir()                               # kept: within KEEP
 
 
+@pytest.mark.slow  # two subprocesses, one compile
+def test_the_same_sources_elsewhere_load_what_was_compiled(tmp_path):
+    """Two copies of the toy package at two paths (a checkout and an
+    installed wheel, say) with one ``NUMBA_CACHE_DIR``: the second loads the
+    first's compiled code from the keyed folder (numba alone would key the
+    entries on the sources' path too and compile again), and both name the
+    same entry."""
+    nc = tmp_path / "nc"
+    out = []
+    for where in ("a", "b"):
+        root = tmp_path / where
+        root.mkdir()
+        _toy(root, "keyed", KEYED_INIT, "1.0")
+        env = dict(_env(root, nc), PYTHONPATH=os.pathsep.join([str(ROOT), str(root)]))
+        (line,) = _run("""
+            import keyed.caller as c
+            print(c.f(), sum(c.f.stats.cache_hits.values()), c.f._cache.cache_path)
+        """, env, root)
+        value, hits, path = line.split()
+        out.append((float(value), int(hits), Path(path)))
+    assert out[0][:2] == (1.5, 0) and out[1][:2] == (1.5, 1), out
+    assert out[0][2] == out[1][2] and out[0][2].parent.parent == nc, out
+
+
 def _racing_saves(root, guarded):
     """Two processes' saves of two signatures of one function, interleaved
     as numba's unlocked save lets them be: A reads the empty index, B reads

@@ -49,7 +49,14 @@ would reset a ``CACHE_DIR`` set in code.  So :func:`load_keyed` sets
 ``numba.config.CACHE_DIR`` to the keyed folder, imports every module of the
 package at once (every decorator runs within that window), and puts the
 user's value back: code outside the kernels, and other libraries' numba
-functions, keep their own cache location.  ``synth/kernels/__init__.py``
+functions, keep their own cache location.  Within that window the kernels'
+entries go straight into the keyed folder, under ``kernels/``, where
+numba's own locator for ``NUMBA_CACHE_DIR`` would add a hash of the
+sources' absolute path: the same sources installed elsewhere (a wheel in a
+new virtual environment, a second checkout) find the kernels compiled
+already.  The folder's hash covers the sources and the versions of Python,
+numba, llvmlite and numpy (:func:`toolchain`), which is everything that
+decides the compiled code but the CPU, which numba's index keys itself.  ``synth/kernels/__init__.py``
 calls it, so importing any kernel module imports them all (about 15 ms
 beyond ``strings``, which every user of the kernels imports anyway).
 
@@ -86,14 +93,32 @@ def source_files(folder: str | os.PathLike) -> list[Path]:
     return sorted(Path(folder).glob("*.py"), key=lambda p: p.name)
 
 
+def toolchain() -> bytes:
+    """What compiled code also depends on besides the sources: the versions
+    of Python, numba, llvmlite and numpy (hashed into the keyed folder's
+    name, so that venvs on other versions never share a folder; numba's
+    own index checks only its own version)."""
+    import sys
+
+    import llvmlite
+    import numba
+    import numpy
+
+    return ("python %d.%d numba %s llvmlite %s numpy %s" % (
+        sys.version_info[0], sys.version_info[1], numba.__version__, llvmlite.__version__,
+        numpy.__version__)).encode()
+
+
 def source_digest(folder: str | os.PathLike) -> str:
     """First :data:`DIGEST_CHARS` hex digits of the sha256 of the names and
-    bytes of :func:`source_files` of ``folder``; an empty string if it has
-    none."""
+    bytes of :func:`source_files` of ``folder`` and of :func:`toolchain`; an
+    empty string if it has no sources."""
     files = source_files(folder)
     if not files:
         return ""
     h = hashlib.sha256()
+    tc = toolchain()
+    h.update(len(tc).to_bytes(8, "little") + tc)
     for p in files:
         data = p.read_bytes()
         name = p.name.encode()
@@ -225,11 +250,13 @@ def load_keyed(package: str, folder: str | os.PathLike, name: str = NAME,
     path = choose_dir(folder, name, user_base)
     if path is not None:
         nbconfig.CACHE_DIR = str(path)
+        _KeyedLocator.folder = os.path.abspath(os.fspath(folder))
     try:
         for mod in pkgutil.iter_modules([str(folder)]):
             importlib.import_module(f"{package}.{mod.name}")
     finally:
         nbconfig.CACHE_DIR = user_base
+        _KeyedLocator.folder = None
     if path is not None:
         try:
             os.utime(path)
@@ -238,6 +265,57 @@ def load_keyed(package: str, folder: str | os.PathLike, name: str = NAME,
         prune(path, name, keep)
         install_save_lock(path)
     return path
+
+
+def _keyed_locator_class():
+    """numba's locator for a cache folder given by the user, without the
+    path of the sources in it (see :class:`_KeyedLocator`); None for a numba
+    without it."""
+    try:
+        from numba.core import caching
+    except ImportError:                      # pragma: no cover
+        return None
+    base = getattr(caching, "UserProvidedCacheLocator", None)
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl", None)
+    if base is None or impl is None or not isinstance(
+            getattr(impl, "_locator_classes", None), list):
+        return None                          # pragma: no cover - another numba
+
+    class KeyedLocator(base):
+        """Entries of the modules in :attr:`folder`, while :func:`load_keyed`
+        decorates them, go straight into the keyed folder
+        (``numba.config.CACHE_DIR`` then) under the package folder's name:
+        numba's own locator adds a sha1 of the sources' absolute path, so
+        the same sources installed elsewhere (a wheel in a new venv, another
+        checkout) compiled everything again into a folder of their own,
+        though the keyed folder's name already holds a hash of every
+        kernel's bytes and the versions that compiled them (the path adds
+        nothing to what decides the code)."""
+
+        folder: str | None = None
+
+        def __init__(self, py_func, py_file):
+            super().__init__(py_func, py_file)
+            from numba.core import config as nbconfig
+
+            self._cache_path = os.path.join(nbconfig.CACHE_DIR,
+                                            os.path.basename(os.path.dirname(py_file)))
+
+        @classmethod
+        def from_function(cls, py_func, py_file):
+            if cls.folder is None or os.path.dirname(os.path.abspath(py_file)) != cls.folder:
+                return None
+            return super().from_function(py_func, py_file)
+
+    impl._locator_classes.insert(0, KeyedLocator)
+    return KeyedLocator
+
+
+class _NoLocator:
+    folder: str | None = None
+
+
+_KeyedLocator = _keyed_locator_class() or _NoLocator
 
 
 #: name of the lock file in a keyed folder (:func:`install_save_lock`)
