@@ -51,6 +51,14 @@ def phrase(preset):
     return evs + [Event(0.15, "note_on", keys[1], 0.9), Event(0.2, "note_off", keys[0], 0.0)]
 
 
+@pytest.fixture(autouse=True)
+def _threads_always(monkeypatch):
+    """Every call on the threads it is given: the bank's governor would run
+    calls on one thread when the machine is busy, and these tests must run
+    the parallel loops (tests/test_governor.py tests the governor)."""
+    monkeypatch.setattr(threads.Governor, "auto", False)
+
+
 #: every shipped preset: the musical ones and the thesis's study presets
 PRESETS = [name for name, _ in list_presets()]
 

@@ -32,6 +32,8 @@ from .excitation import (  # noqa: F401  (re-exported: the voices build their ha
 compile_notice.listen()
 
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
+#: the kernels that may run loops on several threads (bank.render's kinds)
+_THREADED = (KR.KIND_SHARDS, KR.KIND_BIG_GROUPS, KR.KIND_BANK)
 #: the shortest fast-path chunk a slot is given while its excitation runs
 #: (:func:`slot_template`): a shorter one renders per sample
 MIN_FAST_CHUNK = 2
@@ -373,6 +375,8 @@ class StringBank(Excitations, Bridges):
         # one scratch, iwork and staging row per thread (set_threads); the
         # shards' mixes, the plan, the big groups' blocks (kernels.render)
         self.threads = 1
+        #: threads or the calling thread, call by call, by their times (threads.Governor)
+        self.governor = threads.Governor()
         self._scratch2 = np.zeros((1, self._slen))
         self._iwork2 = np.zeros((1, self.capacity + K.IWORK_EXTRA), dtype=np.int64)
         self._tw = np.zeros((1, KR.task_work_length(self.max_block, self.max_region,
@@ -1100,6 +1104,13 @@ class StringBank(Excitations, Bridges):
                 c = min(c, due)
             kind = (KR.KIND_SHARDS if self.whole_kernel
                     else KR.bank_kind(self.active, self.n_active, self.ipar, self.fpar, c))
+            # (a kernel that may run loops on the threads: the governor picks
+            # them or this thread, and times the call)
+            gov = nt > 1 and kind in _THREADED
+            if gov:
+                nt_all = nt
+                nt = self.governor.pick(nt_all)
+                t0 = self.governor.clock()
             # the kernel for what is active (the samples render_sharded gives
             # it), so that a scene compiles only what it runs
             if kind == KR.KIND_SHARDS:
@@ -1110,10 +1121,12 @@ class StringBank(Excitations, Bridges):
             elif kind == KR.KIND_BIG_GROUPS or kind == KR.KIND_BIG_GROUPS_ONE:
                 # (nt None: the blocks on this thread, a separate compile
                 # without the parallel loops, which one note never needs)
+                # (the governor's one thread: 1, the same compiled kernel)
                 KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                      self.active, self.n_active, c, o0 + done, mix, self.probe,
                                      self._scratch2[0], self._iwork2[0], pb, self._tw, self._ib,
-                                     nt if kind == KR.KIND_BIG_GROUPS and nt > 1 else None)
+                                     nt if gov or (kind == KR.KIND_BIG_GROUPS and nt > 1)
+                                     else None)
             elif kind == KR.KIND_SMALL_GROUP:
                 KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                       self.active, self.n_active, c, o0 + done, mix, self.probe,
@@ -1127,6 +1140,9 @@ class StringBank(Excitations, Bridges):
                                self.active, self.n_active, c, o0 + done, mix,
                                self.probe, self._scratch2[0], self._iwork2[0], ubx,
                                self._sub3[0], pb, self._tw, self._ib, nt)
+            if gov:
+                self.governor.record(self.governor.clock() - t0, self.n_active * c)
+                nt = nt_all
             done += c
             self.time += c
 

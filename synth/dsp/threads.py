@@ -145,3 +145,123 @@ def _check_layer() -> None:
         _layer_ok = False
         warnings.warn("numba found no OpenMP or TBB threading layer (install libgomp1, or "
                       "'pip install tbb'): rendering on one thread", RuntimeWarning, stacklevel=3)
+
+
+class Governor:
+    """Decides, call by call, whether a bank's kernel that could run its
+    loops on several threads runs them on ``nt`` or on the calling thread
+    alone, by timing both: a render on a machine whose other cores are busy
+    (another program, a second render, a CI job) otherwise waits at every
+    parallel loop for a worker thread the scheduler has not run yet.
+
+    The samples are the same for any thread count (``tests/test_threads.py``),
+    so the choice changes only the time a block takes.  Measured (issue 37,
+    2-vCPU Xeon, another job keeping both cores busy): a 10 s tanpura drone
+    rendered in 1.16-1.99 s wall on 2 threads against 0.44 s on one.
+
+    How it decides: each timed call gives seconds per unit of work (the
+    caller's measure, strings x samples), and the last :attr:`keep` of each
+    mode are kept.  The bank starts on its threads.  After
+    :attr:`probe_calls` calls, and then at most every :attr:`probe_calls`
+    calls and :attr:`probe_s` seconds, :attr:`burst` calls in a row run in
+    the mode not in use (a probe).  It leaves its threads when their median
+    exceeds :attr:`margin` times the calling thread's, and comes back when
+    it falls below 1 / :attr:`margin` times: on a busy machine single timings
+    of the threads scatter over a factor of ten, medians do not.
+
+    Parameters
+    ----------
+    probe_calls : int
+        Least number of calls between probes (>= 1).
+    probe_s : float
+        Least wall time between probes (s, >= 0): a live stream's 128-sample
+        blocks would otherwise probe a stalled mode many times a second.
+    margin : float
+        Ratio (>= 1) of the medians at which the mode changes.
+    clock : callable
+        Returns seconds (``time.perf_counter``; tests give their own).
+    """
+
+    #: False: every call on the threads (the thread-count tests, which must
+    #: run the parallel loops whatever the machine's load)
+    auto = True
+    #: timings kept per mode (the medians' samples)
+    keep = 5
+    #: calls in a row of a probe
+    burst = 3
+
+    def __init__(self, probe_calls: int = 32, probe_s: float = 0.5, margin: float = 1.05,
+                 clock=None):
+        import time
+
+        if int(probe_calls) != probe_calls or probe_calls < 1:
+            raise ValueError(f"probe_calls = {probe_calls!r} is out of range (integer >= 1)")
+        if not probe_s >= 0:
+            raise ValueError(f"probe_s = {probe_s!r} is out of range (>= 0 s)")
+        if not margin >= 1:
+            raise ValueError(f"margin = {margin!r} is out of range (>= 1)")
+        self.probe_calls = int(probe_calls)
+        self.probe_s = float(probe_s)
+        self.margin = float(margin)
+        self.clock = time.perf_counter if clock is None else clock
+        #: whether the threads are the mode in use
+        self.parallel = True
+        #: the last timings (s per unit): [calling thread, threads]
+        self.rates = ([], [])
+        #: calls timed in each mode: [calling thread, threads]
+        self.calls = [0, 0]
+        self._since = 0
+        self._probing = 0
+        self._last_probe = None
+        self._mode = True
+
+    def median(self, parallel: bool) -> float | None:
+        """Median of the kept timings of a mode (s per unit), None if none."""
+        r = sorted(self.rates[int(parallel)])
+        if not r:
+            return None
+        k = len(r) // 2
+        return r[k] if len(r) % 2 else 0.5 * (r[k - 1] + r[k])
+
+    def pick(self, nt: int) -> int:
+        """Threads for the next call of a kernel given ``nt``: ``nt`` or 1.
+        With ``nt`` 1 there is nothing to decide (1, nothing kept)."""
+        if nt <= 1:
+            return 1
+        if not self.auto:
+            self._mode = True
+            return nt
+        if self._probing == 0 and self._since >= self.probe_calls:
+            now = self.clock()
+            if self._last_probe is None or now - self._last_probe >= self.probe_s:
+                self._probing = self.burst
+                self._since = 0
+                self._last_probe = now
+        par = self.parallel
+        if self._probing > 0:
+            par = not par
+            self._probing -= 1
+        else:
+            self._since += 1
+        self._mode = par
+        return nt if par else 1
+
+    def record(self, seconds: float, units: float) -> None:
+        """Time of the call :meth:`pick` chose threads for (s), and its work
+        (units > 0: nothing kept otherwise)."""
+        if not units > 0 or not seconds >= 0:
+            return
+        m = int(self._mode)
+        kept = self.rates[m]
+        kept.append(seconds / units)
+        if len(kept) > self.keep:
+            del kept[0]
+        self.calls[m] += 1
+        if self._probing:
+            return
+        s, p = self.median(False), self.median(True)
+        if s is not None and p is not None:
+            if self.parallel and p > self.margin * s:
+                self.parallel = False
+            elif not self.parallel and p * self.margin < s:
+                self.parallel = True

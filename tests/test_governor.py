@@ -1,0 +1,113 @@
+"""The bank's thread governor (synth.dsp.threads.Governor): a kernel that
+could run on several threads runs on them while they are faster, on the
+calling thread while they are slower (a busy machine), and the samples are
+the same either way."""
+
+import numpy as np
+import pytest
+
+from synth.dsp import threads
+from synth.engine.engine import Event
+from synth.io.factory import build_engine
+
+
+@pytest.fixture(autouse=True)
+def _governed(monkeypatch):
+    """The governor on (live play's ready_engine turns it off for the
+    process, and a test before may have called it)."""
+    monkeypatch.setattr(threads.Governor, "auto", True)
+
+
+class Clock:
+    def __init__(self):
+        self.t = 0.0
+
+    def __call__(self):
+        return self.t
+
+
+def drive(gov, clock, calls, seconds_per_unit, nt=2, units=1000.0, dt=0.01):
+    """``calls`` calls: each picks, takes ``seconds_per_unit(parallel)`` per
+    unit, and advances the clock by ``dt``; returns the modes picked."""
+    modes = []
+    for _ in range(calls):
+        n = gov.pick(nt)
+        par = n > 1
+        modes.append(par)
+        gov.record(seconds_per_unit(par) * units, units)
+        clock.t += dt
+    return modes
+
+
+def test_threads_kept_while_they_are_faster():
+    clock = Clock()
+    gov = threads.Governor(probe_calls=8, probe_s=0.05, clock=clock)
+    modes = drive(gov, clock, 400, lambda par: 1e-8 if par else 1.6e-8)
+    assert gov.parallel
+    # only the probes ran on one thread: a burst every 8 calls at most
+    assert 0 < modes.count(False) <= 3 * (400 // 8 + 1)
+    assert modes.count(False) / len(modes) <= 3 / (8 + 3) + 0.01
+
+
+def test_a_busy_machine_moves_to_one_thread_and_back():
+    clock = Clock()
+    gov = threads.Governor(probe_calls=8, probe_s=0.2, clock=clock)
+    busy = [True]
+    # busy: the threads' calls 10x slower, one in four an outlier either way
+    rng = np.random.default_rng(1)
+
+    def rate(par):
+        base = (1e-7 if busy[0] else 1e-8) if par else 1.6e-8
+        return base * (rng.choice([0.2, 5.0]) if rng.random() < 0.25 else 1.0)
+
+    modes = drive(gov, clock, 400, rate)
+    assert not gov.parallel
+    # after the first probe, one thread but for the probes (a burst per 0.2 s)
+    late = modes[50:]
+    assert late.count(True) <= 3 * (len(late) * 0.01 / 0.2 + 1)
+    busy[0] = False
+    modes = drive(gov, clock, 400, rate)
+    assert gov.parallel
+    # (a probe of one thread every 0.2 s, 3 calls of 23; an outlier's
+    # stretch on one thread now and then)
+    assert modes.count(True) >= 0.7 * len(modes)
+
+
+def test_one_thread_is_not_governed():
+    gov = threads.Governor()
+    assert [gov.pick(1) for _ in range(50)] == [1] * 50
+    assert gov.calls == [0, 0]
+
+
+def test_off_always_gives_the_threads(monkeypatch):
+    monkeypatch.setattr(threads.Governor, "auto", False)
+    clock = Clock()
+    gov = threads.Governor(probe_calls=1, probe_s=0.0, clock=clock)
+    assert set(drive(gov, clock, 50, lambda par: 1e-6 if par else 1e-9)) == {True}
+
+
+@pytest.mark.parametrize("kw, message", [
+    (dict(probe_calls=0), "probe_calls = 0 is out of range"),
+    (dict(probe_calls=2.5), "probe_calls = 2.5 is out of range"),
+    (dict(probe_s=-1.0), "probe_s = -1.0 is out of range"),
+    (dict(margin=0.9), "margin = 0.9 is out of range"),
+])
+def test_bad_settings_name_themselves(kw, message):
+    with pytest.raises(ValueError, match=message):
+        threads.Governor(**kw)
+
+
+@pytest.mark.skipif(threads.max_threads() < 2, reason="needs 2 threads (NUMBA_NUM_THREADS)")
+def test_a_governor_switching_every_call_plays_the_same_samples():
+    """Probing on every call (probe_calls 1, no wait, bursts of 3) flips the
+    mode every few calls: a pedalled grand chord (its keys in shards)
+    renders exactly as on one thread."""
+    evs = [Event(0.0, "control", 64, 1.0)] + [
+        Event(0.001 * i, "note_on", k, 0.8) for i, k in enumerate(range(40, 90, 5))]
+    ref = build_engine("grand-piano", (), threads=1).render(evs, duration_s=0.25, block=128)
+    eng = build_engine("grand-piano", (), threads=2)
+    eng.bank.governor = threads.Governor(probe_calls=1, probe_s=0.0)
+    out = eng.render(evs, duration_s=0.25, block=128)
+    g = eng.bank.governor
+    assert g.calls[0] > 0 and g.calls[1] > 0, g.calls
+    assert np.array_equal(out, ref)
