@@ -50,6 +50,11 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
     # and each rendering thread's OpenMP team started at its first block,
     # not at the first chord that renders in parallel
     threads.set_priming(True)
+    # and every call on the threads: the governor's probes of one thread
+    # would put a heavy scene's block over its budget (the sitar cluster
+    # takes 112 % of a 128-sample block on one thread, 62 % on two), an xrun
+    # each probe; a busy machine's stalls live are left to the threads
+    threads.Governor.auto = False
     voice = None if instruments is None else instruments.get(preset_name)
     if voice is None:
         voice = build_voice(preset_name, overrides)
