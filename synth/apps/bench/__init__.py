@@ -31,6 +31,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     "reach": ("reach", "what skipping an out-of-reach termination saves (--callgrind: instructions)"),
     "decimator": ("decimator", "the streaming decimator, ns per output sample"),
     "listener": ("listener", "the listening position's stage, alone and in the grand, live and offline"),
+    "busy": ("busy", "offline renders beside busy processes: 1 thread, governed, always threaded"),
     "startup": ("startup", "live play's start-up: import, build and warm the engine"),
     "compile": ("compile", "which kernels a synth command compiles, and what each costs"),
     "callgrind": ("callgrind", "one grand note's instructions per numba function (valgrind)"),
