@@ -70,6 +70,18 @@ def _digest(folder: Path) -> str:
     if not files:
         return ""
     h = hashlib.sha256()
+    from importlib import metadata
+
+    def version(dist):
+        try:
+            return metadata.version(dist)
+        except metadata.PackageNotFoundError:      # pragma: no cover
+            return "?"
+
+    tc = ("python %d.%d numba %s llvmlite %s numpy %s" % (
+        sys.version_info[0], sys.version_info[1], version("numba"), version("llvmlite"),
+        version("numpy"))).encode()
+    h.update(len(tc).to_bytes(8, "little") + tc)
     for p in files:
         data = p.read_bytes()
         name = p.name.encode()
@@ -99,7 +111,8 @@ def cache_looks_warm() -> bool:
     """True when the first existing keyed folder holds the bank renderer's
     cache index: the kernels were compiled for these sources (for some
     CPU: a cache shared between different CPUs still compiles, and the
-    listener then says so).  No numba import; about 2 ms."""
+    listener then says so).  No numba import; about 20 ms, most of it
+    reading the installed versions of numba, llvmlite and numpy."""
     folders = keyed_folders()
     if os.environ.get("NUMBA_CACHE_DIR"):
         # numba compiles into that folder (synth.kernels.cache creates it if

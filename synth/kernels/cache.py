@@ -97,16 +97,21 @@ def toolchain() -> bytes:
     """What compiled code also depends on besides the sources: the versions
     of Python, numba, llvmlite and numpy (hashed into the keyed folder's
     name, so that venvs on other versions never share a folder; numba's
-    own index checks only its own version)."""
+    own index checks only its own version).  Read from the installed
+    distributions, without importing them (``synth.dsp.compile_notice``
+    computes the same name before numba is imported)."""
     import sys
+    from importlib import metadata
 
-    import llvmlite
-    import numba
-    import numpy
+    def version(dist):
+        try:
+            return metadata.version(dist)
+        except metadata.PackageNotFoundError:      # pragma: no cover
+            return "?"
 
     return ("python %d.%d numba %s llvmlite %s numpy %s" % (
-        sys.version_info[0], sys.version_info[1], numba.__version__, llvmlite.__version__,
-        numpy.__version__)).encode()
+        sys.version_info[0], sys.version_info[1], version("numba"), version("llvmlite"),
+        version("numpy"))).encode()
 
 
 def source_digest(folder: str | os.PathLike) -> str:
