@@ -287,3 +287,22 @@ def add_threads(p) -> None:
     p.add_argument("--threads", type=int, metavar="N",
                    help="threads the strings render on (default: every core this process may "
                         "use, or SYNTH_THREADS); the samples are the same for any N")
+
+
+def add_audio_output(p, default: str | None = None, when: str = "") -> None:
+    """An offline command's audio output options: ``--rate``, ``-o/--output``
+    (required when ``default`` is None) and ``--pcm24``.  ``when``: what the
+    output's help adds before its default, e.g. ``"48 kHz, or --rate; "``."""
+    p.add_argument("--rate", type=float, metavar="HZ",
+                   help="output sample rate in Hz (default 48000; 44100, 88200, 96000, any "
+                        "22050-192000)")
+    what = "output audio file, its format by extension: .wav, .flac or .ogg"
+    if default is None:
+        p.add_argument("-o", "--output", required=True, metavar="OUT.wav",
+                       help=f"{what} ({when}required)")
+    else:
+        p.add_argument("-o", "--output", default=default, metavar="OUT.wav",
+                       help=f"{what} ({when}default %(default)s)")
+    p.add_argument("--pcm24", action="store_true",
+                   help="WAV: write 24-bit PCM instead of 32-bit float (default: float; "
+                        "FLAC is always 24-bit)")

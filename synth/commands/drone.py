@@ -6,8 +6,9 @@ from __future__ import annotations
 
 import sys
 
-from .common import (add_quality, add_threads, audio_format, check_not_inputs, check_output,
-                     fail, output_rate, peak_warning, preset_file, quality_overrides)
+from .common import (add_audio_output, add_quality, add_threads, audio_format, check_not_inputs,
+                     check_output, fail, output_rate, peak_warning, preset_file,
+                     quality_overrides)
 
 NAME = "drone"
 HELP = "play a preset's drone (a tanpura's strings plucked in a cycle) into an audio file"
@@ -55,16 +56,8 @@ def add_arguments(parser) -> None:
                              "(repeatable; default: none; every key: synth help presets)")
     parser.add_argument("--internal-rate", type=float, metavar="HZ",
                         help="internal sample rate in Hz (default: 325000)")
-    parser.add_argument("--rate", type=float, metavar="HZ",
-                        help="output sample rate in Hz (default 48000; 44100, 88200, 96000, any "
-                             "22050-192000)")
+    add_audio_output(parser, default="drone.wav")
     add_quality(parser)
-    parser.add_argument("-o", "--output", default="drone.wav", metavar="OUT.wav",
-                        help="output audio file, its format by extension: .wav, .flac or .ogg "
-                             "(default %(default)s)")
-    parser.add_argument("--pcm24", action="store_true",
-                        help="WAV: write 24-bit PCM instead of 32-bit float (default: float; "
-                             "FLAC is always 24-bit)")
     add_threads(parser)
 
 

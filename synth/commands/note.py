@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import time
 
-from .common import (DEFAULT_SECONDS, add_quality, add_threads, audio_format, check_not_inputs,
+from .common import (DEFAULT_SECONDS, add_audio_output, add_quality, add_threads, audio_format, check_not_inputs,
                      check_output, fail, output_rate, preset_file, quality_overrides,
                      write_audio)
 
@@ -40,18 +40,10 @@ def add_arguments(parser) -> None:
                         help="override a preset value, e.g. --set pluck.position=0.7 (repeatable; "
                              "default: none; every key: synth help presets)")
     add_quality(parser)
-    parser.add_argument("--rate", type=float, metavar="HZ",
-                        help="output sample rate in Hz (default 48000; 44100, 88200, 96000, any "
-                             "22050-192000)")
-    parser.add_argument("-o", "--output", required=True, metavar="OUT.wav",
-                        help="output audio file, its format by extension: .wav, .flac or .ogg "
-                             "(48 kHz, or --rate; required)")
+    add_audio_output(parser, when="48 kHz, or --rate; ")
     parser.add_argument("--probe", metavar="OUT.npy",
                         help="also save u(l, t) at the pluck point (m, internal rate, float64 .npy; "
                              "default: not saved)")
-    parser.add_argument("--pcm24", action="store_true",
-                        help="WAV: write 24-bit PCM instead of 32-bit float (default: float; "
-                             "FLAC is always 24-bit)")
     parser.add_argument("--hammer-speed", type=float, metavar="M_PER_S",
                         help="hammer speed at contact in m/s, 0.01-20 (hammered presets; overrides "
                              "--velocity; default: from --velocity)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import sys
 
-from .common import (add_channels, add_mpe, add_quality, add_threads, audio_format,
+from .common import (add_audio_output, add_channels, add_mpe, add_quality, add_threads, audio_format,
                      check_not_inputs, check_output, fail, output_rate, peak_warning, preset_file,
                      quality_overrides)
 
@@ -38,16 +38,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--internal-rate", type=float, metavar="HZ",
                         help="internal sample rate in Hz (default: 325000, or the study grid's own "
                              "rate)")
-    parser.add_argument("--rate", type=float, metavar="HZ",
-                        help="output sample rate in Hz (default 48000; 44100, 88200, 96000, any "
-                             "22050-192000)")
+    add_audio_output(parser)
     add_quality(parser)
-    parser.add_argument("-o", "--output", required=True, metavar="OUT.wav",
-                        help="output audio file, its format by extension: .wav, .flac or .ogg "
-                             "(required)")
-    parser.add_argument("--pcm24", action="store_true",
-                        help="WAV: write 24-bit PCM instead of 32-bit float (default: float; "
-                             "FLAC is always 24-bit)")
     parser.add_argument("--max-seconds", type=float, metavar="S",
                         help="render at most the first S seconds of audio (0 < S <= 21600): later notes "
                              "are left out, the sound is cut at S with a 10 ms fade-out (default: "
