@@ -11,7 +11,7 @@ from scipy.signal import firwin, lfilter
 
 from helpers import engine
 from synth.analysis import as_mono, estimate_f0
-from synth.dsp.bank import _chained_state
+from synth.dsp.hand_over import _chained_state
 from synth.engine.engine import Event
 from synth.kernels import strings as K
 

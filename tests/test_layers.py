@@ -289,3 +289,16 @@ def test_relative_imports_resolve_to_absolute_names():
     # in a package's __init__ the package itself is the anchor
     got = [i.target for i in imports_of("from .bank import X\n", "synth.voices", True, known)]
     assert got == ["synth.voices.bank"]
+
+
+#: the most lines a module of synth may have (issue 38: one room per job)
+MAX_LINES = 1200
+
+
+def test_no_module_over_1200_lines():
+    """A module that outgrows this holds more than one job: split it along
+    its seams (as StringBank's mixins: excitation, bridges, hand_over,
+    telemetry)."""
+    long = {str(p.relative_to(SYNTH_DIR)): n for p in SYNTH_DIR.rglob("*.py")
+            if (n := len(p.read_text("utf-8").splitlines())) > MAX_LINES}
+    assert not long, long
