@@ -418,3 +418,48 @@ def test_render_drone_from_python(presets):
         synth.render_drone(NAME, sa=49, cycle_s=20)
     with pytest.raises(ValueError, match=r"^sitar: the preset has no \[drone\] table"):
         synth.render_drone("sitar", sa=49)
+
+
+# -- the end of a rendered file ---------------------------------------------------------
+
+
+def _drone_file(end_s, key=49):
+    """A MIDI file whose one key starts the drone at 0 and whose end of
+    track comes at ``end_s`` (120 bpm, 480 ticks a beat)."""
+    import mido
+
+    mf = mido.MidiFile(ticks_per_beat=480)
+    tr = mido.MidiTrack()
+    mf.tracks.append(tr)
+    tr.append(mido.Message("note_on", note=key, velocity=90, time=0))
+    tr.append(mido.Message("note_off", note=key, velocity=64, time=48))        # at 0.05 s
+    tr.append(mido.MetaMessage("end_of_track", time=int(round((end_s - 0.05) / 0.5 * 480))))
+    return mf
+
+
+def test_a_drone_left_running_plays_out_its_cycle_at_the_file_s_end(presets):
+    """The drone runs to the file's end (its end of track, after the last
+    event), plays out the cycle it is in, and the render ends once the
+    strings have rung out, not at the 30 s limit; the engine alone ends it
+    at the last event."""
+    eng = build_engine(NAME, ["drone.cycle_s=1"])
+    y = eng.render([on(0.0, 49)], drone_end_s=3.5)
+    times = [t for t, *_ in plucks(eng)]
+    # cycles at 0, 1, 2 and 3 s (4 plucks each within 0.6 s + jitter), none from 4 s
+    assert eng.drone.n_cycles == 4 and len(times) == 16, times
+    assert 3.0 <= max(times) < 3.7 and not eng.drone.running
+    assert 4.0 < len(y) / eng.fs_out < 30.0
+    # (without a file: the last event ends it, after its first cycle)
+    eng = build_engine(NAME, ["drone.cycle_s=1"])
+    eng.render([on(0.0, 49)])
+    assert eng.drone.n_cycles == 1 and eng.drone.n_plucks == 4
+
+    from synth.io.midi import read_mido_file
+
+    events, _ = read_mido_file(_drone_file(3.5))
+    assert events.length_s == pytest.approx(3.5, abs=1e-3) and events[-1].time_s < 0.06
+    from synth.api import render_midi
+
+    a = render_midi(_drone_file(3.5), NAME, set={"drone.cycle_s": 1})
+    seconds = a.samples.shape[0] / a.fs
+    assert 4.0 < seconds < 30.0, seconds

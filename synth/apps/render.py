@@ -167,6 +167,9 @@ class RenderPlan:
     max_tail_s: float
     cut: bool
     notes: list = field(default_factory=list)
+    #: the MIDI file's length (s, its end of track), or None (not a file's):
+    #: a drone player still running then plays out its cycle and stops
+    file_end_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -233,7 +236,8 @@ def check_max_seconds(max_seconds: float | None) -> None:
                          f"(0 < value <= {MAX_DURATION_S:g} s)")
 
 
-def plan_render(events: Sequence, max_seconds: float | None = None, shown: str = "MIDI file") -> RenderPlan:
+def plan_render(events: Sequence, max_seconds: float | None = None, shown: str = "MIDI file",
+                file_end_s: float | None = None) -> RenderPlan:
     """Decide what to render: the events kept, the expected length, the warnings.
 
     Parameters
@@ -244,6 +248,9 @@ def plan_render(events: Sequence, max_seconds: float | None = None, shown: str =
         ``--max-seconds`` (validated here), or None.
     shown : str
         The file's name in messages.
+    file_end_s : float or None
+        The file's length (:attr:`synth.io.midi.MidiEvents.length_s`), kept
+        as :attr:`RenderPlan.file_end_s`.
 
     Returns
     -------
@@ -280,7 +287,7 @@ def plan_render(events: Sequence, max_seconds: float | None = None, shown: str =
                      f"{LONG_RENDER_S / 60:g} min of audio; --max-seconds S renders only the "
                      f"first S seconds")
     return RenderPlan(events, [int(e.key) for e in notes], file_len, file_len, expected, None,
-                      max_tail, False, lines)
+                      max_tail, False, lines, file_end_s)
 
 
 def _is_terminal(stream) -> bool:
@@ -510,7 +517,7 @@ class PreparedRender:
             blocks = eng.render_blocks(plan.events, duration_s=plan.duration_s, progress=progress)
         else:
             blocks = eng.render_blocks(plan.events, tail_s=TAIL_S, max_tail_s=plan.max_tail_s,
-                                       progress=progress)
+                                       progress=progress, drone_end_s=plan.file_end_s)
         if interruptible:
             blocks = _checked(blocks)
         fs = eng.fs_out
@@ -565,7 +572,7 @@ def prepare_render(raw, shown: str, preset, overrides=(), *, ignored: dict | Non
     check_max_seconds(max_seconds)
     ignored = {} if ignored is None else ignored
     events = midi_to_events(raw, channels=channels, drums=drums, ignored=ignored)
-    plan = plan_render(events, max_seconds, shown)
+    plan = plan_render(events, max_seconds, shown, file_end_s=getattr(raw, "length_s", None))
     notes = list(plan.notes)
     for line in notes:
         if log is not None:

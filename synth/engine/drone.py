@@ -202,6 +202,7 @@ class Drone:
         moves Sa from the next cycle (another key)."""
         key = float(key)
         if not self.running:
+            self._plucks.clear()             # (a finished cycle's last plucks)
             self.key, self.channel = key, int(channel)
             self.running = True
             self._cycle_at = int(at)
@@ -215,6 +216,13 @@ class Drone:
         self.running = False
         self._cycle_at = None
         self._plucks.clear()
+
+    def finish(self) -> None:
+        """No new cycle: the plucks left of the cycle that runs still sound,
+        then the strings ring on (the end of a rendered MIDI file that
+        leaves the drone running)."""
+        self.running = False
+        self._cycle_at = None
 
     def control(self, cc: int, value: float) -> bool:
         """A controller (0..1); True if it is one of the drone's."""

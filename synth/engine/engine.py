@@ -915,7 +915,7 @@ class Engine(ChannelControls):
 
     def render(self, events, duration_s: float | None = None, tail_s: float = 1.0,
                max_tail_s: float = 30.0, block: int = 1024, compensate_latency: bool = True,
-               progress=None) -> np.ndarray:
+               progress=None, drone_end_s: float | None = None) -> np.ndarray:
         """Render events offline.
 
         duration_s : exact length of the result (s); None: until the last
@@ -927,20 +927,26 @@ class Engine(ChannelControls):
             rendered so far (the latency compensation's included); None
             (the default) calls nothing.  The rendered samples are the same
             either way.
+        drone_end_s : float or None
+            With ``duration_s`` None: a drone player still running at this
+            time (s; None: the last event's) plays out the cycle it is in and
+            stops, and the render ends when its strings have rung out (a MIDI
+            file's end: :attr:`synth.apps.render.RenderPlan.file_end_s`).
         Returns float64 audio at ``fs_out``, shape (n,) (mono) or (n,
         channels), aligned so that an event at t sounds at t (the
         decimator's integer latency and the limiter's are removed).
         (:meth:`render_blocks` gives the same samples a block at a time.)
         """
         chunks = list(self.render_blocks(events, duration_s, tail_s, max_tail_s, block,
-                                         compensate_latency, progress))
+                                         compensate_latency, progress, drone_end_s))
         if chunks:
             return np.concatenate(chunks)
         return np.zeros(0) if self.channels == 1 else np.zeros((0, self.channels))
 
     def render_blocks(self, events, duration_s: float | None = None, tail_s: float = 1.0,
                       max_tail_s: float = 30.0, block: int = 1024,
-                      compensate_latency: bool = True, progress=None):
+                      compensate_latency: bool = True, progress=None,
+                      drone_end_s: float | None = None):
         """:meth:`render`'s samples as a generator of blocks (each a new
         array, (frames,) mono or (frames, channels)), rendered as they are
         asked for: a long render is written out without being held
@@ -972,7 +978,10 @@ class Engine(ChannelControls):
                 if y is not None:
                     yield y
         else:
-            hard = int((last + max_tail_s) * self.fs_out) + lat
+            drone = self.drone
+            drone_end = (last if drone_end_s is None or drone is None
+                         else max(last, float(drone_end_s)))
+            hard = int((drone_end + max_tail_s) * self.fs_out) + lat
             quiet_after = None
             while n_done < hard:
                 y = emit(self.render_block(block))
@@ -982,8 +991,12 @@ class Engine(ChannelControls):
                 if y is not None:
                     yield y
                 t = n_done / self.fs_out
+                if drone is not None and drone.running and t > drone_end:
+                    drone.finish()
                 if (t > last and not self._pending and not self.voices
-                        and (self.taraf is None or self.taraf.n_active == 0)):
+                        and (self.taraf is None or self.taraf.n_active == 0)
+                        and (drone is None or (not drone.running
+                                               and drone.next_due() is None))):
                     if quiet_after is None:
                         # (and the room's reverberation dies away)
                         ring = 0.0 if self.listener is None else self.listener.tail_s

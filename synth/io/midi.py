@@ -275,6 +275,22 @@ def dropped_name(msg) -> str | None:
     return DROPPED_NAMES.get(msg.type, msg.type.replace("_", " "))
 
 
+class MidiEvents(list):
+    """A file's :class:`MidiEvent` list, in playing order, with its length.
+
+    Attributes
+    ----------
+    length_s : float
+        The file's length (s): the time of its last message, its trailing
+        meta events (the end of track) included, so at least the last
+        event's time.
+    """
+
+    def __init__(self, events=(), length_s: float = 0.0):
+        super().__init__(events)
+        self.length_s = float(length_s)
+
+
 def read_midi_file(path: str | os.PathLike[str], dropped: dict | None = None) -> list[MidiEvent]:
     """Read a Standard MIDI File (format 0 or 1, optionally RIFF RMID-wrapped).
 
@@ -289,10 +305,11 @@ def read_midi_file(path: str | os.PathLike[str], dropped: dict | None = None) ->
 
     Returns
     -------
-    list of MidiEvent
-        Channel events in playing order (see the module docstring). A file
-        without notes yields whatever events it has (possibly none); notes
-        without a note-off are kept as they are (the caller releases them).
+    MidiEvents
+        Channel events in playing order (see the module docstring), a list
+        with the file's length (``length_s``). A file without notes yields
+        whatever events it has (possibly none); notes without a note-off are
+        kept as they are (the caller releases them).
 
     Raises
     ------
@@ -372,7 +389,7 @@ def read_midi_bytes(data: bytes, shown: str = "<memory>",
         raise _fail(shown, f"implausible length {length_s:.1f} s ({length_s / 3600:.1f} h), "
                            f"more than the {MAX_DURATION_S / 3600:g} h limit (broken delta times?)")
     # times are already non-decreasing; simultaneous notes in the engine's order
-    return order_events(events)
+    return MidiEvents(order_events(events), length_s)
 
 
 def read_mido_file(midi_file: mido.MidiFile, dropped: dict | None = None) -> tuple[list[MidiEvent], str]:
