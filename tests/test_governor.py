@@ -16,6 +16,7 @@ def _governed(monkeypatch):
     """The governor on (live play's ready_engine turns it off for the
     process, and a test before may have called it)."""
     monkeypatch.setattr(threads.Governor, "auto", True)
+    monkeypatch.setattr(threads.Governor, "realtime_dt_s", None)
 
 
 class Clock:
@@ -54,11 +55,13 @@ def test_a_busy_machine_moves_to_one_thread_and_back():
     gov = threads.Governor(probe_calls=8, probe_s=0.2, clock=clock)
     busy = [True]
     # busy: the threads' calls 10x slower, one in four an outlier either way
+    # (one in twenty on the quiet machine)
     rng = np.random.default_rng(1)
 
     def rate(par):
         base = (1e-7 if busy[0] else 1e-8) if par else 1.6e-8
-        return base * (rng.choice([0.2, 5.0]) if rng.random() < 0.25 else 1.0)
+        odd = 0.25 if busy[0] else 0.05
+        return base * (rng.choice([0.2, 5.0]) if rng.random() < odd else 1.0)
 
     modes = drive(gov, clock, 400, rate)
     assert not gov.parallel
@@ -68,9 +71,51 @@ def test_a_busy_machine_moves_to_one_thread_and_back():
     busy[0] = False
     modes = drive(gov, clock, 400, rate)
     assert gov.parallel
-    # (a probe of one thread every 0.2 s, 3 calls of 23; an outlier's
-    # stretch on one thread now and then)
-    assert modes.count(True) >= 0.7 * len(modes)
+    # (back within 8 x 0.2 s, the longest wait between probes; then a probe
+    # of one thread every 0.2-1.6 s, and an outlier's stretch on one thread
+    # now and then)
+    assert modes[-200:].count(True) >= 0.7 * 200
+
+
+def drive_live(gov, clock, calls, seconds_per_unit, units, samples, nt=2, dt=0.003):
+    modes = []
+    for _ in range(calls):
+        par = gov.pick(nt, units, samples) > 1
+        modes.append(par)
+        gov.record(seconds_per_unit(par) * units, units)
+        clock.t += dt
+    return modes
+
+
+def test_live_probes_one_thread_only_where_the_call_fits_it(monkeypatch):
+    """Live (a budget of 1 / 325 kHz per internal sample): a heavy scene,
+    whose threads take 60 % of the budget (one thread could take 120 %),
+    never tries one thread, busy machine or not; a light one (5 %) moves
+    to one thread when the threads stall and back when they recover."""
+    monkeypatch.setattr(threads.Governor, "realtime_dt_s", 1 / 325_000)
+    samples = 867                                  # a 128-sample block at 48 kHz
+    budget = samples / 325_000
+    heavy, light = 1000.0, 50.0                    # units of the call
+    clock = Clock()
+    gov = threads.Governor(probe_calls=8, probe_s=0.0, clock=clock)
+    r = 0.6 * budget / heavy                       # the threads: 60 % of the budget
+    modes = drive_live(gov, clock, 300, lambda par: r if par else 2 * r, heavy, samples)
+    assert all(modes) and gov.calls[0] == 0
+    # stalled threads (10x): still no probe, the call would not fit one thread
+    modes = drive_live(gov, clock, 300, lambda par: 10 * r if par else 2 * r, heavy, samples)
+    assert all(modes)
+
+    clock = Clock()
+    gov = threads.Governor(probe_calls=8, probe_s=0.0, clock=clock)
+    q = 0.05 * budget / light                      # 5 % of the budget on the threads
+    busy = [False]
+    modes = drive_live(gov, clock, 100, lambda par: (10 * q if busy[0] else q) if par else 1.5 * q,
+                       light, samples)
+    assert gov.parallel and modes.count(False) > 0            # probed, stayed
+    busy[0] = True
+    modes = drive_live(gov, clock, 200, lambda par: (10 * q if busy[0] else q) if par else 1.5 * q,
+                       light, samples)
+    assert not gov.parallel and modes[-100:].count(False) >= 70
 
 
 def test_one_thread_is_not_governed():

@@ -905,7 +905,7 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             gov = nt > 1 and kind in _THREADED
             if gov:
                 nt_all = nt
-                nt = self.governor.pick(nt_all)
+                nt = self.governor.pick(nt_all, self.n_active * c, c)
                 t0 = self.governor.clock()
             # the kernel for what is active (the samples render_sharded gives
             # it), so that a scene compiles only what it runs

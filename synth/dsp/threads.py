@@ -162,12 +162,15 @@ class Governor:
     How it decides: each timed call gives seconds per unit of work (the
     caller's measure, strings x samples), and the last :attr:`keep` of each
     mode are kept.  The bank starts on its threads.  After
-    :attr:`probe_calls` calls, and then at most every :attr:`probe_calls`
-    calls and :attr:`probe_s` seconds, :attr:`burst` calls in a row run in
-    the mode not in use (a probe).  It leaves its threads when their median
+    4 calls, and then at most every :attr:`probe_calls` calls and
+    :attr:`probe_s` seconds (doubled, up to 8 times, each time a probe keeps
+    the mode), :attr:`burst` calls in a row run in the mode not in use (a
+    probe).  It leaves its threads when their median
     exceeds :attr:`margin` times the calling thread's, and comes back when
     it falls below 1 / :attr:`margin` times: on a busy machine single timings
-    of the threads scatter over a factor of ten, medians do not.
+    of the threads scatter over a factor of ten, medians do not.  Live play
+    (:attr:`realtime_dt_s`) probes the calling thread only where the call
+    surely fits there.
 
     Parameters
     ----------
@@ -185,6 +188,17 @@ class Governor:
     #: False: every call on the threads (the thread-count tests, which must
     #: run the parallel loops whatever the machine's load)
     auto = True
+    #: live play: the real-time budget of one internal sample (s, 1 / the
+    #: internal rate; None: offline, no budget).  A probe of the calling
+    #: thread is then made only for a call that would surely fit half its
+    #: budget there: the threads' median time per unit times the call's
+    #: units (:meth:`pick`) times the thread count (one thread is at most
+    #: that much slower) at most half of ``samples x`` this.  A
+    #: heavy scene (the sitar cluster: 112 % of a 128-sample block on one
+    #: thread, 62 % on two) so stays on the threads, where one probe would
+    #: put its block over budget; a light one (a drone, a few notes) moves
+    #: to the calling thread when the machine's other cores are busy.
+    realtime_dt_s = None
     #: timings kept per mode (the medians' samples)
     keep = 5
     #: calls in a row of a probe
@@ -210,10 +224,15 @@ class Governor:
         self.rates = ([], [])
         #: calls timed in each mode: [calling thread, threads]
         self.calls = [0, 0]
-        self._since = 0
+        # (the first probe after 4 calls: a busy machine is found at once)
+        self._since = max(0, self.probe_calls - 4)
         self._probing = 0
         self._last_probe = None
         self._mode = True
+        # the wait between probes: probe_s, doubled (to 8 probe_s) each time a
+        # probe keeps the mode (a machine busy for long is probed less)
+        self._wait_s = self.probe_s
+        self._judge = False
 
     def median(self, parallel: bool) -> float | None:
         """Median of the kept timings of a mode (s per unit), None if none."""
@@ -223,9 +242,23 @@ class Governor:
         k = len(r) // 2
         return r[k] if len(r) % 2 else 0.5 * (r[k - 1] + r[k])
 
-    def pick(self, nt: int) -> int:
+    def _fits_one_thread(self, nt: int, units: float, samples: int) -> bool:
+        """Whether a call of ``units`` over ``samples`` internal samples
+        surely fits half its real-time budget on one thread (always true
+        offline: :attr:`realtime_dt_s` None)."""
+        dt = self.realtime_dt_s
+        if dt is None:
+            return True
+        p = self.median(True)
+        if p is None or samples <= 0:
+            return False
+        return p * units * nt <= 0.5 * samples * dt
+
+    def pick(self, nt: int, units: float = 0.0, samples: int = 0) -> int:
         """Threads for the next call of a kernel given ``nt``: ``nt`` or 1.
-        With ``nt`` 1 there is nothing to decide (1, nothing kept)."""
+        ``units``, ``samples``: the call's work and internal samples (what
+        :meth:`record` will be given; live play's budget needs them).  With
+        ``nt`` 1 there is nothing to decide (1, nothing kept)."""
         if nt <= 1:
             return 1
         if not self.auto:
@@ -233,7 +266,8 @@ class Governor:
             return nt
         if self._probing == 0 and self._since >= self.probe_calls:
             now = self.clock()
-            if self._last_probe is None or now - self._last_probe >= self.probe_s:
+            if ((self._last_probe is None or now - self._last_probe >= self._wait_s)
+                    and (not self.parallel or self._fits_one_thread(nt, units, samples))):
                 self._probing = self.burst
                 self._since = 0
                 self._last_probe = now
@@ -241,6 +275,7 @@ class Governor:
         if self._probing > 0:
             par = not par
             self._probing -= 1
+            self._judge = self._probing == 0
         else:
             self._since += 1
         self._mode = par
@@ -259,9 +294,14 @@ class Governor:
         self.calls[m] += 1
         if self._probing:
             return
+        was = self.parallel
         s, p = self.median(False), self.median(True)
         if s is not None and p is not None:
             if self.parallel and p > self.margin * s:
                 self.parallel = False
             elif not self.parallel and p * self.margin < s:
                 self.parallel = True
+        if self._judge:                      # a probe's last call
+            self._judge = False
+            self._wait_s = (self.probe_s if self.parallel != was
+                            else min(2.0 * self._wait_s, 8.0 * self.probe_s))

@@ -50,11 +50,6 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
     # and each rendering thread's OpenMP team started at its first block,
     # not at the first chord that renders in parallel
     threads.set_priming(True)
-    # and every call on the threads: the governor's probes of one thread
-    # would put a heavy scene's block over its budget (the sitar cluster
-    # takes 112 % of a 128-sample block on one thread, 62 % on two), an xrun
-    # each probe; a busy machine's stalls live are left to the threads
-    threads.Governor.auto = False
     voice = None if instruments is None else instruments.get(preset_name)
     if voice is None:
         voice = build_voice(preset_name, overrides)
@@ -62,5 +57,9 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
             instruments[preset_name] = voice
     # a keyboard may send any key: size the strings for key 0 (study presets
     # otherwise only hold their own string's length; musical ones already do)
-    return build_engine(preset_name, voice=voice, fs_out=fs_out, extra_low_key=0, warm=True,
-                        block=block)
+    eng = build_engine(preset_name, voice=voice, fs_out=fs_out, extra_low_key=0, warm=True,
+                       block=block)
+    # the governor tries the calling thread only for a call that surely fits
+    # half its real-time budget there (a heavy scene stays on the threads)
+    threads.Governor.realtime_dt_s = 1.0 / float(eng.fs_in_exact)
+    return eng
