@@ -161,8 +161,9 @@ class Governor:
 
     How it decides: each timed call gives seconds per unit of work (the
     caller's measure, strings x samples), and the last :attr:`keep` of each
-    mode are kept.  The bank starts on its threads.  After
-    4 calls, and then at most every :attr:`probe_calls` calls and
+    mode are kept (but the threads' first, which starts them).  The bank
+    starts on its threads.  After one call, and then at most every
+    :attr:`probe_calls` calls and
     :attr:`probe_s` seconds (doubled, up to 8 times, each time a probe keeps
     the mode), :attr:`burst` calls in a row run in the mode not in use (a
     probe).  It leaves its threads when their median
@@ -224,8 +225,12 @@ class Governor:
         self.rates = ([], [])
         #: calls timed in each mode: [calling thread, threads]
         self.calls = [0, 0]
-        # (the first probe after 4 calls: a busy machine is found at once)
-        self._since = max(0, self.probe_calls - 4)
+        # (the first probe after one call, whose time is not kept: it starts
+        # the threads; a busy machine is found at once, where a sitar chord's
+        # call on stalled threads took about 0.28 s against 1.5 ms on one,
+        # python tools/bench.py busy)
+        self._since = self.probe_calls - 1
+        self._fresh = True
         self._probing = 0
         self._last_probe = None
         self._mode = True
@@ -287,6 +292,9 @@ class Governor:
         if not units > 0 or not seconds >= 0:
             return
         m = int(self._mode)
+        if m and self._fresh:
+            self._fresh = False              # the threads' first call: their start
+            return
         kept = self.rates[m]
         kept.append(seconds / units)
         if len(kept) > self.keep:
