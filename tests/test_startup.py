@@ -270,6 +270,7 @@ import synth.kernels.render as KR
 print("JSON " + json.dumps({
     "rc": rc,
     "scipy.linalg": "scipy.linalg" in sys.modules,
+    "mido": "mido" in sys.modules,
     "prime_threads": len(KR.prime_threads.signatures),
 }))
 from synth.io.live import ready_engine
@@ -284,8 +285,9 @@ def test_a_one_note_command_starts_no_thread_team_and_no_scipy(tmp_path):
     a one-note ``synth note`` run from the command line renders without a
     parallel loop (less work than PAR_MIN_WORK), so it neither loads the
     priming kernel nor starts OpenMP's team (synth.dsp.threads.set_priming,
-    off offline), and numba's BLAS probe does not import scipy.linalg
-    (synth.cli._SkipBlasProbe).  Live play still primes before the stream
+    off offline), numba's BLAS probe does not import scipy.linalg
+    (synth.cli._SkipBlasProbe), and no MIDI reader (mido: 40 ms) is
+    imported.  Live play still primes before the stream
     opens (ready_engine).  (prime_threads is only ever called from Python:
     a cold cache compiles it for no caller, so the test holds cold or warm.)"""
     env = dict(os.environ, PYTHONPATH=str(ROOT), SYNTH_THREADS="2", NUMBA_NUM_THREADS="2",
@@ -295,7 +297,7 @@ def test_a_one_note_command_starts_no_thread_team_and_no_scipy(tmp_path):
                        capture_output=True, text=True, timeout=1800)
     assert p.returncode == 0, p.stderr
     note, live = (json.loads(x.split("\n", 1)[0]) for x in p.stdout.split("JSON ")[1:])
-    assert note == {"rc": 0, "scipy.linalg": False, "prime_threads": 0}
+    assert note == {"rc": 0, "scipy.linalg": False, "mido": False, "prime_threads": 0}
     assert live == {"primed for live": 1}
 
 

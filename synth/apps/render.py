@@ -41,7 +41,6 @@ import numpy as np
 
 from ..io.errors import SynthError, display_path
 from ..io.interrupt import Interrupted, interruptible, raise_if_interrupted
-from ..io.midi import MAX_DURATION_S
 
 __all__ = [
     "RenderRequest",
@@ -231,6 +230,10 @@ def check_max_seconds(max_seconds: float | None) -> None:
     """``--max-seconds``: None, or 0 < value <= MAX_DURATION_S (SynthError naming it)."""
     if max_seconds is None:
         return
+    # (the MIDI reader, and mido with it, only when a file is read: a note
+    # command imports this module and reads none, 40 ms)
+    from ..io.midi import MAX_DURATION_S
+
     if not (0.0 < max_seconds <= MAX_DURATION_S):     # also NaN
         raise SynthError(f"--max-seconds = {max_seconds:g} is out of range "
                          f"(0 < value <= {MAX_DURATION_S:g} s)")
