@@ -367,7 +367,7 @@ def _damped_b0_reference(inst, key, pedal, coarse=False):
         return [su.b0 for su in sus]
     d = inst.preset.dampers
     lift = min(max((pedal - d.half_pedal_low) / (d.half_pedal_high - d.half_pedal_low), 0.0), 1.0)
-    t_nat = gs.t60_low_s * inst.preset.strings.t60_scale
+    t_nat = gs.t60_low_s * inst.own_t60_factor(key) * inst.preset.strings.t60_scale
     t_d = min(inst.release_t60_s(key), t_nat)
     t_eff = math.exp((1 - lift) * math.log(t_d) + lift * math.log(t_nat))
     sigma = max(math.log(1000) / t_eff - math.log(1000) / t_nat, 0.0)

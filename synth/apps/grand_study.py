@@ -352,21 +352,24 @@ def octave_table(model: dict, real: dict) -> list[dict]:
     return rows
 
 
-def octave_model(keys, position: str, velocity: int = 105, seconds: float = 6.0, voice=None) -> dict:
+def octave_model(keys, position: str, velocity: int = 105, seconds: float = 6.0, voice=None,
+                 overrides=()) -> dict:
     """The grand's notes for :func:`octave_table`: each of ``keys`` played at
     ``velocity`` for ``seconds`` on a fresh engine, heard at ``position``
     (``"body"``: without the listening stage; ``"close"``, ``"player"``,
     ``"hall"``: ``[listener] position``), the mean of its channels; key ->
-    :func:`issue41_measures`."""
+    :func:`issue41_measures`.  ``overrides``: the preset's ``PATH=VALUE``
+    changes (``synth --set``)."""
     from ..dsp.listener import Listener
     from ..engine.engine import NOTE_ON, Event
     from ..io.factory import build_engine, build_voice
 
-    voice = voice if voice is not None else build_voice("grand-piano")
+    overrides = tuple(overrides)
+    voice = voice if voice is not None else build_voice("grand-piano", overrides)
     lst = None
     out = {}
     for k in keys:
-        eng = build_engine("grand-piano", (), voice=voice, threads=1)
+        eng = build_engine("grand-piano", overrides, voice=voice, threads=1)
         if position != "body":
             if lst is None:
                 lst = Listener.design(eng.fs_out, eng.channels, position)

@@ -118,6 +118,11 @@ BRIDGE_RETURN_HZ = 1.0
 #: the note's partials stay within 2 cents (1.5 left 2.1-2.7 cents on some
 #: bass keys' partials 17-21; the design's cost: 5 % more sections than at 2)
 DISPERSION_TOL_CENTS = quality_level("standard").dispersion_tol_cents
+#: semitones over which a treble string's own loss rises to
+#: ``strings.t60_treble_scale`` (log-linear in key, reaching it at
+#: ``strings.t60_treble_from_key``): the recorded grand's partial 1 at 3 s
+#: falls 10-20 dB from B5 to C6 (docs/lab/2026-11-29-fit41.md)
+TREBLE_LOSS_RAMP_ST = 6
 
 
 @dataclass(frozen=True)
@@ -253,7 +258,7 @@ class GrandVoice(KeyboardDampers, Voice):
             f1 = self.tuning_hz(key)
             if fs / (2.0 * f1) < 14.0:
                 continue
-            t_free = P.single_string_t60_s(key) * sp.t60_scale
+            t_free = self._free_string_t60_s(key) * sp.t60_scale
             t_hi = min(gs.t60_s(gs.f_high_hz) * t_free / gs.t60_low_s, t_free)
             f_hi = min(max(gs.f_high_hz, 1.5 * f1), 0.4 * fs)
             if f_hi <= f1:
@@ -358,7 +363,7 @@ class GrandVoice(KeyboardDampers, Voice):
         # a rigid bridge (coupling 0): the string's own decay is the whole
         # decay, as before the bridge was modelled: the prompt T60
         cpl = sp.bridge_coupling if sp.bridge_coupling is not None else 0.0
-        t_own = gs.t60_low_s if cpl > 0 else gs.t60_prompt_s
+        t_own = (gs.t60_low_s if cpl > 0 else gs.t60_prompt_s) * self.own_t60_factor(key)
         out = []
         t_lo = t_own * sp.t60_scale
         t_hi = min(gs.t60_s(gs.f_high_hz) * t_own / gs.t60_low_s * sp.t60_scale, t_lo)
@@ -411,6 +416,41 @@ class GrandVoice(KeyboardDampers, Voice):
                                 damper=(su.b0, su.f1_hz, t_damped, t_nat), bridge=bridge))
         return tuple(full)
 
+    def _treble_weight(self, key: int) -> float:
+        """0 up to :data:`TREBLE_LOSS_RAMP_ST` below
+        ``strings.t60_treble_from_key``, rising linearly in key to 1 there."""
+        k0 = int(self.preset.strings.t60_treble_from_key)
+        return min(max((int(key) - k0 + TREBLE_LOSS_RAMP_ST) / TREBLE_LOSS_RAMP_ST, 0.0), 1.0)
+
+    def own_t60_factor(self, key: int) -> float:
+        """Factor on the key's strings' own T60 (their loss to air and wire,
+        the aftersound's decay): 1 up to :data:`TREBLE_LOSS_RAMP_ST` below
+        ``strings.t60_treble_from_key``, log-linear in key to
+        ``strings.t60_treble_scale`` there, and that above.  The bridge's
+        resistance stays the key's (the prompt sound takes the added loss
+        too)."""
+        scale = float(self.preset.strings.t60_treble_scale)
+        return 1.0 if scale == 1.0 else scale ** self._treble_weight(key)
+
+    def treble_coupling_factor(self, key: int) -> float:
+        """Factor on the bridge's admittance the key's unison feels
+        (``strings.bridge_coupling_treble``, with the same ramp as
+        :meth:`own_t60_factor`): the prompt sound's loss to the board."""
+        c = float(self.preset.strings.bridge_coupling_treble)
+        return 1.0 if c == 1.0 else c ** self._treble_weight(key)
+
+    def _free_string_t60_s(self, key: int) -> float:
+        """T60 (s) at f0 of one of the key's strings alone on the bridge
+        (:func:`synth.physics.piano.single_string_t60_s`) with its own loss
+        as :meth:`own_t60_factor` sets it."""
+        f = self.own_t60_factor(key)
+        if f == 1.0:
+            return P.single_string_t60_s(key)
+        gs = P.grand_string(key)
+        n = max(gs.n_strings, 2)
+        bridge = 1.0 / gs.t60_prompt_s - 1.0 / gs.t60_low_s
+        return 1.0 / (1.0 / (gs.t60_low_s * f) + bridge / n)
+
     def pan(self, key: int) -> float:
         """Where the key's strings meet the bridge, 0 (the bass end, bus 0)
         .. 1 (the treble end, bus 1): linear in the key."""
@@ -450,7 +490,8 @@ class GrandVoice(KeyboardDampers, Voice):
         c = self.preset.strings.bridge_coupling
         if not c:
             return None
-        return P.bridge_resistance_ns_per_m(int(key), self.bridge_mass_hz(key)) / c
+        return (P.bridge_resistance_ns_per_m(int(key), self.bridge_mass_hz(key))
+                / (c * self.treble_coupling_factor(key)))
 
     def bridge_lag(self, key: int, fs: float) -> BridgeLag | None:
         """The phase of the key's unison's in-phase reflection from its

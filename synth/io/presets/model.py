@@ -142,6 +142,9 @@ class StringsSpec:
     bridge_coupling: float | None = None  # grand: factor on the bridge's admittance (0: rigid)
     sympathetic: float | None = None      # grand: factor on the board's bridge the free strings see
     bridge_mass_f0: float | None = None   # grand: the bridge moves as a mass above this x f0 (0: dashpot)
+    t60_treble_scale: float = 1.0         # grand: factor on the treble strings' own T60 (from t60_treble_from_key up)
+    t60_treble_from_key: int = 108        # grand: the first key at that factor (a half-octave ramp below it)
+    bridge_coupling_treble: float = 1.0   # grand: factor on the bridge's admittance from there up
 
 
 @dataclass(frozen=True)

@@ -359,6 +359,17 @@ SECTIONS: tuple[Section, ...] = (
               "a dashpot, above this multiple of the key's f0 (its loss falls there: the low "
               "partials' prompt sound fast, the high ones' slow; 0: a dashpot at every "
               "frequency)", 0.0, 100.0, when=When("voice", ("grand",)), default=0.0),
+        Field("t60_treble_scale", "float", "factor on the treble strings' own T60 (their loss "
+              "to air and wire, which sets the aftersound's decay) from t60_treble_from_key up, "
+              "log-linear in key over the half octave below it (1: the loss law of "
+              "synth.physics.piano)", 0.05, 1.0, when=When("voice", ("grand",)), default=1.0),
+        Field("t60_treble_from_key", "int", "the first key whose strings have t60_treble_scale "
+              "times the law's own T60 (MIDI)", 21, 108, when=When("voice", ("grand",)),
+              default=108),
+        Field("bridge_coupling_treble", "float", "factor on the bridge's admittance a treble "
+              "unison feels (its prompt sound's loss to the board), from t60_treble_from_key "
+              "up, log-linear in key over the half octave below it", 0.25, 4.0,
+              when=When("voice", ("grand",)), default=1.0),
     ), when=_KEYBOARD),
     Section("dampers", "dampers and sustain pedal of the per-key strings", DampersSpec, (
         Field("release_t60_bass_s", "float", "T60 of a damped bass string, s", 0.02, 5.0),
