@@ -116,6 +116,6 @@ def test_octaves_tables_the_grand_against_the_recording(tmp_path):
     assert p.returncode == 0, p.stderr
     assert "position: body" in p.stdout and "| C4-B4 |" in p.stdout
     data = json.loads(out.read_text())
-    assert set(data) == {"real", "body"} and [r["octave"] for r in data["body"]["rows"]] == ["C4-B4"]
+    assert set(data) == {"real", "body", "layer", "velocity", "set"} and [r["octave"] for r in data["body"]["rows"]] == ["C4-B4"]
     # the synthetic note's partial 1 falls 60 dB in 2 s, then sits 25 dB down with a 20 s T60
     assert -40.0 < data["real"]["60"]["p1_3s_db"] < -25.0

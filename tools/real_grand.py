@@ -29,7 +29,12 @@ as targets to the decibel.
 medians per octave of :func:`synth.apps.grand_study.issue41_measures`
 (partial 1 at 3 s and partials 2-10 re partial 1, model minus recording;
 the first 50 ms's centroid, model / recording; the time to the RMS peak,
-recording / model); ``--json`` then writes every key's measures.
+recording / model); ``--json`` then writes every key's measures.  The
+grand was fitted on v10; another layer (``--layer 4``, ``--layer 14``) is
+held out, played by default at its matched velocity
+(:data:`synth.apps.grand_study.LAYER_VELOCITY`: v4 69, v10 105, v14 127)
+and marked so.  ``--set PATH=VALUE`` (repeatable) plays the grand with a
+preset change, as ``synth --set`` does.
 
 Exit 0 after printing the tables; 2 with a one-line error on stderr (no
 such folder, no samples in it).
@@ -47,8 +52,10 @@ import numpy as np
 
 from synth.analysis import attack_centroid_hz, estimate_f0, max_momentary_lufs, track_partials
 from synth.apps.grand_study import (
-    OCTAVES, issue41_measures, load_recording, midi_of, octave_markdown, octave_model, octave_table)
+    FIT_LAYER, LAYER_VELOCITY, OCTAVES, issue41_measures, load_recording, midi_of, octave_markdown, octave_model, octave_table)
 from synth.apps.voicing import FS, decay
+from synth.io.factory import build_voice
+from synth.io.errors import PresetError
 from synth.physics.piano import grand_string
 
 
@@ -137,13 +144,25 @@ def octaves(folder: Path, a) -> int:
         print(f"real_grand: error: no samples of layer {a.layer} (named like C4v{a.layer}.ogg) "
               f"under {folder}", file=sys.stderr)
         return 2
+    velocity = a.velocity if a.velocity is not None else LAYER_VELOCITY.get(a.layer, 105)
+    if not 1 <= velocity <= 127:
+        print(f"real_grand: error: --velocity = {velocity} is out of range (1 <= value <= 127)",
+              file=sys.stderr)
+        return 2
+    try:
+        voice = build_voice("grand-piano", a.set)
+    except (PresetError, ValueError) as e:
+        print(f"real_grand: error: --set: {e}", file=sys.stderr)
+        return 2
+    fitted = "fitted" if a.layer == FIT_LAYER else f"held out: the grand was fitted on v{FIT_LAYER}"
     real = {k: issue41_measures(load_recording(files[k]), k) for k in keys}
-    result = {"real": real}
+    result = {"real": real, "layer": a.layer, "velocity": velocity, "set": list(a.set)}
     for pos in [p.strip() for p in a.positions.split(",") if p.strip()]:
-        model = octave_model(keys, pos, a.velocity)
+        model = octave_model(keys, pos, velocity, voice=voice, overrides=a.set)
         rows = octave_table(model, real)
         result[pos] = {"model": model, "rows": rows}
-        print(f"position: {pos}\n\n{octave_markdown(rows)}\n")
+        print(f"position: {pos}; layer v{a.layer} ({fitted}), the grand at velocity {velocity}"
+              + (f", {' '.join(a.set)}" if a.set else "") + f"\n\n{octave_markdown(rows)}\n")
     if a.json:
         Path(a.json).write_text(json.dumps(result, indent=1, default=float))
     return 0
@@ -158,7 +177,11 @@ def main(argv=None) -> int:
     ap.add_argument("--positions", default="body,close,player,hall",
                     help="with --octaves: body (no listening stage), close, player, hall")
     ap.add_argument("--layer", type=int, default=10, help="with --octaves: the recorded layer")
-    ap.add_argument("--velocity", type=int, default=105, help="with --octaves: the model's velocity")
+    ap.add_argument("--velocity", type=int, default=None,
+                    help="with --octaves: the model's velocity (default: the layer's matched one, "
+                         "v4 69, v10 105, v14 127)")
+    ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
+                    help="with --octaves: a change to the grand's preset (repeatable)")
     a = ap.parse_args(argv)
     folder = Path(a.folder)
     if not folder.is_dir():

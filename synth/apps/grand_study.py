@@ -255,6 +255,16 @@ def load_recording(path) -> np.ndarray:
 #: the octaves of issue 41's table: (name, lowest key, highest key)
 OCTAVES = (("C2-B2", 36, 47), ("C3-B3", 48, 59), ("C4-B4", 60, 71), ("C5-B5", 72, 83),
            ("C6-B6", 84, 95), ("C7-C8", 96, 108))
+#: the fitted layer of tools/real_grand.py --octaves (issue 41: fit on v10,
+#: report the others without refitting)
+FIT_LAYER = 10
+#: the model's velocity for each recorded layer: 105 for v10 (C4 at the
+#: recording's loudness, issue 41); v4 and v14 by C4's step in loudness
+#: from v10 (the recording's maximum momentary loudness, the close
+#: position): v4 is 5.99 dB under v10, the model's C4 5.88 dB under
+#: velocity 105 at 69; v14 is 4.65 dB over, the model reaches +2.48 dB at
+#: 127 (docs/lab/2026-11-29-fit41.md)
+LAYER_VELOCITY = {4: 69, 10: 105, 14: 127}
 #: the onset: the first sample within this level of the note's peak (dB)
 ONSET_DB = -40.0
 

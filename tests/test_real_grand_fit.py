@@ -1,0 +1,117 @@
+"""Issue 41, items 2-3: the grand fitted to a recorded grand (layer v10 of
+the Salamander Yamaha C5) and held out on the other layers.  The recording's
+measures are stored as data (tests/data/salamander_issue41.json, with its
+source and command), so these run without the npm samples."""
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import soundfile as sf
+
+from synth.apps.grand_study import LAYER_VELOCITY, OCTAVES, octave_model, octave_table
+from synth.io.factory import build_voice
+from synth.physics import piano as P
+
+ROOT = Path(__file__).resolve().parents[1]
+DATA = json.loads((ROOT / "tests" / "data" / "salamander_issue41.json").read_text())
+
+
+def _real(layer):
+    return {int(k): v for k, v in DATA["layers"][str(layer)].items()}
+
+
+def test_the_stored_recording_has_every_layer_and_key():
+    """Layers 4, 10, 14, each C2-C8 every minor third (25 keys), each key
+    with the four measures; the recording's own figures of the lab note
+    (docs/lab/2026-11-29-fit41.md: C4-B4's centroid 819 Hz, C7-C8's
+    partial 1 at 3 s -68 dB on v10)."""
+    assert set(DATA["layers"]) == {"4", "10", "14"} and "CC BY 3.0" in DATA["source"]
+    for layer in (4, 10, 14):
+        real = _real(layer)
+        assert sorted(real) == list(range(36, 109, 3))
+        assert all(set(m) == {"p1_3s_db", "upper_db", "centroid_hz", "peak_ms"} for m in real.values())
+    real = _real(10)
+    med = lambda lo, hi, m: float(np.median([real[k][m] for k in real if lo <= k <= hi]))
+    assert med(60, 71, "centroid_hz") == pytest.approx(819, abs=1)
+    assert med(96, 108, "p1_3s_db") == pytest.approx(-68, abs=1)
+
+
+def test_the_treble_loss_ramps_in_over_half_an_octave():
+    """``strings.t60_treble_scale`` (0.8 from key 84 in the preset): the
+    strings' own T60 times 1 up to key 78, log-linear to 0.8 at 84, 0.8
+    above; the default (1) changes no key; ``bridge_coupling_treble``
+    divides the bridge's resistance by its factor over the same ramp."""
+    v = build_voice("grand-piano")
+    assert v.own_t60_factor(78) == 1.0 and v.own_t60_factor(84) == pytest.approx(0.8)
+    assert v.own_t60_factor(81) == pytest.approx(math.sqrt(0.8))
+    assert v.own_t60_factor(108) == pytest.approx(0.8)
+    off = build_voice("grand-piano", ["strings.t60_treble_scale=1"])
+    assert all(off.own_t60_factor(k) == 1.0 for k in range(21, 109))
+    assert off._free_string_t60_s(96) == P.single_string_t60_s(96)
+    assert v._free_string_t60_s(96) < P.single_string_t60_s(96)
+    c = build_voice("grand-piano", ["strings.bridge_coupling_treble=2"])
+    assert c.bridge_resistance_ns_per_m(96) == pytest.approx(v.bridge_resistance_ns_per_m(96) / 2)
+    assert c.bridge_resistance_ns_per_m(60) == v.bridge_resistance_ns_per_m(60)
+
+
+@pytest.mark.slow  # 25 grand notes of 4 s: about 12 s of CPU
+def test_the_fitted_targets_hold_against_the_stored_recording():
+    """The per-octave medians against layer v10 (close position, velocity
+    105) that meet issue 41's targets: partial 1 at 3 s within 6 dB over
+    C2-B2; partials 2-10 within 6 dB over C3-B3, C4-B4 and C6-B6.  And what
+    the fit gained without meeting the target (at most 10 dB above): C6-B6
+    +21 -> +18 dB, C7-C8 +34 -> +30 dB (held here at +19 and +31)."""
+    real = _real(10)
+    rows = {r["octave"]: r for r in octave_table(
+        octave_model(sorted(real), "close", LAYER_VELOCITY[10], seconds=4.0), real)}
+    assert [r for r in rows] == [o for o, _, _ in OCTAVES]
+    assert abs(rows["C2-B2"]["p1_3s_db"]) <= 6.0
+    for o in ("C3-B3", "C4-B4", "C6-B6"):
+        assert abs(rows[o]["upper_db"]) <= 6.0, (o, rows[o]["upper_db"])
+    assert rows["C6-B6"]["p1_3s_db"] <= 19.0
+    assert rows["C7-C8"]["p1_3s_db"] <= 31.0
+
+
+def _run(*argv):
+    return subprocess.run([sys.executable, str(ROOT / "tools" / "real_grand.py"), *argv],
+                          capture_output=True, text=True, cwd=ROOT, timeout=600)
+
+
+def _c4(folder, layer):
+    """A synthetic C4 of ``layer``: partials 1-3, falling 60 dB in 2 s."""
+    fs = 44_100
+    t = np.arange(int(6.0 * fs)) / fs
+    env = np.exp(-math.log(1000.0) * t / 2.0) * np.minimum(t / 0.002, 1.0)
+    y = 0.3 * env * sum(a * np.sin(2 * np.pi * n * 261.63 * t) for n, a in ((1, 1.0), (2, 0.5), (3, 0.25)))
+    d = folder / f"piano-velocity{layer}" / "audio"
+    d.mkdir(parents=True)
+    sf.write(str(d / f"C4v{layer}.ogg"), np.c_[y, y], fs)
+
+
+@pytest.mark.slow  # renders a 6 s grand note
+def test_held_out_v4_is_reported_at_its_matched_velocity(tmp_path):
+    """``--layer 4``: the table of layer v4, marked held out, the grand at
+    v4's matched velocity (69)."""
+    _c4(tmp_path, 4)
+    out = tmp_path / "t.json"
+    p = _run(str(tmp_path), "--octaves", "--layer", "4", "--positions", "body", "--json", str(out))
+    assert p.returncode == 0, p.stderr
+    assert "layer v4 (held out: the grand was fitted on v10), the grand at velocity 69" in p.stdout
+    assert "| C4-B4 |" in p.stdout
+    data = json.loads(out.read_text())
+    assert data["layer"] == 4 and data["velocity"] == 69 and list(data["body"]["model"]) == ["60"]
+
+
+def test_a_bad_velocity_or_change_is_a_one_line_error(tmp_path):
+    _c4(tmp_path, 10)
+    for argv, words in ((["--velocity", "0"], "--velocity = 0 is out of range (1 <= value <= 127)"),
+                        (["--set", "strings.t60_treble_scale=9"],
+                         "strings.t60_treble_scale = 9 (from --set) is out of range")):
+        p = _run(str(tmp_path), "--octaves", *argv)
+        assert p.returncode == 2 and words in p.stderr
+        assert len(p.stderr.strip().splitlines()) == 1
