@@ -191,15 +191,18 @@ class Governor:
     auto = True
     #: live play: the real-time budget of one internal sample (s, 1 / the
     #: internal rate; None: offline, no budget).  A probe of the calling
-    #: thread is then made only for a call that would surely fit half its
-    #: budget there: the threads' median time per unit times the call's
-    #: units (:meth:`pick`) times the thread count (one thread is at most
-    #: that much slower) at most half of ``samples x`` this.  A
-    #: heavy scene (the sitar cluster: 112 % of a 128-sample block on one
-    #: thread, 62 % on two) so stays on the threads, where one probe would
-    #: put its block over budget; a light one (a drone, a few notes) moves
-    #: to the calling thread when the machine's other cores are busy.
+    #: thread is then made only for a call that would surely take at most
+    #: :attr:`realtime_share` of its budget there: the threads' median time
+    #: per unit times the call's units (:meth:`pick`) times the thread count
+    #: (one thread is at most that much slower).  A heavy scene so stays on
+    #: the threads; a light one (a drone, a few notes) moves to the calling
+    #: thread when the machine's other cores are busy.  (With a half, the
+    #: grand's 64-voice chords probed one thread, and on a quiet machine
+    #: their live blocks went from 27 % / 102 % to 34 % / 120 % of the
+    #: budget, mean / 99th percentile: tools/bench.py live, 2026-11-29.)
     realtime_dt_s = None
+    #: the share of a call's real-time budget that one thread must surely fit
+    realtime_share = 0.2
     #: timings kept per mode (the medians' samples)
     keep = 5
     #: calls in a row of a probe
@@ -249,15 +252,15 @@ class Governor:
 
     def _fits_one_thread(self, nt: int, units: float, samples: int) -> bool:
         """Whether a call of ``units`` over ``samples`` internal samples
-        surely fits half its real-time budget on one thread (always true
-        offline: :attr:`realtime_dt_s` None)."""
+        surely fits :attr:`realtime_share` of its real-time budget on one
+        thread (always true offline: :attr:`realtime_dt_s` None)."""
         dt = self.realtime_dt_s
         if dt is None:
             return True
         p = self.median(True)
         if p is None or samples <= 0:
             return False
-        return p * units * nt <= 0.5 * samples * dt
+        return p * units * nt <= self.realtime_share * samples * dt
 
     def pick(self, nt: int, units: float = 0.0, samples: int = 0) -> int:
         """Threads for the next call of a kernel given ``nt``: ``nt`` or 1.

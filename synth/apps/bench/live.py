@@ -113,8 +113,12 @@ def drive(preset: str, events, seconds: float, block: int, polyphony: int,
     (block times, most voices, callback errors, voices shed).
     ``shedding``: with the live player's default overload rule (``rt_kw``
     changing it) instead of none."""
-    # warmed as the live player does before the stream opens
+    # warmed as the live player does before the stream opens, its threads
+    # governed with the real-time budget (synth.io.live.ready_engine)
+    from synth.dsp.threads import Governor
+
     eng = build_engine(preset, polyphony=polyphony, warm=True, block=block, threads=threads)
+    Governor.realtime_dt_s = 1.0 / float(eng.fs_in_exact)
     clock = Clock()
     rt = Realtime(eng, block=block, clock=clock, **rt_kw) if shedding else \
         Realtime(eng, block=block, clock=clock, overload=None)

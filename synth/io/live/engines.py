@@ -60,6 +60,6 @@ def ready_engine(preset_name: str, block: int = 128, instruments: dict | None = 
     eng = build_engine(preset_name, voice=voice, fs_out=fs_out, extra_low_key=0, warm=True,
                        block=block)
     # the governor tries the calling thread only for a call that surely fits
-    # half its real-time budget there (a heavy scene stays on the threads)
+    # a fifth of its real-time budget there (a heavy scene stays on the threads)
     threads.Governor.realtime_dt_s = 1.0 / float(eng.fs_in_exact)
     return eng
