@@ -19,6 +19,8 @@ import warnings
 
 #: environment variable giving the default thread count
 ENV = "SYNTH_THREADS"
+#: environment variable turning the offline and live governor of threads off
+GOVERNOR_ENV = "SYNTH_GOVERNOR"
 
 _local = threading.local()
 _default: int | None = None
@@ -187,8 +189,9 @@ class Governor:
     """
 
     #: False: every call on the threads (the thread-count tests, which must
-    #: run the parallel loops whatever the machine's load)
-    auto = True
+    #: run the parallel loops whatever the machine's load; ``SYNTH_GOVERNOR=off``
+    #: in the environment, to measure the threads alone)
+    auto = os.environ.get(GOVERNOR_ENV, "on").strip().lower() not in ("off", "0", "no")
     #: live play: the real-time budget of one internal sample (s, 1 / the
     #: internal rate; None: offline, no budget).  A probe of the calling
     #: thread is then made only for a call that would surely take at most
