@@ -195,6 +195,7 @@ def _sha(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_two_workers_render_a_spec_a_second_run_renders_nothing(tmp_path, cluster):
     import soundfile as sf
 

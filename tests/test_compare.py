@@ -580,6 +580,7 @@ def test_browser_loads_and_decodes_every_buffer(browser, cmp3):
     _no_console_errors(browser)
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_browser_ab_switch_keeps_the_playhead_and_loops(browser, cmp3):
     out, _ = cmp3
     _open(browser, (out / "index.html").as_uri())
@@ -620,6 +621,7 @@ def _csv_rows(text: str) -> list[dict]:
     return list(csv.DictReader(io.StringIO(text)))
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_browser_abx_session_score_p_value_mushra_csv_and_screenshot(browser, cmp3, tmp_path):
     out, _ = cmp3
     seed = 20240611

@@ -48,6 +48,7 @@ def test_a_warm_voice_saves_its_keys_and_the_next_loads_them_unchanged(store, mo
             assert np.array_equal(other.U, su.U)
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_loaded_designs_render_the_same_samples(store, monkeypatch):
     synth.render_note("sitar", key=50, seconds=0.2)         # warm nothing: one key
     v = build_voice("sitar", [])

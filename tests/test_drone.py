@@ -437,6 +437,7 @@ def _drone_file(end_s, key=49):
     return mf
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_a_drone_left_running_plays_out_its_cycle_at_the_file_s_end(presets):
     """The drone runs to the file's end (its end of track, after the last
     event), plays out the cycle it is in, and the render ends once the

@@ -432,6 +432,7 @@ def test_the_key_preset_and_the_hammer_command(capsys, tmp_path):
 
 # ---- the reproduction of chapter 2 (docs/reproduction.md): shocks, lists, the script ----
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_the_finite_volumes_capture_the_shock():
     """scheme="fv": before the front breaks it is the finite differences'
     solution (a sech pulse, p = 1.5, t = 2: within 1e-4 = 0.1 % of A;

@@ -183,6 +183,7 @@ def test_no_server_is_one_line(server):
     assert "no JACK server is running" in last and "Traceback" not in p.stderr, p.stderr
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_the_server_going_away_is_one_line_and_non_zero(server, tmp_path):
     """The server stops while synth plays: one line, exit 1, and the
     recording of what it played (``--record``) is a complete WAV file."""
@@ -451,6 +452,7 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
     assert fs == FS and len(y) > 2 * FS and np.max(np.abs(y)) > 0.01
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_reconnect_waits_for_the_server_and_plays_on(private_server, tmp_path):
     """--reconnect: the server stops, synth says it waits; the server
     comes back under the same name, synth plays again (a note sent then is

@@ -362,6 +362,7 @@ def test_signal_leaves_no_file(tmp_path, long_midi, signum, existing):
         assert out.read_bytes() == before
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_ctrl_c_on_a_terminal_after_the_progress_bar(tmp_path):
     """A real terminal (a pty of 80 columns): the bar appears after 2 s with
     the time left; Ctrl-C then stops the render and leaves nothing."""

@@ -381,6 +381,7 @@ def test_two_buses_split_the_output_by_pan(per_sample, out_mode, lossy):
     ("jawari-case3", 1e-8, 3),      # 7.0e-9, three steps near 7.98 ms (the step in its profile)
     ("sawari", 2e-14, 0),           # 5.9e-15; 451 steps over 1e-15
 ])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_energy_rise_per_step(name, max_rise, n_over):
     """The bound docs/reproduction.md states, step by step over the first
     92 ms after the pluck (30 000 steps): the clamp removes energy from
