@@ -132,7 +132,11 @@ def test_warmup_is_a_command():
 
 
 def _synth(args, cache, cwd):
-    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))
+    """``synth ARGS`` in a subprocess in ``cwd`` with numba's cache in
+    ``cache`` (None: the suite's own); (stdout, stderr), exit status 0."""
+    env = dict(os.environ, PYTHONPATH=str(ROOT))
+    if cache is not None:
+        env["NUMBA_CACHE_DIR"] = str(cache)
     env.pop("SYNTH_COMPILE_NOTICE", None)
     r = subprocess.run([sys.executable, "-m", "synth.cli", *args], env=env, cwd=str(cwd),
                        capture_output=True, text=True, timeout=1800)
@@ -164,15 +168,7 @@ def test_warmup_compiles_then_says_it_compiled_nothing(tmp_path):
     default): a fresh one would compile the whole tree again, which
     :func:`test_cold_start_says_so_then_nothing` and CI's fresh install
     already do, and the other tests load what it compiles."""
-    env = dict(os.environ, PYTHONPATH=str(ROOT))
-    env.pop("SYNTH_COMPILE_NOTICE", None)
-    runs = []
-    for _ in range(2):
-        r = subprocess.run([sys.executable, "-m", "synth.cli", "warmup", "--presets", "biwa"],
-                           env=env, cwd=str(tmp_path), capture_output=True, text=True,
-                           timeout=1800)
-        assert r.returncode == 0, r.stderr
-        runs.append((r.stdout, r.stderr))
+    runs = [_synth(["warmup", "--presets", "biwa"], None, tmp_path) for _ in range(2)]
     assert "warmup: compiled" in runs[0][0] or "already compiled" in runs[0][0]
     assert "already compiled" in runs[1][0] and CN.MESSAGE not in runs[1][1]
 

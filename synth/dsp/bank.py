@@ -901,11 +901,11 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             kind = (KR.KIND_SHARDS if self.whole_kernel
                     else KR.bank_kind(self.active, self.n_active, self.ipar, self.fpar, c))
             # (a kernel that may run loops on the threads: the governor picks
-            # them or this thread, and times the call)
+            # them or this thread, ntc, and times the call)
             gov = nt > 1 and kind in _THREADED
+            ntc = nt
             if gov:
-                nt_all = nt
-                nt = self.governor.pick(nt_all, self.n_active * c, c)
+                ntc = self.governor.pick(nt, self.n_active * c, c)
                 t0 = self.governor.clock()
             # the kernel for what is active (the samples render_sharded gives
             # it), so that a scene compiles only what it runs
@@ -913,7 +913,7 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
                 KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                   self.active, self.n_active, c, o0 + done, mix,
                                   self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
-                                  smix, self._plan, pb, self._tw, self._ib, nt)
+                                  smix, self._plan, pb, self._tw, self._ib, ntc)
             elif kind == KR.KIND_BIG_GROUPS or kind == KR.KIND_BIG_GROUPS_ONE:
                 # (nt None: the blocks on this thread, a separate compile
                 # without the parallel loops, which one note never needs)
@@ -921,8 +921,7 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
                 KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                      self.active, self.n_active, c, o0 + done, mix, self.probe,
                                      self._scratch2[0], self._iwork2[0], pb, self._tw, self._ib,
-                                     nt if gov or (kind == KR.KIND_BIG_GROUPS and nt > 1)
-                                     else None)
+                                     ntc if kind == KR.KIND_BIG_GROUPS and nt > 1 else None)
             elif kind == KR.KIND_SMALL_GROUP:
                 KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                       self.active, self.n_active, c, o0 + done, mix, self.probe,
@@ -935,10 +934,9 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
                 KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                self.active, self.n_active, c, o0 + done, mix,
                                self.probe, self._scratch2[0], self._iwork2[0], ubx,
-                               self._sub3[0], pb, self._tw, self._ib, nt)
+                               self._sub3[0], pb, self._tw, self._ib, ntc)
             if gov:
                 self.governor.record(self.governor.clock() - t0, self.n_active * c)
-                nt = nt_all
             done += c
             self.time += c
 
