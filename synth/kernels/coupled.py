@@ -369,6 +369,7 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt, z
     cb3 = _col4(zt, fpar, r0, r1, r2, r3, F_SOS + 7) if cnt > 3 else z
     y13 = _col4(zt, fst, r0, r1, r2, r3, q0 + 14) if cnt > 3 else z
     y23 = _col4(zt, fst, r0, r1, r2, r3, q0 + 15) if cnt > 3 else z
+    # <generated: tools/gen_kernels.py _lanes_head>
     if ns == 1 and cnt == 0:
         for i in range(n):
             b0 = gk * b0 + gc
@@ -533,6 +534,7 @@ def _lanes_head(X0, X1, X2, X3, buf, n, fpar, fst, r0, r1, r2, r3, G, ns, cnt, z
             y23 = y13
             y13 = o3
             store4(buf, W * i, o3)
+    # </generated>
     _put4(fpar, r0, r1, r2, r3, G, F_B0, b0)
     _put4(fst, r0, r1, r2, r3, G, S_LP, lp)
     _put4(fst, r0, r1, r2, r3, G, s0, x0)
@@ -571,6 +573,7 @@ def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt, zt):
     cb3 = _col4(zt, fpar, r0, r1, r2, r3, f0 + 7) if cnt > 3 else z
     y13 = _col4(zt, fst, r0, r1, r2, r3, q0 + 14) if cnt > 3 else z
     y23 = _col4(zt, fst, r0, r1, r2, r3, q0 + 15) if cnt > 3 else z
+    # <generated: tools/gen_kernels.py _lanes_biquads>
     if cnt == 1:
         for i in range(n):
             h = loadv(zt, buf, W * i)
@@ -625,6 +628,7 @@ def _lanes_biquads(buf, n, fpar, fst, r0, r1, r2, r3, G, j0, cnt, zt):
             y23 = y13
             y13 = o3
             store4(buf, W * i, o3)
+    # </generated>
     _put_biquads(fst, r0, r1, r2, r3, G, q0, cnt, x10, x20, y10, y20, y11, y21, y12, y22,
                  y13, y23)
 

@@ -116,6 +116,7 @@ def _sections(v_, n, st, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
     multiply-add."""
     x0 = st[s0]
     y0 = st[s0 + 1]
+    # <generated: tools/gen_kernels.py _sections>
     if cnt == 1:
         for i in range(n):
             v = v_[i]
@@ -176,6 +177,7 @@ def _sections(v_, n, st, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
         st[s2 + 1] = y2
         st[s3] = x3
         st[s3 + 1] = y3
+    # </generated>
     st[s0] = x0
     st[s0 + 1] = y0
 
@@ -197,6 +199,7 @@ def _biquads(v_, n, st, fp, j0, cnt):
     x20 = st[q0 + 1]
     y10 = st[q0 + 2]
     y20 = st[q0 + 3]
+    # <generated: tools/gen_kernels.py _biquads>
     if cnt == 1:
         for i in range(n):
             x = v_[i]
@@ -305,6 +308,7 @@ def _biquads(v_, n, st, fp, j0, cnt):
         st[q3 + 1] = y22
         st[q3 + 2] = y13
         st[q3 + 3] = y23
+    # </generated>
     st[q0] = x10
     st[q0 + 1] = x20
     st[q0 + 2] = y10
@@ -324,6 +328,7 @@ def _head(xin, yo, n, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
     lp = st[S_LP]
     x0 = st[s0]
     y0 = st[s0 + 1]
+    # <generated: tools/gen_kernels.py _head>
     if cnt == 1:
         for i in range(n):
             b0 = gk * b0 + gc
@@ -388,6 +393,7 @@ def _head(xin, yo, n, st, fp, cnt, s0, s1, s2, s3, c0, c1, c2, c3):
         st[s2 + 1] = y2
         st[s3] = x3
         st[s3 + 1] = y3
+    # </generated>
     st[s0] = x0
     st[s0 + 1] = y0
     st[S_LP] = lp
@@ -443,6 +449,7 @@ def _head_sos(xin, yo, n, st, fp, ns, s0, s1, c0, c1, cnt):
     cb3 = fp[F_SOS + 7] if cnt > 3 else 0.0
     y13 = st[q0 + 14] if cnt > 3 else 0.0
     y23 = st[q0 + 15] if cnt > 3 else 0.0
+    # <generated: tools/gen_kernels.py _head_sos>
     if ns == 1 and cnt == 1:
         for i in range(n):
             b0 = gk * b0 + gc
@@ -591,6 +598,7 @@ def _head_sos(xin, yo, n, st, fp, ns, s0, s1, c0, c1, cnt):
             y23 = y13
             y13 = o3
             yo[i] = o3
+    # </generated>
     st[s0] = x0
     st[s0 + 1] = y0
     if ns == 2:
