@@ -101,7 +101,7 @@ def test_a_played_keys_string_stops_rendering_once_muted():
     keys = [36, 40, 43, 48, 52, 55, 60, 64, 67, 72]
     e = engine("grand-piano")
     e.schedule([Event(0.0, "control", 64, 1.0)]
-               + [Event(0.0, "note_on", k, 0.7) for k in keys])
+               + [Event(0.002, "note_on", k, 0.7) for k in keys])
     sym = e.sym
     e.render_block(256)
     assert sym.n_active == sym.n              # every string at first (the muted ones fading)
@@ -115,6 +115,37 @@ def test_a_played_keys_string_stops_rendering_once_muted():
         e.render_block(256)
     live = {sym.keys[int(s)] for s in sym.bank.active[:sym.n_active]}
     assert 60 not in live                 # the played note still sounds (the pedal holds it)
+
+
+def test_keys_struck_as_the_pedal_goes_down_never_start_their_strings():
+    """Events at one output sample set the sympathetic strings once, to the
+    state the last of them leaves (a chord's note-ons read and set it once):
+    the strings of keys struck at the sample the pedal goes down never
+    start (they used to start and fade at once), the others do, and a chord
+    at another sample reads the state once for all its keys."""
+    keys = [36, 40, 43, 48, 52, 55, 60, 64, 67, 72]
+    e = engine("grand-piano")
+    calls = []
+    orig = e._sympathetic_state
+
+    def counted():
+        calls.append(e.time_in)
+        return orig()
+
+    e._sympathetic_state = counted
+    e.schedule([Event(0.0, "control", 64, 1.0)]
+               + [Event(0.0, "note_on", k, 0.7) for k in keys])
+    e.render_block(256)
+    sym = e.sym
+    live = {sym.keys[int(s)] for s in sym.bank.active[:sym.n_active]}
+    assert live == set(sym.keys) - set(keys)
+    assert len(calls) == 1
+    t = e.time_out / e.fs_out
+    e.schedule([Event(t, "note_on", k, 0.7) for k in (38, 45, 50, 57, 62)])
+    e.render_block(256)
+    assert len(calls) == 2
+    live = {sym.keys[int(s)] for s in sym.bank.active[:sym.n_active]}
+    assert {38, 45, 50, 57, 62} <= live       # struck later: fading, still rendering
 
 
 def test_dampers_set_as_they_are_touch_nothing():

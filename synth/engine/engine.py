@@ -291,6 +291,10 @@ class Engine(ChannelControls):
         self._vrel = np.zeros(self.n_index, dtype=bool)
         self._sym_events: list = []          # (output sample, lift, muted, hush) within this block
         self._sym_hush = False               # all sound off: fade them at the next such event
+        #: (output sample, hush) of the latest events' new state, not yet read
+        #: (:meth:`_sym_event`), or None
+        self._sym_wait: tuple | None = None
+        self._n_out = 0                      # the block's output samples (:meth:`render_block`)
         #: the action's knocks: a unit pulse (its shape), and the force still
         #: to add to the buses (output samples from the block's start)
         self._knock_unit = knock_pulse(self.fs_out, 1.0, instrument.knock_duration_s())
@@ -523,6 +527,8 @@ class Engine(ChannelControls):
             self._track(v, ev.key if ev.f0_hz is None else None)
 
     def _apply(self, ev: Event, at: int) -> None:
+        if self._sym_wait is not None and self._sym_wait[0] != self._sym_sample(at):
+            self._sym_read()                   # the state the earlier events left
         if self.drone is not None and ev.string is None and ev.f0_hz is None \
                 and ev.kind in (NOTE_ON, NOTE_OFF) and ev.key is not None and ev.key >= 0:
             # the drone player's keys: a note-on starts, stops or moves the
@@ -641,6 +647,7 @@ class Engine(ChannelControls):
         n_in = self.dec.inputs_needed(n_out)
         mix = self.mix[:, :n_in]
         mix[:] = 0.0
+        self._n_out = n_out
         start = self.time_in
         end = start + n_in
         bank = self.bank
@@ -696,6 +703,8 @@ class Engine(ChannelControls):
                 cursor = off
             self._apply(ev, start + off)
             self._sym_event(start + off, n_out)
+        if self._sym_wait is not None:
+            self._sym_read()
         if cursor < n_in:
             bank.render(self.mix, cursor, n_in - cursor)
         self.time_in = end
@@ -748,16 +757,33 @@ class Engine(ChannelControls):
         self.time_out += n_out
         return y
 
+    def _sym_sample(self, at: int) -> int:
+        """The output sample in this block at which the sympathetic strings
+        take the state an event at internal sample ``at`` leaves."""
+        return min(max(self._out_sample(at), 0), self._n_out)
+
     def _sym_event(self, at: int, n_out: int) -> None:
-        """After an event at internal sample ``at``: the sympathetic strings'
-        new state, from the output sample of that internal sample
-        (block-size independent)."""
+        """After an event at internal sample ``at``: the sympathetic strings
+        take their new state from the output sample of that internal sample
+        (block-size independent).  The state is read once for all the
+        events that act at one output sample (:meth:`_sym_read`, before the
+        next event at another sample, or at the end of the events): a
+        chord's eight note-ons read and set it once, not eight times (each
+        read and set cost 20-30 us of the audio thread's block)."""
         if self.sym is not None and self._sym_dirty:
-            j = self._out_sample(at)
-            self._sym_events.append((min(max(j, 0), n_out), *self._sympathetic_state(),
-                                     self._sym_hush))
+            j = min(max(self._out_sample(at), 0), n_out)
+            w = self._sym_wait
+            hush = self._sym_hush or (w is not None and w[0] == j and w[1])
+            self._sym_wait = (j, hush)
             self._sym_dirty = False
             self._sym_hush = False
+
+    def _sym_read(self) -> None:
+        """The state the events at the waiting output sample left, to the
+        block's list (:meth:`_sympathetic_block` applies it there)."""
+        j, hush = self._sym_wait
+        self._sym_wait = None
+        self._sym_events.append((j, *self._sympathetic_state(), hush))
 
     def _knock_into(self, kb: np.ndarray, d: np.ndarray, n_out: int) -> bool:
         """Add the knock buffer's next ``n_out`` samples to ``d`` and shift
