@@ -411,3 +411,60 @@ def test_the_felt_solver_stops_at_its_tolerance():
     assert np.max(np.abs(g(1e-1) - ref)) > 1e-4 * scale
     with pytest.raises(ValueError, match="solver_tol = 0.5 is out of range"):
         g(0.5)
+
+
+def test_a_unison_struck_in_one_call_is_struck_as_string_by_string():
+    """``StringBank.start_hammers_from`` (one kernel call a strike, the
+    grand's note-on) writes what ``start_hammer_from`` writes string by
+    string, to the bit: on strings at rest, on sounding strings whose last
+    hammer still runs or has ended (its g folded into the ring), with the
+    soft pedal's stiffness factor; a template of another time step is
+    refused and nothing is written."""
+    from synth.dsp.bank import hammer_set
+    from synth.io.factory import build_voice
+    from synth.physics import piano as P
+
+    inst = build_voice("grand-piano")
+    key = 52
+    sus = inst.setup(key)
+    n = len(sus)
+    R = max(0 if su.U is None else len(su.U) for su in sus)
+
+    def bank():
+        b = StringBank(2 * n, max(su.cells for su in sus) + 2, max(1, R), 4096)
+        for s in range(2 * n):
+            b.configure_from(s, sus[s % n].slot)
+        return b
+
+    hs = hammer_set([su.hammer for su in sus], P.UNISON_STRIKE[n])
+    a, b = bank(), bank()
+    one = tuple(range(n))
+    mix = np.zeros(700)
+    for V, stiff, run in ((3.0, 1.0, 0), (5.5, 0.7, 300), (1.2, 1.0, 700)):
+        # the two banks hold the same strings: a strikes in one call, b string by string
+        for bb in (a, b):
+            if run:
+                bb.render(mix, 0, run)            # sounding, a hammer running or ended
+        a.start_hammers_from(one, hs, V, stiff)
+        for j, s in enumerate(one):
+            b.start_hammer_from(s, sus[j].hammer, V * P.UNISON_STRIKE[n][j], stiff)
+        for j in range(n):
+            a.activate(j)
+            b.activate(j)
+        for arr in ("ring", "fpar", "fst", "ipar"):
+            assert np.array_equal(getattr(a, arr), getattr(b, arr)), (arr, V)
+    other = hammer_set([replace_dt(su.hammer) for su in sus], P.UNISON_STRIKE[n])
+    before = a.fpar.copy()
+    with pytest.raises(ValueError, match="does not match slot 0's time step"):
+        a.start_hammers_from(one, other, 3.0)
+    assert np.array_equal(a.fpar, before)
+    with pytest.raises(ValueError, match="one per hammer"):
+        a.start_hammers_from(one[:1], hs, 3.0)
+    with pytest.raises(ValueError, match="speed_m_per_s"):
+        a.start_hammers_from(one, hs, 25.0)
+
+
+def replace_dt(t):
+    import dataclasses
+
+    return dataclasses.replace(t, dt_s=t.dt_s * 1.5)

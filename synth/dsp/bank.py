@@ -28,7 +28,7 @@ from .bridges import Bridges
 from .hand_over import SLOT_COLS, HandOver
 from .telemetry import Telemetry
 from .excitation import (  # noqa: F401  (re-exported: the voices build their hammers here)
-    SOLVER_TOL, Excitations, HammerTemplate, hammer_template)
+    SOLVER_TOL, Excitations, HammerSet, HammerTemplate, hammer_set, hammer_template)
 
 # compiles of the kernels counted and timed (and, from the synth command, announced)
 compile_notice.listen()
@@ -314,6 +314,8 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         self.ring = np.zeros(self.capacity * 2 * self.max_cells)
         self.ring.fill(0.0)            # fault the pages in now, not at a note-on
         self._clean = np.ones(self.capacity, dtype=bool)
+        #: slot tuples as int64 arrays (:meth:`start_hammers_from`)
+        self._slot_rows: dict = {}
         self.ipar = np.zeros((self.capacity, K.I_NI), dtype=np.int64)
         self.fpar = np.zeros((self.capacity, K.F_NF))
         self.fst = np.zeros((self.capacity, K.S_NS))

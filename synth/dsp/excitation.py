@@ -17,6 +17,7 @@ import numpy as np
 
 from ..kernels import felt_layer as FL
 from ..kernels import strings as K
+from ..kernels.excite import start_hammers
 
 #: ``fpar`` columns a hammer template sets (speed F_HV and F_HDTV are per strike)
 _HAMMER_COLS = np.array([K.F_HQ, K.F_HP, K.F_HA, K.F_HT, K.F_HREL, K.F_HE, K.F_HK, K.F_HMC,
@@ -97,8 +98,72 @@ def hammer_template(*, law: int, mass_kg: float, stiffness: float, exponent: flo
     return HammerTemplate(int(law), v, max(1, int(round(max_flight_s / dt_s))), float(dt_s))
 
 
+@dataclass(frozen=True, eq=False)
+class HammerSet:
+    """The hammers of a unison's strings, stacked for
+    :meth:`Excitations.start_hammers_from` (one kernel call a strike):
+    string j's template values, law, flight and time step, and its share
+    of the key's speed (``factors[j]``, 0 < value <= 1)."""
+
+    hvals: np.ndarray         # (n, len(_HAMMER_COLS))
+    laws: np.ndarray          # int64 (n,)
+    e_ends: np.ndarray        # int64 (n,)
+    dts: np.ndarray           # float64 (n,), s
+    factors: np.ndarray       # float64 (n,)
+
+    @property
+    def n(self) -> int:
+        return int(self.laws.shape[0])
+
+
+def hammer_set(templates, factors) -> HammerSet:
+    """Stack ``templates`` (:class:`HammerTemplate`, one per string) with
+    each string's share ``factors`` of the strike speed (0 < value <= 1)."""
+    templates = tuple(templates)
+    f = np.array([float(x) for x in factors], dtype=np.float64)
+    if len(templates) == 0 or f.shape != (len(templates),):
+        raise ValueError(f"factors: {len(f)} for {len(templates)} hammers (one each, at least one)")
+    if not np.all((f > 0.0) & (f <= 1.0)):
+        raise ValueError(f"factors = {tuple(f.tolist())!r} are out of range (0 < value <= 1)")
+    return HammerSet(np.ascontiguousarray(np.stack([t.values for t in templates])),
+                     np.array([t.law for t in templates], dtype=np.int64),
+                     np.array([t.e_end for t in templates], dtype=np.int64),
+                     np.array([t.dt_s for t in templates], dtype=np.float64), f)
+
+
 class Excitations:
     """How a slot is excited (a mixin of :class:`synth.dsp.bank.StringBank`)."""
+
+    def start_hammers_from(self, slots, hs: HammerSet, speed_m_per_s: float,
+                           stiffness_factor: float = 1.0) -> None:
+        """Strike ``slots`` (a sequence of ``hs.n`` slot indices) with the
+        hammers of ``hs`` at ``speed_m_per_s`` (m/s, 0 < value <= 20; string
+        j's times ``hs.factors[j]``), the felt stiffness scaled by
+        ``stiffness_factor`` (0 < value <= 4): :meth:`start_hammer_from` for
+        each, in one kernel call (:func:`synth.kernels.excite.start_hammers`),
+        the same values to the bit."""
+        if not (0.0 < speed_m_per_s <= 20.0):
+            raise ValueError(f"speed_m_per_s = {speed_m_per_s!r} is out of range (0 < value <= 20)")
+        if not (0.0 < stiffness_factor <= 4.0):
+            raise ValueError(f"stiffness_factor = {stiffness_factor!r} is out of range (0 < value <= 4)")
+        key = slots if isinstance(slots, tuple) else tuple(slots)
+        arr = self._slot_rows.get(key)
+        if arr is None:
+            arr = np.array(key, dtype=np.int64)
+            if arr.ndim != 1 or arr.size == 0 or arr.min() < 0 or arr.max() >= self.capacity:
+                raise ValueError(f"slots = {key!r} are out of range (0 <= value <= "
+                                 f"{self.capacity - 1}, at least one)")
+            if len(self._slot_rows) < 4096:      # (a voice's slots: a few tuples)
+                self._slot_rows[key] = arr
+        if arr.shape[0] != hs.n:
+            raise ValueError(f"slots = {key!r}: {hs.n} are needed, one per hammer")
+        bad = start_hammers(self.ring, self.ipar, self.fpar, self.fst, self._clean, arr, hs.n,
+                            _HAMMER_COLS, hs.hvals, _HAMMER_Q_COLS, hs.laws, hs.e_ends, hs.dts,
+                            float(speed_m_per_s), hs.factors, float(stiffness_factor))
+        if bad >= 0:
+            s = int(arr[bad])
+            raise ValueError(f"hammer template dt_s = {float(hs.dts[bad])!r} does not match slot "
+                             f"{s}'s time step {self.fpar[s, K.F_DT]!r}")
 
     def start_pluck(self, s: int, model: int, amplitude_m: float, duration_s: float,
                     alpha_per_s: float = 0.0) -> None:

@@ -39,6 +39,10 @@ FASTMATH_SERIAL = {"contract", "nsz", "arcp"}
 JIT_OPTS = dict(nogil=True, cache=True, fastmath=FASTMATH, _nrt=False, error_model="numpy")
 SERIAL_OPTS = dict(nogil=True, cache=True, fastmath=FASTMATH_SERIAL, _nrt=False,
                    error_model="numpy")
+#: IEEE arithmetic, as Python computes it: the kernels that do what a
+#: Python method did, to the bit (no re-association, no contraction of a
+#: product into a sum: ``u - dt V`` rounds the product first, as Python does)
+EXACT_OPTS = dict(nogil=True, cache=True, _nrt=False, error_model="numpy")
 #: the few kernels whose loops run on several threads (``prange``:
 #: :mod:`synth.kernels.render` only); numba's threading layer is chosen by
 #: :func:`prefer_openmp`

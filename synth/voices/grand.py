@@ -88,7 +88,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..dsp.bank import HammerTemplate, SlotTemplate, StringBank, hammer_template, slot_template
+from ..dsp.bank import (HammerTemplate, SlotTemplate, StringBank, hammer_set, hammer_template,
+                        slot_template)
 from ..kernels import strings as K
 from ..physics import piano as P
 from ..physics.dispersion import BridgeLag, retune_sos_loop, tune_stiff_loop_sos
@@ -175,6 +176,9 @@ class GrandVoice(KeyboardDampers, Voice):
         self._knock: dict[int, tuple[float, float]] = {}
         #: hammer speeds by velocity (:meth:`hammer_speed`)
         self._speeds: dict = {}
+        #: the strike's hammers stacked, by (key, grid, strings struck)
+        #: (:meth:`note_on`: one kernel call a strike)
+        self._hammer_sets: dict = {}
 
     def warm(self) -> None:
         """Design every key now (about 0.4 s), so that no note-on has to:
@@ -574,12 +578,15 @@ class GrandVoice(KeyboardDampers, Voice):
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
         if fresh and bridge is not None:
             bank.couple(slots[:n], bridge[0], BRIDGE_RETURN_HZ, bridge[1])
-        speeds = P.UNISON_STRIKE[n]
-        for j, (slot, su) in enumerate(zip(slots, sus)):
-            if j < struck:
-                # una corda: the whole hammer on one string fewer
-                h = su.hammer if struck == n else su.hammer_soft
-                bank.start_hammer_from(slot, h, V * speeds[j], stiff)
+        hk = (key, sus[0].sub, struck)
+        hs = self._hammer_sets.get(hk)
+        if hs is None:
+            # una corda: the whole hammer on one string fewer
+            hs = self._hammer_sets[hk] = hammer_set(
+                [su.hammer if struck == n else su.hammer_soft for su in sus[:struck]],
+                P.UNISON_STRIKE[n][:struck])
+        bank.start_hammers_from(slots[:struck], hs, V, stiff)
+        for j, slot in enumerate(slots[:n]):
             # every string sounds: an unstruck one (una corda) through the bridge
             if bridge is not None or j < struck:
                 bank.activate(slot)
