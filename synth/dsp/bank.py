@@ -723,6 +723,11 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         decay rate sigma = ln(1000)/T60 - ln(1000)/T60_free (1/s, >= 0) scales the
         loop gain, b0 = b0_undamped exp(-sigma / f1) (a pure gain: the
         tuning does not move).  Glided to like :meth:`set_loss`."""
+        if isinstance(lift, (float, int, np.floating, np.integer)) and lift >= 1.0:
+            # off the strings: sigma = 0, b0 = b0_undamped exp(-0) to the bit
+            # (a chord let go under the pedal: one such call a key)
+            self.fpar[slots, K.F_B0T] = self.damper[slots, 0]
+            return
         d = self.damper[slots]
         td = d[:, 2]
         tf = d[:, 3]
