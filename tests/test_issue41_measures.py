@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from synth.apps.grand_study import (
-    OCTAVES, attack_centroid_50ms_hz, octave_table, partial1_at_db, time_to_rms_peak_ms,
+    CENTROID_MAX_HZ, OCTAVES, attack_centroid_50ms_hz, octave_table, partial1_at_db, time_to_rms_peak_ms,
     upper_partials_db)
 from synth.apps.voicing import FS
 from synth.physics.piano import grand_string
@@ -38,6 +38,16 @@ def test_partials_2_to_10_re_partial_1():
 def test_the_attack_centroid_of_a_tone():
     y = np.sin(2 * math.pi * 1000.0 * T[:FS])
     assert attack_centroid_50ms_hz(y) == pytest.approx(1000.0, rel=0.03)
+
+
+def test_the_attack_centroid_stops_at_the_recordings_bandwidth():
+    """A 1 kHz tone with a 16 kHz one as strong: the centroid counts only
+    0 .. CENTROID_MAX_HZ (the samples' encoder keeps nothing above 10.75-16
+    kHz), so the 16 kHz tone moves it only with ``max_hz=None``."""
+    y = np.sin(2 * math.pi * 1000.0 * T[:FS]) + np.sin(2 * math.pi * 16000.0 * T[:FS])
+    assert CENTROID_MAX_HZ == 10_000.0
+    assert attack_centroid_50ms_hz(y) == pytest.approx(1000.0, rel=0.03)
+    assert attack_centroid_50ms_hz(y, max_hz=None) == pytest.approx(8500.0, rel=0.05)
 
 
 def test_the_time_to_the_rms_peak():

@@ -311,13 +311,28 @@ def upper_partials_db(y, key, t0=0.05, t1=0.5, n=10):
     return float(10.0 * np.log10(sum(P[1:]) / P[0]))
 
 
-def attack_centroid_50ms_hz(y):
+#: the attack centroid's upper limit (Hz): below the recording's own
+#: bandwidth.  The Salamander samples are Vorbis files whose encoder keeps
+#: nothing above 10.75-16 kHz (every 250 Hz band above the cut -125 to
+#: -155 dB re the strongest over the first second, digital silence; the
+#: lowest cuts on the keys C5 up, whose partials reach them: 10.75 kHz on
+#: v4, 11.25 on v10, 11.5 on v14; docs/lab/2026-11-29-attack41.md), so a
+#: centroid over the whole band counted the model's 10-24 kHz against a
+#: recording that cannot hold it (C7 1.91x over 0-24 kHz, 1.53x over 0-12).
+CENTROID_MAX_HZ = 10_000.0
+
+
+def attack_centroid_50ms_hz(y, max_hz=CENTROID_MAX_HZ):
     """The spectral centroid (Hz, magnitude-weighted, numpy FFT, Hann
-    window) of the first 50 ms after the onset."""
+    window) of the first 50 ms after the onset, over 0 .. ``max_hz``
+    (:data:`CENTROID_MAX_HZ`, the recording's bandwidth; None: up to
+    Nyquist)."""
     y = np.asarray(y, float)
     seg = y[onset_index(y):][:int(0.05 * FS)]
     m = np.abs(np.fft.rfft(seg * np.hanning(len(seg)), 1 << 13))
     f = np.fft.rfftfreq(1 << 13, 1.0 / FS)
+    if max_hz is not None:
+        m, f = m[f <= max_hz], f[f <= max_hz]
     return float((f * m).sum() / m.sum())
 
 
