@@ -28,7 +28,7 @@ as targets to the decibel.
 ``--layer`` (default 10), its keys played at ``--velocity`` (105) for 6 s:
 medians per octave of :func:`synth.apps.grand_study.issue41_measures`
 (partial 1 at 3 s and partials 2-10 re partial 1, model minus recording;
-the first 50 ms's centroid, model / recording; the time to the RMS peak,
+the first 50 ms's centroid over 0-10 kHz, the samples' bandwidth, model / recording; the time to the RMS peak,
 recording / model); ``--json`` then writes every key's measures.  The
 grand was fitted on v10; another layer (``--layer 4``, ``--layer 14``) is
 held out, played by default at its matched velocity
