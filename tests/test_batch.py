@@ -303,6 +303,7 @@ seconds = 1.2
         assert _sha(tmp_path / "out" / row.file) == row.wav_sha256
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 3.5 s)
 def test_midi_jobs_render_with_loudness_and_centroid(tmp_path, cluster):
     from synth.io.presets import shipped_preset_dir
 
