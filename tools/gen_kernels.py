@@ -124,8 +124,10 @@ LOSS = ["b0 = gk * b0 + gc", "lp = b0 * xin[i] - a1 * lp"]
 LOSS4 = ["b0 = gk * b0 + gc", "lp = b0 * vec(zt, X0[i], X1[i], X2[i], X3[i]) - a1 * lp"]
 
 
-def sections() -> list[str]:
-    """far_end._sections: cnt (1..4) first-order sections over v_ in place."""
+def _first_order_cases(head: list[str], x: str, put: str) -> list[str]:
+    """cnt (1..4) first-order sections after ``head`` (giving ``x``), each
+    case loading and storing the states of sections 1.. (section 0's are
+    the caller's)."""
     cases = []
     for cnt in (1, 2, 3, 4):
         before, after = [], []
@@ -133,9 +135,13 @@ def sections() -> list[str]:
             ld, sv = _state_io(j)
             before += ld
             after += sv
-        body = _chain(["v = v_[i]"], "v", cnt, 0, "v_[i] = {}")
-        cases.append((f"cnt == {cnt}", before, body, after))
+        cases.append((f"cnt == {cnt}", before, _chain(head, x, cnt, 0, put), after))
     return _dispatch(cases)
+
+
+def sections() -> list[str]:
+    """far_end._sections: cnt (1..4) first-order sections over v_ in place."""
+    return _first_order_cases(["v = v_[i]"], "v", "v_[i] = {}")
 
 
 def biquads() -> list[str]:
@@ -164,16 +170,7 @@ def biquads() -> list[str]:
 def head() -> list[str]:
     """far_end._head: the loss glide and one-pole loss, then cnt (1..4)
     first-order sections, xin into yo."""
-    cases = []
-    for cnt in (1, 2, 3, 4):
-        before, after = [], []
-        for j in range(1, cnt):
-            ld, sv = _state_io(j)
-            before += ld
-            after += sv
-        body = _chain(LOSS, "lp", cnt, 0, "yo[i] = {}")
-        cases.append((f"cnt == {cnt}", before, body, after))
-    return _dispatch(cases)
+    return _first_order_cases(LOSS, "lp", "yo[i] = {}")
 
 
 def head_sos() -> list[str]:
