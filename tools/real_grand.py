@@ -137,22 +137,37 @@ def report(notes: dict) -> str:
     return "\n".join(out)
 
 
-def octaves(folder: Path, a) -> int:
-    """Issue 41's table per listening position (``--octaves``)."""
+def _layer_files(folder: Path, layer: int) -> dict:
+    """The recorded layer's samples under ``folder``: key -> path."""
     files = {}
     for p in folder.rglob("*"):
         m = midi_of(p.name) if p.is_file() else None
-        if m and m[1] == a.layer:
+        if m and m[1] == layer:
             files[m[0]] = p
+    return files
+
+
+def _velocity(a) -> int | None:
+    """``--velocity``, or the layer's matched one; None (and the error
+    printed) out of range."""
+    velocity = a.velocity if a.velocity is not None else LAYER_VELOCITY.get(a.layer, 105)
+    if not 1 <= velocity <= 127:
+        print(f"real_grand: error: --velocity = {velocity} is out of range (1 <= value <= 127)",
+              file=sys.stderr)
+        return None
+    return velocity
+
+
+def octaves(folder: Path, a) -> int:
+    """Issue 41's table per listening position (``--octaves``)."""
+    files = _layer_files(folder, a.layer)
     keys = sorted(k for k in files if k >= OCTAVES[0][1])
     if not keys:
         print(f"real_grand: error: no samples of layer {a.layer} (named like C4v{a.layer}.ogg) "
               f"under {folder}", file=sys.stderr)
         return 2
-    velocity = a.velocity if a.velocity is not None else LAYER_VELOCITY.get(a.layer, 105)
-    if not 1 <= velocity <= 127:
-        print(f"real_grand: error: --velocity = {velocity} is out of range (1 <= value <= 127)",
-              file=sys.stderr)
+    velocity = _velocity(a)
+    if velocity is None:
         return 2
     try:
         voice = build_voice("grand-piano", a.set)
@@ -189,12 +204,10 @@ def spectrograms(folder: Path, a) -> int:
     from synth.physics.piano import MIDI_HIGH, MIDI_LOW
 
     names = [n.strip() for n in a.spectrograms.split(",") if n.strip()]
-    velocity = a.velocity if a.velocity is not None else LAYER_VELOCITY.get(a.layer, 105)
-    files = {}
-    for p in folder.rglob("*"):
-        m = midi_of(p.name) if p.is_file() else None
-        if m and m[1] == a.layer:
-            files[m[0]] = p
+    velocity = _velocity(a)
+    if velocity is None:
+        return 2
+    files = _layer_files(folder, a.layer)
     keys = []
     for n in names:
         m = midi_of(f"{n}v{a.layer}.ogg")

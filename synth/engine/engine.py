@@ -682,7 +682,7 @@ class Engine(ChannelControls):
                 for i, key, vel, ch in drone.due(start + off):
                     self._apply(Event((start + off) / self.fs_in_exact, NOTE_ON, key, vel, ch,
                                       string=i), start + off)
-                    self._sym_event(start + off, n_out)
+                    self._sym_event(start + off)
                 continue
             tp = None if taraf is None else taraf.next_pluck()
             if tp is not None and tp < end and (not pend or tp < pend[0][0]):
@@ -702,7 +702,7 @@ class Engine(ChannelControls):
                 bank.render(self.mix, cursor, off - cursor)
                 cursor = off
             self._apply(ev, start + off)
-            self._sym_event(start + off, n_out)
+            self._sym_event(start + off)
         if self._sym_wait is not None:
             self._sym_read()
         if cursor < n_in:
@@ -762,7 +762,7 @@ class Engine(ChannelControls):
         take the state an event at internal sample ``at`` leaves."""
         return min(max(self._out_sample(at), 0), self._n_out)
 
-    def _sym_event(self, at: int, n_out: int) -> None:
+    def _sym_event(self, at: int) -> None:
         """After an event at internal sample ``at``: the sympathetic strings
         take their new state from the output sample of that internal sample
         (block-size independent).  The state is read once for all the
@@ -771,7 +771,7 @@ class Engine(ChannelControls):
         chord's eight note-ons read and set it once, not eight times (each
         read and set cost 20-30 us of the audio thread's block)."""
         if self.sym is not None and self._sym_dirty:
-            j = min(max(self._out_sample(at), 0), n_out)
+            j = self._sym_sample(at)
             w = self._sym_wait
             hush = self._sym_hush or (w is not None and w[0] == j and w[1])
             self._sym_wait = (j, hush)

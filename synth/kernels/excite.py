@@ -565,8 +565,7 @@ def start_hammers(ring, ipar, fpar, fst, clean, slots, n, hcols, hvals, qcols, l
             # end it: its constant g onto the loop through x = 0
             G = fst[s, S_G]
             if G != 0.0:
-                for q in range(-k, k):
-                    ring[off + (pm - q) % P] += G
+                _fold_offset(ring, off, P, pm, k, G)
             fst[s, S_G] = 0.0
             ipar[s, I_EXC] = EXC_NONE
         u = 0.0

@@ -433,15 +433,19 @@ class GrandVoice(KeyboardDampers, Voice):
         ``strings.t60_treble_scale`` there, and that above.  The bridge's
         resistance stays the key's (the prompt sound takes the added loss
         too)."""
-        scale = float(self.preset.strings.t60_treble_scale)
-        return 1.0 if scale == 1.0 else scale ** self._treble_weight(key)
+        return self._treble_ramp(self.preset.strings.t60_treble_scale, key)
 
     def treble_coupling_factor(self, key: int) -> float:
         """Factor on the bridge's admittance the key's unison feels
         (``strings.bridge_coupling_treble``, with the same ramp as
         :meth:`own_t60_factor`): the prompt sound's loss to the board."""
-        c = float(self.preset.strings.bridge_coupling_treble)
-        return 1.0 if c == 1.0 else c ** self._treble_weight(key)
+        return self._treble_ramp(self.preset.strings.bridge_coupling_treble, key)
+
+    def _treble_ramp(self, factor: float, key: int) -> float:
+        """``factor`` at and above ``strings.t60_treble_from_key``, 1 up to
+        :data:`TREBLE_LOSS_RAMP_ST` below it, log-linear in key between."""
+        f = float(factor)
+        return 1.0 if f == 1.0 else f ** self._treble_weight(key)
 
     def _free_string_t60_s(self, key: int) -> float:
         """T60 (s) at f0 of one of the key's strings alone on the bridge
