@@ -45,7 +45,7 @@ def test_the_chart_lists_every_controller_once():
 
 def _ignored_after(preset, cc, value=100):
     e = engine(preset)
-    lo = e.inst.key_range[0]
+    lo = e.play.key_range[0]
     # (rendered just past the controller: what it does or lists is decided
     # when it acts; 50 ms of sound made this chart's 128 tests 21.6 s)
     e.render([Event(0.0, "note_on", lo + 12, 0.8), Event(0.01, "control", cc, value / 127)],

@@ -136,7 +136,7 @@ def test_a_chord_on_a_full_pool_keeps_every_new_note(preset):
     sounds within 6 dB of the chord played alone, and the voices given up
     are held notes."""
     e = engine(preset, polyphony=8)
-    lo, hi = e.inst.key_range
+    lo, hi = e.play.key_range
     held = [Event(0.0, "note_on", lo + i, 0.8) for i in range(8)]
     mid = (lo + hi) // 2
     chord = [Event(0.3, "note_on", mid + d, 0.8) for d in (0, 4, 7, 11)]

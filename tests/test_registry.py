@@ -179,10 +179,6 @@ class _Sine(Voice):
         self.fs = 100_000.0
         self.calls = []
 
-    @property
-    def polyphony(self):
-        return 2
-
     def sizes(self, extra_low_key=None):
         return BankSizes(strings_per_voice=2, max_cells=200)
 
@@ -200,7 +196,8 @@ class _Sine(Voice):
 
 def test_the_engine_drives_a_new_voice_through_the_contract_alone():
     v = _Sine()
-    e = Engine(v, fs_out=50_000)
+    # (the pool's size is the engine's: a preset's [play], or this argument)
+    e = Engine(v, fs_out=50_000, polyphony=2)
     assert e.body is None and e.spv == 2 and e.polyphony == 2
     evs = [Event(0.0, "control", 67, 0.75), Event(0.01, "note_on", 60, 0.5),
            Event(0.02, "note_on", 64, 1.0), Event(0.03, "pitch_bend", -1, 0.5),

@@ -209,7 +209,7 @@ class ChannelControls(MpeZones):
             msb, lsb = rpn
             self._ignore(f"RPN {msb * 128 + lsb}" + (f" ({names[rpn]})" if rpn in names else ""))
             return
-        top = float(self.inst.bend_range_semitones)
+        top = float(self.play.bend_range_semitones)
         if top <= 0.0:
             self._ignore("RPN 0 (pitch-bend range): the preset does not bend")
             return
@@ -227,7 +227,7 @@ class ChannelControls(MpeZones):
             self._ignore(f"RPN 0 (pitch-bend range) above the preset's {top:g} semitones: held at {top:g}")
             want = top
         self.bend_range[c] = want / top
-        if self.bend.get(c) and self.inst.bends:
+        if self.bend.get(c) and self.play.bends:
             b = self._bend_value(c)
             for _, vo in self._channel_voices(c):
                 self.inst.pitch_bend(self.bank, vo.slots, vo.key_arg, vo.f0_hz, b)

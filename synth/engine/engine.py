@@ -34,6 +34,7 @@ from .mixing import ChannelGroup
 from .drone import Drone
 from .order import note_identity, order_events
 from .output import OutputStage
+from .play import STEAL_RULES, PlayRules  # noqa: F401  (STEAL_RULES re-exported)
 from .sympathetic import Sympathetic
 from .taraf import Taraf
 
@@ -46,8 +47,6 @@ POLY_PRESSURE = "poly_pressure"
 #: a note struck less than this long ago (s) is not given up to a new one
 #: while older ones sound (a chord's notes, a fast run's last notes)
 STEAL_MIN_AGE_S = 0.02
-#: the voice-stealing rules a preset may choose (``play.steal``)
-STEAL_RULES = ("quietest", "oldest")
 
 
 @dataclass(frozen=True)
@@ -136,7 +135,10 @@ class Engine(ChannelControls):
         self.fs_in = fs_int
         self.fs_out = int(fs_out)
         self.dec = Decimator(self.fs_in, self.fs_out)
-        self.polyphony = int(polyphony or instrument.polyphony)
+        #: the playing rules (the preset's ``[play]``: the pool's size, the
+        #: steal rule, the key range, the bend range)
+        self.play = PlayRules.from_preset(instrument.preset)
+        self.polyphony = int(polyphony or self.play.polyphony)
         #: voices fading out after being stolen or shed use spare indices
         self.n_spare = max(4, self.polyphony // 4)
         self.n_index = self.polyphony + self.n_spare
@@ -231,9 +233,7 @@ class Engine(ChannelControls):
         self._ctl = [dict(self._ctl_default) for _ in range(CHANNELS)]
         self._inst_ctl = dict(self._ctl_default)
         #: how a new note finds a voice when all are sounding (``play.steal``)
-        self.steal = instrument.steal_rule
-        if self.steal not in STEAL_RULES:
-            raise ValueError(f"play.steal = {self.steal!r} is not one of {', '.join(STEAL_RULES)}")
+        self.steal = self.play.steal
         #: messages the engine received and did not play, by description
         #: (``"CC 5 (portamento time)"``: count), for the render summary and
         #: the live report

@@ -178,7 +178,7 @@ class MpeZones:
         not rendered in two pieces at its sample, so that a file with such
         events renders the samples of the file without them, bit for bit."""
         if kind == "pitch_bend":
-            return not self.inst.bends
+            return not self.play.bends
         if kind in ("channel_pressure", "poly_pressure"):
             return self.inst.pressure_cc is None
         return False
@@ -189,7 +189,7 @@ class MpeZones:
         its own in semitones plus its manager's (a member channel), held
         within the preset's ``play.pitch_bend_semitones``; and whether it
         was held."""
-        top = float(self.inst.bend_range_semitones)
+        top = float(self.play.bend_range_semitones)
         if top <= 0.0:
             return 0.0, False
         m = int(self.mpe_manager[c])
@@ -204,7 +204,7 @@ class MpeZones:
         channel of its zone, when c is a manager) take their channel's
         bend now.  Returns whether a bend of a channel with sounding notes,
         or of c itself, was held within the preset's range."""
-        if not self.inst.bends:
+        if not self.play.bends:
             return False
         m = int(self.mpe_manager[c])
         chans = (c,) + (self._zone_members(m) if zone and m == c else ())
@@ -221,11 +221,11 @@ class MpeZones:
     def _pitch_bend(self, c: int, value: float) -> None:
         """A pitch-bend message on channel c (value in [-1, 1] of its range)."""
         self.bend[c] = float(value)
-        if not self.inst.bends:
+        if not self.play.bends:
             self._ignore("pitch bend (the preset does not bend)")
             return
         if self._rebend(c):
-            top = float(self.inst.bend_range_semitones)
+            top = float(self.play.bend_range_semitones)
             self._ignore(f"pitch bend beyond the preset's {top:g} semitones: held at {top:g}")
 
     def _mpe_data_entry(self, c: int, msb: bool, raw: int) -> None:

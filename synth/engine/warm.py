@@ -11,6 +11,7 @@ leaves no sound behind.
 
 from __future__ import annotations
 
+from .play import PlayRules
 from .engine import CC_SOFT, CC_SUSTAIN, CONTROL, NOTE_OFF, NOTE_ON, PITCH_BEND, Engine, Event
 
 
@@ -19,7 +20,7 @@ def warm_phrase(voice) -> list[Event]:
     note-ons across the voice's range (its lowest, middle and highest key;
     a study string's own pitch), a restrike, releases with and without the
     sustain pedal, the soft pedal, a pitch bend."""
-    kr = voice.key_range
+    kr = PlayRules.from_preset(voice.preset).key_range
     if kr is not None and not voice.study:
         lo, hi = kr
         keys = sorted({lo, (lo + hi) // 2, hi})

@@ -190,26 +190,6 @@ class Voice:
         self.fs = float(fs_internal or self.DEFAULT_RATE * self.quality.rate_factor)
 
     # -- what the engine allocates ---------------------------------------------
-    @property
-    def polyphony(self) -> int:
-        """Default size of the voice pool (``play.polyphony``, else 8)."""
-        play = getattr(self.preset, "play", None)
-        return play.polyphony if play is not None else 8
-
-    @property
-    def steal_rule(self) -> str:
-        """Which sounding voice a note takes when the pool is full
-        (``play.steal``): ``"quietest"`` (the default) or ``"oldest"``."""
-        play = getattr(self.preset, "play", None)
-        return getattr(play, "steal", None) or "quietest"
-
-    @property
-    def key_range(self) -> tuple[int, int] | None:
-        """Playable MIDI keys (lowest, highest), or None (a study string
-        that plays its own pitch)."""
-        play = getattr(self.preset, "play", None)
-        return None if play is None else (play.key_low, play.key_high)
-
     def sizes(self, extra_low_key: int | None = None) -> BankSizes:
         """Sizes for the bank; ``extra_low_key``: a MIDI key below the
         voice's own range that must still sound (a keyboard or a file may
@@ -284,8 +264,10 @@ class Voice:
 
     def pitch_bend(self, bank: StringBank, slots: tuple[int, ...], key: float | None,
                    f0_hz: float | None, value: float) -> None:
-        """Pitch bend of a sounding note, ``value`` in [-1, 1] of the voice's
-        range.  Default: the voice does not bend (a piano)."""
+        """Pitch bend of a sounding note, ``value`` in [-1, 1] of
+        ``play.pitch_bend_semitones`` (the engine's
+        :class:`synth.engine.play.PlayRules`, which passes bends on only when
+        that range is above 0).  Default: the voice does not bend (a piano)."""
 
     def controls(self) -> dict:
         """The MIDI controllers the voice plays itself (through
@@ -303,18 +285,6 @@ class Voice:
         notes alone, :mod:`synth.engine.mpe`), or None: the voice plays no
         pressure (the engine lists it).  Default: None."""
         return None
-
-    @property
-    def bend_range_semitones(self) -> float:
-        """The widest pitch bend the voice plays (semitones), its
-        :meth:`pitch_bend` value 1: ``play.pitch_bend_semitones`` (0: none)."""
-        play = getattr(self.preset, "play", None)
-        return float(getattr(play, "pitch_bend_semitones", 0.0) or 0.0)
-
-    @property
-    def bends(self) -> bool:
-        """Whether the voice plays pitch bend at all."""
-        return self.bend_range_semitones > 0.0
 
     def control_change(self, bank: StringBank, cc: int, value: float, sounding) -> bool:
         """A MIDI control change the engine does not handle itself (it

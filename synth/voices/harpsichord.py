@@ -89,7 +89,9 @@ class HarpsichordVoice(KeyboardDampers, Voice):
         if not (100_000 <= self.fs <= 2_000_000):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range "
                              f"(100000 <= value <= 2000000)")
-        lo, hi = self.key_range
+        #: the keys that play (``play.key_low`` .. ``key_high``)
+        self._range = (int(preset.play.key_low), int(preset.play.key_high))
+        lo, hi = self._range
         if not (self.KEY_LOW <= lo and hi <= self.KEY_HIGH):
             raise ValueError(f"play.key_low..key_high = {lo}..{hi} is out of range "
                              f"({self.KEY_LOW} <= key <= {self.KEY_HIGH}: the piano's strings)")
@@ -97,13 +99,13 @@ class HarpsichordVoice(KeyboardDampers, Voice):
         self._keys: dict[int, HarpsichordSetup] = {}
 
     def warm(self) -> None:
-        lo, hi = self.key_range
+        lo, hi = self._range
         for key in range(lo, hi + 1):
             self.setup(key)
 
     # -- sizes and body ---------------------------------------------------------
     def sizes(self, extra_low_key: int | None = None) -> BankSizes:
-        lo, _ = self.key_range
+        lo, _ = self._range
         return BankSizes(strings_per_voice=1,
                          max_cells=int(self.fs / P.et_f0_hz(lo, 400.0) / 2) + 4,
                          max_gtable=self.exciter.max_gtable())
@@ -158,7 +160,7 @@ class HarpsichordVoice(KeyboardDampers, Voice):
     def note_on(self, bank, slots, key, velocity, *, f0_hz=None, probe_row=-1, restrike=False,
                 speed_m_per_s=None, soft=0.0) -> None:
         """Pluck the key's string (a key outside the keyboard is not played)."""
-        lo, hi = self.key_range
+        lo, hi = self._range
         if key is None or not (lo <= int(round(key)) <= hi):
             return
         su = self.setup(int(round(key)))
