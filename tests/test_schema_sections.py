@@ -108,6 +108,7 @@ OUT_OF_RANGE = {
     "taraf": ("sitar", "coupling", 9, "0 <= value <= 4"),
     "chikari": ("sitar", "strum_s", 0.5, "0 <= value <= 0.1"),
     "drone": ("extra/sitar-drone", "cycle_s", 20.0, "1 <= value <= 16"),
+    "bridge": ("tanpura", "resistance_ns_per_m", 0.5, "1 <= value <= 100000"),
 }
 
 

@@ -33,6 +33,17 @@ at their note-on and leave when freed.  While nothing is played the silent
 ones are freed by the bank's silence scan (the bridge's leader last).
 Drone strokes act at their internal sample (a live stream and an offline
 render give the same samples).
+
+The bridge alone.  A design with no taraf and no chikari (a preset's
+``[bridge]`` table instead of ``[taraf]``: the tanpura) is the same bridge
+with only played strings on it.  No string of its own leads it: the first
+string to sound opens it and leads it, the others join at their note-on,
+and the bank keeps the leader rendering until every other member is silent
+(:meth:`synth.dsp.bank.StringBank.reap`), so the group lives as long as
+anything on it sounds.  Should the leader's voice go first all the same (a
+voice cut for room, all sound off), the next string to start opens the
+bridge again and takes with it every string still sounding that had been
+on it.
 """
 
 from __future__ import annotations
@@ -61,8 +72,13 @@ class Taraf(FreeStrings):
                          templates=tuple(design.slots) + tuple(design.drone_slots))
         self.n_taraf = len(design.slots)
         self.n_drones = len(design.drone_slots)
-        #: the bridge's leader: the first taraf string (else the first drone)
-        self.lead = self.slots[0]
+        #: the bridge's leader: the first taraf string (else the first drone;
+        #: for the bridge alone, the first played string that sounds: None
+        #: until then)
+        self.lead = self.slots[0] if self.slots else None
+        #: the bridge alone: the played strings that joined it (to join a
+        #: new bridge if the leader went first)
+        self._joined: list = []
         #: pending drone plucks: (internal sample, drone, amplitude m)
         self._plucks: list = []
         self.n_strums = 0
@@ -71,12 +87,19 @@ class Taraf(FreeStrings):
     @property
     def awake(self) -> bool:
         """Whether the bridge sounds (its leader renders)."""
+        if self.lead is None:
+            return False
+        if not self.slots:
+            return bool(self.bank.group(self.lead))
         return bool(self.bank.is_active(self.lead))
 
     def wake(self) -> None:
         """A note or a stroke starts: the bridge's resting strings start, at
-        rest, their ends where the bridge is."""
+        rest, their ends where the bridge is.  (The bridge alone has none:
+        it opens as its first string joins.)"""
         bank = self.bank
+        if not self.slots:
+            return
         if not self.awake:
             self.configure(0)
             bank.open_bridge(self.lead, self.R, self.return_hz)
@@ -90,9 +113,28 @@ class Taraf(FreeStrings):
     def join(self, slots) -> None:
         """A played note's strings (configured and active) hang on the bridge."""
         bank = self.bank
+        if not self.slots:
+            self._join_alone([int(s) for s in slots if bank.is_active(s)])
+            return
         for s in slots:
             if bank.is_active(s):
                 bank.join(self.lead, s)
+
+    def _join_alone(self, live: list) -> None:
+        """The bridge alone: ``live`` (a note's sounding strings) join it;
+        the first of them opens and leads it when none is open, and the
+        strings still sounding from before join it too."""
+        if not live:
+            return
+        bank = self.bank
+        if not self.awake:
+            old = [s for s in self._joined if bank.is_active(s) and s not in live]
+            self.lead = live[0]
+            bank.open_bridge(self.lead, self.R, self.return_hz)
+            live = live + old
+        for s in live:
+            bank.join(self.lead, s)
+        self._joined = [s for s in self._joined if bank.is_active(s) and s not in live] + live
 
     # -- the drones --------------------------------------------------------------
     def is_trigger(self, channel: int, key) -> bool:
@@ -159,5 +201,5 @@ class Taraf(FreeStrings):
                     lead = True
                 else:
                     self.bank.deactivate(s)
-        if lead and len(self.bank.group(self.lead)) <= 1:
+        if lead and self.slots and len(self.bank.group(self.lead)) <= 1:
             self.bank.deactivate(self.lead)

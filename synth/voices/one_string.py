@@ -150,6 +150,9 @@ class OneStringVoice(Voice):
                 if getattr(sp, name) is None:
                     raise ValueError(f"string.{name} is missing: string.tension_modulation = "
                                      f"{self.tension_modulation!r} needs it (or 0: off)")
+        if getattr(preset, "bridge", None) is not None and preset.taraf is not None:
+            raise ValueError("[bridge] and [taraf] both give the played strings' bridge: keep one "
+                             "(with a taraf, taraf.bridge_resistance_ns_per_m sets it)")
         if not (20_000 <= self.fs <= 2_000_000):
             raise ValueError(f"internal rate = {self.fs:g} Hz is out of range (20000 <= value <= 2000000)")
         # the region keeps its metres at any rate: region_points counts at
@@ -528,7 +531,9 @@ class OneStringVoice(Voice):
     def free_strings(self, fs_out: float | None = None) -> TarafDesign | None:
         """The ``[taraf]`` and ``[chikari]`` strings at the voice's internal
         rate (the played strings': one bridge steps them all; ``fs_out`` is
-        not theirs), or None without a ``[taraf]`` table.
+        not theirs), or, with a ``[bridge]`` table instead, the bridge alone
+        (a design with no strings: the played strings ring into each other
+        on it), or None without either.
 
         Taraf: one string per ``taraf.keys``, on a jawari of its own
         (:func:`synth.physics.profiles.jawari` with the table's radius,
@@ -549,6 +554,12 @@ class OneStringVoice(Voice):
 
     def _design_taraf(self) -> TarafDesign | None:
         t = self.preset.taraf
+        b = getattr(self.preset, "bridge", None)
+        if t is None and b is not None and not self.study:
+            # the played strings on one bridge of their own (a tanpura):
+            # no free strings; the first sounding string leads it
+            return TarafDesign(slots=(), keys=(), resistance_ns_per_m=float(b.resistance_ns_per_m),
+                               return_hz=self.BRIDGE_RETURN_HZ, max_cells=8)
         if (t is None or self.study or t.coupling <= 0.0
                 or not math.isfinite(t.bridge_resistance_ns_per_m / t.coupling)):
             # (a coupling so small that the bridge's resistance overflows: rigid too)

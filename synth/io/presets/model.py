@@ -226,6 +226,16 @@ class TarafSpec:
 
 
 @dataclass(frozen=True)
+class BridgeSpec:
+    """The bridge a plucked instrument's played strings share without a
+    ``[taraf]`` (a tanpura's four strings): its resistance (N s/m), a
+    two-way bridge every sounding string hangs on, so that the strings ring
+    into each other."""
+
+    resistance_ns_per_m: float
+
+
+@dataclass(frozen=True)
 class ChikariSpec:
     """Drone strings (a sitar's chikari) on the main bridge and its jawari,
     strummed by a key range or a MIDI channel: tunings (MIDI keys), speaking
@@ -378,3 +388,4 @@ class Preset:
     quality_error: QualityErrorSpec | None = None
     drone: DroneSpec | None = None
     listener: ListenerSpec | None = None
+    bridge: BridgeSpec | None = None

@@ -24,6 +24,7 @@ from __future__ import annotations
 from .model import (
     ActionSpec,
     BodySpec,
+    BridgeSpec,
     ChikariSpec,
     DampersSpec,
     DroneSpec,
@@ -492,4 +493,10 @@ SECTIONS: tuple[Section, ...] = (
               "output.gain holds) or distance (the direct sound at 1 m is unity: farther is "
               "quieter)", choices=LEVELS, default="matched"),
     ), when=When("kind", ("musical",)), optional=True),
+    Section("bridge", "the bridge the played strings share, without [taraf] (optional): "
+            "every sounding string hangs on it, two-way, so that the strings ring into each "
+            "other (a tanpura's four strings on its one bridge)", BridgeSpec, (
+        Field("resistance_ns_per_m", "float", "the bridge's resistance (the top plate's "
+              "driving point): u_b = integral of F / R, N s/m", 1.0, 1e5),
+    ), when=_PLUCKED_MUSICAL, optional=True),
 )
