@@ -468,3 +468,29 @@ def replace_dt(t):
     import dataclasses
 
     return dataclasses.replace(t, dt_s=t.dt_s * 1.5)
+
+
+def test_a_treble_hammer_is_released_after_two_periods_with_the_same_samples(monkeypatch):
+    """The grand's hammer is gone after min(4 ms, 2 periods) out of contact
+    (``GrandVoice.release_s``): from key 72 up that is sooner than 4 ms, and
+    the strike renders the same samples as with the 4 ms rule (no contact
+    comes back in between), so the string leaves the strike's short chunks
+    sooner."""
+    from synth.voices import grand
+    from synth.voices.grand import GrandVoice
+
+    monkeypatch.setenv("SYNTH_DESIGN_CACHE", "off")      # (designs of both rules)
+    g = engine("grand-piano").inst
+    for key, want in ((60, 0.004), (84, 2.0 / 1046.5), (108, 2.0 / 4186.0)):
+        su = g.setup(key)[0]
+        assert g.release_s(su) == pytest.approx(want, rel=0.02), key
+        assert su.hammer is not None
+
+    def render(key, vel, periods):
+        monkeypatch.setattr(GrandVoice, "RELEASE_PERIODS", periods)
+        monkeypatch.setattr(grand, "_DESIGNS", {})       # (the process's designs: anew)
+        return engine("grand-piano").render([Event(0.001, "note_on", key, vel)], duration_s=0.25)
+
+    for key, vel in ((76, 1.0), (88, 0.3), (96, 1.0), (108, 0.6)):
+        a, b = render(key, vel, 2.0), render(key, vel, 1e9)
+        assert np.max(np.abs(a - b)) <= 1e-9 * np.max(np.abs(b)), (key, vel)

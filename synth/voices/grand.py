@@ -535,21 +535,42 @@ class GrandVoice(KeyboardDampers, Voice):
             self._speeds[velocity] = V
         return V
 
+    #: a hammer out of contact with its string for this long (s) is gone
+    #: (it may hit again before: :func:`synth.dsp.excitation.hammer_template`)
+    RELEASE_S = 0.004
+    #: ... or for this many of the string's periods, if that is shorter: a
+    #: hammer flying freely has met the string's widest swing at its strike
+    #: point within a period, and recedes (the treble's 0.24-1 ms periods).
+    #: Measured: the longest gap between two contacts of one strike is
+    #: 0.34 ms from key 51 up, 0.08 ms from key 84 up, 1.22 ms on key 21
+    #: (every third key, velocities 0.1-1, 20 ms); keys 72-108 render the
+    #: same samples to round-off with either rule (tests/test_hammer.py)
+    RELEASE_PERIODS = 2.0
+
+    def release_s(self, su: GrandSetup) -> float:
+        """How long (s) the hammer of string ``su`` stays on after its last
+        contact: min(:data:`RELEASE_S`, :data:`RELEASE_PERIODS` periods of
+        the string).  Until then the string renders in chunks no longer than
+        the distance from the strike point to the near end (1-35 samples from
+        key 72 up), so this sets most of what a treble strike costs."""
+        return min(self.RELEASE_S, self.RELEASE_PERIODS / su.f1_hz)
+
     def _hammer(self, key: int, n_strings: int, su: GrandSetup) -> dict:
         """The key's felt hammer for one of its ``n_strings`` strings
         (:func:`synth.dsp.bank.hammer_template` arguments but dt; the
         speed and the soft pedal's stiffness factor come per strike)."""
         a = self.preset.action
         mass = P.hammer_mass_kg(key, n_strings)
+        rel = self.release_s(su)
         if a.law == "three-parameter":
             q0, p, alpha = P.hammer_three_param(key, P.VOICINGS[a.voicing or "thesis"])
             return dict(law=K.EXC_HAMMER3, mass_kg=mass, stiffness=q0, exponent=p, alpha_or_gamma=alpha,
                         tau0_s=0.0, tension_n=su.tension_n, c_m_per_s=su.c_m_per_s,
-                        max_flight_s=0.05)
+                        max_flight_s=0.05, release_s=rel)
         f0, p, gamma, tau0 = P.hammer_four_param(key)
         return dict(law=K.EXC_HAMMER4, mass_kg=mass, stiffness=f0, exponent=p, alpha_or_gamma=gamma,
                     tau0_s=tau0, tension_n=su.tension_n, c_m_per_s=su.c_m_per_s,
-                    max_flight_s=0.05)
+                    max_flight_s=0.05, release_s=rel)
 
     # -- voice contract -----------------------------------------------------------
     def note_on(self, bank: StringBank, slots, key, velocity: float, *, f0_hz=None,
