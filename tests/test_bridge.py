@@ -369,12 +369,17 @@ def test_bridge_arguments_are_checked():
             full.join(0, s)
 
 
-@pytest.mark.parametrize("key,law,block", [(40, 4, 866), (60, 5, 97), (80, 4, 301)])
+@pytest.mark.parametrize("key,law,block", [(40, 4, 866), (60, 5, 97), (80, 4, 301),
+                                           (84, 4, 866), (90, 5, 301), (96, 4, 866)])
 def test_struck_unison_on_its_bridge_fast_equals_per_sample(key, law, block):
     """A grand key's unison on one bridge, its strings struck by hammers at
     different speeds (and one left to ring through the bridge, as una
     corda): the lockstep fast path (hammers stepped together) gives the
-    per-sample reference's output to round-off."""
+    per-sample reference's output to round-off.  Every case's hammers sit
+    close enough to the near end (or, from key 84, the capo bar's region on
+    the finer grid: pieces of 39, 15 and 3 samples) that the chunks step in
+    two tempi (:func:`synth.kernels.unison._coupled_chunk_split`)."""
+    from synth.kernels import unison
     from synth.io.factory import build_voice
     from synth.physics import piano as P
 
@@ -400,6 +405,10 @@ def test_struck_unison_on_its_bridge_fast_equals_per_sample(key, law, block):
                     hp.update(law=5, stiffness=f0, exponent=p, alpha_or_gamma=gamma, tau0_s=tau0)
                 b.start_hammer(s, **hp)
         n = int(0.02 / sus[0].dt_s)
+        if not per_sample:
+            C, slow = unison._coupled_next(0, len(sus), b.ipar, b.fpar, b.fst, 512, False)
+            d, Cf = unison._coupled_split(0, len(sus), b.ipar, b.fpar, b.fst, 512, C)
+            assert not slow and 1 <= d <= C < Cf, (C, d, Cf)  # the split's case
         mix = np.zeros(n)
         for o in range(0, n, block):
             b.render(mix, o, min(block, n - o))
