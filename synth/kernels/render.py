@@ -72,9 +72,9 @@ from .layout import (
 from .strings import _chunk_end, _render_group, _render_string, _work_windows
 # (a small coupled group's chunks, split from here; ZERO, ONE and BLOCK are
 # defined there and re-exported)
-from .unison import (  # noqa: F401
-    BLOCK, ONE, ZERO, _coupled_chunk_small, _coupled_chunk_split, _coupled_diag, _coupled_head,
-    _coupled_next, _coupled_per_sample, _coupled_split, _coupled_tension,
+from .unison import (  # noqa: F401  (BLOCK, ONE, ZERO: re-exported)
+    BLOCK, ONE, ZERO, _coupled_chunk_small_or_split, _coupled_diag, _coupled_head, _coupled_next,
+    _coupled_per_sample, _coupled_tension,
 )
 
 #: (Compile time.)  numba links each callee's optimised module into its
@@ -401,8 +401,9 @@ def _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, i
 def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub,
                     pb, tw, ib, nt):
     """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
-    lockstep fast-path chunks (:func:`_coupled_chunk_small`, or
-    :func:`_coupled_chunk_big` for a group of more than BLOCK members) as
+    lockstep fast-path chunks (:func:`synth.kernels.unison.
+    _coupled_chunk_small_or_split`, or :func:`_coupled_chunk_big` for a
+    group of more than BLOCK members) as
     long as every member allows one and at most ROWS of them excite (GROUP
     hammers), else per sample (:func:`_coupled_per_sample`, a member with
     a probe or telemetry takes the whole block that way).
@@ -422,14 +423,8 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
                 _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
                                    iw, ist, pb, tw, ib, nt)
             else:
-                d, Cs = _coupled_split(lead, G, ipar, fpar, fst, n - done, C)
-                if d > 0:
-                    C = Cs
-                    _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, C, d, o0 + done, mix,
-                                         scratch, iw, ist)
-                else:
-                    _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix,
-                                         scratch, iw, ist)
+                C = _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, n - done,
+                                                  o0 + done, mix, scratch, iw, ist)
             _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
@@ -469,14 +464,8 @@ def _render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scr
             _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
                                 one, o0 + done, ONE)
         else:
-            d, Cs = _coupled_split(lead, G, ipar, fpar, fst, n - done, C)
-            if d > 0:
-                C = Cs
-                _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, C, d, o0 + done, mix,
-                                     scratch, iw, ist)
-            else:
-                _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix,
-                                     scratch, iw, ist)
+            C = _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, n - done,
+                                              o0 + done, mix, scratch, iw, ist)
             _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 

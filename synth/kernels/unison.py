@@ -113,13 +113,32 @@ def _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist):
 @njit(**JIT_OPTS)
 def _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist):
     """:func:`_coupled_chunk` of a group of at most BLOCK members (a piano
-    key's unison): each member's region and loop filter (in lockstep where
-    :func:`coupled._lanes_ok`), the bridge, each member's output."""
+    key's unison): each member's region, then :func:`_coupled_tail` (the
+    loop filters, in lockstep where :func:`coupled._lanes_ok`, the bridge,
+    each member's output)."""
     row, work, cw, lock = _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist)
     s = lead
     for m in range(G):
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3)
+        s = ipar[s, I_CPLNX]
+    _coupled_tail(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, row)
+
+
+@njit(inline="always", **JIT_OPTS)
+def _coupled_tail(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, row):
+    """The far half of a small group's chunk of C samples whose excitation
+    and regions have stepped: each member's loop filter (the members' in
+    lockstep where :func:`coupled._lanes_ok`; each touches only its own
+    string, so after every region as between them), the bridge, each
+    member's far-end write and output (``iw[0:row]``: the members whose g
+    row, scratch[r * _GROW:], a displacement pickup reads)."""
+    work = scratch[_SCRATCH_GROUP:]
+    cw = scratch[scratch.shape[0] - (2 * G + 1) * _CW:]
+    lock = _lanes_ok(lead, G, ipar)
+    s = lead
+    for m in range(G):
+        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         xw = cw[2 * m * _CW:2 * m * _CW + C + 2]
         yw = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
         if lock:
@@ -244,32 +263,23 @@ def _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, C, d, o0, mix, scrat
     for m in range(G):
         ipar[s, I_POS] = ist[P0 + m]
         s = ipar[s, I_CPLNX]
-    cw = scratch[scratch.shape[0] - (2 * G + 1) * _CW:]
-    lock = _lanes_ok(lead, G, ipar)
-    s = lead
-    for m in range(G):
-        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
-        xw = cw[2 * m * _CW:2 * m * _CW + C + 2]
-        yw = cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1]
-        if lock:
-            _far_prep(s, ring, ipar, fst, C, xw, yw)
-        else:
-            _far_filter(s, ring, ipar, fpar, fst, U, C, xw, yw, hb)
-        s = ipar[s, I_CPLNX]
-    if lock:
-        _far_lanes(lead, G, ipar, fpar, fst, C, cw, work[0:4 * C],
-                   cw[2 * G * _CW + 1:2 * G * _CW + 1 + C])
-    _bridge(lead, G, ipar, fpar, fst, C, cw)
-    s = lead
-    for m in range(G):
-        w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
-        peak = fst[s, S_PEAK]
-        pk = _far_write(s, ring, ipar, fpar, C, cw[(2 * m + 1) * _CW:(2 * m + 1) * _CW + C + 1],
-                        mix, o0, cw[2 * G * _CW:2 * G * _CW + C + 1], True)
-        peak = pk if pk > peak else peak
-        _chunk_end(s, ring, ipar, fpar, fst, C, o0, mix, w1, w2, w3, scratch[0:C], False, False,
-                   peak)
-        s = ipar[s, I_CPLNX]
+    # (every member has the force output: no g row is read, row 0)
+    _coupled_tail(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ZERO)
+
+
+@njit(inline="always", **JIT_OPTS)
+def _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, avail, o0, mix, scratch,
+                                  iw, ist):
+    """A small group's next chunk: C samples as :func:`_coupled_next` gave
+    them or, when :func:`_coupled_split` finds an excitation holding them
+    short, the far end's longer span in two tempi; returns the samples
+    stepped."""
+    d, Cs = _coupled_split(lead, G, ipar, fpar, fst, avail, C)
+    if d > 0:
+        _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, Cs, d, o0, mix, scratch, iw, ist)
+        return Cs
+    _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist)
+    return C
 
 
 @njit(**JIT_OPTS)
