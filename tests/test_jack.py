@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -560,7 +561,12 @@ def test_bench_live_jack_quick_measures_the_loop(server):
                         "--server", server], capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stderr
     out = p.stdout
-    assert "notes found: 8 of 8" in out, out
+    # an xrun of the dummy server can tear a note's capture (this VM's own:
+    # 9 xruns in 8 s with the synth's worst block at 64 %, CI 2026-11-29):
+    # then one note of the eight may be missed, never without one
+    found = int(re.search(r"notes found: (\d+) of 8", out).group(1))
+    xruns = int(re.search(r"(\d+) during play;", out).group(1))
+    assert found == 8 or (found == 7 and xruns > 0), out
     assert "median latency <= 6.5 ms: yes (5.02" in out, out
     # an xrun during play moves the note it falls on a period late (this
     # VM's own, and a first note-on's block may overrun): the spread is
