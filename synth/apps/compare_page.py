@@ -251,10 +251,13 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; }
       if (this.ctx.state !== "running") this.ctx.resume();
       return this.ctx;
     },
-    position() {
+    position(now) {
+      // now: the context's time to read the playhead at (one read of
+      // currentTime for a snapshot; it moves on in steps while a script runs)
       if (!this.playing) return this.pos0;
       const [a, b] = this.loop;
-      let p = this.pos0 + Math.max(0, this.ctx.currentTime - this.t0);
+      const t = (now === undefined || now === null) ? this.ctx.currentTime : now;
+      let p = this.pos0 + Math.max(0, t - this.t0);
       if (p >= b) p = a + ((p - a) % (b - a));
       return p;
     },
@@ -765,10 +768,13 @@ td.num { text-align: right; font-variant-numeric: tabular-nums; }
     binomialPValue: binomialPValue,
     samples: (id, start, n) => Array.from(buffers[id].getChannelData(0).subarray(start, start + n)),
     prng: (s, n) => { const r = mulberry32(s); return Array.from({ length: n }, r); },
-    state: () => ({ playing: player.playing, slot: player.slot, position: player.position(),
-                    starts: player.starts, loop: player.loop.slice(),
-                    contextState: player.ctx ? player.ctx.state : null,
-                    contextTime: player.ctx ? player.ctx.currentTime : null }),
+    state: () => {
+      // one read of the context's clock: the playhead and the time it is read at agree
+      const now = player.ctx ? player.ctx.currentTime : null;
+      return { playing: player.playing, slot: player.slot, position: player.position(now),
+               starts: player.starts, loop: player.loop.slice(),
+               contextState: player.ctx ? player.ctx.state : null, contextTime: now };
+    },
     abx: abxSummary,
     mushraItems: () => mushraItems.map((it) => ({ item: it.item })),
     revealed: () => revealed,
