@@ -201,5 +201,5 @@ class Taraf(FreeStrings):
                     lead = True
                 else:
                     self.bank.deactivate(s)
-        if lead and self.slots and len(self.bank.group(self.lead)) <= 1:
+        if lead and len(self.bank.group(self.lead)) <= 1:
             self.bank.deactivate(self.lead)
