@@ -2,6 +2,7 @@
 they say, failures fail, and the shipped specs are valid."""
 
 import subprocess
+from pathlib import Path
 import sys
 import xml.etree.ElementTree as ET
 
@@ -86,6 +87,47 @@ def test_the_cli_exit_codes_table_and_junit(tmp_path):
     fail = root.find(".//failure")
     assert fail is not None and "expected |x| <= 1 cent of 450.000 Hz" in fail.get("message")
 
+
+
+NOTE_SPEC = """
+[[render]]
+name = "note"
+preset = "biwa"
+key = {key}
+seconds = 0.4
+
+[[expect]]
+render = "note"
+check = "f0"
+cents = 50.0
+
+[[expect]]
+render = "note"
+check = "peak"
+max_dbfs = 0.0
+"""
+
+
+def test_specs_in_worker_processes_give_the_same_results_in_their_order(tmp_path):
+    """--jobs: the specs run in processes at once, and the results (every
+    measured value, in the specs' order) are those of one after the other;
+    a bad --jobs, or a bad spec among good ones, stops before any render."""
+    from synth.apps.check import run_specs
+
+    specs = [_spec(tmp_path, NOTE_SPEC.format(key=k), f"k{k}.toml") for k in (45, 52, 60)]
+    one = run_specs(specs, jobs=1)
+    two = run_specs(specs, jobs=2)
+    assert [(r.spec, r.name, r.measured, r.passed) for r in two] == \
+        [(r.spec, r.name, r.measured, r.passed) for r in one]
+    assert [Path(r.spec).name for r in two] == ["k45.toml"] * 2 + ["k52.toml"] * 2 + ["k60.toml"] * 2
+    with pytest.raises(ValueError, match=r"jobs = 0 is out of range \(1 <= value <= 64\)"):
+        run_specs(specs, jobs=0)
+    r = _cli(*specs, "--jobs", "0")
+    assert r.returncode == 2 and r.stderr.strip().splitlines() == \
+        ["synth: error: check: --jobs = 0 is out of range (1 <= value <= 64)"]
+    bad = _spec(tmp_path, "[[render]]\nname = 1\n", "bad.toml")
+    r = _cli(specs[0], bad, "--jobs", "2")
+    assert r.returncode == 2 and "bad.toml" in r.stderr and "rendered" not in r.stderr
 
 @pytest.mark.parametrize("text, message", [
     ("[[render]]\nname = \"a\"\npreset = \"sitar\"\nkeys = \"50..40\"\n"

@@ -829,6 +829,56 @@ def run_spec(spec: Spec | str | os.PathLike, progress=None) -> list[Result]:
     return results
 
 
+def _print_progress(line: str) -> None:
+    import sys
+
+    print(line, file=sys.stderr, flush=True)
+
+
+def _run_spec_job(path: str, threads: int) -> list[Result]:
+    """One spec in a worker process of :func:`run_specs`, on ``threads``
+    threads, its progress lines on the process's stderr."""
+    from ..dsp.threads import set_default
+
+    set_default(threads)
+    return run_spec(path, progress=_print_progress)
+
+
+def run_specs(paths, jobs: int = 1, threads: int | None = None, progress=None) -> list[Result]:
+    """:func:`run_spec` of every spec in ``paths``, the results in their order.
+
+    Every spec is loaded (and so checked) before anything renders.  With
+    ``jobs`` > 1 the specs run in that many worker processes at once (the
+    renders of one spec stay in one process, in their order), each on
+    ``threads // jobs`` threads (at least 1; ``threads`` None: every core,
+    :func:`synth.dsp.threads.default_threads`), and their progress lines
+    go to stderr as they come; the results are the same as one after the
+    other (every render is deterministic).  ``jobs`` is 1 .. 64.
+    """
+    from ..dsp.threads import resolve
+
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or not 1 <= jobs <= 64:
+        raise ValueError(f"jobs = {jobs!r} is out of range (1 <= value <= 64)")
+    specs = [load_spec(p) for p in paths]
+    jobs = min(jobs, len(specs))
+    if jobs <= 1:
+        out = []
+        for spec in specs:
+            out += run_spec(spec, progress=progress)
+        return out
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    each = max(1, resolve(threads) // jobs)
+    # spawn, not fork: the parent may hold numba's thread pool and locks
+    with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as ex:
+        futures = [ex.submit(_run_spec_job, spec.path, each) for spec in specs]
+        out = []
+        for f in futures:
+            out += f.result()
+    return out
+
+
 def format_table(results: list[Result]) -> str:
     """Pass/fail table with the measured values."""
     rows = [("", "check", "measured", "expected")]

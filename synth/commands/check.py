@@ -24,11 +24,15 @@ def add_arguments(parser) -> None:
                              "default: off)")
     parser.add_argument("--junit", metavar="OUT.xml",
                         help="also write the results as JUnit XML (default: none)")
+    parser.add_argument("--jobs", type=int, metavar="N",
+                        help="specs checked at once, each in its own process on its share of "
+                             "the threads (default: one per core, at most one per spec); the "
+                             "results are the same for any N")
     add_threads(parser)
 
 
 def run(args) -> int:
-    from ..apps.check import format_table, run_spec, write_junit
+    from ..apps.check import format_table, run_specs, write_junit
     from ..io.presets import shipped_checks_dir
 
     specs = list(args.spec)
@@ -39,9 +43,13 @@ def run(args) -> int:
     if args.junit is not None:
         check_output(args.junit, "--junit")
         check_not_inputs([("--junit", args.junit)], [("spec", p) for p in specs])
-    results = []
-    for path in specs:
-        results += run_spec(path, progress=lambda line: print(line, file=sys.stderr))
+    from ..dsp.threads import available_cores
+
+    if args.jobs is not None and not 1 <= args.jobs <= 64:
+        fail(f"check: --jobs = {args.jobs} is out of range (1 <= value <= 64)")
+    jobs = min(available_cores(), len(specs)) if args.jobs is None else args.jobs
+    results = run_specs(specs, jobs, args.threads,
+                        progress=lambda line: print(line, file=sys.stderr))
     print(format_table(results))
     if args.junit is not None:
         write_junit(args.junit, results)
