@@ -146,6 +146,49 @@ def test_chord_attacks_the_device_absorbs_do_not_shed_but_a_lasting_overload_doe
     assert _timed_blocks(peaks, max_late=0.0).shed_voices > 0
 
 
+def test_blocks_over_budget_are_told_apart_from_the_threads_own_work():
+    """A block that waits (the thread not running: a sleep here, the VM or
+    the audio server live) is over budget in wall time only; one that
+    works that long is over in the audio thread's CPU time too; the
+    report gives both."""
+    import time
+
+    rt = Realtime(engine("biwa"), block=128, overload=None)
+    rt.start()
+    try:
+        eng = rt.engine
+        real = eng.render_block
+        budget = 128 / rt.fs
+
+        def waits(*a, **k):
+            time.sleep(2.0 * budget)
+            return real(*a, **k)
+
+        def works(*a, **k):
+            t = time.thread_time()
+            while time.thread_time() - t < 2.0 * budget:
+                pass
+            return real(*a, **k)
+
+        out = np.zeros((128, 1), dtype=np.float32)
+        for _ in range(4):                     # (the kernels load in the first)
+            rt.callback(out, 128, None, None)
+        from synth.engine.realtime import RealtimeStats
+
+        rt.stats = RealtimeStats()
+        for fn, n in ((real, 3), (waits, 2), (works, 1), (real, 2)):
+            eng.render_block = fn
+            for _ in range(n):
+                rt.callback(out, 128, None, None)
+    finally:
+        eng.render_block = real
+        rt.stop()
+    st = rt.stats
+    # (a plain block may stall too on a loaded machine: in wall time only)
+    assert st.over_budget >= 3 and st.over_budget_cpu == 1
+    assert 2.0 <= st.worst_cpu_fraction <= st.worst_fraction
+    assert f"{st.over_budget} blocks over it (1 in the audio thread's CPU time" in rt.report()
+
 def test_overload_sheds_voices():
     arrivals = [(0.01 * i, Event(0.0, "note_on", 45 + i, 0.8)) for i in range(20)]
     _, rt = run_live("sitar", arrivals, 0.5, overload=1e-9, max_late=0.0)  # every block "too slow"

@@ -59,6 +59,12 @@ class RealtimeStats:
     sum_fraction: float = 0.0
     underruns: int = 0               # reported by the audio device
     overloads: int = 0               # blocks over the overload threshold
+    over_budget: int = 0             # blocks that took longer than the time they play for
+    #: blocks whose own work (the audio thread's CPU time) took longer: the
+    #: rest of an over-budget block is time the thread did not run (the
+    #: machine or the audio server held it)
+    over_budget_cpu: int = 0
+    worst_cpu_fraction: float = 0.0  # most CPU time a block took, as a fraction of its budget
     shed_voices: int = 0
     late_events: int = 0             # events that arrived after their slot had been rendered
     errors: int = 0                  # blocks lost to an exception (silence written)
@@ -222,6 +228,7 @@ class Realtime:
         if self.t0 is None:                    # nobody called start(): stamp only
             self.t0 = self.clock()
         t_start = time.perf_counter()
+        c_start = time.thread_time()
         try:
             if self._pending_swap is not None:
                 new, self._pending_swap = self._pending_swap, None
@@ -264,12 +271,19 @@ class Realtime:
         self.n_out += frames
         dt = time.perf_counter() - t_start
         frac = dt / (frames / self.fs)
+        cfrac = (time.thread_time() - c_start) / (frames / self.fs)
         st = self.stats
         st.blocks += 1
         st.sum_fraction += frac
         st.block_times_s.append(dt * self.block / frames)
         if frac > st.worst_fraction:
             st.worst_fraction = frac
+        if frac > 1.0:
+            st.over_budget += 1
+        if cfrac > 1.0:
+            st.over_budget_cpu += 1
+        if cfrac > st.worst_cpu_fraction:
+            st.worst_cpu_fraction = cfrac
         late = self._late + frac - 1.0
         self._late = 0.0 if (late < 0.0 or late > 1.0) else late
         if self.overload is not None and frac > self.overload:
@@ -315,7 +329,10 @@ class Realtime:
         return (f"{st.blocks} blocks of {self.block} at {self.fs} Hz; block time worst "
                 f"{st.worst_fraction * 100:.1f}%, 99th percentile "
                 f"{st.percentile_fraction(99, self.budget_s) * 100:.1f}%, mean "
-                f"{st.mean_fraction * 100:.1f}% of the budget; {st.underruns} underruns, "
+                f"{st.mean_fraction * 100:.1f}% of the budget, {st.over_budget} blocks over it "
+                f"({st.over_budget_cpu} in the audio thread's CPU time, whose worst is "
+                f"{st.worst_cpu_fraction * 100:.1f}%); "
+                f"{st.underruns} underruns, "
                 f"{st.overloads} overloaded blocks, {st.shed_voices} voices shed, "
                 f"{st.late_events} late events, {st.errors} errors, "
                 f"{sum(e.n_stolen for e in self.engines_seen)} voices stolen")

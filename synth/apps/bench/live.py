@@ -6,7 +6,7 @@
     python tools/bench.py live --program-change
     python tools/bench.py live --shedding
     (each also with --cpu-name {host,haswell,generic,all}; --quick: a short run for CI)
-    python tools/bench.py live --jack [--server NAME] [--notes 24] [--runs 3] [--quick]
+    python tools/bench.py live --jack [--server NAME] [--notes 24] [--runs 3] [--idle S] [--quick]
     python tools/bench.py live --jack --voices 32 [--cycles 3] [--runs 3]
 
 Drives :class:`synth.engine.realtime.Realtime` exactly as the audio device
@@ -72,6 +72,17 @@ and the synth's own count (its report, from its activation on).
 (32 keys spread over C1 .. G7) 0.25 s apart, held 1.5 s (``--cycles``
 times), and counts the xruns during play, each with the chord it followed.
 ``--runs`` plays each in a fresh synth process (default 3).
+
+First, a client that does nothing sits on the server for ``--idle``
+seconds (default 20): the xruns it sees are the server's own.  A dummy
+``jackd`` on a shared VM reports them with no work to do (its timer wakes
+late and every client is then "not finished"; a C client, ``jack_iodelay``,
+sees as many), so the xrun count alone cannot tell what the synth caused.
+The synth's share is its blocks over budget: a process call that takes
+longer than the period it plays for (its report), in wall time and in
+the audio thread's CPU time (its own work; the difference is time the
+thread did not run), printed beside the targets with the idle client's
+count.
 
 ``--cpu-name`` picks numba's code-generation target (:mod:`synth.apps.bench.harness`:
 host, haswell = AVX2 only, generic = SSE2, or all three in turn); the header
@@ -308,7 +319,9 @@ def parse_report(out: str) -> dict:
     for key, pat in (("xruns", r"\n(\d+) JACK xruns"), ("notes", r"(\d+) notes,"),
                      ("voices", r"at most (\d+) voices"), ("worst", r"block time worst ([\d.]+)%"),
                      ("p99", r"99th percentile ([\d.]+)%"), ("mean", r"mean ([\d.]+)% of the budget"),
-                     ("late", r"(\d+) late events"), ("errors", r"(\d+) errors,"),
+                     ("over", r"(\d+) blocks over it"),
+                     ("over_cpu", r"\((\d+) in the audio thread's CPU time"),
+                     ("worst_cpu", r"CPU time, whose worst is ([\d.]+)%"), ("late", r"(\d+) late events"), ("errors", r"(\d+) errors,"),
                      ("shed", r"(\d+) voices shed")):
         m = re.search(pat, out)
         r[key] = None if m is None else float(m.group(1))
@@ -473,6 +486,45 @@ def find_onsets(rec, t0, onsets, preset: str) -> dict:
             "vels": [v for _, _, v in onsets]}
 
 
+def idle_xruns(server: str, seconds: float) -> int:
+    """The xruns a JACK client that does nothing sees on ``server`` in
+    ``seconds``: the server's own (a dummy backend on a shared VM reports
+    them with no work to do: its timer wakes late, and every client is
+    then "not finished"), the floor under any client's count."""
+    jack = _jack()
+    c = jack.Client("bench-idle", no_start_server=True, servername=server)
+    n = [0]
+
+    @c.set_process_callback
+    def process(frames):
+        pass
+
+    @c.set_xrun_callback
+    def xrun(delay_us):
+        n[0] += 1
+
+    c.activate()
+    try:
+        time.sleep(seconds)
+    finally:
+        c.deactivate()
+        c.close()
+    return n[0]
+
+
+def _own_line(runs, idle, idle_s) -> str:
+    """The synth's own share: its blocks over budget (a block that takes
+    longer than the period it plays for is an xrun the synth caused),
+    beside the xruns an idle client saw on the same server."""
+    over = [r["synth"]["over"] for r in runs]
+    cpu = [r["synth"]["over_cpu"] for r in runs]
+    own = all(o is not None and o == 0 for o in cpu)
+    floor = ("" if idle is None else
+             f"; an idle client on this server: {idle} xruns in {idle_s:g} s")
+    return (f"the synth's own work within the period in every block (the audio thread's CPU "
+            f"time): {'yes' if own else 'NO'} ({cpu} over); in wall time {over} over{floor}")
+
+
 def jack_main(a) -> int:
     import shutil
 
@@ -498,6 +550,11 @@ def jack_main(a) -> int:
               f"command: python {' '.join(sys.argv)}")
         print(f"# {os.cpu_count()} CPUs; load average {' '.join(f'{x:.2f}' for x in os.getloadavg())} "
               "(other processes share them: the xruns are a noisy count)")
+        idle_s = a.idle if a.idle is not None else (4.0 if a.quick else 20.0)
+        idle = idle_xruns(server, idle_s) if idle_s > 0 else None
+        if idle is not None:
+            print(f"# the server alone: a client that does nothing saw {idle} xruns in {idle_s:g} s "
+                  f"({idle / idle_s * 60:.0f} a minute; the floor under the synth's count)")
         runs = []
         for r in range(a.runs):
             name = f"synthbench{r}"
@@ -512,6 +569,8 @@ def jack_main(a) -> int:
                        if rep["xruns"] is not None else "the synth's report has no xrun count")
             head = (f"\nrun {r + 1}/{a.runs}: exit {res['returncode']}, {res['wall_s']:.0f} s; synth "
                     f"block time worst {rep['worst']}%, 99th pct {rep['p99']}%, mean {rep['mean']}%, "
+                    f"{rep['over']} blocks over budget ({rep['over_cpu']} in its CPU time, whose "
+                    f"worst is {rep['worst_cpu']}%), "
                     f"at most {rep['voices']} voices, {rep['late']} late events, {rep['errors']} "
                     f"errors, {rep['shed']} voices shed")
             print(head)
@@ -574,11 +633,13 @@ def jack_main(a) -> int:
                   f"{'yes' if lat and max(lat) <= 6.5 else 'NO'} ({max(lat) if lat else float('nan'):.3f}); "
                   f"spread <= 0.1 ms: {'yes' if spr and max(spr) <= 0.1 else 'NO'}; 0 xruns during play: "
                   f"{'yes' if max(xr) == 0 else 'NO'} ({xr})")
+            print(_own_line(runs, idle, idle_s))
         else:
             xr = [r["by_phase"]["play"] for r in runs]
             vv = [r["synth"]["voices"] for r in runs]
             print(f"{a.voices} voices sounding: {'yes' if min(v or 0 for v in vv) >= a.voices else 'NO'} "
                   f"({vv}); 0 xruns at period {period}: {'yes' if max(xr) == 0 else 'NO'} ({xr})")
+            print(_own_line(runs, idle, idle_s))
     finally:
         if own is not None:
             own.terminate()
@@ -627,6 +688,9 @@ def main(argv=None) -> int:
                     help="--voices: chord cycles (pedal down, chords, held, released; default 3)")
     jk.add_argument("--runs", type=int, default=3,
                     help="runs, each a fresh synth process (default 3)")
+    jk.add_argument("--idle", type=float, default=None, metavar="S",
+                    help="first, seconds of a client that does nothing on the server, whose "
+                         "xruns are the server's own (default 20; --quick 4; 0: none)")
     jk.add_argument("--settle", type=float, default=1.0,
                     help="seconds between connecting and the first note (default 1)")
     harness.add_target_option(ap)
