@@ -39,11 +39,12 @@ from pathlib import Path
 #: the kernel whose cache index tells a warm cache (every render compiles or loads it)
 PROBE_INDEX = "render.render_bank-*.nbi"
 #: the line printed before a cold compile
-#: (the estimate: a cold ``synth note`` of the sitar or the grand compiles 49-55 % of
-#: the 146-166 CPU s it did before issue 39, which took 50-57 s on a quiet 2-core
-#: Xeon: about 30 s; docs/benchmarks.md, "Start-up")
-MESSAGE = ("synth: compiling the string kernels for this CPU, once (about 30 s on 2 cores; "
-           "`synth warmup` does it ahead of time) ...")
+#: (measured, 2-vCPU Xeons, fresh ``NUMBA_CACHE_DIR``: ``synth note sitar --key 57
+#: --seconds 1`` compiled for 29-49 s (model 167) and 52 s (model 207); ``synth demo``,
+#: whose phrases of overlapping notes also compile the shards of several strings
+#: (``render_sharded``), 104-133 s and 194-219 s; docs/benchmarks.md, "Start-up")
+MESSAGE = ("synth: compiling the string kernels for this CPU, once (on 2 cores about a "
+           "minute for a note, up to 4 for a phrase; `synth warmup` does it ahead of time) ...")
 
 _lock = threading.Lock()
 _state = {
