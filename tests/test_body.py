@@ -557,6 +557,42 @@ def test_knock_pulse_area_shape_and_spectrum(fs, dur):
             assert abs(np.exp(-2j * np.pi * f1 * t) @ p) / fs / j == pytest.approx(0.5, abs=0.02)
 
 
+@pytest.mark.parametrize("tau", [0.01, 0.02])
+def test_a_built_up_knock_is_a_train_with_the_pulses_energy(tau):
+    """``build_s`` = tau: pulses of both signs under (t / tau) exp(1 - t /
+    tau), with the single pulse's energy, the same train at every rate
+    (its pushes are placed in seconds) and on every call; 0 is the pulse."""
+    j, dur = 0.003, 0.002
+    p = sb.knock_pulse(FS, j, dur)
+    np.testing.assert_array_equal(sb.knock_pulse(FS, j, dur, 0.0), p)
+    y = sb.knock_pulse(FS, j, dur, tau)
+    np.testing.assert_array_equal(sb.knock_pulse(FS, j, dur, tau), y)
+    assert np.dot(y, y) == pytest.approx(np.dot(p, p), rel=1e-12)
+    assert (y > 0).any() and (y < 0).any()
+    n = len(y)
+    assert n / FS == pytest.approx(sb.KNOCK_BUILD_SPAN * tau + dur, abs=2.0 / FS)
+    # its energy builds up: the RMS over tau / 4 peaks near tau, not at the start
+    w = int(tau / 4 * FS)
+    rms = np.sqrt(np.convolve(y * y, np.ones(w) / w, mode="valid"))
+    peak_s = (np.argmax(rms) + w / 2) / FS
+    assert 0.4 * tau <= peak_s <= 2.5 * tau, peak_s
+    assert rms[0] < 0.5 * rms.max()
+    # the same train in time at twice the rate: its energy per second and its
+    # envelope (10 ms RMS) agree within 1 dB wherever it is within 20 dB of its peak
+    y2 = sb.knock_pulse(2 * FS, j, dur, tau)
+    assert np.dot(y2, y2) / (2 * FS) == pytest.approx(np.dot(y, y) / FS, rel=1e-9)
+
+    def env(x, fs):
+        m = int(0.01 * fs)
+        e = np.sqrt(np.add.reduceat(x * x, np.arange(0, len(x) - m + 1, m)) / m)
+        return e[:int(len(x) / m)]
+    a, b = env(y, FS), env(y2, 2 * FS)
+    k = min(len(a), len(b))
+    a, b = a[:k], b[:k]
+    loud = a > a.max() * 0.1
+    assert np.all(np.abs(20 * np.log10(b[loud] / a[loud])) < 1.0)
+
+
 def test_knock_impulse_is_a_fraction_of_the_hammer_momentum():
     assert sb.knock_impulse_ns(0.01, 3.0) == pytest.approx(sb.KNOCK_IMPULSE_RATIO * 0.03)
     assert sb.knock_impulse_ns(0.01, 3.0, ratio=0.5) == pytest.approx(0.015)
@@ -567,6 +603,8 @@ def test_knock_impulse_is_a_fraction_of_the_hammer_momentum():
     (lambda: sb.knock_pulse(4000, 0.001), "fs"),
     (lambda: sb.knock_pulse(FS, -0.001), "impulse_ns"),
     (lambda: sb.knock_pulse(FS, 0.001, 0.5), "duration_s"),
+    (lambda: sb.knock_pulse(FS, 0.001, 0.005, 0.2), "build_s"),
+    (lambda: sb.knock_pulse(FS, 0.001, 0.005, -0.01), "build_s"),
     (lambda: sb.knock_impulse_ns(0.5, 1.0), "hammer_mass_kg"),
     (lambda: sb.knock_impulse_ns(0.01, -1.0), "hammer_speed_m_per_s"),
     (lambda: sb.knock_impulse_ns(0.01, 1.0, ratio=11.0), "ratio"),

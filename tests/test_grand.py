@@ -549,12 +549,22 @@ def test_the_una_corda_darkens_the_top_keys(key):
     assert change <= -0.10, change
 
 
-def test_the_knocks_pulse_duration_is_a_preset_key():
-    """``action.knock_s`` sets the knock's force pulse (default 5 ms): a
-    shorter pulse reaches higher (at 1.5 ms the thump's 360-720 Hz lies
-    about 10 dB under its 90-360 Hz per Hz, at 5 ms about 30 dB)."""
-    assert engine("grand-piano").inst.knock_duration_s() == 0.005
-    e = engine("grand-piano", ["action.knock_s=0.0015", "action.knock=3.9"])
-    assert e.inst.knock_duration_s() == 0.0015
+def test_the_knocks_pulse_duration_and_build_up_are_preset_keys():
+    """``action.knock_s`` sets the knock's force pulses (the schema's
+    default 5 ms: a shorter pulse reaches higher; at 1.5 ms the thump's
+    360-720 Hz lies about 10 dB under its 90-360 Hz per Hz, at 5 ms about
+    30 dB) and ``action.knock_build_s`` their build-up (0: one pulse); the
+    grand's are 2 ms pulses built up over 20 ms, and its engine's knock is
+    that train."""
+    from synth.physics.soundboard import KnockShape, knock_pulse
+
+    e = engine("grand-piano")
+    assert e.inst.knock_shape() == KnockShape(0.002, 0.02)
+    np.testing.assert_array_equal(e._knock_unit, knock_pulse(e.fs_out, 1.0, 0.002, 0.02))
+    e = engine("grand-piano", ["action.knock_s=0.0015", "action.knock_build_s=0"])
+    assert e.inst.knock_shape() == KnockShape(0.0015, 0.0)
+    np.testing.assert_array_equal(e._knock_unit, knock_pulse(e.fs_out, 1.0, 0.0015))
     with pytest.raises(Exception, match="knock_s"):
         engine("grand-piano", ["action.knock_s=0.5"])
+    with pytest.raises(Exception, match="knock_build_s"):
+        engine("grand-piano", ["action.knock_build_s=0.2"])

@@ -297,7 +297,7 @@ class Engine(ChannelControls):
         self._n_out = 0                      # the block's output samples (:meth:`render_block`)
         #: the action's knocks: a unit pulse (its shape), and the force still
         #: to add to the buses (output samples from the block's start)
-        self._knock_unit = knock_pulse(self.fs_out, 1.0, instrument.knock_duration_s())
+        self._knock_unit = knock_pulse(self.fs_out, 1.0, *instrument.knock_shape())
         #: the knocks join the bridge after decimation: they wait the
         #: decimator's latency so that they meet the note they belong to
         self._knock_lag = int(round(self.dec.latency_samples))

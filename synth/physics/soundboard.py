@@ -199,6 +199,7 @@ thump"), see :func:`knock_impulse_ns` for its level.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import math
 import numbers
@@ -281,6 +282,14 @@ MAX_INPUTS = MAX_OUTPUTS = 2
 #: 1 kHz and sounded as a click (C4's pp attack centroid 674 -> 1303 Hz)
 KNOCK_DURATION_S = 0.005
 KNOCK_DURATION_RANGE_S = (0.0002, 0.02)
+#: Knock built up over time (``action.knock_build_s``, :func:`knock_pulse`):
+#: the allowed time constants (s), the pushes per second of its train, the
+#: span of its envelope in time constants (8: the last push at -43 dB) and the
+#: seed of its pushes' places and signs (the same train on every run)
+KNOCK_BUILD_RANGE_S = (0.0, 0.05)
+KNOCK_TRAIN_HZ = 2000.0
+KNOCK_BUILD_SPAN = 8.0
+KNOCK_SEED = 41
 KNOCK_IMPULSE_RATIO = 0.1
 #: the largest knock ratio allowed (the grand's fitted 3.9, with room)
 KNOCK_RATIO_MAX = 10.0
@@ -853,33 +862,80 @@ def knock_impulse_ns(hammer_mass_kg, hammer_speed_m_per_s, ratio=KNOCK_IMPULSE_R
     return ratio * m * v
 
 
-def knock_pulse(fs, impulse_ns, duration_s=KNOCK_DURATION_S):
-    """The knock's force pulse: a raised cosine of given area and duration.
+class KnockShape(NamedTuple):
+    """The shape of a voice's knock (:func:`knock_pulse`): the duration (s)
+    of its force pulse, and the time constant (s) over which its pushes
+    build up (0: one pulse)."""
 
-    ``F(t) = (J / T) (1 - cos(2 pi t / T))`` for 0 <= t < T, sampled at
-    ``t = (i + 1/2) / fs``, i = 0 .. N-1, N = max(1, round(T fs)), and scaled
-    so that ``sum F / fs = J`` exactly. Its spectrum is flat (|F(f)| = J) to
-    within 1 dB up to about 0.4 / T (80 Hz for the default 5 ms), falls
-    by 6 dB at 1 / T and has its first zero at 2 / T: a short push that
-    excites the board's low modes evenly (the thump) and little else.
+    duration_s: float = KNOCK_DURATION_S
+    build_s: float = 0.0
+
+
+def knock_pulse(fs, impulse_ns, duration_s=KNOCK_DURATION_S, build_s=0.0):
+    """The knock's force: one raised-cosine pulse, or a train of them built up.
+
+    ``build_s`` = 0: ``F(t) = (J / T) (1 - cos(2 pi t / T))`` for 0 <= t < T,
+    sampled at ``t = (i + 1/2) / fs``, i = 0 .. N-1, N = max(1, round(T
+    fs)), and scaled so that ``sum F / fs = J`` exactly. Its spectrum is flat
+    (|F(f)| = J) to within 1 dB up to about 0.4 / T (80 Hz for the default
+    5 ms), falls by 6 dB at 1 / T and has its first zero at 2 / T: a short
+    push that excites the board's low modes evenly (the thump) and little
+    else.
+
+    ``build_s`` = tau > 0: the same pulses, :data:`KNOCK_TRAIN_HZ` a second
+    at random places (one in each 1 / KNOCK_TRAIN_HZ s) with random signs
+    (a sparse "velvet" train, seeded: :data:`KNOCK_SEED`), weighted by
+    ``(t / tau) exp(1 - t / tau)`` over ``KNOCK_BUILD_SPAN tau``, and scaled
+    to the single pulse's energy (``sum F^2 / fs`` equal).  The thump then
+    builds up over about tau, in pushes of both signs: the action's impacts (the key on the keybed and its rebound,
+    the hammer's reaction) reaching the board through the keyframe and the
+    case by paths of many lengths.  Why: a recorded grand's thump (20 Hz to
+    1 kHz or f0 / 2) builds up to its peak 10-35 ms after the onset and
+    reaches 1 kHz (docs/voicing.md, "The thump under the attack"); one pulse
+    peaks at once.  The places and signs are drawn in seconds, so the train
+    is the same at every rate.
 
     Parameters
     ----------
     fs : float
         Sample rate in Hz (>= 8000).
     impulse_ns : float
-        The pulse's area J in N s, 0 .. 10 (see :func:`knock_impulse_ns`).
+        The single pulse's area J in N s, 0 .. 10 (see :func:`knock_impulse_ns`);
+        a train has that pulse's energy.
     duration_s : float
-        Duration T in s, 0.0002 .. 0.02 (default 0.005).
+        Duration T of each pulse in s, 0.0002 .. 0.02 (default 0.005).
+    build_s : float
+        Time constant tau of the train's build-up in s, 0 .. 0.05 (0: one
+        pulse).
 
     Returns
     -------
     ndarray of float64, shape (N,)
-        Force samples in N, >= 0, peak 2 J / T.
+        Force samples in N: one pulse (>= 0, peak 2 J / T), or the train
+        (about ``KNOCK_BUILD_SPAN tau + T`` long).
     """
     fs = _fs_param(fs)
     j = _float_param("impulse_ns", impulse_ns, 0.0, 10.0, unit=" N s")
     t = _float_param("duration_s", duration_s, *KNOCK_DURATION_RANGE_S, unit=" s")
+    tau = _float_param("build_s", build_s, *KNOCK_BUILD_RANGE_S, unit=" s")
     n = max(1, int(round(t * fs)))
     shape = 1.0 - np.cos(2.0 * math.pi * (np.arange(n) + 0.5) / n)
-    return shape * (j * fs / shape.sum())
+    pulse = shape * (j * fs / shape.sum())
+    if tau == 0.0:
+        return pulse
+    span = KNOCK_BUILD_SPAN * tau
+    m = int(math.ceil(span * KNOCK_TRAIN_HZ))
+    rng = np.random.default_rng(KNOCK_SEED)
+    at = (np.arange(m) + rng.random(m)) / KNOCK_TRAIN_HZ          # s
+    sign = np.where(rng.random(m) < 0.5, -1.0, 1.0)
+    weight = sign * (at / tau) * np.exp(1.0 - at / tau)
+    out = np.zeros(int(math.ceil((span + t) * fs)) + 1)
+    for a, w in zip(at, weight):
+        # the pulse starting at a, sampled at (i + 1/2) / fs
+        i0 = int(math.ceil(a * fs - 0.5))
+        i1 = min(int(math.ceil((a + t) * fs - 0.5)), out.shape[0])
+        x = ((np.arange(i0, i1) + 0.5) / fs - a) / t
+        out[i0:i1] += w * (1.0 - np.cos(2.0 * math.pi * x))
+    e1 = float(np.dot(pulse, pulse))
+    e = float(np.dot(out, out))
+    return out * math.sqrt(e1 / e) if e > 0.0 else out

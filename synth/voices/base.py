@@ -36,7 +36,7 @@ from dataclasses import dataclass
 from typing import ClassVar, NamedTuple
 
 from ..dsp.bank import StringBank
-from ..physics.soundboard import KNOCK_DURATION_S, BodyDesign
+from ..physics.soundboard import BodyDesign, KnockShape
 from .quality import quality_level
 
 
@@ -322,10 +322,11 @@ class Voice:
         on the key's place along the bridge.  Default 0: no knock."""
         return 0.0
 
-    def knock_duration_s(self) -> float:
-        """Duration (s) of the knock's force pulse (:meth:`knock_impulse_ns`);
-        default the piano action's 5 ms."""
-        return KNOCK_DURATION_S
+    def knock_shape(self) -> KnockShape:
+        """The shape of the knock's force (:meth:`knock_impulse_ns`;
+        :class:`synth.physics.soundboard.KnockShape`): default one pulse of
+        the piano action's 5 ms."""
+        return KnockShape()
 
     def pan(self, key: int) -> float:
         """Where the key meets the bridge, 0 (bus 0) .. 1 (bus 1): the

@@ -94,7 +94,7 @@ from ..kernels import strings as K
 from ..physics import piano as P
 from ..physics.dispersion import BridgeLag, retune_sos_loop, tune_stiff_loop_sos
 from ..physics.profiles import Termination, capo
-from ..physics.soundboard import knock_impulse_ns
+from ..physics.soundboard import KnockShape, knock_impulse_ns
 from ..physics.dispersion import tune_stiff_loop
 from . import design_store
 from .base import BankSizes, SympatheticDesign, Voice
@@ -464,10 +464,12 @@ class GrandVoice(KeyboardDampers, Voice):
         .. 1 (the treble end, bus 1): linear in the key."""
         return (int(key) - self.KEY_LOW) / (self.KEY_HIGH - self.KEY_LOW)
 
-    def knock_duration_s(self) -> float:
-        """Duration (s) of the knock's force pulse, ``action.knock_s``
-        (:func:`synth.physics.soundboard.knock_pulse`)."""
-        return float(self.preset.action.knock_s)
+    def knock_shape(self) -> KnockShape:
+        """The knock's force (:func:`synth.physics.soundboard.knock_pulse`):
+        pulses of ``action.knock_s``, built up over ``action.knock_build_s``
+        (0: one pulse)."""
+        a = self.preset.action
+        return KnockShape(float(a.knock_s), float(a.knock_build_s or 0.0))
 
     def knock_impulse_ns(self, key, velocity: float, speed_m_per_s: float | None = None) -> float:
         """The action's knock at a note-on (:func:`synth.physics.soundboard.

@@ -66,6 +66,7 @@ from ..physics.dispersion import tune_stiff_loop
 from ..physics.losses import allpass_for_phase_delay, one_pole_phase_delay, tune_loop
 from ..physics.profiles import (Termination, buzz_profile, jawari, termination_from_spec,
                                 trim_unreachable)
+from ..physics.soundboard import KnockShape
 from ..physics.string import IdealString, fretted_string, midi_key_to_hz, tension_gain
 from . import design_store
 from .base import BankSizes, DronePluck, TarafDesign, Voice
@@ -522,11 +523,11 @@ class OneStringVoice(Voice):
             return 0.0
         return J * max(float(velocity), 0.0) ** float(self.preset.play.velocity_exponent)
 
-    def knock_duration_s(self) -> float:
-        """The stroke's pulse duration, ``pluck.bachi_duration_s`` (s)."""
+    def knock_shape(self) -> KnockShape:
+        """The stroke's pulse: ``pluck.bachi_duration_s`` (s), one pulse."""
         p = getattr(self.preset, "pluck", None)
         d = getattr(p, "bachi_duration_s", None)
-        return float(d) if d else super().knock_duration_s()
+        return KnockShape(float(d)) if d else super().knock_shape()
 
     def free_strings(self, fs_out: float | None = None) -> TarafDesign | None:
         """The ``[taraf]`` and ``[chikari]`` strings at the voice's internal

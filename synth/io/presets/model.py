@@ -124,6 +124,7 @@ class ActionSpec:
     knock: float | None = None   # the knock's impulse re the hammer's momentum (0: none)
     hardness: float = 1.0        # factor on every key's felt stiffness (voicing: lacquer > 1, needles < 1)
     knock_s: float = 0.005       # duration of the knock's force pulse (s)
+    knock_build_s: float = 0.0   # the knock's build-up time constant (s; 0: one pulse)
 
 
 @dataclass(frozen=True)

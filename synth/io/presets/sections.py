@@ -329,6 +329,10 @@ SECTIONS: tuple[Section, ...] = (
         Field("knock_s", "float", "duration of the knock's force pulse, s (the shorter, the "
               "higher its thump reaches: 5 ms up to ~400 Hz, 1.5 ms ~1.3 kHz)", 2e-4, 0.02,
               default=0.005),
+        Field("knock_build_s", "float", "time constant over which the knock builds up, s: its "
+              "pulses as a train of pushes of both signs under (t / tau) exp(1 - t / tau), with "
+              "the single pulse's energy (0: one pulse; synth.physics.soundboard.knock_pulse)",
+              0.0, 0.05, default=0.0),
     ), when=When("voice", ("grand",)), checks=(
         OrderCheck("speed_min_m_per_s", "<", "speed_max_m_per_s"),)),
     Section("strings", "per-key piano strings (scale factors on synth.physics.piano)", StringsSpec, (
