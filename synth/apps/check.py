@@ -835,13 +835,25 @@ def _print_progress(line: str) -> None:
     print(line, file=sys.stderr, flush=True)
 
 
-def _run_spec_job(path: str, threads: int) -> list[Result]:
+#: the most specs :func:`run_specs` checks at once
+MAX_JOBS = 64
+
+
+def check_jobs(jobs, name: str = "jobs") -> int:
+    """``jobs`` (specs checked at once, :func:`run_specs`) as an int in 1 ..
+    :data:`MAX_JOBS`, or ValueError naming ``name``, the value and the range."""
+    if isinstance(jobs, bool) or not isinstance(jobs, int) or not 1 <= jobs <= MAX_JOBS:
+        raise ValueError(f"{name} = {jobs!r} is out of range (1 <= value <= {MAX_JOBS})")
+    return jobs
+
+
+def _run_spec_job(path: str, threads: int, show: bool) -> list[Result]:
     """One spec in a worker process of :func:`run_specs`, on ``threads``
-    threads, its progress lines on the process's stderr."""
+    threads, its progress lines (with ``show``) on the process's stderr."""
     from ..dsp.threads import set_default
 
     set_default(threads)
-    return run_spec(path, progress=_print_progress)
+    return run_spec(path, progress=_print_progress if show else None)
 
 
 def run_specs(paths, jobs: int = 1, threads: int | None = None, progress=None) -> list[Result]:
@@ -851,14 +863,14 @@ def run_specs(paths, jobs: int = 1, threads: int | None = None, progress=None) -
     ``jobs`` > 1 the specs run in that many worker processes at once (the
     renders of one spec stay in one process, in their order), each on
     ``threads // jobs`` threads (at least 1; ``threads`` None: every core,
-    :func:`synth.dsp.threads.default_threads`), and their progress lines
-    go to stderr as they come; the results are the same as one after the
-    other (every render is deterministic).  ``jobs`` is 1 .. 64.
+    :func:`synth.dsp.threads.default_threads`), and, when ``progress`` is
+    given, their progress lines go to stderr as they come; the results are
+    the same as one after the other (every render is deterministic).
+    ``jobs`` is 1 .. :data:`MAX_JOBS` (:func:`check_jobs`).
     """
     from ..dsp.threads import resolve
 
-    if isinstance(jobs, bool) or not isinstance(jobs, int) or not 1 <= jobs <= 64:
-        raise ValueError(f"jobs = {jobs!r} is out of range (1 <= value <= 64)")
+    check_jobs(jobs)
     specs = [load_spec(p) for p in paths]
     jobs = min(jobs, len(specs))
     if jobs <= 1:
@@ -872,7 +884,8 @@ def run_specs(paths, jobs: int = 1, threads: int | None = None, progress=None) -
     each = max(1, resolve(threads) // jobs)
     # spawn, not fork: the parent may hold numba's thread pool and locks
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as ex:
-        futures = [ex.submit(_run_spec_job, spec.path, each) for spec in specs]
+        futures = [ex.submit(_run_spec_job, spec.path, each, progress is not None)
+                   for spec in specs]
         out = []
         for f in futures:
             out += f.result()

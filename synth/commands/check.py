@@ -32,7 +32,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
-    from ..apps.check import format_table, run_specs, write_junit
+    from ..apps.check import check_jobs, format_table, run_specs, write_junit
     from ..io.presets import shipped_checks_dir
 
     specs = list(args.spec)
@@ -45,9 +45,13 @@ def run(args) -> int:
         check_not_inputs([("--junit", args.junit)], [("spec", p) for p in specs])
     from ..dsp.threads import available_cores
 
-    if args.jobs is not None and not 1 <= args.jobs <= 64:
-        fail(f"check: --jobs = {args.jobs} is out of range (1 <= value <= 64)")
-    jobs = min(available_cores(), len(specs)) if args.jobs is None else args.jobs
+    if args.jobs is None:
+        jobs = min(available_cores(), len(specs))
+    else:
+        try:
+            jobs = check_jobs(args.jobs, "--jobs")
+        except ValueError as e:
+            fail(f"check: {e}")
     results = run_specs(specs, jobs, args.threads,
                         progress=lambda line: print(line, file=sys.stderr))
     print(format_table(results))

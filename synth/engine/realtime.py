@@ -270,8 +270,9 @@ class Realtime:
             out[:frames] = 0.0
         self.n_out += frames
         dt = time.perf_counter() - t_start
-        frac = dt / (frames / self.fs)
-        cfrac = (time.thread_time() - c_start) / (frames / self.fs)
+        span = frames / self.fs                # the time the block plays for
+        frac = dt / span
+        cfrac = (time.thread_time() - c_start) / span
         st = self.stats
         st.blocks += 1
         st.sum_fraction += frac

@@ -887,9 +887,9 @@ def knock_pulse(fs, impulse_ns, duration_s=KNOCK_DURATION_S, build_s=0.0):
     (a sparse "velvet" train, seeded: :data:`KNOCK_SEED`), weighted by
     ``(t / tau) exp(1 - t / tau)`` over ``KNOCK_BUILD_SPAN tau``, and scaled
     to the single pulse's energy (``sum F^2 / fs`` equal).  The thump then
-    builds up over about tau, in pushes of both signs: the action's impacts (the key on the keybed and its rebound,
-    the hammer's reaction) reaching the board through the keyframe and the
-    case by paths of many lengths.  Why: a recorded grand's thump (20 Hz to
+    builds up over about tau, in pushes of both signs: the action's impacts
+    (the key on the keybed and its rebound, the hammer's reaction) reaching
+    the board through the keyframe and the case by paths of many lengths.  Why: a recorded grand's thump (20 Hz to
     1 kHz or f0 / 2) builds up to its peak 10-35 ms after the onset and
     reaches 1 kHz (docs/voicing.md, "The thump under the attack"); one pulse
     peaks at once.  The places and signs are drawn in seconds, so the train

@@ -321,7 +321,8 @@ def parse_report(out: str) -> dict:
                      ("p99", r"99th percentile ([\d.]+)%"), ("mean", r"mean ([\d.]+)% of the budget"),
                      ("over", r"(\d+) blocks over it"),
                      ("over_cpu", r"\((\d+) in the audio thread's CPU time"),
-                     ("worst_cpu", r"CPU time, whose worst is ([\d.]+)%"), ("late", r"(\d+) late events"), ("errors", r"(\d+) errors,"),
+                     ("worst_cpu", r"CPU time, whose worst is ([\d.]+)%"),
+                     ("late", r"(\d+) late events"), ("errors", r"(\d+) errors,"),
                      ("shed", r"(\d+) voices shed")):
         m = re.search(pat, out)
         r[key] = None if m is None else float(m.group(1))
