@@ -298,6 +298,7 @@ class Engine(ChannelControls):
         #: the action's knocks: a unit pulse (its shape), and the force still
         #: to add to the buses (output samples from the block's start)
         self._knock_unit = knock_pulse(self.fs_out, 1.0, *instrument.knock_shape())
+        self._knock_scaled = np.empty_like(self._knock_unit)   # (a note-on's pulse: no allocation)
         #: the knocks join the bridge after decimation: they wait the
         #: decimator's latency so that they meet the note they belong to
         self._knock_lag = int(round(self.dec.latency_samples))
@@ -591,12 +592,13 @@ class Engine(ChannelControls):
                 kb = grp.path.knock
                 grp.path.knocking = True
         p = self.inst.pan(int(round(key)))
-        u = self._knock_unit
+        u, w = self._knock_unit, self._knock_scaled
+        n = len(u)
         if self.n_dec == 2:
-            kb[0, j:j + len(u)] += (1.0 - p) * g * u
-            kb[1, j:j + len(u)] += p * g * u
+            kb[0, j:j + n] += np.multiply(u, (1.0 - p) * g, out=w)
+            kb[1, j:j + n] += np.multiply(u, p * g, out=w)
         else:
-            kb[0, j:j + len(u)] += g * u
+            kb[0, j:j + n] += np.multiply(u, g, out=w)
         if kb is self._knock:
             self._knocking = True
 
