@@ -173,6 +173,55 @@ def test_warmup_compiles_then_says_it_compiled_nothing(tmp_path):
     assert "already compiled" in runs[1][0] and CN.MESSAGE not in runs[1][1]
 
 
+def test_warmup_order_and_bad_input():
+    """The presets whose kernels differ most go first; a bad --jobs, an
+    unknown preset are refused before any work."""
+    from synth.apps.warmup import ORDER, ordered, warm_presets
+
+    assert ordered(["harpsichord", "sitar", "grand-piano", "sitar"]) == \
+        ["grand-piano", "sitar", "harpsichord"]
+    assert ordered(["biwa"]) == ["biwa"] and ORDER[0] == "grand-piano"
+    for jobs in (0, 65, 1.5, True):
+        with pytest.raises(ValueError, match=r"jobs = .* is out of range \(1 <= value <= 64\)"):
+            warm_presets(["biwa"], jobs)
+    from synth.io.errors import PresetError
+
+    with pytest.raises(PresetError, match="no-such-preset"):
+        warm_presets(["biwa", "no-such-preset"], 2)
+    from synth.cli import main
+
+    assert main(["warmup", "--presets", "biwa", "--jobs", "0"]) == 2
+    from synth.io.factory import build_engine
+
+    with pytest.raises(ValueError, match=r"only = \('sharded', 'all'\): each must be one of sharded, "):
+        build_engine("biwa", ()).bank.load_kernels(("sharded", "all"))
+
+
+@pytest.mark.slow  # two spawned processes load the kernels: 5-15 s on 2 cores
+def test_warmup_in_two_processes_reports_each_preset(tmp_path):
+    """``warm_presets(..., jobs=2)`` warms the presets in worker processes
+    (on the suite's own cache, where they compile what it lacks or load
+    it), in two rounds: the bank's renderers and one note of each, then
+    each phrase; it reports every part as it ends and returns each preset,
+    in the given order, its parts added up; run again they compile
+    nothing."""
+    from synth.apps.warmup import n_tasks, warm_presets
+
+    seen = []
+    first = warm_presets(["biwa", "harpsichord"], jobs=2, threads=2, done=seen.append)
+    assert [w.preset for w in first] == ["biwa", "harpsichord"]
+    assert sorted((w.part, w.preset) for w in seen) == [
+        ("note", "biwa"), ("note", "harpsichord"), ("phrase", "biwa"),
+        ("phrase", "harpsichord"), ("sharded", "biwa")]
+    assert n_tasks(["biwa", "harpsichord"], 2) == 5 and n_tasks(["biwa", "harpsichord"], 1) == 2
+    for w in first:
+        parts = [x for x in seen if x.preset == w.preset]
+        assert w.part == "all" and w.seconds == pytest.approx(sum(x.seconds for x in parts))
+        assert w.compiled == sum(x.compiled for x in parts) >= 0
+    again = warm_presets(["biwa", "harpsichord"], jobs=2, threads=2)
+    assert [w.compiled for w in again] == [0, 0] and [w.compile_s for w in again] == [0.0, 0.0]
+
+
 def _ipar(n):
     from synth.kernels import layout as L
 

@@ -4,9 +4,9 @@ The first ``synth note``, ``render`` or ``play`` on a machine (and the first
 after an update of ``synth/kernels``) compiles the string kernels, a minute
 or more; ``synth warmup`` does it beforehand (a studio machine before a
 concert, an image being built): each preset's engine plays a short phrase
-that takes it through the paths a performance uses (several notes at once,
-one alone, a restrike, the pedals, a bend: :func:`synth.engine.warm.warm_phrase`),
-on a throwaway engine.  What numba compiles stays in its cache
+that takes it through the paths a performance uses
+(:func:`synth.apps.warmup.warm_presets`), in one process per core at once
+(``--jobs``).  What numba compiles stays in its cache
 (:mod:`synth.kernels.cache`); run again on a warm cache it loads the
 kernels, compiles nothing, and says so.
 """
@@ -24,6 +24,7 @@ EPILOG = ("examples:\n"
           "  synth warmup                          # every musical preset's paths, with a progress bar\n"
           "  synth warmup --presets sitar,biwa     # only these\n"
           "  synth warmup --presets all            # the study presets too\n"
+          "  synth warmup --jobs 1                 # in this process only (default: one process a core)\n"
           "\n"
           "Run again on a warm cache, it compiles nothing and says so.  Where the kernels are\n"
           "kept: synth.kernels.cache_dir() (NUMBA_CACHE_DIR if set).")
@@ -33,6 +34,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--presets", metavar="LIST",
                         help="comma-separated presets to warm (default: every musical preset; "
                              "'all': every preset found, the study presets too)")
+    parser.add_argument("--jobs", type=int, metavar="N",
+                        help="presets warmed at once, each in its own process writing into the one "
+                             "cache (default: one per core, at most one per preset)")
     add_threads(parser)
 
 
@@ -50,49 +54,61 @@ def _presets(text):
     return chosen
 
 
-def _warm(name: str, threads) -> None:
-    from ..engine.warm import warm_phrase
-    from ..io.factory import build_engine
-
-    eng = build_engine(name, (), extra_low_key=0, threads=threads)
-    # the kernel of every scene (what live play and several notes run), then
-    # the narrower ones a phrase takes (what a single note runs offline)
-    eng.bank.load_kernels()
-    eng.render(warm_phrase(eng.inst), duration_s=0.06)
-
-
 def run(args) -> int:
+    from ..apps.check import check_jobs
+    from ..apps.warmup import n_tasks, ordered, warm_presets
     from ..dsp import compile_notice
+    from ..dsp.threads import available_cores
 
-    names = _presets(args.presets)
+    names = ordered(_presets(args.presets))
+    if args.jobs is None:
+        jobs = min(available_cores(), n_tasks(names, available_cores()))
+    else:
+        try:
+            jobs = check_jobs(args.jobs, "--jobs")
+        except ValueError as e:
+            fail(f"warmup: {e}")
     t0 = time.perf_counter()
-    c0 = compile_notice.kernels_compiled() if compile_notice._state["listening"] else 0
     tty = sys.stderr.isatty()
     bar = None
     if tty:
         try:
             from tqdm import tqdm
 
-            bar = tqdm(names, desc="synth warmup", unit=" presets", file=sys.stderr, leave=False)
+            bar = tqdm(total=n_tasks(names, jobs), desc="synth warmup", unit=" parts",
+                       file=sys.stderr, leave=False)
         except ImportError:
             bar = None
-    it = bar if bar is not None else names
-    for i, name in enumerate(it):
+    count, total = [0], n_tasks(names, jobs)
+
+    def done(w):
+        count[0] += 1
+        what = w.preset if w.part == "all" else f"{w.preset} {w.part}"
         if bar is not None:
-            bar.set_postfix_str(name)
-        t = time.perf_counter()
-        _warm(name, args.threads)
-        if bar is None:
-            print(f"warmup: {name} ({i + 1}/{len(names)}) {time.perf_counter() - t:.1f} s",
+            bar.set_postfix_str(what)
+            bar.update(1)
+        else:
+            print(f"warmup: {what} ({count[0]}/{total}) {w.seconds:.1f} s",
                   file=sys.stderr, flush=True)
-    if bar is not None:
-        bar.close()
+
+    if jobs > 1:
+        # the workers compile; this process only waits: no compile notice here
+        compile_notice.disarm()
+    try:
+        warmed = warm_presets(names, jobs, args.threads, done=done)
+    except ValueError as e:
+        fail(f"warmup: {e}")
+    finally:
+        if bar is not None:
+            bar.close()
     el = time.perf_counter() - t0
-    n = compile_notice.kernels_compiled() - c0
+    n = sum(w.compiled for w in warmed)
     if n == 0:
         print(f"warmup: the kernels were already compiled for this CPU: nothing to do "
               f"({len(names)} presets checked in {el:.1f} s)")
     else:
-        print(f"warmup: compiled {n} kernels for this CPU in {compile_notice.compile_seconds():.1f} s "
-              f"({len(names)} presets, {el:.1f} s in all); the next notes start without compiling")
+        how = f" in {jobs} processes at once" if jobs > 1 else ""
+        print(f"warmup: compiled {n} kernels for this CPU{how} in {el:.1f} s "
+              f"({sum(w.compile_s for w in warmed):.1f} s of compiling, {len(names)} presets); "
+              f"the next notes start without compiling")
     return 0

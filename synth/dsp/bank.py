@@ -947,30 +947,43 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             done += c
             self.time += c
 
-    def load_kernels(self) -> None:
+    #: the bank's renderers, as :meth:`load_kernels` names them
+    RENDERERS = ("sharded", "big_groups", "small_group", "strings", "bank")
+
+    def load_kernels(self, only: tuple[str, ...] | None = None) -> None:
         """Compile (or load from numba's cache) every kernel :meth:`render`
         may call, whatever the scene (``synth warmup``): each is called
-        with no string and no sample, which renders nothing."""
+        with no string and no sample, which renders nothing.  ``only``: the
+        renderers of :data:`RENDERERS` to load (None: all; a warm-up on
+        several processes gives each its own)."""
+        if only is not None and not set(only) <= set(self.RENDERERS):
+            raise ValueError(f"only = {only!r}: each must be one of {', '.join(self.RENDERERS)}")
+        want = set(self.RENDERERS if only is None else only)
         mix = np.zeros((self._row_top + 1, 1))
         ubx = np.zeros(max(1, self._ext_sub))
         none = self.active[:0]
         c = 0
         nt = threads.enter(self.threads, prime=True)     # the priming kernel too
         KR.bank_kind(none, 0, self.ipar, self.fpar, c)
-        KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
-                          self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
-                          self._smix, self._plan, self._pb, self._tw, self._ib, nt)
-        for big_nt in (nt, None):
-            KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c,
-                                 0, mix, self.probe, self._scratch2[0], self._iwork2[0],
-                                 self._pb, self._tw, self._ib, big_nt)
-        KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0,
-                              mix, self.probe, self._scratch2[0], self._iwork2[0])
-        KR.render_strings(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
-                          self.probe, self._scratch2[0], ubx)
-        KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
-                       self.probe, self._scratch2[0], self._iwork2[0], ubx, self._sub3[0],
-                       self._pb, self._tw, self._ib, nt)
+        if "sharded" in want:
+            KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
+                              self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
+                              self._smix, self._plan, self._pb, self._tw, self._ib, nt)
+        if "big_groups" in want:
+            for big_nt in (nt, None):
+                KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c,
+                                     0, mix, self.probe, self._scratch2[0], self._iwork2[0],
+                                     self._pb, self._tw, self._ib, big_nt)
+        if "small_group" in want:
+            KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0,
+                                  mix, self.probe, self._scratch2[0], self._iwork2[0])
+        if "strings" in want:
+            KR.render_strings(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
+                              self.probe, self._scratch2[0], ubx)
+        if "bank" in want:
+            KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
+                           self.probe, self._scratch2[0], self._iwork2[0], ubx, self._sub3[0],
+                           self._pb, self._tw, self._ib, nt)
 
     # -- inspection (tests, analysis) ----------------------------------------
     def rails(self, s: int):
