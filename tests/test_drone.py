@@ -193,6 +193,59 @@ def test_the_two_middle_sa_strings_are_two_voices_sounding_together(presets):
     assert eng.drone.n_plucks >= 5 and eng.n_voices == 4 and dict(eng.by_key) == voices
 
 
+def test_a_cycle_starts_the_strings_it_plucks_later_at_rest():
+    """At a cycle's first sample the player lists, before its plucks and
+    with velocity None, every string it plucks later than that sample
+    (here strings 1-3: string 0 is plucked at the start); they are not
+    plucks (neither counted nor in the history)."""
+    spec = load_preset("tanpura", ["drone.timing_jitter_s=0"]).drone
+    d = D.Drone(spec, 325_000.0)
+    d.press(49, 0, 1000)
+    first = d.due(1000)
+    assert first == [(1, 49.0, None, 0), (2, 49.0, None, 0), (3, 37.0, None, 0),
+                     (0, 44.0, first[3][2], 0)] and first[3][2] > 0
+    assert d.n_plucks == 1 and len(d.history) == 1
+    nxt = d.due(1000 + int(0.3 * 4.0 * 325_000))
+    assert [x[:2] for x in nxt] == [(1, 49.0)] and nxt[0][2] > 0 and d.n_plucks == 2
+
+
+def test_the_strings_not_yet_plucked_ring_on_the_bridge_from_the_start():
+    """The tanpura: from the drone's first sample all four strings are on
+    the bridge, and before its own pluck (at 1.2 s) each takes energy from
+    Pa through it, the low Sa most (Pa's partial 2 on its partial 3); its
+    pluck then excites the string where it is, on the same voice.  A
+    resting string's rest does nothing to a sounding one."""
+    eng = build_engine("tanpura", ["drone.timing_jitter_s=0"])
+    eng.schedule([on(0.0, 49)])
+
+    def energies():
+        return {vo.key: float(eng.bank.energy(list(eng._slot_tuples[v])).sum())
+                for v, vo in eng.voices.items()}
+
+    eng.render_block(2400)                       # 0.05 s
+    early = energies()
+    assert sorted(early) == [(0, 37.0, 3), (0, 44.0, 0), (0, 49.0, 1), (0, 49.0, 2)]
+    assert eng.drone.n_plucks == 1
+    while eng.time_out < int(1.15 * FS):         # to just before the second pluck
+        eng.render_block(2400)
+    late = energies()
+    assert eng.drone.n_plucks == 1
+    pa = late[(0, 44.0, 0)]
+    for k in ((0, 49.0, 1), (0, 49.0, 2), (0, 37.0, 3)):
+        assert 0.0 < late[k] < 1e-3 * pa
+    assert late[(0, 37.0, 3)] > 10.0 * early[(0, 37.0, 3)]
+    voices = dict(eng.by_key)
+    v = voices[(0, 44.0, 0)]
+    before = float(eng.bank.energy(list(eng._slot_tuples[v])).sum())
+    ev = Event(eng.time_in / eng.fs_in_exact, "note_on", 44, 1.0, 0, string=0)
+    eng._note_on(ev, eng.time_in, eng._voice_key(ev), rest=True)
+    assert float(eng.bank.energy(list(eng._slot_tuples[v])).sum()) == before
+    while eng.time_out < int(1.3 * FS):          # the second pluck, on its resting voice
+        eng.render_block(2400)
+    assert eng.drone.n_plucks == 2 and dict(eng.by_key) == voices
+    assert energies()[(0, 49.0, 1)] > 100.0 * late[(0, 49.0, 1)]
+
+
 def test_the_same_key_stops_the_drone_and_the_strings_ring_on(presets):
     eng = build_engine(NAME, _short(presets))
     y = eng.render([on(0.0, 49), Event(0.2, "note_off", 49, 0.0), on(1.5, 49)],

@@ -46,6 +46,15 @@ them, and each pluck acts at its own internal sample (the engine splits its
 block there, as for an event): a render gives the same samples for any
 block size, and a live performance the samples of its offline render.
 
+The strings rest on the bridge from the cycle's start.  A tanpura's four
+strings are always on its bridge: the first pluck sets the bridge moving
+and the strings not yet plucked ring with it, the Sa strings with the
+partials of Pa they share.  So each cycle starts, at its first sample and
+before its first pluck, every string it plucks later and that does not
+sound already, at rest (its pluck later excites it where it is, as a
+string plucked again).  Without that, a string joined the bridge only at
+its own pluck, and in the first cycle Pa rang alone for a second.
+
 Humanisation.  Each pluck is moved in time by a uniform draw in
 [-``timing_jitter_s``, +``timing_jitter_s``] and its strength by one in
 [-``force_jitter_db``, +``force_jitter_db``] dB (of the pluck's amplitude,
@@ -250,11 +259,15 @@ class Drone:
 
     def due(self, at: int) -> list:
         """The plucks due at internal sample ``at`` (cycles due begin
-        first): a list of (string, key, velocity, channel), in pluck order."""
+        first): a list of (string, key, velocity, channel), in pluck order.
+        A cycle that begins lists first, with velocity None, the strings it
+        plucks later than its start: they are on the instrument from its
+        start, resting on the bridge (the engine starts a string at rest
+        unless it sounds)."""
         out = []
         while True:
             if self._cycle_at is not None and self._cycle_at <= at:
-                self._begin_cycle()
+                out += self._begin_cycle()
                 continue
             if self._plucks and self._plucks[0][0] <= at:
                 t, i, key, vel, ch = self._plucks.pop(0)
@@ -264,9 +277,11 @@ class Drone:
                 continue
             return out
 
-    def _begin_cycle(self) -> None:
+    def _begin_cycle(self) -> list:
         """The cycle starting at ``_cycle_at``: its four plucks drawn and
-        scheduled with the settings now, the next cycle's start set."""
+        scheduled with the settings now, the next cycle's start set; returns
+        the strings at rest at its start, (string, key, None, channel) for
+        each string plucked after it."""
         start = self._cycle_at
         cycle_s = self.cycle_s
         keys = string_keys(self.key, self.first)
@@ -279,6 +294,8 @@ class Drone:
             vel = base * 10.0 ** (db / (20.0 * self.exponent))
             vel = min(max(vel, 1.0 / 127.0), 1.0)
             self._plucks.append((max(t, start), i, keys[i], vel, self.channel))
+        rest = [(i, key, None, ch) for t, i, key, _, ch in self._plucks[-STRINGS:] if t > start]
         self._plucks.sort(key=lambda p: (p[0], p[1]))
         self._cycle_at = start + int(round(cycle_s * self.fs))
         self.n_cycles += 1
+        return sorted(rest)

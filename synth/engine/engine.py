@@ -462,7 +462,11 @@ class Engine(ChannelControls):
             x["speed_m_per_s"] = ev.speed_m_per_s
         return x
 
-    def _note_on(self, ev: Event, at: int, vk) -> None:
+    def _note_on(self, ev: Event, at: int, vk, rest: bool = False) -> None:
+        """Start (or strike again) the note of ``ev`` at internal sample
+        ``at``; with ``rest``, start its strings at rest (configured, on
+        their bridge, excited by nothing: the drone's strings before their
+        pluck), or nothing if the note sounds."""
         key = None if ev.key is None or ev.key < 0 else ev.key
         if self.taraf is not None:
             if ev.string is None and self.taraf.is_trigger(ev.channel, key):
@@ -479,7 +483,10 @@ class Engine(ChannelControls):
         if self._ctl_default:
             self._voice_controls_for(ev.channel)
         v = self.by_key.get(vk)
-        if v is not None and any(self.bank.is_active(s) for s in self._slot_tuples[v]):
+        sounding = v is not None and any(self.bank.is_active(s) for s in self._slot_tuples[v])
+        if rest and sounding:
+            return
+        if sounding:
             # a sounding key is struck again on the same strings
             vo = self.voices[v]
             self._touched(v)
@@ -494,10 +501,13 @@ class Engine(ChannelControls):
             v = self._alloc(at)
             slots = self._slot_tuples[v]
             self._touched(v)
+            extra = self._extra(ev)
+            if rest:
+                extra["rest"] = True
             try:
                 self.inst.note_on(self.bank, slots, key, ev.value, f0_hz=ev.f0_hz,
                                   probe_row=0 if (self.probe and not self.voices) else -1,
-                                  **self._extra(ev))
+                                  **extra)
             except ValueError:
                 # a pitch this instrument cannot build (a study string far
                 # off its own pitch, say): the note is dropped, not the block
@@ -518,7 +528,8 @@ class Engine(ChannelControls):
             b = self._bend_value(ev.channel)
             if b:
                 self.inst.pitch_bend(self.bank, slots, key, ev.f0_hz, b)
-        self._add_knock(key, ev, at)
+        if not rest:
+            self._add_knock(key, ev, at)
         self._schedule_hand_over(v, key, at)
         # the block's samples before the note are not its silence
         before = max(at - self.time_in, 0)
@@ -682,6 +693,11 @@ class Engine(ChannelControls):
                     bank.render(self.mix, cursor, off - cursor)
                     cursor = off
                 for i, key, vel, ch in drone.due(start + off):
+                    if vel is None:
+                        # a string of the cycle, at rest on the bridge until its pluck
+                        ev = Event((start + off) / self.fs_in_exact, NOTE_ON, key, 1.0, ch, string=i)
+                        self._note_on(ev, start + off, self._voice_key(ev), rest=True)
+                        continue
                     self._apply(Event((start + off) / self.fs_in_exact, NOTE_ON, key, vel, ch,
                                       string=i), start + off)
                     self._sym_event(start + off)

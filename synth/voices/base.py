@@ -229,6 +229,9 @@ class Voice:
             ``probe_row + j``), -1: none (study renders, contact telemetry).
         restrike : the note is sounding on these slots and is played again
             on the same strings (do not reconfigure them).
+        rest : (a voice that can: the plucked one, for the drone player)
+            configure and activate the strings at rest, excited by nothing;
+            the other voices do not take it.
         speed_m_per_s : explicit hammer speed (m/s) for struck voices.
         soft : soft pedal, 0 .. 1.
 

@@ -973,10 +973,16 @@ class OneStringVoice(Voice):
 
     def note_on(self, bank: StringBank, slots, key: float | None, velocity: float, *,
                 f0_hz: float | None = None, probe_row: int = -1, restrike: bool = False,
-                speed_m_per_s: float | None = None, soft: float = 0.0) -> None:
+                speed_m_per_s: float | None = None, soft: float = 0.0,
+                rest: bool = False) -> None:
         """Excite the voice's string (configuring it for the pitch, at the
         excitation point CC74 sets, unless ``restrike``: a sounding string is
-        excited again where it is, at its own point)."""
+        excited again where it is, at its own point).  With ``rest`` the
+        string is configured and activated at rest, excited by nothing (it
+        sounds only by what its bridge gives it: a drone's string before
+        its first pluck, which then comes as a ``restrike``)."""
+        if rest and restrike:
+            raise ValueError("rest and restrike exclude each other")
         slot = slots[0]
         self._own(bank)
         if restrike:
@@ -997,12 +1003,14 @@ class OneStringVoice(Voice):
             if su.U is not None:
                 self._depth[slot] = [su, self.buzz, self.buzz, self.BUZZ_GLIDE_STEPS]
         ls = su.string.length_m / self.open_string.length_m
-        self.exciter.start(bank, slot, su, velocity, amplitude_scale=ls,
-                           speed_m_per_s=speed_m_per_s, length_scale=ls)
+        if not rest:
+            self.exciter.start(bank, slot, su, velocity, amplitude_scale=ls,
+                               speed_m_per_s=speed_m_per_s, length_scale=ls)
         if not restrike:
             self._bend[slot] = 0.0
         self._retune(bank, slot, su)
-        self._tune_out(bank, slot, su, velocity)
+        if not rest:
+            self._tune_out(bank, slot, su, velocity)
         bank.activate(slot)
 
     def note_off(self, bank: StringBank, slots, key: float | None, f0_hz: float | None,
