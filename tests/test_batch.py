@@ -355,6 +355,7 @@ def test_the_throughput_benchmark_runs_in_its_quick_mode():
     assert "the manifest of 2000 rows" in p.stdout
 
 
+@pytest.mark.slow  # a Dask cluster renders a spec: 5 s
 def test_the_python_api_returns_the_manifest(tmp_path, cluster):
     import synth.batch as api
 

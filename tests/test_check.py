@@ -70,6 +70,7 @@ def test_a_wav_render_passes_and_fails_on_the_measured_values(tmp_path):
     assert not bad[0].passed and bad[0].measured.startswith("-7.8")    # 1200 log2(440/442)
 
 
+@pytest.mark.slow  # three specs rendered through the CLI: 2.5 s
 def test_the_cli_exit_codes_table_and_junit(tmp_path):
     _sine(tmp_path / "tone.wav")
     good = _spec(tmp_path, WAV_SPEC.format(hz=440.0).rsplit("[[expect]]", 1)[0], "good.toml")
@@ -108,6 +109,7 @@ max_dbfs = 0.0
 """
 
 
+@pytest.mark.slow  # two spawned worker processes: 4 s
 def test_specs_in_worker_processes_give_the_same_results_in_their_order(tmp_path):
     """--jobs: the specs run in processes at once, and the results (every
     measured value, in the specs' order) are those of one after the other;

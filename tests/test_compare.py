@@ -209,6 +209,7 @@ def test_silent_or_short_signals_cannot_be_matched():
         match_loudness([np.ones(FS) * 0.1, np.ones(100)], FS)
 
 
+@pytest.mark.slow  # its fixture renders three presets: 9 s
 def test_anchor_is_the_reference_low_passed_at_3_5_khz(cmp3):
     out, _ = cmp3
     ref, _ = sf.read(out / "A.wav", dtype="float64")
@@ -262,7 +263,7 @@ class _Attrs(HTMLParser):
                 self.links.append((tag, k, v))
 
 
-@pytest.mark.parametrize("which", ["cmp3", "cmp2"])
+@pytest.mark.parametrize("which", [pytest.param("cmp3", marks=pytest.mark.slow), "cmp2"])
 def test_page_is_self_contained(which, request):
     out, _ = request.getfixturevalue(which)
     page = (out / "index.html").read_text()
@@ -283,6 +284,7 @@ def test_page_is_self_contained(which, request):
                                              [f"{i}.wav" for i in _ids(out)])
 
 
+@pytest.mark.slow  # the three-preset fixture
 def test_page_data(cmp3, cmp2):
     d3, d2 = _data(cmp3[0]), _data(cmp2[0])
     assert d3["stimuli"] == ["A", "B", "C"] and d3["mushra"] and d3["anchor"] == "anchor"

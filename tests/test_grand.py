@@ -458,6 +458,7 @@ def _decay_db_per_s(y, key, f1, n_partials=8, t0=0.1, t1=1.3, win=0.2):
     return np.array([np.polyfit(ts + win / 2, lv[:, k], 1)[0] for k in range(n_partials)])
 
 
+@pytest.mark.slow  # two grand notes with and without the mass: 2.5 s
 def test_the_bridge_mass_keeps_the_upper_partials_of_the_prompt_sound():
     """C4 with its unison exact (only the in-phase motion, the prompt
     sound): each partial decays at the string's own rate plus the bridge's,

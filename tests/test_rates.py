@@ -47,7 +47,7 @@ def test_decimator_band_at_each_card_rate(fs_out):
     assert d.latency_s < 2e-3
 
 
-@pytest.mark.parametrize("preset", ["grand-piano", "sitar", "biwa"])
+@pytest.mark.parametrize("preset", [pytest.param("grand-piano", marks=pytest.mark.slow), "sitar", "biwa"])
 def test_body_response_in_hz_does_not_depend_on_the_rate(preset):
     """The body laid out and normalised at 48 kHz whatever rate it runs
     at: its third-octave response within 0.05 dB of 48 kHz's below 5 kHz
@@ -76,7 +76,7 @@ def _third_octave_levels(y, fs):
 
 
 @pytest.mark.parametrize("preset,key,sets,tol_db", [
-    ("grand-piano", 60, ("listener.room=none",), (0.2, 0.5)),
+    pytest.param("grand-piano", 60, ("listener.room=none",), (0.2, 0.5), marks=pytest.mark.slow),
     ("sitar", 57, (), (0.2, 0.5)),
     ("grand-piano", 60, (), (1.0, 1.0))])
 def test_a_note_sounds_the_same_at_every_card_rate(preset, key, sets, tol_db):

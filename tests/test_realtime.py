@@ -224,6 +224,7 @@ def test_late_events_are_counted_and_played_at_once():
     assert "underruns 0" in rt.meter() and "late events" in rt.report()
 
 
+@pytest.mark.slow  # a grand engine warmed and played: 2.5 s
 def test_a_cycles_events_are_scheduled_in_one_call():
     """The events queued for a block reach the engine in one schedule call
     (each call orders every pending event anew: one per event made a

@@ -434,7 +434,8 @@ def _curved_profile(side, R, dx, theta=0.0, pts=20):
                                                       (1, 0.002, False, 0.003),
                                                       (1, 0.0, True, 0.003),
                                                       (1, 0.0, False, 0.012),
-                                                      (-1, 0.002, False, 0.012)])
+                                                      pytest.param(-1, 0.002, False, 0.012,
+                                                                   marks=pytest.mark.slow)])
 def test_subcell_contact_matches_the_naive_scheme(per_sample, side, theta, curv_only, amp):
     """The kernel's sub-cell contact (fast path, block after block, and
     per sample) is the naive scheme's written out (tests/reference.py:
