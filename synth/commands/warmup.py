@@ -35,8 +35,8 @@ def add_arguments(parser) -> None:
                         help="comma-separated presets to warm (default: every musical preset; "
                              "'all': every preset found, the study presets too)")
     parser.add_argument("--jobs", type=int, metavar="N",
-                        help="presets warmed at once, each in its own process writing into the one "
-                             "cache (default: one per core, at most one per preset)")
+                        help="worker processes compiling at once, all into the one cache (default: "
+                             "one per core; 1: in this process)")
     add_threads(parser)
 
 
