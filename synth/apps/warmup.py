@@ -62,9 +62,8 @@ def warm_one(name: str, threads: int | None = None, part: str = "all") -> Warmed
     the default, :func:`synth.dsp.threads.default_threads`).  ``part``:
     ``"sharded"``, the bank's renderer of several units on the threads
     (:meth:`~synth.dsp.bank.StringBank.load_kernels`, the costliest to
-    compile); ``"note"``, one note
-    in the middle of the preset's range, alone (the narrower renderer a
-    single note runs); ``"phrase"``, :func:`synth.engine.warm.warm_phrase`
+    compile); ``"note"``, one note in the middle of the preset's range,
+    alone (the narrower renderer a single note runs); ``"phrase"``, :func:`synth.engine.warm.warm_phrase`
     (several notes at once, a restrike, the pedals, a bend) after every
     renderer of the bank; ``"all"``, the same as ``"phrase"``."""
     from ..dsp import compile_notice
@@ -159,8 +158,8 @@ def warm_presets(names, jobs: int = 1, threads: int | None = None,
     from concurrent.futures import ProcessPoolExecutor, as_completed
 
     each = max(1, resolve(threads) // jobs)
-    # round 1: every renderer of the bank in one worker, one note of each
-    # preset in the others; round 2: each preset's phrase
+    # round 1: render_sharded in one worker, one note of each preset in the
+    # others; round 2: each preset's phrase (_rounds)
     spent = {n: Warmed(n, 0.0, 0, 0.0) for n in names}
     # spawn, not fork: the parent may hold numba's thread pool and locks
     with ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn")) as ex:
