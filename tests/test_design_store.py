@@ -136,3 +136,21 @@ def test_the_grand_keeps_its_keys_and_its_sympathetic_strings(store):
         for name in ("ipar", "fpar", "U", "bend_delay", "cells", "region", "bend_len"):
             x, y = getattr(a, name), getattr(b, name)
             assert np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y, name
+
+
+def test_the_sitar_keeps_its_taraf_and_chikari(store):
+    """The sitar's free strings (13 strings designed at every engine's
+    build: 0.1 s) are saved by the first voice and loaded by the next,
+    template for template; with the store off they are designed anew, the
+    same values."""
+    v = build_voice("sitar", [])
+    before = v.free_strings(48_000.0)
+    assert any(n.startswith("free-strings-") for n in _files(store))
+    after = build_voice("sitar", []).free_strings(48_000.0)
+    assert after is not before and after.keys == before.keys and after.drone_keys == before.drone_keys
+    for a, b in zip(after.slots + after.drone_slots, before.slots + before.drone_slots):
+        for name in ("ipar", "fpar", "U", "bend_delay", "cells", "region", "bend_len"):
+            x, y = getattr(a, name), getattr(b, name)
+            assert np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y, name
+    assert build_voice("tanpura", []).free_strings(48_000.0).slots == ()   # the bridge alone, kept too
+    assert build_voice("tanpura", []).free_strings(48_000.0).resistance_ns_per_m == 500.0

@@ -171,7 +171,11 @@ def test_a_measured_room_drives_the_reverberation(tmp_path):
     h[0] = 1.0
     p = tmp_path / "ir.wav"
     soundfile.write(str(p), h, FS, subtype="FLOAT")
+    import synth.dsp.listener as LM
+
+    n = len(LM._CALIBRATIONS)
     L = Listener.design(FS, 1, "hall", room=str(p))
+    assert len(LM._CALIBRATIONS) == n          # a file's calibration is not kept: it may change
     assert L.design.t60_s == pytest.approx((1.4, 1.4), rel=0.1)
     assert _late_t60(L, 1000.0) == pytest.approx(1.4, rel=0.15)
 
@@ -262,3 +266,29 @@ def test_an_offline_render_waits_for_the_rooms_reverberation():
     extra = (len(wet) - len(dry)) / FS
     assert extra == pytest.approx(hall.listener.tail_s, abs=1024 / FS + 1e-9)
     assert hall.listener.tail_s > 1.5
+
+
+def test_a_named_rooms_calibration_is_kept_and_gives_the_same_stage():
+    """A second stage of the same design takes the first's calibration (no
+    impulse responses rendered again) and is the same stage, sample for
+    sample; a measured room (a WAV file, which may change) is not kept."""
+    import synth.dsp.listener as L
+
+    L._CALIBRATIONS.clear()
+    a = L.Listener.design(48_000, 2, "player")
+    assert len(L._CALIBRATIONS) == 1
+    calls = []
+    orig = L.Listener._ir
+    try:
+        L.Listener._ir = lambda self, *args, **kw: calls.append(1) or orig(self, *args, **kw)
+        b = L.Listener.design(48_000, 2, "player")
+    finally:
+        L.Listener._ir = orig
+    assert calls == [] and (a.late_scale, a.level_scale) == (b.late_scale, b.level_scale)
+    x = np.random.default_rng(3).standard_normal((2, 2000))
+    assert np.array_equal(a.process(x.copy()), b.process(x.copy()))
+    L._CALIBRATIONS.clear()
+    c = L.Listener.design(48_000, 2, "player")
+    c.reset()
+    a.reset()
+    assert np.array_equal(a.process(x.copy()), c.process(x.copy()))

@@ -53,6 +53,13 @@ def _band_mean(power: np.ndarray, fs: float, fc: float) -> float:
     return float(power[..., sel].mean())
 
 
+
+#: calibrations kept for the process (:meth:`Listener._calibrate`): the
+#: design's arguments -> (late scale, level scale); a few positions and
+#: rates in use, cleared past :data:`_MAX_CALIBRATIONS`
+_CALIBRATIONS: dict = {}
+_MAX_CALIBRATIONS = 64
+
 class Listener:
     """The listening stage, streaming block by block.
 
@@ -72,7 +79,7 @@ class Listener:
         The late reverberation's scale and the stage's (``"matched"``).
     """
 
-    def __init__(self, design: ListenerDesign):
+    def __init__(self, design: ListenerDesign, calibration_key=None):
         self.design = d = design
         C = self.channels = int(d.channels)
         L = d.direct.shape[0]
@@ -103,7 +110,7 @@ class Listener:
         self.tail_s = float(max(t60, default=0.0))
         self.late_scale = 1.0
         self.level_scale = 1.0
-        self._calibrate()
+        self._calibrate(calibration_key)
         self.reset()
 
     @classmethod
@@ -145,9 +152,16 @@ class Listener:
                                  f"({lo:g} <= value <= {hi:g})")
         if isinstance(channels, bool) or channels not in (1, 2):
             raise ValueError(f"channels = {channels!r} is out of range (1 or 2)")
+        # a named room (or none) is designed from these values alone: its
+        # calibration can be kept for the next engine (a WAV file's cannot:
+        # the file may change)
+        key = None
+        if room is None or room in ROOM_NAMES:
+            key = (float(fs), int(channels), position, room, distance_m, directivity_db,
+                   float(temperature_c), float(humidity_percent), level)
         return cls(design_listener(float(fs), int(channels), position, room, distance_m,
                                    directivity_db, float(temperature_c), float(humidity_percent),
-                                   level))
+                                   level), calibration_key=key)
 
     # -- levels ------------------------------------------------------------------------
     def _ir(self, n: int, late: bool, early: bool, direct: bool) -> np.ndarray:
@@ -177,7 +191,17 @@ class Listener:
         self.reset()
         return h
 
-    def _calibrate(self) -> None:
+    def _calibrate(self, key=None) -> None:
+        """Scale the late reverberation to the design's energy and (level
+        "matched") the whole stage to unit mean power in ``LEVEL_BANDS_HZ``,
+        from the stage's own impulse responses (0.03-0.06 s of CPU for the
+        grand's).  With ``key`` (the design's arguments), the scales found
+        are kept for the process and applied again, the same operations in
+        the same order, to a stage built with the same key."""
+        kept = _CALIBRATIONS.get(key) if key is not None else None
+        if kept is not None:
+            self._apply_scales(*kept)
+            return
         d = self.design
         fs = d.fs
         n_short = self._hist.shape[1] + 2 * self._hd.shape[0]
@@ -186,17 +210,31 @@ class Listener:
             n = int(min(MAX_IR_S, self.tail_s * 1.1) * fs) + self._pre + int(self._lens.max()) + n_short
         nfft = 1 << max(10, (n - 1).bit_length())
         de = self._ir(n, late=False, early=True, direct=True)
+        late_scale = level_scale = None
         if len(self._lens):
             late = self._ir(n, late=True, early=False, direct=False)
             pw = (np.abs(np.fft.rfft(late, nfft)) ** 2).sum(axis=1).mean(axis=0)
             e = _band_mean(pw, fs, 1000.0)
-            self.late_scale = math.sqrt(d.late_energy / e) if e > 0 else 0.0
-            self._fout *= self.late_scale
-            de = de + self.late_scale * late
+            late_scale = math.sqrt(d.late_energy / e) if e > 0 else 0.0
+            de = de + late_scale * late
         if d.level == "matched":
             pw = (np.abs(np.fft.rfft(de, nfft)) ** 2).sum(axis=1).mean(axis=0)
             m = float(np.mean([_band_mean(pw, fs, fc) for fc in LEVEL_BANDS_HZ]))
-            self.level_scale = 1.0 / math.sqrt(m)
+            level_scale = 1.0 / math.sqrt(m)
+        self._apply_scales(late_scale, level_scale)
+        if key is not None:
+            if len(_CALIBRATIONS) >= _MAX_CALIBRATIONS:
+                _CALIBRATIONS.clear()
+            _CALIBRATIONS[key] = (late_scale, level_scale)
+
+    def _apply_scales(self, late_scale, level_scale) -> None:
+        """The late reverberation times ``late_scale`` (None: not scaled),
+        then the whole stage times ``level_scale`` (None: not scaled)."""
+        if late_scale is not None:
+            self.late_scale = late_scale
+            self._fout *= self.late_scale
+        if level_scale is not None:
+            self.level_scale = level_scale
             self._hd = self._hd * self.level_scale
             self._ge = self._ge * self.level_scale
             self._fout *= self.level_scale

@@ -39,8 +39,12 @@ __all__ = ["ENV", "KEEP", "folder", "load", "save", "source_digest"]
 
 #: the environment variable naming the folder (or ``off``)
 ENV = "SYNTH_DESIGN_CACHE"
-#: files kept in the folder (the newest by modification time)
-KEEP = 32
+#: files kept in the folder (the newest by modification time).  Every preset
+#: variant (each ``--set``) and rate has its own files, a few per preset
+#: (keys 50-600 kB, free strings and sympathetic strings under 100 kB): 32
+#: were evicted by one test run's variants, and the next warm start designed
+#: everything again; 128 hold a few dozen variants in some 10-30 MB
+KEEP = 128
 _OFF = ("off", "0", "no", "false")
 _digest: str | None = None
 

@@ -548,9 +548,18 @@ class OneStringVoice(Voice):
         the pluck's duration scaled by length (as a fretted main string's).
         """
         # designed once per voice (13 strings: 0.11 s, paid by every engine
-        # built; the bank copies the templates into its slots)
+        # built; the bank copies the templates into its slots), and kept on
+        # disk between runs as the keys' designs are (named by the code, the
+        # preset and the rate: a warm `synth note sitar` designed them anew)
         if "_taraf_design" not in self.__dict__:
-            self._taraf_design = self._design_taraf()
+            store = (type(self).__name__, self.preset, self.fs)
+            kept = design_store.load("free-strings", store)
+            if isinstance(kept, tuple) and len(kept) == 1 and \
+                    (kept[0] is None or isinstance(kept[0], TarafDesign)):
+                self._taraf_design = kept[0]
+            else:
+                self._taraf_design = self._design_taraf()
+                design_store.save("free-strings", store, (self._taraf_design,))
         return self._taraf_design
 
     def _design_taraf(self) -> TarafDesign | None:
