@@ -78,16 +78,16 @@ def warm_one(name: str, threads: int | None = None, part: str = "all") -> Warmed
     eng = build_engine(name, (), extra_low_key=0, threads=threads)
     if part == "sharded":
         eng.bank.load_kernels(("sharded",))
-    elif part in ("all", "phrase"):
-        # the kernel of every scene (what live play and several notes run)
-        eng.bank.load_kernels()
-    if part == "note":
+    elif part == "note":
         ons = [e for e in warm_phrase(eng.inst) if e.kind == NOTE_ON]
         key = ons[len(ons) // 2].key
         eng.render([Event(0.0, NOTE_ON, key, 0.8), Event(0.02, NOTE_OFF, key, 0.5)],
                    duration_s=0.06)
-    elif part in ("all", "phrase"):
-        # then the narrower ones a phrase takes (what a single note runs offline)
+    else:
+        # "all", "phrase": the kernel of every scene (what live play and
+        # several notes run), then the narrower ones a phrase takes (what a
+        # single note runs offline)
+        eng.bank.load_kernels()
         eng.render(warm_phrase(eng.inst), duration_s=0.06)
     return Warmed(name, time.perf_counter() - t0, compile_notice.kernels_compiled() - c0,
                   compile_notice.compile_seconds() - s0, part)

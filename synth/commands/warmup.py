@@ -62,12 +62,13 @@ def run(args) -> int:
 
     names = ordered(_presets(args.presets))
     if args.jobs is None:
-        jobs = min(available_cores(), n_tasks(names, available_cores()))
+        jobs = available_cores()
     else:
         try:
             jobs = check_jobs(args.jobs, "--jobs")
         except ValueError as e:
             fail(f"warmup: {e}")
+    total = n_tasks(names, jobs)           # parts: one per preset, or the rounds' (jobs > 1)
     t0 = time.perf_counter()
     tty = sys.stderr.isatty()
     bar = None
@@ -75,11 +76,11 @@ def run(args) -> int:
         try:
             from tqdm import tqdm
 
-            bar = tqdm(total=n_tasks(names, jobs), desc="synth warmup", unit=" parts",
+            bar = tqdm(total=total, desc="synth warmup", unit=" parts",
                        file=sys.stderr, leave=False)
         except ImportError:
             bar = None
-    count, total = [0], n_tasks(names, jobs)
+    count = [0]
 
     def done(w):
         count[0] += 1
@@ -107,7 +108,7 @@ def run(args) -> int:
         print(f"warmup: the kernels were already compiled for this CPU: nothing to do "
               f"({len(names)} presets checked in {el:.1f} s)")
     else:
-        how = f" in {jobs} processes at once" if jobs > 1 else ""
+        how = f" in {min(jobs, total)} processes at once" if jobs > 1 else ""
         print(f"warmup: compiled {n} kernels for this CPU{how} in {el:.1f} s "
               f"({sum(w.compile_s for w in warmed):.1f} s of compiling, {len(names)} presets); "
               f"the next notes start without compiling")

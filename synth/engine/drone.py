@@ -287,6 +287,7 @@ class Drone:
         keys = string_keys(self.key, self.first)
         sp = self.spec
         base = min(max(float(sp.velocity), 0.0), 1.0)
+        rest = []
         for i in range(STRINGS):
             dt = self.rng.uniform(-1.0, 1.0) * float(sp.timing_jitter_s)
             db = self.rng.uniform(-1.0, 1.0) * float(sp.force_jitter_db)
@@ -294,8 +295,9 @@ class Drone:
             vel = base * 10.0 ** (db / (20.0 * self.exponent))
             vel = min(max(vel, 1.0 / 127.0), 1.0)
             self._plucks.append((max(t, start), i, keys[i], vel, self.channel))
-        rest = [(i, key, None, ch) for t, i, key, _, ch in self._plucks[-STRINGS:] if t > start]
+            if t > start:
+                rest.append((i, keys[i], None, self.channel))
         self._plucks.sort(key=lambda p: (p[0], p[1]))
         self._cycle_at = start + int(round(cycle_s * self.fs))
         self.n_cycles += 1
-        return sorted(rest)
+        return rest

@@ -35,7 +35,7 @@ import sys
 import tempfile
 from pathlib import Path
 
-__all__ = ["ENV", "KEEP", "folder", "load", "save", "source_digest"]
+__all__ = ["ENV", "KEEP", "folder", "kept", "load", "save", "source_digest"]
 
 #: the environment variable naming the folder (or ``off``)
 ENV = "SYNTH_DESIGN_CACHE"
@@ -128,6 +128,20 @@ def save(kind: str, key, value) -> bool:
         return True
     except OSError:
         return False
+
+
+def kept(memo: dict, kind: str, key, make, valid=lambda value: True):
+    """The design of ``kind`` and ``key`` for this process: ``memo[key]`` if
+    this process has it, else the stored one (when ``valid(value)``), else
+    ``make()``, saved; kept in ``memo`` (a module's dict: every engine built
+    in the process shares it; ``key`` must be hashable)."""
+    if key not in memo:
+        value = load(kind, key)
+        if value is None or not valid(value):
+            value = make()
+            save(kind, key, value)
+        memo[key] = value
+    return memo[key]
 
 
 def _prune(d: Path) -> None:

@@ -243,15 +243,11 @@ class GrandVoice(KeyboardDampers, Voice):
             return None
         fs = float(fs_out)
         k = (self.preset, fs)
-        if k not in _SYMPATHETIC:
-            # (the design is data: the bank copies the templates into its
-            # slots); kept on disk between runs, as the keys' designs
-            kept = design_store.load("grand-sympathetic", k)
-            if not isinstance(kept, SympatheticDesign):
-                kept = self._design_sympathetic(fs, amount)
-                design_store.save("grand-sympathetic", k, kept)
-            _SYMPATHETIC[k] = kept
-        return _SYMPATHETIC[k]
+        # (the design is data: the bank copies the templates into its
+        # slots); kept on disk between runs, as the keys' designs
+        return design_store.kept(_SYMPATHETIC, "grand-sympathetic", k,
+                                 lambda: self._design_sympathetic(fs, amount),
+                                 lambda v: isinstance(v, SympatheticDesign))
 
     def _design_sympathetic(self, fs: float, amount: float) -> SympatheticDesign:
         sp = self.preset.strings

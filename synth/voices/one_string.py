@@ -73,6 +73,10 @@ from .base import BankSizes, DronePluck, TarafDesign, Voice
 from .exciters import PLUCK_MODELS
 from .registry import exciter_for, register_voice
 
+#: each preset's free strings (taraf and chikari, or the bridge alone) for
+#: this process, by (voice class, preset, rate): :meth:`OneStringVoice.free_strings`
+_FREE_STRINGS: dict = {}
+
 
 @dataclass(frozen=True)
 class OneStringSetup:
@@ -547,20 +551,17 @@ class OneStringVoice(Voice):
         ``pluck.model`` with ``chikari.amplitude_m`` at velocity 127 and
         the pluck's duration scaled by length (as a fretted main string's).
         """
-        # designed once per voice (13 strings: 0.11 s, paid by every engine
-        # built; the bank copies the templates into its slots), and kept on
-        # disk between runs as the keys' designs are (named by the code, the
-        # preset and the rate: a warm `synth note sitar` designed them anew)
-        if "_taraf_design" not in self.__dict__:
-            store = (type(self).__name__, self.preset, self.fs)
-            kept = design_store.load("free-strings", store)
-            if isinstance(kept, tuple) and len(kept) == 1 and \
-                    (kept[0] is None or isinstance(kept[0], TarafDesign)):
-                self._taraf_design = kept[0]
-            else:
-                self._taraf_design = self._design_taraf()
-                design_store.save("free-strings", store, (self._taraf_design,))
-        return self._taraf_design
+        # designed once per process (13 strings: 0.11 s, paid by every
+        # engine built; the bank copies the templates into its slots), and
+        # kept on disk between runs as the keys' designs are (named by the
+        # code, the preset and the rate: a warm `synth note sitar` designed
+        # them anew); stored as a 1-tuple, since None (no free strings) is
+        # the store's "not found"
+        key = (type(self).__name__, self.preset, self.fs)
+        return design_store.kept(
+            _FREE_STRINGS, "free-strings", key, lambda: (self._design_taraf(),),
+            lambda v: isinstance(v, tuple) and len(v) == 1
+            and (v[0] is None or isinstance(v[0], TarafDesign)))[0]
 
     def _design_taraf(self) -> TarafDesign | None:
         t = self.preset.taraf
