@@ -159,7 +159,7 @@ class ChannelControls(MpeZones):
         # (the fade covers their cut)
         j = min(max(self._out_sample(at), 0), self.MAX_BLOCK_OUT - 1)
         self._hush_out = (j, 0)
-        self._knock[:, j + self._knock_lag:] = 0.0
+        self._knock.cut(self.time_out + j + self._knock_lag)
 
     def _reset_controllers(self, c: int, at: int) -> None:
         """CC121, as General MIDI 2 and RP-015 ask: channel c's pedals up,
@@ -403,7 +403,7 @@ class ChannelControls(MpeZones):
         for c in range(self.n_dec):
             p.decs[c].process(mix[grp.row + c], d[c])
         if p.knocking:
-            p.knocking = self._knock_into(p.knock, d, n_out)
+            p.knocking = p.knock.mix_into(d, self.time_out, n_out)
 
     def _path_out(self, grp: ChannelGroup, y: np.ndarray, n_out: int) -> None:
         """A panned channel through its body, its pan's gains, into ``y``."""
@@ -461,6 +461,6 @@ class ChannelControls(MpeZones):
         for grp in self.groups.values():
             if grp.path is not None:
                 grp.path.reset()
-        self._knock[:] = 0.0
+        self._knock.clear()
         self._knocking = False
         self._hush_out = None

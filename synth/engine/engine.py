@@ -21,6 +21,7 @@ import numpy as np
 from ..dsp.bank import StringBank
 from ..dsp.body import Body
 from ..dsp.decimator import Decimator
+from ..dsp.knock import Knocks
 from ..dsp.listener import Listener
 from ..kernels import strings as K
 from ..physics.soundboard import knock_pulse
@@ -298,12 +299,10 @@ class Engine(ChannelControls):
         #: the action's knocks: a unit pulse (its shape), and the force still
         #: to add to the buses (output samples from the block's start)
         self._knock_unit = knock_pulse(self.fs_out, 1.0, *instrument.knock_shape())
-        self._knock_scaled = np.empty_like(self._knock_unit)   # (a note-on's pulse: no allocation)
         #: the knocks join the bridge after decimation: they wait the
         #: decimator's latency so that they meet the note they belong to
         self._knock_lag = int(round(self.dec.latency_samples))
-        self._knock_tail = self._knock_lag + len(self._knock_unit)
-        self._knock = np.zeros((self.n_dec, self.MAX_BLOCK_OUT + self._knock_tail))
+        self._knock = Knocks(self._knock_unit, self.n_dec, self.MAX_BLOCK_OUT)
         self._knocking = False
         self.time_out = 0                    # output samples rendered so far
         self._pending: list[tuple[int, int, Event]] = []
@@ -586,9 +585,9 @@ class Engine(ChannelControls):
 
     def _add_knock(self, key, ev: Event, at: int) -> None:
         """The action's knock of a note-on at internal sample ``at``: its
-        force pulse (N, times the output gain of the voice's strings) into
-        the knock buffer at the event's output sample, split along the
-        bridge by the key's place."""
+        force pulse (N, times the output gain of the voice's strings) from
+        the event's output sample (and the decimator's latency) on, split
+        along the bridge by the key's place (:class:`synth.dsp.knock.Knocks`)."""
         J = self.inst.knock_impulse_ns(key, ev.value, ev.speed_m_per_s)
         if J <= 0.0:
             return
@@ -603,13 +602,7 @@ class Engine(ChannelControls):
                 kb = grp.path.knock
                 grp.path.knocking = True
         p = self.inst.pan(int(round(key)))
-        u, w = self._knock_unit, self._knock_scaled
-        n = len(u)
-        if self.n_dec == 2:
-            kb[0, j:j + n] += np.multiply(u, (1.0 - p) * g, out=w)
-            kb[1, j:j + n] += np.multiply(u, p * g, out=w)
-        else:
-            kb[0, j:j + n] += np.multiply(u, g, out=w)
+        kb.add(self.time_out + j, ((1.0 - p) * g, p * g) if self.n_dec == 2 else (g,))
         if kb is self._knock:
             self._knocking = True
 
@@ -739,7 +732,7 @@ class Engine(ChannelControls):
             if self._knocking:
                 # the knocks' force joins the bridge (it drives the board,
                 # and the sympathetic strings hear it)
-                self._knocking = self._knock_into(self._knock, d, n_out)
+                self._knocking = self._knock.mix_into(d, self.time_out, n_out)
             for g in paths:
                 self._path_decimate(g, mix, n_out)
             if self.sym is not None:
@@ -802,15 +795,6 @@ class Engine(ChannelControls):
         j, hush = self._sym_wait
         self._sym_wait = None
         self._sym_events.append((j, *self._sympathetic_state(), hush))
-
-    def _knock_into(self, kb: np.ndarray, d: np.ndarray, n_out: int) -> bool:
-        """Add the knock buffer's next ``n_out`` samples to ``d`` and shift
-        it on; returns whether knocks remain."""
-        d += kb[:, :n_out]
-        L = self._knock_tail
-        kb[:, :L] = kb[:, n_out:n_out + L]
-        kb[:, L:] = 0.0
-        return bool(kb[:, :L].any())
 
     def _schedule_hand_over(self, v: int, key, at: int) -> None:
         """After a strike: if the instrument plays this key's strike on a

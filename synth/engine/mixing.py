@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..dsp.knock import Knocks
+
 #: how long a gain or pan change takes (s): a linear ramp from the value
 #: at the change to the new one
 RAMP_S = 0.01
@@ -108,7 +110,7 @@ class OutputPath:
             self.body.reset()
         self.d = np.zeros((engine.n_dec, engine.MAX_BLOCK_OUT))
         self.y = np.zeros((engine.channels, engine.MAX_BLOCK_OUT))
-        self.knock = np.zeros_like(engine._knock)
+        self.knock = Knocks(engine._knock_unit, engine.n_dec, engine.MAX_BLOCK_OUT)
         self.knocking = False
         self.left = Ramp(1.0)
         self.right = Ramp(1.0)
@@ -119,7 +121,7 @@ class OutputPath:
             d.clear()
         if self.body is not None:
             self.body.reset()
-        self.knock[:] = 0.0
+        self.knock.clear()
         self.knocking = False
 
 
