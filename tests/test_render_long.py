@@ -479,6 +479,27 @@ def test_a_signal_lost_in_a_ctypes_callback_still_interrupts(monkeypatch):
     raise_if_interrupted()                    # outside the block: nothing pending
 
 
+def test_a_signal_inside_a_finalizer_is_raised_after_it_not_printed(monkeypatch):
+    """Found in the suite: SIGINT arriving while llvmlite's ``ObjectRef.__del__``
+    ran (numba loading a kernel) raised inside the finalizer, where Python
+    prints "Exception ignored ... Traceback" on stderr.  The handler leaves
+    a finalizer alone; the next check raises it."""
+    from synth.io.interrupt import raise_if_interrupted
+
+    lost = _record_lost(monkeypatch)
+
+    class Finalized:
+        def __del__(self):
+            signal.raise_signal(signal.SIGINT)
+
+    with pytest.raises(Interrupted) as ei:
+        with interruptible():
+            Finalized()                       # collected at once: its __del__ runs here
+            assert lost == []                 # nothing raised inside the finalizer
+            raise_if_interrupted()
+    assert ei.value.signum == signal.SIGINT
+
+
 @pytest.mark.parametrize("existing", [False, True], ids=["new", "existing"])
 def test_render_stops_on_a_signal_lost_in_a_callback(capsys, monkeypatch, tmp_path, existing):
     write_midi(tmp_path / "a.mid", [(0.0, 57, 0.3)])

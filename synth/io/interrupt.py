@@ -107,6 +107,11 @@ def interruptible(signals=HANDLED_SIGNALS) -> Iterator[None]:
         for s in mine:
             signal.signal(s, signal.SIG_IGN)   # no second interruption of the clean-up
         _pending.append(signum)                # in case the exception below is lost
+        if frame is not None and frame.f_code.co_name == "__del__":
+            # a finalizer (llvmlite's, numba compiling or loading a kernel)
+            # would swallow it and print "Exception ignored ... Traceback"
+            # on stderr: the next raise_if_interrupted raises it instead
+            return
         raise Interrupted(signum)
 
     _pending.clear()
