@@ -45,15 +45,19 @@ def test_the_stored_recording_has_every_layer_and_key():
 
 
 def test_the_treble_loss_ramps_in_over_half_an_octave():
-    """``strings.t60_treble_scale`` (0.8 from key 84 in the preset): the
-    strings' own T60 times 1 up to key 78, log-linear to 0.8 at 84, 0.8
-    above; the default (1) changes no key; ``bridge_coupling_treble``
+    """``strings.t60_treble_scale`` (0.65 from key 84 in the preset): the
+    strings' own T60 times 1 up to key 78, log-linear to 0.65 at 84, then
+    on by ``strings.t60_top_factor`` (0.7), log-linear from 1 at 84 to it
+    at C8; the defaults (1) change no key; ``bridge_coupling_treble``
     divides the bridge's resistance by its factor over the same ramp."""
     v = build_voice("grand-piano")
-    assert v.own_t60_factor(78) == 1.0 and v.own_t60_factor(84) == pytest.approx(0.8)
-    assert v.own_t60_factor(81) == pytest.approx(math.sqrt(0.8))
-    assert v.own_t60_factor(108) == pytest.approx(0.8)
-    off = build_voice("grand-piano", ["strings.t60_treble_scale=1"])
+    assert v.own_t60_factor(78) == 1.0 and v.own_t60_factor(84) == pytest.approx(0.65)
+    assert v.own_t60_factor(81) == pytest.approx(math.sqrt(0.65))
+    assert v.own_t60_factor(96) == pytest.approx(0.65 * math.sqrt(0.7))
+    assert v.own_t60_factor(108) == pytest.approx(0.65 * 0.7)
+    flat = build_voice("grand-piano", ["strings.t60_top_factor=1"])
+    assert flat.own_t60_factor(108) == pytest.approx(0.65) and flat.own_t60_factor(81) == v.own_t60_factor(81)
+    off = build_voice("grand-piano", ["strings.t60_treble_scale=1", "strings.t60_top_factor=1"])
     assert all(off.own_t60_factor(k) == 1.0 for k in range(21, 109))
     assert off._free_string_t60_s(96) == P.single_string_t60_s(96)
     assert v._free_string_t60_s(96) < P.single_string_t60_s(96)
@@ -62,13 +66,39 @@ def test_the_treble_loss_ramps_in_over_half_an_octave():
     assert c.bridge_resistance_ns_per_m(60) == v.bridge_resistance_ns_per_m(60)
 
 
+def test_the_treble_unisons_beat_at_most_the_stated_rate():
+    """``strings.unison_spread_hz`` (1.8 in the preset, the law's 0.6 Hz
+    by default): a unison's outer strings differ by at most 0.6 cent and at
+    most that many Hz.  Below about A6 the cent limit holds either way and
+    the detuning is the law's exactly (the keys' tuning is unchanged); above
+    it (from A6, key 93) the spread widens up to 0.6 cent (C8: 0.25 -> 0.6 cent)."""
+    v = build_voice("grand-piano")
+    law = build_voice("grand-piano", ["strings.unison_spread_hz=0.6"])
+    for k in range(21, 93):
+        assert v.treble_detune_factor(k) == 1.0 and law.treble_detune_factor(k) == 1.0
+    assert law.treble_detune_factor(108) == 1.0
+    assert P.unison_spread_cents(96) == pytest.approx(1200 / math.log(2) * 0.6 / P.et_f0_hz(96))
+    assert v.treble_detune_factor(96) == pytest.approx(0.6 / P.unison_spread_cents(96))
+    assert P.unison_spread_cents(108) == pytest.approx(0.248, abs=1e-3)
+    assert P.unison_spread_cents(108, 1.8) == 0.6
+    assert v.treble_detune_factor(108) == pytest.approx(0.6 / P.unison_spread_cents(108))
+    # the per-key data is the law's: its outer strings' spread
+    g = P.grand_string(96)
+    assert g.unison_detune_cents[-1] - g.unison_detune_cents[0] == pytest.approx(
+        P.unison_spread_cents(96))
+
+
 @pytest.mark.slow  # 25 grand notes of 4 s: about 12 s of CPU
 def test_the_fitted_targets_hold_against_the_stored_recording():
     """The per-octave medians against layer v10 (close position, velocity
     105) that meet issue 41's targets: partial 1 at 3 s within 6 dB over
-    C2-B2; partials 2-10 within 6 dB over C3-B3, C4-B4 and C6-B6.  And what
-    the fit gained without meeting the target (at most 10 dB above): C6-B6
-    +21 -> +18 dB, C7-C8 +34 -> +30 dB (held here at +19 and +31)."""
+    C2-B2 and at most 10 dB above the recording's over C7-C8 (+0.7 dB: the
+    treble's loss and its unisons' spread, fitted together; +30 before);
+    partials 2-10 within 6 dB over C3-B3, C4-B4 and C6-B6; the first 50
+    ms's centroid within 1.5x over C6-B6 and C7-C8.  What the fit gained
+    without meeting the target: C6-B6's partial 1 at 3 s +18 -> +14 dB
+    (held at 15), as a stronger loss there takes key 87's knee; C7-C8's
+    partials 2-10 +10.5 -> +7.0 dB (held at 8) (docs/lab/2026-11-30-treble.md)."""
     real = _real(10)
     rows = {r["octave"]: r for r in octave_table(
         octave_model(sorted(real), "close", LAYER_VELOCITY[10], seconds=4.0), real)}
@@ -76,8 +106,10 @@ def test_the_fitted_targets_hold_against_the_stored_recording():
     assert abs(rows["C2-B2"]["p1_3s_db"]) <= 6.0
     for o in ("C3-B3", "C4-B4", "C6-B6"):
         assert abs(rows[o]["upper_db"]) <= 6.0, (o, rows[o]["upper_db"])
-    assert rows["C6-B6"]["p1_3s_db"] <= 19.0
-    assert rows["C7-C8"]["p1_3s_db"] <= 31.0
+    assert rows["C7-C8"]["p1_3s_db"] <= 10.0 and rows["C6-B6"]["p1_3s_db"] <= 15.0
+    assert abs(rows["C7-C8"]["upper_db"]) <= 8.0
+    for o in ("C6-B6", "C7-C8"):
+        assert rows[o]["centroid_ratio"] <= 1.5, (o, rows[o]["centroid_ratio"])
 
 
 @pytest.mark.slow  # 50 grand notes of 1 s: about 15 s of CPU

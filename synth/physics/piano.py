@@ -499,9 +499,14 @@ def prompt_ratio(midi: int) -> float:
     return r
 
 
+def unison_spread_cents(m: int, spread_hz: float = UNISON_SPREAD_HZ) -> float:
+    """The detuning between key ``m``'s outer unison strings, cents: at most
+    :data:`UNISON_SPREAD_CENTS`, and at most ``spread_hz`` (Hz) at its f0."""
+    return min(UNISON_SPREAD_CENTS, 1200.0 / math.log(2.0) * spread_hz / et_f0_hz(m))
+
+
 def _unison_detune(m: int, n: int) -> tuple:
-    f0 = et_f0_hz(m)
-    s = min(UNISON_SPREAD_CENTS, 1200.0 / math.log(2.0) * UNISON_SPREAD_HZ / f0)
+    s = unison_spread_cents(m)
     if n == 1:
         return (0.0,)
     if n == 2:

@@ -374,7 +374,7 @@ class GrandVoice(KeyboardDampers, Voice):
                                        tol_cents=self.quality.dispersion_tol_cents,
                                        m_max=sp.dispersion_sections, bridge=self.bridge_lag(key, fs))
         for j, det in enumerate(gs.unison_detune_cents):
-            fj = f1 * 2.0 ** (det * sp.detune_scale / 1200.0)
+            fj = f1 * 2.0 ** (det * sp.detune_scale * self.treble_detune_factor(key) / 1200.0)
             loop = key_loop if fj == f1 else retune_sos_loop(
                 key_loop, fj, t_lo, fj, t_hi, max(gs.f_high_hz, 1.5 * fj))
             cells = loop.cells
@@ -426,16 +426,35 @@ class GrandVoice(KeyboardDampers, Voice):
         """Factor on the key's strings' own T60 (their loss to air and wire,
         the aftersound's decay): 1 up to :data:`TREBLE_LOSS_RAMP_ST` below
         ``strings.t60_treble_from_key``, log-linear in key to
-        ``strings.t60_treble_scale`` there, and that above.  The bridge's
+        ``strings.t60_treble_scale`` there, and that above, times
+        ``strings.t60_top_factor`` reached log-linearly at C8.  The bridge's
         resistance stays the key's (the prompt sound takes the added loss
         too)."""
-        return self._treble_ramp(self.preset.strings.t60_treble_scale, key)
+        f = self._treble_ramp(self.preset.strings.t60_treble_scale, key)
+        top = float(self.preset.strings.t60_top_factor)
+        k0 = int(self.preset.strings.t60_treble_from_key)
+        if top == 1.0 or key <= k0 or k0 >= P.MIDI_HIGH:
+            return f
+        # ``strings.t60_top_factor``: further, log-linear from 1 at k0 to it at C8
+        return f * top ** ((min(int(key), P.MIDI_HIGH) - k0) / (P.MIDI_HIGH - k0))
 
     def treble_coupling_factor(self, key: int) -> float:
         """Factor on the bridge's admittance the key's unison feels
         (``strings.bridge_coupling_treble``, with the same ramp as
         :meth:`own_t60_factor`): the prompt sound's loss to the board."""
         return self._treble_ramp(self.preset.strings.bridge_coupling_treble, key)
+
+    def treble_detune_factor(self, key: int) -> float:
+        """Factor on the key's unison detuning of the per-key data: its spread
+        with ``strings.unison_spread_hz`` as the tuner's limit in beats a
+        second over its spread with :data:`synth.physics.piano.UNISON_SPREAD_HZ`
+        (exactly 1 where the 0.6 cent limit holds either way: the keys below
+        about A6).  More detuning passes more of the struck motion on to the
+        unison's slowly decaying modes, the aftersound (Weinreich 1977)."""
+        hz = float(self.preset.strings.unison_spread_hz)
+        if hz == P.UNISON_SPREAD_HZ:
+            return 1.0
+        return P.unison_spread_cents(key, hz) / P.unison_spread_cents(key, P.UNISON_SPREAD_HZ)
 
     def _treble_ramp(self, factor: float, key: int) -> float:
         """``factor`` at and above ``strings.t60_treble_from_key``, 1 up to

@@ -146,6 +146,8 @@ class StringsSpec:
     t60_treble_scale: float = 1.0         # grand: factor on the treble strings' own T60 (from t60_treble_from_key up)
     t60_treble_from_key: int = 108        # grand: the first key at that factor (a half-octave ramp below it)
     bridge_coupling_treble: float = 1.0   # grand: factor on the bridge's admittance from there up
+    unison_spread_hz: float = 0.6         # grand: the most a unison's outer strings differ, Hz (a tuner's beats)
+    t60_top_factor: float = 1.0           # grand: a further factor on the treble's own T60, reached at C8
 
 
 @dataclass(frozen=True)

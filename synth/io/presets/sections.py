@@ -371,10 +371,18 @@ SECTIONS: tuple[Section, ...] = (
         Field("t60_treble_from_key", "int", "the first key whose strings have t60_treble_scale "
               "times the law's own T60 (MIDI)", 21, 108, when=When("voice", ("grand",)),
               default=108),
+        Field("t60_top_factor", "float", "a further factor on the treble strings' own T60, "
+              "log-linear in key from 1 at t60_treble_from_key to this at C8 (key 108)", 0.1, 1.0,
+              when=When("voice", ("grand",)), default=1.0),
         Field("bridge_coupling_treble", "float", "factor on the bridge's admittance a treble "
               "unison feels (its prompt sound's loss to the board), from t60_treble_from_key "
               "up, log-linear in key over the half octave below it", 0.25, 4.0,
               when=When("voice", ("grand",)), default=1.0),
+        Field("unison_spread_hz", "float", "the most a unison's outer strings may differ, Hz: "
+              "a tuner's tolerance in beats a second, which holds the treble's unisons closer "
+              "than the 0.6 cent of the keys below (synth.physics.piano.UNISON_SPREAD_HZ; the "
+              "aftersound's level: detuned strings pass the struck motion on to the slowly "
+              "decaying modes)", 0.05, 5.0, when=When("voice", ("grand",)), default=0.6),
     ), when=_KEYBOARD),
     Section("dampers", "dampers and sustain pedal of the per-key strings", DampersSpec, (
         Field("release_t60_bass_s", "float", "T60 of a damped bass string, s", 0.02, 5.0),
