@@ -137,13 +137,21 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     # 36's "no xrun" is not yet met, so two of the 24 may miss)
     good = [lag for lag, c in zip(lags, corr) if c >= 0.9]
     assert len(good) >= 22 and np.median(corr) >= 0.99, corr
+    # a note whose capture an xrun the tester saw fell into is left out of the
+    # lag check (torn: its periods may come shifted by part of one; seen in CI
+    # on a busy VM, 2026-11-30), the others must land to the sample
+    torn = [any(at - 2 * 128 <= f <= at + int(0.2 * FS) for _, f, _ in tester.xruns)
+            for at in onsets]
+    checked = [lag for lag, c, t in zip(lags, corr, torn) if c >= 0.9 and not t]
+    assert len(checked) >= 16, (lags, corr, torn)
     # the loop through the tester adds one period; the rest is the engine's
     # own delay (the decimator and the grand's limiter, which an offline
     # render removes).  Every note lands at it to the sample, but for a note
     # the server moved by whole periods in an xrun it reported (the dummy
     # backend skips a cycle when the VM loses time; seen once in CI, 2026-11-29)
     expected = 128 + build_engine("grand-piano", ()).latency_samples
-    _assert_constant_lag(good, expected, tester.xruns, _xruns_reported(out), lags)
+    _assert_constant_lag(checked, expected, tester.xruns, _xruns_reported(out),
+                         f"lags {lags}, torn {torn}, tester xruns {tester.xruns}")
     # --record holds what the client sent: the captured audio, one period earlier
     import soundfile
 
@@ -169,9 +177,9 @@ def _assert_constant_lag(lags, expected, tester_xruns, synth_xruns, shown, perio
     late, for one note or from then on (seen on this VM when it is busy:
     lags of 1, 2 and 3 periods more).  A lag off by anything else fails."""
     off = [lag for lag in lags if lag != expected]
-    assert all((lag - expected) % period == 0 and lag > expected for lag in off), (
-        expected, shown)
-    assert not off or tester_xruns or synth_xruns, (expected, shown, "no xrun reported")
+    assert all((lag - expected) % period == 0 and lag > expected for lag in off), \
+        f"expected {expected}: {shown}"
+    assert not off or tester_xruns or synth_xruns, f"expected {expected}, no xrun reported: {shown}"
 
 
 def test_no_server_is_one_line(server):
