@@ -651,7 +651,10 @@ def plan_length(capacity: int) -> int:
     return 3 * int(capacity) + 3 * MAX_SHARDS + 8
 
 
-@njit(**JIT_OPTS)
+# (inline: a function of its own linked and optimised the whole tree below
+# render_bank once more, 8.7 CPU s of a cold ``synth demo``; see unison's
+# compile-time note)
+@njit(inline="always", **JIT_OPTS)
 def _shard_task(t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
                 iwork2, ubx, sub3, smix, pb, tw, ib):
     """Task t of T: shards t, t + T, ... of the S small shards (their

@@ -62,8 +62,18 @@ ONE = np.int64(1)
 #: members as they would over the whole group)
 BLOCK = 4
 
+#: (Compile time.)  :func:`_coupled_head` and :func:`_coupled_tail` are plain
+#: functions, not ``inline="always"``: inlined, numba typed and lowered their
+#: bodies (the hammers, the loop filters, the bridge, each member's output)
+#: once in each chunk function that uses them (three and two), and a cold
+#: ``synth demo`` compiled 250.7 CPU s; called, 219.9 with ``render._shard_task``
+#: inlined too (both trees at once on a 2-vCPU Xeon, fresh caches, 2026-11-30:
+#: ``NUMBA_CACHE_DIR=$(mktemp -d) python tools/bench.py compile demo -o d.wav``).
+#: The samples are the same to the bit (tests/test_golden.py), and a render's
+#: time did not move beyond the machine's noise (a call per chunk).
 
-@njit(inline="always", **JIT_OPTS)
+
+@njit(**JIT_OPTS)
 def _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist):
     """The start of a coupled group's lockstep chunk (C samples of the G
     strings of the chain from ``lead`` on one bridge, on the fast path; C
@@ -125,7 +135,7 @@ def _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch,
     _coupled_tail(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, row)
 
 
-@njit(inline="always", **JIT_OPTS)
+@njit(**JIT_OPTS)
 def _coupled_tail(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, row):
     """The far half of a small group's chunk of C samples whose excitation
     and regions have stepped: each member's loop filter (the members' in
