@@ -577,11 +577,13 @@ def test_bench_live_jack_quick_measures_the_loop(server):
     assert p.returncode == 0, p.stderr
     out = p.stdout
     # an xrun of the dummy server can tear a note's capture (this VM's own:
-    # 9 xruns in 8 s with the synth's worst block at 64 %, CI 2026-11-29):
-    # then one note of the eight may be missed, never without one
+    # 9 xruns in 8 s with the synth's worst block at 64 %, CI 2026-11-29;
+    # 57 during play with an idle client alone seeing 21 in 4 s, and two
+    # notes torn to correlation 0.89, a suite run on a busy VM 2026-11-30):
+    # then up to two notes of the eight may be missed, never without one
     found = int(re.search(r"notes found: (\d+) of 8", out).group(1))
     xruns = int(re.search(r"(\d+) during play;", out).group(1))
-    assert found == 8 or (found == 7 and xruns > 0), out
+    assert found == 8 or (found >= 6 and xruns > 0), out
     assert "median latency <= 6.5 ms: yes (5.02" in out, out
     # an xrun during play moves the note it falls on a period late (this
     # VM's own, and a first note-on's block may overrun): the spread is
@@ -592,12 +594,15 @@ def test_bench_live_jack_quick_measures_the_loop(server):
 
 
 @pytest.mark.slow  # over 2 s: a JACK server, synth play and 3.5 s of a drone
-def test_the_drone_player_plays_live_through_jack(server, tmp_path, monkeypatch):
+def test_the_drone_player_plays_live_through_jack(private_server, tmp_path, monkeypatch):
     """``synth play --jack`` on a preset with a [drone] table: one key sent
     through JACK MIDI starts the drone (a key-up does nothing), the same key
     again stops it; the captured audio is the offline render of those two
     note-ons, sample for sample once aligned (the engine plays the player:
-    nothing special in the live path)."""
+    nothing special in the live path).  The server's period is 1024 frames
+    (21 ms): what is judged is the samples, not the latency, and at 128 the
+    dummy server on a busy 2-vCPU VM tore every window of the capture (CI,
+    2026-11-30: an idle client on it alone saw 21 xruns in 4 s)."""
     from test_drone import NAME, drone_preset_text
 
     from synth.engine.engine import Event
@@ -615,7 +620,9 @@ def test_the_drone_player_plays_live_through_jack(server, tmp_path, monkeypatch)
     # 9 plucks before the key stops it at 2.2 s (the cycles at 0 and 1 s, the
     # first string of the one at 2 s), none after
     assert eng.drone.n_plucks == 9 and not eng.drone.running
-    expected = 128 + eng.latency_samples
+    period = 1024
+    server = private_server("drone", period=period).name
+    expected = period + eng.latency_samples
     # window by window against the offline render at the loop's lag (a
     # period plus the engine's latency), or whole periods later where the
     # server reported an xrun (the dummy backend then delivers a period a
@@ -633,14 +640,14 @@ def test_the_drone_player_plays_live_through_jack(server, tmp_path, monkeypatch)
         assert code == 0, err
         seg = rec[at - t0:]
         lags, corrs, torn = [], [], []
-        for w0 in range(0, min(len(ref), len(seg) - expected - 8 * 128) - win + 1, win):
+        for w0 in range(0, min(len(ref), len(seg) - expected - 8 * period) - win + 1, win):
             b = ref[w0:w0 + win]
-            best = max((expected + 128 * k for k in range(8)),
+            best = max((expected + period * k for k in range(8)),
                        key=lambda L: float(np.dot(seg[w0 + L:w0 + L + win], b)))
             a = seg[w0 + best:w0 + best + win]
             lags.append(best)
             corrs.append(float(np.dot(a, b) / np.sqrt(np.dot(a, a) * np.dot(b, b))))
-            torn.append(any(at + w0 - 2 * 128 <= f <= at + w0 + win + expected + 8 * 128
+            torn.append(any(at + w0 - 2 * period <= f <= at + w0 + win + expected + 8 * period
                             for _, f, _ in xruns))
         tries.append((lags, [round(c, 4) for c in corrs], torn, xruns))
         if len(lags) >= 6 and sum(not t for t in torn) >= 3:
@@ -651,7 +658,8 @@ def test_the_drone_player_plays_live_through_jack(server, tmp_path, monkeypatch)
     assert len(lags) >= 6 and sum(not t for t in torn) >= 3, shown
     clean = [(lag, c) for lag, c, t in zip(lags, corrs, torn) if not t]
     assert all(c >= 0.99 for _, c in clean), shown
-    _assert_constant_lag([lag for lag, _ in clean], expected, xruns, _xruns_reported(out), shown)
+    _assert_constant_lag([lag for lag, _ in clean], expected, xruns, _xruns_reported(out), shown,
+                         period)
     assert "2 notes" in out, out
 
 
