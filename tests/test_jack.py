@@ -87,9 +87,10 @@ def _stop(proc, tester=None):
 def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_path):
     """24 notes sent through JACK MIDI at chosen frames to ``synth play
     --jack --preset grand-piano``, its audio captured through JACK: each
-    note correlates with the same note rendered offline (at least 0.9 once
-    aligned), the latency is the same to the sample for all of them; the
-    report names the client's ports and counts the xruns."""
+    note the server kept time for (no xrun reported during its capture)
+    correlates with the same note rendered offline (at least 0.9 once
+    aligned, median 0.99), the latency is the same to the sample for all of
+    them; the report names the client's ports and counts the xruns."""
     from synth.engine.engine import Event
     from synth.io.factory import build_engine
 
@@ -133,17 +134,20 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
         a, b = seg[best:best + n], ref[:n]
         lags.append(best)
         corr.append(float(np.dot(a, b) / np.sqrt(np.dot(a, a) * np.dot(b, b))))
-    # (an xrun of the dummy server can spoil the capture of a note: issue
-    # 36's "no xrun" is not yet met, so two of the 24 may miss)
-    good = [lag for lag, c in zip(lags, corr) if c >= 0.9]
-    assert len(good) >= 22 and np.median(corr) >= 0.99, corr
-    # a note whose capture an xrun the tester saw fell into is left out of the
-    # lag check (torn: its periods may come shifted by part of one; seen in CI
-    # on a busy VM, 2026-11-30), the others must land to the sample (on a busy
-    # VM most notes may be torn: ci31 saw an xrun near most of the 24)
-    # (the window the lag is read from: a period before the note, the search's
-    # 1024 samples and the 0.1 s compared)
+    # a note whose capture an xrun the tester saw fell into is torn (its
+    # periods may come shifted by part of one, or be dropped: CI on a busy
+    # VM, 2026-11-30; ci31 saw an xrun near most of the 24) and is not
+    # judged; every other note sounds as offline and lands to the sample.
+    # (The window the lag is read from: a period before the note, the
+    # search's 1024 samples and the 0.1 s compared.)  Fewer than 12 notes
+    # clear of an xrun cannot tell: the test skips if the server xruns with
+    # only an idle client on it (the machine, not the synth), else fails.
     torn = [any(at - 2 * 128 <= f <= at + 1024 + n for _, f, _ in tester.xruns) for at in onsets]
+    shown = f"correlations {corr}, lags {lags}, torn {torn}, tester xruns {tester.xruns}"
+    untorn = [c for c, t in zip(corr, torn) if not t]
+    if len(untorn) < 12:
+        _skip_if_the_server_alone_xruns(server, shown)
+    assert len(untorn) >= 12 and min(untorn) >= 0.9 and np.median(untorn) >= 0.99, shown
     checked = [lag for lag, c, t in zip(lags, corr, torn) if c >= 0.9 and not t]
     # the loop through the tester adds one period; the rest is the engine's
     # own delay (the decimator and the grand's limiter, which an offline
@@ -151,8 +155,7 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     # the server moved by whole periods in an xrun it reported (the dummy
     # backend skips a cycle when the VM loses time; seen once in CI, 2026-11-29)
     expected = 128 + build_engine("grand-piano", ()).latency_samples
-    _assert_constant_lag(checked, expected, tester.xruns, _xruns_reported(out),
-                         f"lags {lags}, torn {torn}, tester xruns {tester.xruns}")
+    _assert_constant_lag(checked, expected, tester.xruns, _xruns_reported(out), shown)
     # --record holds what the client sent: the captured audio, one period earlier
     import soundfile
 
