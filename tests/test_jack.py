@@ -673,16 +673,11 @@ def _skip_if_the_server_alone_xruns(server, shown, seconds=3.0):
     cycles, and no capture can be judged (seen on this VM: hundreds of
     xruns in 5 s, most of them 13 us late, for a minute).  Otherwise
     return, and the caller's assertion fails on the synth."""
-    probe = jack.Client("idleprobe", no_start_server=True, servername=server)
-    xruns = []
-    probe.set_xrun_callback(lambda delay_us: xruns.append(delay_us))
-    probe.set_process_callback(lambda frames: None)
-    probe.activate()
-    time.sleep(seconds)
-    probe.deactivate()
-    probe.close()
-    if len(xruns) >= 2 * seconds:
-        pytest.skip(f"the JACK server reported {len(xruns)} xruns in {seconds:g} s with only an "
+    from synth.apps.bench.live import idle_xruns
+
+    n = idle_xruns(server, seconds)
+    if n >= 2 * seconds:
+        pytest.skip(f"the JACK server reported {n} xruns in {seconds:g} s with only an "
                     f"idle client on it: this machine is not keeping time now ({shown[:300]})")
 
 
@@ -699,10 +694,7 @@ def _drone_capture(server, name, stop_s, seconds):
         probe = jack.Client("waiter", no_start_server=True, servername=server)
         wait_ports(probe, "synthdrone", 2, proc)
         probe.close()
-        tester = Loopback(server, 1, seconds + 1.0)
-        tester.client.activate()
-        connect(tester.client, [(tester.midi_out, "synthdrone:midi_in"),
-                                 ("synthdrone:out_1", tester.ins[0])])
+        tester = Loopback(server, 1, seconds + 1.0).attach("synthdrone")
         time.sleep(0.2)
         at = tester.client.last_frame_time + FS // 2
         tester.events += [(at, bytes([0x90, 49, 100])), (at + FS // 10, bytes([0x80, 49, 64])),

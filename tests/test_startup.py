@@ -144,26 +144,17 @@ def _synth(args, cache, cwd):
     return r.stdout, r.stderr
 
 
-def _seeded(cache: Path, missing: str) -> int:
+def _seeded(cache: Path, missing: str) -> None:
     """Fill the keyed folder of numba cache ``cache`` with the suite's own
     compiled kernels (its keyed folder, where numba put them for these
     sources), except the files of module ``missing`` (e.g. "decimator.");
-    returns how many files were copied (0: the suite's cache is empty, and
-    a note compiles every kernel)."""
+    nothing if the suite's cache is empty (a note then compiles every
+    kernel)."""
     import shutil
 
     suite = next((p for p in CN.keyed_folders() if p.is_dir()), None)
-    if suite is None:
-        return 0
-    target = cache / suite.name
-    n = 0
-    for f in suite.rglob("*"):
-        if f.is_file() and not f.name.startswith(missing):
-            dst = target / f.relative_to(suite)
-            dst.parent.mkdir(parents=True, exist_ok=True)
-            shutil.copy2(f, dst)
-            n += 1
-    return n
+    if suite is not None:
+        shutil.copytree(suite, cache / suite.name, ignore=shutil.ignore_patterns(missing + "*"))
 
 
 @pytest.mark.slow  # a subprocess compiles what its cache lacks (the decimator: 5-10 s)
