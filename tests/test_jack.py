@@ -584,8 +584,17 @@ def test_bench_live_jack_quick_measures_the_loop(server):
     # 57 during play with an idle client alone seeing 21 in 4 s, and two
     # notes torn to correlation 0.89, a suite run on a busy VM 2026-11-30):
     # then up to two notes of the eight may be missed, never without one
+    # (more misses skip, as the drone's and the notes' captures do, when the
+    # tool's own idle client saw an xrun every half second: CI here,
+    # 2026-11-30, 3 of 8 found with 171 xruns during play and 11 in 4 s idle)
     found = int(re.search(r"notes found: (\d+) of 8", out).group(1))
     xruns = int(re.search(r"(\d+) during play;", out).group(1))
+    if not (found == 8 or (found >= 6 and xruns > 0)):
+        idle = re.search(r"a client that does nothing saw (\d+) xruns in ([0-9.]+) s", out)
+        if idle and int(idle.group(1)) >= 2 * float(idle.group(2)):
+            pytest.skip(f"the JACK server reported {idle.group(1)} xruns in {idle.group(2)} s "
+                        f"with only an idle client on it: this machine is not keeping time now "
+                        f"({found} of 8 notes found)")
     assert found == 8 or (found >= 6 and xruns > 0), out
     assert "median latency <= 6.5 ms: yes (5.02" in out, out
     # an xrun during play moves the note it falls on a period late (this
