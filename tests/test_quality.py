@@ -25,6 +25,25 @@ def _synth(*args):
                           text=True, cwd=ROOT, timeout=600)
 
 
+def _in_process(capsys):
+    """:func:`_synth`'s result (returncode, stdout, stderr) from
+    ``synth.cli.main`` in this process; argparse's exits (--help, a bad
+    choice) are taken as their status."""
+    from types import SimpleNamespace
+
+    from synth.cli import main
+
+    def run(*args):
+        capsys.readouterr()
+        try:
+            code = main(list(args))
+        except SystemExit as e:
+            code = e.code if isinstance(e.code, int) else 2
+        out, err = capsys.readouterr()
+        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
+    return run
+
+
 def test_the_levels_are_the_schemas_choices_cheapest_first():
     assert QUALITIES == tuple(lv.name for lv in Q.LEVELS)
     assert load_preset("biwa").play.quality == Q.DEFAULT == "standard"
@@ -100,8 +119,11 @@ def test_max_error_picks_the_cheapest_level_within_the_budget(tmp_path):
         Q.quality_level("fast")
 
 
-@pytest.mark.slow  # over 2 s on a quiet 2-core machine
-def test_the_command_line_options(tmp_path):
+def test_the_command_line_options(tmp_path, capsys):
+    """In this process (synth.cli.main, as the console script calls it): 16
+    commands as subprocesses took 11 s, each importing numba and loading the
+    kernels again."""
+    _synth = _in_process(capsys)
     out = tmp_path / "n.wav"
     p = _synth("note", "biwa", "--key", "50", "--seconds", "0.2", "--quality", "draft",
                "-o", str(out))
