@@ -374,6 +374,7 @@ def _set_trim(value):
         os.environ["MALLOC_TRIM_THRESHOLD_"] = value
 
 
+@pytest.mark.slow  # the module's LocalCluster of two processes: 5.6 s
 def test_workers_with_dask_s_malloc_trim_get_a_note(tmp_path, cluster):
     """The local cluster's workers run without Dask's MALLOC_TRIM_THRESHOLD_
     (2x slower renders); on a cluster whose workers have it, a note says so."""
@@ -396,6 +397,7 @@ def _set_dask(key, value):
     dask.config.set({key: value})
 
 
+@pytest.mark.slow  # the module's LocalCluster (2.3 s) and a second cluster: 4.8 s
 def test_the_local_cluster_quiets_dask_s_own_threads_and_other_clusters_get_a_note(tmp_path,
                                                                                      cluster):
     """The local cluster's workers run without Dask's profiler and with slow

@@ -558,6 +558,7 @@ def _wait(cond, timeout=10.0, what="condition"):
     raise AssertionError(f"timed out waiting for {what}")
 
 
+@pytest.mark.slow  # the three-preset fixture (9 s) and the browser
 def test_browser_loads_and_decodes_every_buffer(browser, cmp3):
     out, _ = cmp3
     _open(browser, (out / "index.html").as_uri())

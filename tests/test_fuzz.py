@@ -437,6 +437,7 @@ RENDER_BUDGET_S = 60.0
 RENDER_MAX_S = 2.0
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2.1-2.3 s, 2026-11-30)
 def test_fuzz_render_end_to_end(tmp_path, capsys):
     """A few mutated files through ``synth render --max-seconds 2``: each
     renders at most 2 s or fails with one line, leaving no stray file, within

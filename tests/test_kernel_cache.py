@@ -143,6 +143,7 @@ PRINT_DIR = """
 """
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (2.2 s, 2026-11-30): three processes
 def test_folder_stable_across_processes_and_under_numba_cache_dir(tmp_path):
     """Two fresh processes with the same sources pick the same folder, named
     from the sources' digest, under ``NUMBA_CACHE_DIR``; numba's setting is

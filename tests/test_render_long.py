@@ -331,6 +331,7 @@ def long_midi(tmp_path_factory) -> Path:
 @pytest.mark.parametrize("signum,existing", [
     (signal.SIGINT, False), (signal.SIGTERM, False), (signal.SIGINT, True), (signal.SIGTERM, True),
 ], ids=["SIGINT", "SIGTERM", "SIGINT-existing", "SIGTERM-existing"])
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (1.9-2.2 s, 2026-11-30): a synth process each
 def test_signal_leaves_no_file(tmp_path, long_midi, signum, existing):
     out_dir = tmp_path / "out"
     out_dir.mkdir()

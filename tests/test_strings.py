@@ -433,7 +433,8 @@ def _curved_profile(side, R, dx, theta=0.0, pts=20):
 @pytest.mark.parametrize("side,theta,curv_only,amp", [(1, 0.0, False, 0.003), (-1, 0.0, False, 0.003),
                                                       (1, 0.002, False, 0.003),
                                                       (1, 0.0, True, 0.003),
-                                                      (1, 0.0, False, 0.012),
+                                                      pytest.param(1, 0.0, False, 0.012,
+                                                                   marks=pytest.mark.slow),
                                                       pytest.param(-1, 0.002, False, 0.012,
                                                                    marks=pytest.mark.slow)])
 def test_subcell_contact_matches_the_naive_scheme(per_sample, side, theta, curv_only, amp):
