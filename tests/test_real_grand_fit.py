@@ -74,18 +74,25 @@ def test_the_treble_unisons_beat_at_most_the_stated_rate():
     it (from A6, key 93) the spread widens up to 0.6 cent (C8: 0.25 -> 0.6 cent)."""
     v = build_voice("grand-piano")
     law = build_voice("grand-piano", ["strings.unison_spread_hz=0.6"])
-    for k in range(21, 93):
-        assert v.treble_detune_factor(k) == 1.0 and law.treble_detune_factor(k) == 1.0
-    assert law.treble_detune_factor(108) == 1.0
+    assert v.unison_spread_hz == 1.8 and law.unison_spread_hz == 0.6
+    for k in range(21, 109):
+        g = P.grand_string(k)                     # the per-key data: the law's 0.6 Hz
+        n = len(g.unison_detune_cents)
+        assert P.unison_detune_cents(k, n, law.unison_spread_hz) == g.unison_detune_cents
+        if k < 93:
+            assert P.unison_detune_cents(k, n, v.unison_spread_hz) == g.unison_detune_cents
     assert P.unison_spread_cents(96) == pytest.approx(1200 / math.log(2) * 0.6 / P.et_f0_hz(96))
-    assert v.treble_detune_factor(96) == pytest.approx(0.6 / P.unison_spread_cents(96))
     assert P.unison_spread_cents(108) == pytest.approx(0.248, abs=1e-3)
     assert P.unison_spread_cents(108, 1.8) == 0.6
-    assert v.treble_detune_factor(108) == pytest.approx(0.6 / P.unison_spread_cents(108))
-    # the per-key data is the law's: its outer strings' spread
-    g = P.grand_string(96)
-    assert g.unison_detune_cents[-1] - g.unison_detune_cents[0] == pytest.approx(
-        P.unison_spread_cents(96))
+    for k in (96, 108):
+        d = P.unison_detune_cents(k, 3, v.unison_spread_hz)
+        assert d == pytest.approx((-0.33, 0.0, 0.27))       # 0.6 cent: -0.55 s, 0, +0.45 s
+    # the strings the voice designs follow it: key 96's outer strings 0.6
+    # cent apart with the preset, 0.496 with the law; key 60's 0.6 either way
+    for key, voice, spread in ((96, v, 0.6), (96, law, P.unison_spread_cents(96)),
+                               (60, v, 0.6), (60, law, 0.6)):
+        f = [su.f1_hz for su in voice.setup(key)]
+        assert 1200 * math.log2(max(f) / min(f)) == pytest.approx(spread, abs=1e-9)
 
 
 @pytest.mark.slow  # 25 grand notes of 4 s: about 12 s of CPU

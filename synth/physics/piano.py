@@ -505,8 +505,12 @@ def unison_spread_cents(m: int, spread_hz: float = UNISON_SPREAD_HZ) -> float:
     return min(UNISON_SPREAD_CENTS, 1200.0 / math.log(2.0) * spread_hz / et_f0_hz(m))
 
 
-def _unison_detune(m: int, n: int) -> tuple:
-    s = unison_spread_cents(m)
+def unison_detune_cents(m: int, n: int, spread_hz: float = UNISON_SPREAD_HZ) -> tuple:
+    """Tuning offset (cents) of each of the ``n`` strings of key ``m``'s
+    unison: spread s = :func:`unison_spread_cents` (``spread_hz``: the
+    tuner's limit in beats a second, Hz) between the outer strings; one
+    string (0,), two (-s/2, +s/2), three (-0.55 s, 0, +0.45 s)."""
+    s = unison_spread_cents(m, spread_hz)
     if n == 1:
         return (0.0,)
     if n == 2:
@@ -542,7 +546,7 @@ def _build_string(m: int) -> GrandString:
         linear_density_kg_per_m=mu, core_diameter_m=d,
         youngs_modulus_pa=STEEL_YOUNGS_MODULUS_PA, strike_position=strike_position_for(m),
         has_damper=m <= DAMPER_LAST_MIDI, has_capo=m >= CAPO_FIRST_MIDI,
-        unison_detune_cents=_unison_detune(m, n), t60_low_s=t60_low, t60_high_s=t60_low,
+        unison_detune_cents=unison_detune_cents(m, n), t60_low_s=t60_low, t60_high_s=t60_low,
         f_high_hz=f_high, t60_prompt_s=t60_prompt_reference_s(f0) / prompt_ratio(m))
     return replace(proto, t60_high_s=proto.t60_s(f_high))
 

@@ -373,8 +373,12 @@ class GrandVoice(KeyboardDampers, Voice):
         key_loop = tune_stiff_loop_sos(f1, B, fs, t_lo, f1, t_hi, max(gs.f_high_hz, 1.5 * f1),
                                        tol_cents=self.quality.dispersion_tol_cents,
                                        m_max=sp.dispersion_sections, bridge=self.bridge_lag(key, fs))
-        for j, det in enumerate(gs.unison_detune_cents):
-            fj = f1 * 2.0 ** (det * sp.detune_scale * self.treble_detune_factor(key) / 1200.0)
+        # the unison's detuning: the key's law with the tuner's limit of
+        # ``strings.unison_spread_hz`` (the per-key data carries the law's
+        # default, UNISON_SPREAD_HZ)
+        dets = P.unison_detune_cents(key, len(gs.unison_detune_cents), self.unison_spread_hz)
+        for j, det in enumerate(dets):
+            fj = f1 * 2.0 ** (det * sp.detune_scale / 1200.0)
             loop = key_loop if fj == f1 else retune_sos_loop(
                 key_loop, fj, t_lo, fj, t_hi, max(gs.f_high_hz, 1.5 * fj))
             cells = loop.cells
@@ -444,17 +448,15 @@ class GrandVoice(KeyboardDampers, Voice):
         :meth:`own_t60_factor`): the prompt sound's loss to the board."""
         return self._treble_ramp(self.preset.strings.bridge_coupling_treble, key)
 
-    def treble_detune_factor(self, key: int) -> float:
-        """Factor on the key's unison detuning of the per-key data: its spread
-        with ``strings.unison_spread_hz`` as the tuner's limit in beats a
-        second over its spread with :data:`synth.physics.piano.UNISON_SPREAD_HZ`
-        (exactly 1 where the 0.6 cent limit holds either way: the keys below
-        about A6).  More detuning passes more of the struck motion on to the
-        unison's slowly decaying modes, the aftersound (Weinreich 1977)."""
-        hz = float(self.preset.strings.unison_spread_hz)
-        if hz == P.UNISON_SPREAD_HZ:
-            return 1.0
-        return P.unison_spread_cents(key, hz) / P.unison_spread_cents(key, P.UNISON_SPREAD_HZ)
+    @property
+    def unison_spread_hz(self) -> float:
+        """The tuner's limit on a unison's outer strings, Hz of beating
+        (``strings.unison_spread_hz``): with the 0.6 cent limit it sets the
+        key's detuning (:func:`synth.physics.piano.unison_detune_cents`;
+        the same as the law's 0.6 Hz below about A6).  More detuning passes
+        more of the struck motion on to the unison's slowly decaying modes,
+        the aftersound (Weinreich 1977)."""
+        return float(self.preset.strings.unison_spread_hz)
 
     def _treble_ramp(self, factor: float, key: int) -> float:
         """``factor`` at and above ``strings.t60_treble_from_key``, 1 up to
