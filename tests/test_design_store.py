@@ -111,6 +111,7 @@ def test_the_folder_keeps_the_newest(store, monkeypatch):
     assert design_store.load("t", ("key", 4)) == 4
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (1.5-2.1 s, 2026-11-30): the grand designed twice
 def test_the_grand_keeps_its_keys_and_its_sympathetic_strings(store):
     from synth.voices import grand
 

@@ -95,6 +95,7 @@ def assert_one_line_error(p, *fragments):
 # ---------------------------------------------------------------------------
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (1.6-2.2 s, 2026-11-30): a fresh process
 def test_import_and_offline_render_never_load_sounddevice(tmp_path):
     code = textwrap.dedent(f"""
         import sys

@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from synth.apps import grand_study as sp
 from synth.physics.piano import et_f0_hz, grand_string
@@ -96,6 +97,7 @@ def test_damping_rows_keep_the_band_above_the_floor_and_the_ratio():
     assert abs(med - 0.5) < 0.02 and lo <= med <= hi
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine (1.5-2.4 s, 2026-11-30)
 def test_beat_roughness_ignores_decays_and_knees_and_reads_beats():
     """A partial decaying in one line, or in two with a knee, reads under
     0.2 dB; a partial split into two lines 1 Hz apart (a unison beating)
