@@ -22,3 +22,24 @@ def shared_dir():
 
     here = Path(__file__).resolve().parents[2] / "shared"
     return here if here.is_dir() else Path("/work/shared")
+
+
+def cli(capsys, *argv):
+    """``synth ARGV`` through :func:`synth.cli.main` in this process: the
+    program's parsing, errors and exit status without a cold start (a
+    subprocess costs 1-2 s of imports).  Returns (returncode, stdout,
+    stderr) as a ``subprocess.CompletedProcess``; argparse's exits (--help,
+    a bad choice) are taken as their status.  A traceback fails the test."""
+    import subprocess
+
+    from synth.cli import main
+
+    argv = [str(a) for a in argv]
+    capsys.readouterr()
+    try:
+        rc = main(argv)
+    except SystemExit as e:
+        rc = e.code if isinstance(e.code, int) else 2
+    cap = capsys.readouterr()
+    assert "Traceback" not in cap.err, cap.err
+    return subprocess.CompletedProcess(argv, rc, cap.out, cap.err)

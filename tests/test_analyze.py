@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
+from helpers import cli
 from synth.analysis import two_stage_decay
 from synth.apps.analyze import analyze_audio, format_report
 
@@ -73,13 +74,7 @@ def _run(capsys, *args):
     """``synth analyze ARGS`` through :func:`synth.cli.main` in this process:
     the same parsing, errors and exit status as the program, without a cold
     start.  Returns what :func:`_cli` does (returncode, stdout, stderr)."""
-    from synth.cli import main
-
-    capsys.readouterr()
-    rc = main(["analyze", *map(str, args)])
-    cap = capsys.readouterr()
-    assert "Traceback" not in cap.err, cap.err
-    return subprocess.CompletedProcess(args, rc, cap.out, cap.err)
+    return cli(capsys, "analyze", *args)
 
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine: ~9 s of CPU, the program with its plot and an analysis

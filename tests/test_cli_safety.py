@@ -22,6 +22,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
+from helpers import cli
 from synth.cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -34,10 +35,8 @@ def _isolated(tmp_path, monkeypatch):
 
 
 def run(capsys, *argv):
-    rc = main([str(a) for a in argv])
-    cap = capsys.readouterr()
-    assert "Traceback" not in cap.err, cap.err
-    return rc, cap.out, cap.err
+    r = cli(capsys, *argv)
+    return r.returncode, r.stdout, r.stderr
 
 
 def one_line_error(rc, err, *fragments):

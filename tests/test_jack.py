@@ -591,10 +591,8 @@ def test_bench_live_jack_quick_measures_the_loop(server):
     xruns = int(re.search(r"(\d+) during play;", out).group(1))
     if not (found == 8 or (found >= 6 and xruns > 0)):
         idle = re.search(r"a client that does nothing saw (\d+) xruns in ([0-9.]+) s", out)
-        if idle and int(idle.group(1)) >= 2 * float(idle.group(2)):
-            pytest.skip(f"the JACK server reported {idle.group(1)} xruns in {idle.group(2)} s "
-                        f"with only an idle client on it: this machine is not keeping time now "
-                        f"({found} of 8 notes found)")
+        if idle:
+            _skip_if_idle_xruns(int(idle.group(1)), float(idle.group(2)), f"{found} of 8 notes found")
     assert found == 8 or (found >= 6 and xruns > 0), out
     assert "median latency <= 6.5 ms: yes (5.02" in out, out
     # an xrun during play moves the note it falls on a period late (this
@@ -684,7 +682,13 @@ def _skip_if_the_server_alone_xruns(server, shown, seconds=3.0):
     return, and the caller's assertion fails on the synth."""
     from synth.apps.bench.live import idle_xruns
 
-    n = idle_xruns(server, seconds)
+    _skip_if_idle_xruns(idle_xruns(server, seconds), seconds, shown)
+
+
+def _skip_if_idle_xruns(n, seconds, shown):
+    """Skip, saying why, when an idle client saw ``n`` xruns in ``seconds``
+    (an xrun every half second or more often): the rule of
+    :func:`_skip_if_the_server_alone_xruns`, for a count already measured."""
     if n >= 2 * seconds:
         pytest.skip(f"the JACK server reported {n} xruns in {seconds:g} s with only an "
                     f"idle client on it: this machine is not keeping time now ({shown[:300]})")

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from helpers import cli
 from synth.io.factory import build_voice
 from synth.io.presets import QUALITIES, load_preset
 from synth.voices import quality as Q
@@ -23,25 +24,6 @@ ROOT = Path(__file__).resolve().parents[1]
 def _synth(*args):
     return subprocess.run([sys.executable, "-m", "synth.cli", *args], capture_output=True,
                           text=True, cwd=ROOT, timeout=600)
-
-
-def _in_process(capsys):
-    """:func:`_synth`'s result (returncode, stdout, stderr) from
-    ``synth.cli.main`` in this process; argparse's exits (--help, a bad
-    choice) are taken as their status."""
-    from types import SimpleNamespace
-
-    from synth.cli import main
-
-    def run(*args):
-        capsys.readouterr()
-        try:
-            code = main(list(args))
-        except SystemExit as e:
-            code = e.code if isinstance(e.code, int) else 2
-        out, err = capsys.readouterr()
-        return SimpleNamespace(returncode=code, stdout=out, stderr=err)
-    return run
 
 
 def test_the_levels_are_the_schemas_choices_cheapest_first():
@@ -123,7 +105,9 @@ def test_the_command_line_options(tmp_path, capsys):
     """In this process (synth.cli.main, as the console script calls it): 16
     commands as subprocesses took 11 s, each importing numba and loading the
     kernels again."""
-    _synth = _in_process(capsys)
+    def _synth(*args):
+        return cli(capsys, *args)
+
     out = tmp_path / "n.wav"
     p = _synth("note", "biwa", "--key", "50", "--seconds", "0.2", "--quality", "draft",
                "-o", str(out))
