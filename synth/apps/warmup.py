@@ -15,17 +15,19 @@ worker processes at once, each writing into the same cache (the cache's
 save lock, :func:`synth.kernels.cache.install_save_lock`, keeps two
 processes that save one function from mixing its entries).  The presets
 share most of the string kernels, and the costliest, the renderer of
-several units on the threads (``render_sharded``: about two thirds of a
-cold ``synth demo``'s compile), is one for all of them; two workers that
+several units on the threads (``render_sharded`` and the ``render_bank``
+it calls by address: 71 of a cold ``synth demo``'s 162 CPU s compiling,
+2026-11-30), is one for all of them; two workers that
 reach one kernel at the same time both compile it.  So the work goes in
 two rounds: first one worker compiles that renderer while the others play
 one note on each preset (the narrower renderers a single note runs: a
 bridge of many strings, a piano key's unison, a lone string); then each
 preset loads every renderer and plays its whole phrase, finding nearly
-everything compiled.  That one renderer is the longest path whatever the
-cores (160-190 s here), which bounds the gain at about 1.5x: every musical
-preset on a fresh cache, 2-vCPU Xeon, 2026-11-29, 253 s on one process and
-207 s on two (``synth warmup --jobs 1`` / ``--jobs 2``; docs/benchmarks.md,
+everything compiled.  Before render_sharded called render_bank by address,
+that one renderer was the longest path whatever the cores (160-190 s
+here), which bounded the gain at about 1.5x: every musical preset on a
+fresh cache, 2-vCPU Xeon, 2026-11-29, 253 s on one process and 207 s on
+two (``synth warmup --jobs 1`` / ``--jobs 2``; docs/benchmarks.md,
 "Start-up").
 """
 

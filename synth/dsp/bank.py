@@ -36,6 +36,8 @@ compile_notice.listen()
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
 #: the kernels that may run loops on several threads (bank.render's kinds)
 _THREADED = (KR.KIND_SHARDS, KR.KIND_BIG_GROUPS, KR.KIND_BANK)
+#: render_bank's address for render_sharded (KR.bank_address), once per process
+_BANK_ADDR: list[int] = []
 #: the shortest fast-path chunk a slot is given while its excitation runs
 #: (:func:`slot_template`): a shorter one renders per sample
 MIN_FAST_CHUNK = 2
@@ -917,8 +919,8 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             # the kernel for what is active (the samples render_sharded gives
             # it), so that a scene compiles only what it runs
             if kind == KR.KIND_SHARDS:
-                KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U,
-                                  self.active, self.n_active, c, o0 + done, mix,
+                KR.render_sharded(self._bank_addr(), self.ring, self.ipar, self.fpar, self.fst,
+                                  self.U, self.active, self.n_active, c, o0 + done, mix,
                                   self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                                   smix, self._plan, pb, self._tw, self._ib, ntc)
             elif kind == KR.KIND_BIG_GROUPS or kind == KR.KIND_BIG_GROUPS_ONE:
@@ -947,6 +949,19 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             done += c
             self.time += c
 
+    def _bank_addr(self) -> int:
+        """render_bank's address (:func:`synth.kernels.render.bank_address`),
+        for render_sharded: render_bank is loaded (or compiled) by a call
+        that renders nothing, then its address taken, once per process."""
+        if not _BANK_ADDR:
+            mix = np.zeros((self._row_top + 1, 1))
+            KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, self.active[:0], 0, 0,
+                           0, mix, self.probe, self._scratch2[0], self._iwork2[0],
+                           np.zeros(max(1, self._ext_sub)), self._sub3[0], self._pb, self._tw,
+                           self._ib, 1)
+            _BANK_ADDR.append(KR.bank_address())
+        return _BANK_ADDR[0]
+
     #: the bank's renderers, as :meth:`load_kernels` names them
     RENDERERS = ("sharded", "big_groups", "small_group", "strings", "bank")
 
@@ -966,7 +981,8 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         nt = threads.enter(self.threads, prime=True)     # the priming kernel too
         KR.bank_kind(none, 0, self.ipar, self.fpar, c)
         if "sharded" in want:
-            KR.render_sharded(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
+            KR.render_sharded(self._bank_addr(), self.ring, self.ipar, self.fpar, self.fst, self.U,
+                              none, 0, c, 0, mix,
                               self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                               self._smix, self._plan, self._pb, self._tw, self._ib, nt)
         if "big_groups" in want:

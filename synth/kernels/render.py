@@ -58,7 +58,9 @@ thread) to at least ``nt``; :mod:`synth.dsp.threads` does.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, prange
+from numba import njit, prange, types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from .config import JIT_OPTS, PAR_OPTS
 from .contact import _region_step
@@ -651,21 +653,72 @@ def plan_length(capacity: int) -> int:
     return 3 * int(capacity) + 3 * MAX_SHARDS + 8
 
 
+# ---- render_bank by its address ----------------------------------------------
+
+# (Compile time.)  :func:`render_sharded` calls :func:`render_bank` through
+# its address, a first-class function value made from an int64, instead of
+# by name: numba links a callee named in a caller's code into the caller's
+# module and optimises and emits the whole tree again (in the shards'
+# parallel loop three times: the loop's function, its wrapper, the caller),
+# which made render_sharded the single longest compile of a cold start
+# (161 of a cold ``synth demo``'s 247 CPU s; render_bank's own tree 109,
+# docs/lab/2026-11-29-parallel-warmup.md).  Called by address, render_bank
+# compiles once, as the bank's KIND_BANK renderer, and every shard of every
+# thread count runs that same machine code.  A dispatcher passed as an
+# argument would do the same at 50-80 us a call (numba converts it on each
+# call); the address costs nothing, and the compiled caller caches (it
+# holds no pointer of this process).
+
+_F1 = types.Array(types.float64, 1, "C")
+_F2 = types.Array(types.float64, 2, "C")
+_F3 = types.Array(types.float64, 3, "C")
+_I1 = types.Array(types.int64, 1, "C")
+_I2 = types.Array(types.int64, 2, "C")
+#: :func:`render_bank`'s signature as the bank and :func:`render_sharded`
+#: call it (every array C-contiguous; the scalars int64)
+BANK_SIG = types.none(_F1, _I2, _F2, _F2, _F1, _I1, types.int64, types.int64, types.int64, _F2,
+                      _F3, _F1, _I1, _F1, _F2, _F3, _F2, _I1, types.int64)
+_BANK_FN = types.FunctionType(BANK_SIG)
+
+
+@intrinsic
+def _bank_at(typingctx, addr):
+    """The function at ``addr`` (:func:`bank_address`), callable as
+    :func:`render_bank` with numba's own calling convention."""
+    def codegen(context, builder, sig, args):
+        fn = cgutils.create_struct_proxy(_BANK_FN)(context, builder)
+        fn.jit_addr = builder.inttoptr(args[0], cgutils.voidptr_t)
+        return fn._getvalue()
+    return _BANK_FN(types.int64), codegen
+
+
+def bank_address() -> int:
+    """The address of :func:`render_bank` compiled for :data:`BANK_SIG`
+    (the ``bank_addr`` of :func:`render_sharded`), valid for this process.
+    Call render_bank once with the bank's arrays first (as the bank does):
+    it then loads from numba's cache under the key a call from Python
+    saves, which a compile for the full signature would miss."""
+    cres = render_bank.get_compile_result(BANK_SIG)
+    return cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
+
+
 # (inline: a function of its own linked and optimised the whole tree below
 # render_bank once more, 8.7 CPU s of a cold ``synth demo``; see unison's
 # compile-time note)
 @njit(inline="always", **JIT_OPTS)
-def _shard_task(t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
+def _shard_task(bank_addr, t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
                 iwork2, ubx, sub3, smix, pb, tw, ib):
     """Task t of T: shards t, t + T, ... of the S small shards (their
     strings: lists[so[j]:so[j + 1]]), shard 0 into ``mix``, shard j > 0
     into smix[j - 1] (zeroed first, samples o0 .. o0 + n - 1), with this
-    task's scratch rows."""
+    task's scratch rows.  ``bank_addr``: :func:`render_bank`'s address
+    (:func:`bank_address`)."""
+    bank = _bank_at(bank_addr)
     j = t
     while j < S:
         lst = lists[so[j]:so[j + 1]]
         if j == 0:
-            render_bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, mix, probe,
+            bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, mix, probe,
                         scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE)
         else:
             sm = smix[j - 1]
@@ -673,7 +726,7 @@ def _shard_task(t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe,
                 sr = sm[r, o0:o0 + n]
                 for i in range(n):
                     sr[i] = 0.0
-            render_bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, sm, probe,
+            bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, sm, probe,
                         scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE)
         j += T
 
@@ -817,8 +870,8 @@ def render_strings(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
 
 
 @njit(**PAR_OPTS)
-def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch2,
-                   iwork2, ubx, sub3, smix, plan, pb, tw, ib, nt):
+def render_sharded(bank_addr, ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe,
+                   scratch2, iwork2, ubx, sub3, smix, plan, pb, tw, ib, nt):
     """:func:`render_bank` of the ``n_active`` strings in ``active`` on
     ``nt`` threads, the same samples for any ``nt``.
 
@@ -832,12 +885,15 @@ def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
     min(``nt``, shards) threads, shard 0 into ``mix`` and shard j into
     ``smix[j - 1]``, which are then added to ``mix`` in shard order.
 
+    bank_addr : int           :func:`bank_address` (render_bank, called by its
+                              address: see above)
     scratch2, iwork2, sub3 : one row (a :func:`render_bank` ``scratch``,
         ``iwork``, ``sub``) per thread, min(nt, MAX_SHARDS) at least
     smix : float64[MAX_SHARDS - 1, rows of mix, samples of mix]
     plan : int64[:]          :func:`plan_length` samples (work space)
     pb, tw, ib : as :func:`render_bank` (``tw``: nt rows at least)
     """
+    bank = _bank_at(bank_addr)
     cap = ipar.shape[0]
     units = plan[0:cap]
     lists = plan[cap:2 * cap]
@@ -862,7 +918,7 @@ def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
     nsmall = nu - nbig
     if nsmall <= 1 and (nbig == 0 or nsmall == 0):
         # one unit (or none): as one shard
-        render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch2[0],
+        bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch2[0],
                     iwork2[0], ubx, sub3[0], pb, tw, ib, nt)
         return
     # the big groups, one after the other, their blocks on nt threads
@@ -872,7 +928,7 @@ def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
             if ush[u] < 0:
                 lists[k] = units[u]
                 k += 1
-        render_bank(ring, ipar, fpar, fst, U, lists, k, n, o0, mix, probe, scratch2[0],
+        bank(ring, ipar, fpar, fst, U, lists, k, n, o0, mix, probe, scratch2[0],
                     iwork2[0], ubx, sub3[0], pb, tw, ib, nt)
     if nsmall == 0:
         return
@@ -911,11 +967,11 @@ def render_sharded(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
         # render_bank; a cold synth demo compiled 164.7 CPU s instead of
         # 170.7, the two trees at once, 2026-11-30, tools/bench.py compile)
         for t in prange(T):
-            _shard_task(np.int64(t), T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe,
-                        scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)
+            _shard_task(bank_addr, np.int64(t), T, S, lists, so, ring, ipar, fpar, fst, U, n, o0,
+                        mix, probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)
     else:
-        _shard_task(ZERO, ONE, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
-                    iwork2, ubx, sub3, smix, pb, tw, ib)
+        _shard_task(bank_addr, ZERO, ONE, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix,
+                    probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)
     rows = mix.shape[0]
     for j in range(1, S):
         sm = smix[j - 1]
