@@ -386,3 +386,28 @@ def test_priming_is_for_live_play_only():
     t.start()
     t.join()
     assert seen == [(2, False), (2, True), (2, True)]
+
+
+@pytest.mark.slow  # a spawned worker imports synth and renders a phrase (about 4 s)
+def test_the_demo_renders_a_phrase_in_a_second_process_only_when_cold(monkeypatch):
+    """On a cold cache and two cores or more, ``synth demo`` renders its
+    second phrase in a spawned worker while it renders the first, so that
+    their kernels compile on two cores: the worker's samples are the ones
+    this process renders (on half the threads: the same samples for any
+    count).  On a warm cache, or on one thread, it renders both here."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    from synth.commands import demo
+
+    monkeypatch.setattr(CN, "cache_looks_warm", lambda: True)
+    assert not demo._other_process(2)
+    monkeypatch.setattr(CN, "cache_looks_warm", lambda: False)
+    assert not demo._other_process(1)      # --threads 1: one core
+    assert demo._other_process(2)
+    here = demo._render("biwa")
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as ex:
+        there = ex.submit(demo._render, "biwa", 1).result()
+    assert here[1] == there[1] == 48_000
+    assert here[0].shape == there[0].shape and here[0].shape[0] > 5 * 48_000
+    np.testing.assert_array_equal(here[0], there[0])
