@@ -36,8 +36,9 @@ compile_notice.listen()
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
 #: the kernels that may run loops on several threads (bank.render's kinds)
 _THREADED = (KR.KIND_SHARDS, KR.KIND_BIG_GROUPS, KR.KIND_BANK)
-#: render_bank's address for render_sharded (KR.bank_address), once per process
-_BANK_ADDR: list[int] = []
+#: render_bank's address for render_sharded (KR.bank_address), and
+#: render_coupled_big's for render_bank (KR.big_address): once per process
+_ADDR: dict[str, int] = {}
 #: the shortest fast-path chunk a slot is given while its excitation runs
 #: (:func:`slot_template`): a shorter one renders per sample
 MIN_FAST_CHUNK = 2
@@ -919,8 +920,8 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             # the kernel for what is active (the samples render_sharded gives
             # it), so that a scene compiles only what it runs
             if kind == KR.KIND_SHARDS:
-                KR.render_sharded(self._bank_addr(), self.ring, self.ipar, self.fpar, self.fst,
-                                  self.U, self.active, self.n_active, c, o0 + done, mix,
+                KR.render_sharded(self._bank_addr(), self._big_addr(), self.ring, self.ipar,
+                                  self.fpar, self.fst, self.U, self.active, self.n_active, c, o0 + done, mix,
                                   self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                                   smix, self._plan, pb, self._tw, self._ib, ntc)
             elif kind == KR.KIND_BIG_GROUPS or kind == KR.KIND_BIG_GROUPS_ONE:
@@ -943,7 +944,7 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
                 KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                self.active, self.n_active, c, o0 + done, mix,
                                self.probe, self._scratch2[0], self._iwork2[0], ubx,
-                               self._sub3[0], pb, self._tw, self._ib, ntc)
+                               self._sub3[0], pb, self._tw, self._ib, ntc, self._big_addr())
             if gov:
                 self.governor.record(self.governor.clock() - t0, self.n_active * c)
             done += c
@@ -953,14 +954,33 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         """render_bank's address (:func:`synth.kernels.render.bank_address`),
         for render_sharded: render_bank is loaded (or compiled) by a call
         that renders nothing, then its address taken, once per process."""
-        if not _BANK_ADDR:
+        a = _ADDR.get("bank")
+        if a is None:
             mix = np.zeros((self._row_top + 1, 1))
             KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, self.active[:0], 0, 0,
                            0, mix, self.probe, self._scratch2[0], self._iwork2[0],
                            np.zeros(max(1, self._ext_sub)), self._sub3[0], self._pb, self._tw,
-                           self._ib, 1)
-            _BANK_ADDR.append(KR.bank_address())
-        return _BANK_ADDR[0]
+                           self._ib, 1, self._big_addr())
+            a = _ADDR["bank"] = KR.bank_address()
+        return a
+
+    def _big_addr(self) -> int:
+        """render_coupled_big's address (:func:`synth.kernels.render.
+        big_address`) for render_bank, loaded as :meth:`_bank_addr` loads
+        render_bank, or 0 for a bank whose coupled groups never have more
+        than BLOCK members (``max_group``: :class:`~synth.dsp.bridges.
+        Bridges` refuses a larger one), which then never compiles it."""
+        if self.max_group <= KR.BLOCK:
+            return 0
+        a = _ADDR.get("big")
+        if a is None:
+            mix = np.zeros((self._row_top + 1, 1))
+            iw = self._iwork2[0]
+            KR.render_coupled_big(0, self.ring, self.ipar, self.fpar, self.fst, self.U, 0, 0, mix,
+                                  self.probe, self._scratch2[0], iw[:1], iw[:1], 0, 1, self._pb,
+                                  self._tw, self._ib, 1)
+            a = _ADDR["big"] = KR.big_address()
+        return a
 
     #: the bank's renderers, as :meth:`load_kernels` names them
     RENDERERS = ("sharded", "big_groups", "small_group", "strings", "bank")
@@ -981,8 +1001,8 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         nt = threads.enter(self.threads, prime=True)     # the priming kernel too
         KR.bank_kind(none, 0, self.ipar, self.fpar, c)
         if "sharded" in want:
-            KR.render_sharded(self._bank_addr(), self.ring, self.ipar, self.fpar, self.fst, self.U,
-                              none, 0, c, 0, mix,
+            KR.render_sharded(self._bank_addr(), self._big_addr(), self.ring, self.ipar, self.fpar,
+                              self.fst, self.U, none, 0, c, 0, mix,
                               self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                               self._smix, self._plan, self._pb, self._tw, self._ib, nt)
         if "big_groups" in want:
@@ -999,7 +1019,7 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         if "bank" in want:
             KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
                            self.probe, self._scratch2[0], self._iwork2[0], ubx, self._sub3[0],
-                           self._pb, self._tw, self._ib, nt)
+                           self._pb, self._tw, self._ib, nt, self._big_addr())
 
     # -- inspection (tests, analysis) ----------------------------------------
     def rails(self, s: int):

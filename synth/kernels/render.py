@@ -400,17 +400,15 @@ def _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, i
 
 
 @njit(**JIT_OPTS)
-def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub,
-                    pb, tw, ib, nt):
-    """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
-    lockstep fast-path chunks (:func:`synth.kernels.unison.
-    _coupled_chunk_small_or_split`, or :func:`_coupled_chunk_big` for a
-    group of more than BLOCK members) as
-    long as every member allows one and at most ROWS of them excite (GROUP
-    hammers), else per sample (:func:`_coupled_per_sample`, a member with
-    a probe or telemetry takes the whole block that way).
-    :func:`_render_coupled_big` and :func:`_render_coupled_small` are the
-    same for one kind of group, and compile only its chunks."""
+def render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0,
+                       psub, pb, tw, ib, nt):
+    """:func:`_render_coupled` of a group of more than BLOCK members (a
+    sitar's bridge), for :func:`render_bank`, which calls it by its address
+    (:data:`BIG_SIG`, :func:`big_address`): a bank with no such group (a
+    piano, a biwa) never compiles the blocks and their parallel loops.
+    ``n`` <= 0 returns at once (the call that loads it)."""
+    if n <= 0:
+        return
     G = ipar[lead, I_CPLN]
     diag = _coupled_diag(lead, G, ipar)
     one = scratch[scratch.shape[0] - 2:]
@@ -421,12 +419,40 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
             _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
                                 one, po0 + (done // psub), psub)
         else:
-            if G > BLOCK:
-                _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
-                                   iw, ist, pb, tw, ib, nt)
-            else:
-                C = _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, n - done,
-                                                  o0 + done, mix, scratch, iw, ist)
+            _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
+                               iw, ist, pb, tw, ib, nt)
+            _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
+        done += C
+
+
+@njit(**JIT_OPTS)
+def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub,
+                    pb, tw, ib, nt, big_addr):
+    """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
+    lockstep fast-path chunks (:func:`synth.kernels.unison.
+    _coupled_chunk_small_or_split`) as
+    long as every member allows one and at most ROWS of them excite (GROUP
+    hammers), else per sample (:func:`_coupled_per_sample`, a member with
+    a probe or telemetry takes the whole block that way); a group of more
+    than BLOCK members: :func:`render_coupled_big`, at ``big_addr``.
+    :func:`_render_coupled_big` and :func:`_render_coupled_small` are the
+    same for one kind of group, and compile only its chunks."""
+    G = ipar[lead, I_CPLN]
+    if G > BLOCK:
+        _big_at(big_addr)(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
+                          po0, psub, pb, tw, ib, nt)
+        return
+    diag = _coupled_diag(lead, G, ipar)
+    one = scratch[scratch.shape[0] - 2:]
+    done = 0
+    while done < n:
+        C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
+        if slow:
+            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
+                                one, po0 + (done // psub), psub)
+        else:
+            C = _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, n - done,
+                                              o0 + done, mix, scratch, iw, ist)
             _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
@@ -522,7 +548,7 @@ def _fold_sub(mix, o0, n, sub, M, lo, hi):
 
 @njit(**JIT_OPTS)
 def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
-                probe, scratch, iwork, ubx, sub, pb, tw, ib, nt):
+                probe, scratch, iwork, ubx, sub, pb, tw, ib, nt, big_addr):
     """Render ``n`` internal samples of every active string into
     ``mix[:, o0:o0+n]`` (accumulating).  ``mix`` is 2-D: one row per output
     bus; string s adds its output to row r0 = ``ipar[s, I_ROW]``, or, with
@@ -556,6 +582,9 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     ib : int64[:]             :func:`block_index_length` samples (work)
     nt : int                  threads for the blocks of such a group (1: this
                               thread only); the same samples for any
+    big_addr : int            :func:`big_address` (the renderer of such a
+                              group, called by its address), or 0 for a
+                              bank that has none (never called then)
 
     Strings whose hammer is running on the fast path render GROUP at a
     time (:func:`_render_group`); a coupled group (a piano key's unison on
@@ -597,7 +626,7 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                 _shift_rows(s, G, ipar, -lo)
             if cpl >= 0:
                 _render_coupled(s, ring, ipar, fpar, fst, U, nm, ZERO, sm, probe, scratch, iw, ist,
-                                o0, M, pb, tw, ib, nt)
+                                o0, M, pb, tw, ib, nt, big_addr)
             else:
                 # (an external bridge's M steps per sample, from this segment's)
                 _render_string(s, ring, ipar, fpar, fst, U, nm, ZERO, sm, probe, scratch,
@@ -607,7 +636,7 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
             _fold_sub(mix, o0, n, sub, M, lo, hi)
         elif cpl >= 0:
             _render_coupled(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
-                            o0, ONE, pb, tw, ib, nt)
+                            o0, ONE, pb, tw, ib, nt, big_addr)
         elif (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_EXC] != EXC_FELT
                 and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
                 and ipar[s, I_CHUNK] > 0 and cpl == CPL_NONE):
@@ -667,29 +696,49 @@ def plan_length(capacity: int) -> int:
 # thread count runs that same machine code.  A dispatcher passed as an
 # argument would do the same at 50-80 us a call (numba converts it on each
 # call); the address costs nothing, and the compiled caller caches (it
-# holds no pointer of this process).
+# holds no pointer of this process).  render_bank in turn calls
+# :func:`render_coupled_big` (a coupled group of more than BLOCK members: its
+# blocks and their parallel loops, a third of render_bank's tree) by address,
+# so that a bank with no such group (a piano, a biwa) never compiles it.
 
 _F1 = types.Array(types.float64, 1, "C")
 _F2 = types.Array(types.float64, 2, "C")
 _F3 = types.Array(types.float64, 3, "C")
 _I1 = types.Array(types.int64, 1, "C")
 _I2 = types.Array(types.int64, 2, "C")
+_INT = types.int64
 #: :func:`render_bank`'s signature as the bank and :func:`render_sharded`
 #: call it (every array C-contiguous; the scalars int64)
-BANK_SIG = types.none(_F1, _I2, _F2, _F2, _F1, _I1, types.int64, types.int64, types.int64, _F2,
-                      _F3, _F1, _I1, _F1, _F2, _F3, _F2, _I1, types.int64)
-_BANK_FN = types.FunctionType(BANK_SIG)
+BANK_SIG = types.none(_F1, _I2, _F2, _F2, _F1, _I1, _INT, _INT, _INT, _F2, _F3, _F1, _I1, _F1, _F2,
+                      _F3, _F2, _I1, _INT, _INT)
+#: :func:`render_coupled_big`'s, as :func:`_render_coupled` calls it
+BIG_SIG = types.none(_INT, _F1, _I2, _F2, _F2, _F1, _INT, _INT, _F2, _F3, _F1, _I1, _I1, _INT, _INT,
+                     _F3, _F2, _I1, _INT)
 
 
-@intrinsic
-def _bank_at(typingctx, addr):
-    """The function at ``addr`` (:func:`bank_address`), callable as
-    :func:`render_bank` with numba's own calling convention."""
-    def codegen(context, builder, sig, args):
-        fn = cgutils.create_struct_proxy(_BANK_FN)(context, builder)
-        fn.jit_addr = builder.inttoptr(args[0], cgutils.voidptr_t)
-        return fn._getvalue()
-    return _BANK_FN(types.int64), codegen
+def _function_at(sig):
+    """An intrinsic that makes, from an int64 address, a numba first-class
+    function of signature ``sig`` (its ``jit_addr``: numba's own calling
+    convention, arrays as numba passes them, errors propagated)."""
+    fn_type = types.FunctionType(sig)
+
+    @intrinsic
+    def at(typingctx, addr):
+        def codegen(context, builder, signature, args):
+            fn = cgutils.create_struct_proxy(fn_type)(context, builder)
+            fn.jit_addr = builder.inttoptr(args[0], cgutils.voidptr_t)
+            return fn._getvalue()
+        return fn_type(types.int64), codegen
+    return at
+
+
+_bank_at = _function_at(BANK_SIG)
+_big_at = _function_at(BIG_SIG)
+
+
+def _address(dispatcher, sig) -> int:
+    cres = dispatcher.get_compile_result(sig)
+    return cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
 
 
 def bank_address() -> int:
@@ -698,16 +747,22 @@ def bank_address() -> int:
     Call render_bank once with the bank's arrays first (as the bank does):
     it then loads from numba's cache under the key a call from Python
     saves, which a compile for the full signature would miss."""
-    cres = render_bank.get_compile_result(BANK_SIG)
-    return cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
+    return _address(render_bank, BANK_SIG)
+
+
+def big_address() -> int:
+    """The address of :func:`render_coupled_big` compiled for
+    :data:`BIG_SIG` (the ``big_addr`` of :func:`render_bank`), as
+    :func:`bank_address` (a call with ``n`` 0 from Python first)."""
+    return _address(render_coupled_big, BIG_SIG)
 
 
 # (inline: a function of its own linked and optimised the whole tree below
 # render_bank once more, 8.7 CPU s of a cold ``synth demo``; see unison's
 # compile-time note)
 @njit(inline="always", **JIT_OPTS)
-def _shard_task(bank_addr, t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch2,
-                iwork2, ubx, sub3, smix, pb, tw, ib):
+def _shard_task(bank_addr, big_addr, t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix,
+                probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib):
     """Task t of T: shards t, t + T, ... of the S small shards (their
     strings: lists[so[j]:so[j + 1]]), shard 0 into ``mix``, shard j > 0
     into smix[j - 1] (zeroed first, samples o0 .. o0 + n - 1), with this
@@ -719,7 +774,7 @@ def _shard_task(bank_addr, t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, 
         lst = lists[so[j]:so[j + 1]]
         if j == 0:
             bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, mix, probe,
-                        scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE)
+                 scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE, big_addr)
         else:
             sm = smix[j - 1]
             for r in range(sm.shape[0]):
@@ -727,7 +782,7 @@ def _shard_task(bank_addr, t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, 
                 for i in range(n):
                     sr[i] = 0.0
             bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, sm, probe,
-                        scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE)
+                 scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE, big_addr)
         j += T
 
 
@@ -870,8 +925,8 @@ def render_strings(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
 
 
 @njit(**PAR_OPTS)
-def render_sharded(bank_addr, ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe,
-                   scratch2, iwork2, ubx, sub3, smix, plan, pb, tw, ib, nt):
+def render_sharded(bank_addr, big_addr, ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
+                   probe, scratch2, iwork2, ubx, sub3, smix, plan, pb, tw, ib, nt):
     """:func:`render_bank` of the ``n_active`` strings in ``active`` on
     ``nt`` threads, the same samples for any ``nt``.
 
@@ -887,6 +942,7 @@ def render_sharded(bank_addr, ring, ipar, fpar, fst, U, active, n_active, n, o0,
 
     bank_addr : int           :func:`bank_address` (render_bank, called by its
                               address: see above)
+    big_addr : int            as :func:`render_bank`'s
     scratch2, iwork2, sub3 : one row (a :func:`render_bank` ``scratch``,
         ``iwork``, ``sub``) per thread, min(nt, MAX_SHARDS) at least
     smix : float64[MAX_SHARDS - 1, rows of mix, samples of mix]
@@ -919,7 +975,7 @@ def render_sharded(bank_addr, ring, ipar, fpar, fst, U, active, n_active, n, o0,
     if nsmall <= 1 and (nbig == 0 or nsmall == 0):
         # one unit (or none): as one shard
         bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch2[0],
-                    iwork2[0], ubx, sub3[0], pb, tw, ib, nt)
+             iwork2[0], ubx, sub3[0], pb, tw, ib, nt, big_addr)
         return
     # the big groups, one after the other, their blocks on nt threads
     if nbig > 0:
@@ -929,7 +985,7 @@ def render_sharded(bank_addr, ring, ipar, fpar, fst, U, active, n_active, n, o0,
                 lists[k] = units[u]
                 k += 1
         bank(ring, ipar, fpar, fst, U, lists, k, n, o0, mix, probe, scratch2[0],
-                    iwork2[0], ubx, sub3[0], pb, tw, ib, nt)
+             iwork2[0], ubx, sub3[0], pb, tw, ib, nt, big_addr)
     if nsmall == 0:
         return
     S = nsmall if nsmall < MAX_SHARDS else MAX_SHARDS
@@ -967,11 +1023,11 @@ def render_sharded(bank_addr, ring, ipar, fpar, fst, U, active, n_active, n, o0,
         # render_bank; a cold synth demo compiled 164.7 CPU s instead of
         # 170.7, the two trees at once, 2026-11-30, tools/bench.py compile)
         for t in prange(T):
-            _shard_task(bank_addr, np.int64(t), T, S, lists, so, ring, ipar, fpar, fst, U, n, o0,
-                        mix, probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)
+            _shard_task(bank_addr, big_addr, np.int64(t), T, S, lists, so, ring, ipar, fpar, fst,
+                        U, n, o0, mix, probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)
     else:
-        _shard_task(bank_addr, ZERO, ONE, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix,
-                    probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)
+        _shard_task(bank_addr, big_addr, ZERO, ONE, S, lists, so, ring, ipar, fpar, fst, U, n, o0,
+                    mix, probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)
     rows = mix.shape[0]
     for j in range(1, S):
         sm = smix[j - 1]
