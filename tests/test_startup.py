@@ -328,11 +328,12 @@ def test_a_sitar_note_compiles_no_parallel_loop():
 @pytest.mark.slow  # a subprocess renders a chord (about 4 s)
 def test_a_piano_chord_compiles_no_big_group_renderer():
     """A piano's chord runs the shards' renderer (render_sharded, which
-    calls render_bank by its address); a piano has no coupled group of
-    more than BLOCK members, so render_bank gets no address for one and
-    render_coupled_big (a sitar bridge's blocks and their parallel loops)
-    is neither compiled nor loaded; a sitar chord, whose bridge has them,
-    gets it when its bank renders through render_bank."""
+    calls render_bank by its address), and render_bank calls the renderer
+    of each unit by its address too: a piano key's unison
+    (render_coupled_small, the one a single note runs too).  A piano has no
+    coupled group of more than BLOCK members, so render_coupled_big (a
+    sitar bridge's blocks and their parallel loops) is neither compiled
+    nor loaded; a sitar's bank, with room for one, loads it."""
     code = (
         "import synth, synth.kernels.render as KR\n"
         "from synth.io.factory import build_engine\n"
@@ -340,14 +341,14 @@ def test_a_piano_chord_compiles_no_big_group_renderer():
         "e = build_engine('grand-piano', (), threads=2)\n"
         "e.render([Event(0.0, 'note_on', k, 0.8) for k in (48, 55, 60, 64)], duration_s=0.1)\n"
         "print(len(KR.render_sharded.signatures), len(KR.render_bank.signatures),"
-        " len(KR.render_coupled_big.signatures))\n"
+        " len(KR.render_coupled_small.signatures), len(KR.render_coupled_big.signatures))\n"
         "e = build_engine('sitar', (), threads=2)\n"
         "e.bank.load_kernels(('sharded',))\n"
         "print(len(KR.render_coupled_big.signatures))\n")
     env = dict(os.environ, SYNTH_THREADS="2", SYNTH_COMPILE_NOTICE="0")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True, env=env).stdout.split("\n")
-    assert out[-3:-1] == ["1 1 0", "1"], out
+    assert out[-3:-1] == ["1 1 1 0", "1"], out
 
 
 LEAN_SCRIPT = r"""

@@ -16,8 +16,7 @@ save lock, :func:`synth.kernels.cache.install_save_lock`, keeps two
 processes that save one function from mixing its entries).  The presets
 share most of the string kernels, and the costliest, the renderer of
 several units on the threads (``render_sharded`` and the ``render_bank``
-it calls by address: 109 of a cold grand phrase's 129 CPU s compiling,
-2026-11-30), is one for all of them; two workers that
+it calls by address), is one for all of them; two workers that
 reach one kernel at the same time both compile it.  So the work goes in
 two rounds: first one worker compiles that renderer while the others play
 one note on each preset (the narrower renderers a single note runs: a

@@ -36,9 +36,11 @@ compile_notice.listen()
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
 #: the kernels that may run loops on several threads (bank.render's kinds)
 _THREADED = (KR.KIND_SHARDS, KR.KIND_BIG_GROUPS, KR.KIND_BANK)
-#: render_bank's address for render_sharded (KR.bank_address), and
-#: render_coupled_big's for render_bank (KR.big_address): once per process
-_ADDR: dict[str, int] = {}
+#: render_bank's address for render_sharded (KR.bank_address), and the
+#: renderers of one unit's for render_bank (KR.unit_address): once per process
+_ADDR: dict[object, int] = {}
+#: the renderers of one unit besides a big group's (live play, synth warmup)
+_ALL_UNITS = (1 << KR.A_SMALL) | (1 << KR.A_STRING)
 #: the shortest fast-path chunk a slot is given while its excitation runs
 #: (:func:`slot_template`): a shorter one renders per sample
 MIN_FAST_CHUNK = 2
@@ -341,6 +343,8 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
                                                     self.max_bend)))
         self._plan = np.zeros(KR.plan_length(self.capacity), dtype=np.int64)
         self._ib = np.zeros(KR.block_index_length(self.max_group, 1), dtype=np.int64)
+        #: the renderers of one unit, by address (:meth:`_units`; 0: not yet)
+        self._addrs = np.zeros(KR.N_ADDRS, dtype=np.int64)
         self._pb = np.zeros(KR.block_mix_shape(self.max_group, 2))
         self._smix = np.zeros((KR.MAX_SHARDS - 1, 1, 1))
         # staging mix of strings on a finer grid (two buses; more rows for a
@@ -920,9 +924,10 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             # the kernel for what is active (the samples render_sharded gives
             # it), so that a scene compiles only what it runs
             if kind == KR.KIND_SHARDS:
-                KR.render_sharded(self._bank_addr(), self._big_addr(), self.ring, self.ipar,
-                                  self.fpar, self.fst, self.U, self.active, self.n_active, c, o0 + done, mix,
-                                  self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
+                units = self._units(KR.unit_kinds(self.active, self.n_active, self.ipar))
+                KR.render_sharded(self._bank_addr(), units, self.ring, self.ipar, self.fpar,
+                                  self.fst, self.U, self.active, self.n_active, c, o0 + done,
+                                  mix, self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                                   smix, self._plan, pb, self._tw, self._ib, ntc)
             elif kind == KR.KIND_BIG_GROUPS or kind == KR.KIND_BIG_GROUPS_ONE:
                 # (nt None: the blocks on this thread, a separate compile
@@ -935,16 +940,18 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             elif kind == KR.KIND_SMALL_GROUP:
                 KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                       self.active, self.n_active, c, o0 + done, mix, self.probe,
-                                      self._scratch2[0], self._iwork2[0])
+                                      self._scratch2[0], self._iwork2[0],
+                                      self._units(1 << KR.A_SMALL))
             elif kind == KR.KIND_STRINGS:
                 KR.render_strings(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                   self.active, self.n_active, c, o0 + done, mix, self.probe,
-                                  self._scratch2[0], ubx)
+                                  self._scratch2[0], ubx, self._units(1 << KR.A_STRING))
             elif kind == KR.KIND_BANK:
                 KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                self.active, self.n_active, c, o0 + done, mix,
                                self.probe, self._scratch2[0], self._iwork2[0], ubx,
-                               self._sub3[0], pb, self._tw, self._ib, ntc, self._big_addr())
+                               self._sub3[0], pb, self._tw, self._ib, ntc,
+                               self._units(KR.unit_kinds(self.active, self.n_active, self.ipar)))
             if gov:
                 self.governor.record(self.governor.clock() - t0, self.n_active * c)
             done += c
@@ -960,27 +967,43 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, self.active[:0], 0, 0,
                            0, mix, self.probe, self._scratch2[0], self._iwork2[0],
                            np.zeros(max(1, self._ext_sub)), self._sub3[0], self._pb, self._tw,
-                           self._ib, 1, self._big_addr())
+                           self._ib, 1, self._addrs)
             a = _ADDR["bank"] = KR.bank_address()
         return a
 
-    def _big_addr(self) -> int:
-        """render_coupled_big's address (:func:`synth.kernels.render.
-        big_address`) for render_bank, loaded as :meth:`_bank_addr` loads
-        render_bank, or 0 for a bank whose coupled groups never have more
-        than BLOCK members (``max_group``: :class:`~synth.dsp.bridges.
-        Bridges` refuses a larger one), which then never compiles it."""
-        if self.max_group <= KR.BLOCK:
-            return 0
-        a = _ADDR.get("big")
-        if a is None:
-            mix = np.zeros((self._row_top + 1, 1))
-            iw = self._iwork2[0]
-            KR.render_coupled_big(0, self.ring, self.ipar, self.fpar, self.fst, self.U, 0, 0, mix,
-                                  self.probe, self._scratch2[0], iw[:1], iw[:1], 0, 1, self._pb,
-                                  self._tw, self._ib, 1)
-            a = _ADDR["big"] = KR.big_address()
-        return a
+    def _units(self, mask: int) -> np.ndarray:
+        """The bank's ``addrs`` (:func:`synth.kernels.render.render_bank`)
+        with the renderer of every unit kind in ``mask`` (bits 1 << A_BIG,
+        ...; :func:`~synth.kernels.render.unit_kinds`) in it: each loaded
+        (or compiled) the first time a scene needs it, by a call that
+        renders nothing, then its address taken, once per process.  A
+        coupled group of more than BLOCK members is asked for only where
+        ``max_group`` allows one (:class:`~synth.dsp.bridges.Bridges`
+        refuses a larger group than ``max_group``)."""
+        addrs = self._addrs
+        for k in (KR.A_BIG, KR.A_SMALL, KR.A_STRING):
+            if not (mask >> k) & 1 or addrs[k] != 0:
+                continue
+            if k == KR.A_BIG and self.max_group <= KR.BLOCK:
+                continue
+            a = _ADDR.get(k)
+            if a is None:
+                mix = np.zeros((self._row_top + 1, 1))
+                iw = self._iwork2[0][:1]
+                sc = self._scratch2[0]
+                if k == KR.A_BIG:
+                    KR.render_coupled_big(0, self.ring, self.ipar, self.fpar, self.fst, self.U, 0,
+                                          0, mix, self.probe, sc, iw, iw, 0, 1, self._pb,
+                                          self._tw, self._ib, 1)
+                elif k == KR.A_SMALL:
+                    KR.render_coupled_small(0, self.ring, self.ipar, self.fpar, self.fst, self.U,
+                                            0, 0, mix, self.probe, sc, iw, iw, 0, 1)
+                else:
+                    KR.render_string(0, self.ring, self.ipar, self.fpar, self.fst, self.U, 0, 0,
+                                     mix, self.probe, sc, np.zeros(1), 0, 1)
+                a = _ADDR[k] = KR.unit_address(k)
+            addrs[k] = a
+        return addrs
 
     #: the bank's renderers, as :meth:`load_kernels` names them
     RENDERERS = ("sharded", "big_groups", "small_group", "strings", "bank")
@@ -1000,9 +1023,12 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         c = 0
         nt = threads.enter(self.threads, prime=True)     # the priming kernel too
         KR.bank_kind(none, 0, self.ipar, self.fpar, c)
+        # (the renderers of one unit that render_bank may call, whatever the
+        # scene: a bridge of many strings where the bank has room for one)
+        every = _ALL_UNITS | (1 << KR.A_BIG)
         if "sharded" in want:
-            KR.render_sharded(self._bank_addr(), self._big_addr(), self.ring, self.ipar, self.fpar,
-                              self.fst, self.U, none, 0, c, 0, mix,
+            KR.render_sharded(self._bank_addr(), self._units(every), self.ring, self.ipar,
+                              self.fpar, self.fst, self.U, none, 0, c, 0, mix,
                               self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                               self._smix, self._plan, self._pb, self._tw, self._ib, nt)
         if "big_groups" in want:
@@ -1012,14 +1038,15 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
                                      self._pb, self._tw, self._ib, big_nt)
         if "small_group" in want:
             KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0,
-                                  mix, self.probe, self._scratch2[0], self._iwork2[0])
+                                  mix, self.probe, self._scratch2[0], self._iwork2[0],
+                                  self._units(1 << KR.A_SMALL))
         if "strings" in want:
             KR.render_strings(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
-                              self.probe, self._scratch2[0], ubx)
+                              self.probe, self._scratch2[0], ubx, self._units(1 << KR.A_STRING))
         if "bank" in want:
             KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
                            self.probe, self._scratch2[0], self._iwork2[0], ubx, self._sub3[0],
-                           self._pb, self._tw, self._ib, nt, self._big_addr())
+                           self._pb, self._tw, self._ib, nt, self._units(every))
 
     # -- inspection (tests, analysis) ----------------------------------------
     def rails(self, s: int):

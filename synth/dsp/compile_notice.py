@@ -42,8 +42,8 @@ PROBE_INDEX = "render.render_bank-*.nbi"
 #: (measured, 2-vCPU Xeons, fresh ``NUMBA_CACHE_DIR``: ``synth note sitar --key 57
 #: --seconds 1`` compiled for 29-49 s (model 167) and 52 s (model 207); ``synth demo``,
 #: whose phrases of overlapping notes also compile the shards of several strings
-#: (``render_sharded``), 104-133 s and 194-219 s, and 88 s (model 207) with its
-#: phrases on two processes and ``render_bank`` called by address (2026-11-30);
+#: (``render_sharded``), 104-133 s and 194-219 s, and 50 s (model 207) with its
+#: phrases on two processes and the renderers called by address (2026-11-30);
 #: docs/benchmarks.md, "Start-up")
 MESSAGE = ("synth: compiling the string kernels for this CPU, once (on 2 cores about a "
            "minute for a note, up to 4 for a phrase; `synth warmup` does it ahead of time) ...")

@@ -404,7 +404,7 @@ def render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratc
                        psub, pb, tw, ib, nt):
     """:func:`_render_coupled` of a group of more than BLOCK members (a
     sitar's bridge), for :func:`render_bank`, which calls it by its address
-    (:data:`BIG_SIG`, :func:`big_address`): a bank with no such group (a
+    (:data:`BIG_SIG`, :func:`unit_address`): a bank with no such group (a
     piano, a biwa) never compiles the blocks and their parallel loops.
     ``n`` <= 0 returns at once (the call that loads it)."""
     if n <= 0:
@@ -426,22 +426,21 @@ def render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratc
 
 
 @njit(**JIT_OPTS)
-def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub,
-                    pb, tw, ib, nt, big_addr):
-    """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n]:
-    lockstep fast-path chunks (:func:`synth.kernels.unison.
-    _coupled_chunk_small_or_split`) as
-    long as every member allows one and at most ROWS of them excite (GROUP
-    hammers), else per sample (:func:`_coupled_per_sample`, a member with
-    a probe or telemetry takes the whole block that way); a group of more
-    than BLOCK members: :func:`render_coupled_big`, at ``big_addr``.
-    :func:`_render_coupled_big` and :func:`_render_coupled_small` are the
-    same for one kind of group, and compile only its chunks."""
-    G = ipar[lead, I_CPLN]
-    if G > BLOCK:
-        _big_at(big_addr)(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
-                          po0, psub, pb, tw, ib, nt)
+def render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0,
+                         psub):
+    """n steps of the coupled group of at most BLOCK members led by
+    ``lead`` (a piano key's unison) into mix[:, o0:o0+n]: lockstep
+    fast-path chunks (:func:`synth.kernels.unison.
+    _coupled_chunk_small_or_split`) as long as every member allows one and
+    at most ROWS of them excite (GROUP hammers), else per sample
+    (:func:`_coupled_per_sample`, a member with a probe or telemetry takes
+    the whole block that way).  Called by its address (:data:`SMALL_SIG`,
+    :func:`unit_address`) from :func:`render_bank` and
+    :func:`render_small_group`, so that its tree compiles once for both.
+    ``n`` <= 0 returns at once (the call that loads it)."""
+    if n <= 0:
         return
+    G = ipar[lead, I_CPLN]
     diag = _coupled_diag(lead, G, ipar)
     one = scratch[scratch.shape[0] - 2:]
     done = 0
@@ -455,6 +454,33 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
                                               o0 + done, mix, scratch, iw, ist)
             _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
+
+
+@njit(**JIT_OPTS)
+def render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, po0, psub):
+    """:func:`synth.kernels.strings._render_string` (n samples of string s
+    by itself), called by its address (:data:`STRING_SIG`,
+    :func:`unit_address`) from :func:`render_bank` and
+    :func:`render_strings`, so that its tree compiles once for both.
+    ``n`` <= 0 returns at once (the call that loads it)."""
+    if n <= 0:
+        return
+    _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, po0, psub)
+
+
+@njit(inline="always", **JIT_OPTS)
+def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0, psub,
+                    pb, tw, ib, nt, addrs):
+    """n steps of the coupled group led by ``lead`` into mix[:, o0:o0+n],
+    by the renderer of its kind at its address in ``addrs``:
+    :func:`render_coupled_big` for more than BLOCK members (``nt``
+    threads for its blocks), else :func:`render_coupled_small`."""
+    if ipar[lead, I_CPLN] > BLOCK:
+        _big_at(addrs[A_BIG])(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
+                              po0, psub, pb, tw, ib, nt)
+    else:
+        _small_at(addrs[A_SMALL])(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw,
+                                  ist, po0, psub)
 
 
 @njit(inline="always", **JIT_OPTS)
@@ -474,26 +500,6 @@ def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scrat
         else:
             _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw,
                                ist, pb, tw, ib, nt)
-            _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
-        done += C
-
-
-@njit(inline="always", **JIT_OPTS)
-def _render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist):
-    """:func:`_render_coupled` of a group of at most BLOCK members on the
-    engine's grid."""
-    G = ipar[lead, I_CPLN]
-    diag = _coupled_diag(lead, G, ipar)
-    one = scratch[scratch.shape[0] - 2:]
-    done = 0
-    while done < n:
-        C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
-        if slow:
-            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                                one, o0 + done, ONE)
-        else:
-            C = _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, n - done,
-                                              o0 + done, mix, scratch, iw, ist)
             _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
@@ -548,7 +554,7 @@ def _fold_sub(mix, o0, n, sub, M, lo, hi):
 
 @njit(**JIT_OPTS)
 def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
-                probe, scratch, iwork, ubx, sub, pb, tw, ib, nt, big_addr):
+                probe, scratch, iwork, ubx, sub, pb, tw, ib, nt, addrs):
     """Render ``n`` internal samples of every active string into
     ``mix[:, o0:o0+n]`` (accumulating).  ``mix`` is 2-D: one row per output
     bus; string s adds its output to row r0 = ``ipar[s, I_ROW]``, or, with
@@ -582,9 +588,11 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
     ib : int64[:]             :func:`block_index_length` samples (work)
     nt : int                  threads for the blocks of such a group (1: this
                               thread only); the same samples for any
-    big_addr : int            :func:`big_address` (the renderer of such a
-                              group, called by its address), or 0 for a
-                              bank that has none (never called then)
+    addrs : int64[:]          the addresses of the renderers of one unit,
+                              :func:`render_coupled_big`, :func:`render_coupled_small`
+                              and :func:`render_string` (``addrs[A_BIG]``, ...:
+                              :func:`unit_address`), each called by it;
+                              0 where no such unit is active (:func:`unit_kinds`)
 
     Strings whose hammer is running on the fast path render GROUP at a
     time (:func:`_render_group`); a coupled group (a piano key's unison on
@@ -626,24 +634,25 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                 _shift_rows(s, G, ipar, -lo)
             if cpl >= 0:
                 _render_coupled(s, ring, ipar, fpar, fst, U, nm, ZERO, sm, probe, scratch, iw, ist,
-                                o0, M, pb, tw, ib, nt, big_addr)
+                                o0, M, pb, tw, ib, nt, addrs)
             else:
                 # (an external bridge's M steps per sample, from this segment's)
-                _render_string(s, ring, ipar, fpar, fst, U, nm, ZERO, sm, probe, scratch,
-                               ubx[o0 * M:], o0, M)
+                _string_at(addrs[A_STRING])(s, ring, ipar, fpar, fst, U, nm, ZERO, sm, probe,
+                                            scratch, ubx[o0 * M:], o0, M)
             if lo != 0:
                 _shift_rows(s, G, ipar, lo)
             _fold_sub(mix, o0, n, sub, M, lo, hi)
         elif cpl >= 0:
             _render_coupled(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
-                            o0, ONE, pb, tw, ib, nt, big_addr)
+                            o0, ONE, pb, tw, ib, nt, addrs)
         elif (ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_EXC] != EXC_FELT
                 and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
                 and ipar[s, I_CHUNK] > 0 and cpl == CPL_NONE):
             iwork[nh] = s
             nh += 1
         else:
-            _render_string(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0, ONE)
+            _string_at(addrs[A_STRING])(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch,
+                                        ubx, o0, ONE)
     # strings with similar chunk lengths together (a group's chunk is the
     # shortest any member allows): insertion sort by I_CHUNK
     for a in range(1, nh):
@@ -710,10 +719,19 @@ _INT = types.int64
 #: :func:`render_bank`'s signature as the bank and :func:`render_sharded`
 #: call it (every array C-contiguous; the scalars int64)
 BANK_SIG = types.none(_F1, _I2, _F2, _F2, _F1, _I1, _INT, _INT, _INT, _F2, _F3, _F1, _I1, _F1, _F2,
-                      _F3, _F2, _I1, _INT, _INT)
+                      _F3, _F2, _I1, _INT, _I1)
 #: :func:`render_coupled_big`'s, as :func:`_render_coupled` calls it
 BIG_SIG = types.none(_INT, _F1, _I2, _F2, _F2, _F1, _INT, _INT, _F2, _F3, _F1, _I1, _I1, _INT, _INT,
                      _F3, _F2, _I1, _INT)
+#: :func:`render_coupled_small`'s
+SMALL_SIG = types.none(_INT, _F1, _I2, _F2, _F2, _F1, _INT, _INT, _F2, _F3, _F1, _I1, _I1, _INT,
+                       _INT)
+#: :func:`render_string`'s
+STRING_SIG = types.none(_INT, _F1, _I2, _F2, _F2, _F1, _INT, _INT, _F2, _F3, _F1, _F1, _INT, _INT)
+#: the renderers of one unit in ``addrs`` (:func:`render_bank`), and their
+#: bits in :func:`unit_kinds`
+A_BIG, A_SMALL, A_STRING = 0, 1, 2
+N_ADDRS = 3
 
 
 def _function_at(sig):
@@ -734,6 +752,8 @@ def _function_at(sig):
 
 _bank_at = _function_at(BANK_SIG)
 _big_at = _function_at(BIG_SIG)
+_small_at = _function_at(SMALL_SIG)
+_string_at = _function_at(STRING_SIG)
 
 
 def _address(dispatcher, sig) -> int:
@@ -750,18 +770,48 @@ def bank_address() -> int:
     return _address(render_bank, BANK_SIG)
 
 
-def big_address() -> int:
-    """The address of :func:`render_coupled_big` compiled for
-    :data:`BIG_SIG` (the ``big_addr`` of :func:`render_bank`), as
+def unit_address(which: int) -> int:
+    """The address of the renderer of one unit ``which`` (``A_BIG``:
+    :func:`render_coupled_big`, ``A_SMALL``: :func:`render_coupled_small`,
+    ``A_STRING``: :func:`render_string`) for ``addrs``, as
     :func:`bank_address` (a call with ``n`` 0 from Python first)."""
-    return _address(render_coupled_big, BIG_SIG)
+    if which == A_BIG:
+        return _address(render_coupled_big, BIG_SIG)
+    if which == A_SMALL:
+        return _address(render_coupled_small, SMALL_SIG)
+    if which == A_STRING:
+        return _address(render_string, STRING_SIG)
+    raise ValueError(f"which = {which!r} is not one of A_BIG, A_SMALL, A_STRING (0, 1, 2)")
+
+
+@njit(**JIT_OPTS)
+def unit_kinds(active, n_active, ipar):
+    """Which renderers of one unit :func:`render_bank` calls for the
+    ``n_active`` strings of ``active``: bit 1 << A_BIG, a coupled group of
+    more than BLOCK members; 1 << A_SMALL, one of at most BLOCK; 1 <<
+    A_STRING, a string by itself (not a hammer stepped with others).  The
+    same branches as render_bank's."""
+    m = 0
+    for a in range(n_active):
+        s = active[a]
+        cpl = ipar[s, I_CPL]
+        if cpl >= 0 and cpl != s:
+            continue
+        if cpl >= 0:
+            m |= (1 << A_BIG) if ipar[s, I_CPLN] > BLOCK else (1 << A_SMALL)
+        elif ipar[s, I_SUB] > 1 or not (
+                ipar[s, I_EXC] >= EXC_HAMMER3 and ipar[s, I_EXC] != EXC_FELT
+                and ipar[s, I_PROBE] < 0 and ipar[s, I_TELEM] == 0
+                and ipar[s, I_CHUNK] > 0 and cpl == CPL_NONE):
+            m |= 1 << A_STRING
+    return m
 
 
 # (inline: a function of its own linked and optimised the whole tree below
 # render_bank once more, 8.7 CPU s of a cold ``synth demo``; see unison's
 # compile-time note)
 @njit(inline="always", **JIT_OPTS)
-def _shard_task(bank_addr, big_addr, t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix,
+def _shard_task(bank_addr, addrs, t, T, S, lists, so, ring, ipar, fpar, fst, U, n, o0, mix,
                 probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib):
     """Task t of T: shards t, t + T, ... of the S small shards (their
     strings: lists[so[j]:so[j + 1]]), shard 0 into ``mix``, shard j > 0
@@ -774,7 +824,7 @@ def _shard_task(bank_addr, big_addr, t, T, S, lists, so, ring, ipar, fpar, fst, 
         lst = lists[so[j]:so[j + 1]]
         if j == 0:
             bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, mix, probe,
-                 scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE, big_addr)
+                 scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE, addrs)
         else:
             sm = smix[j - 1]
             for r in range(sm.shape[0]):
@@ -782,7 +832,7 @@ def _shard_task(bank_addr, big_addr, t, T, S, lists, so, ring, ipar, fpar, fst, 
                 for i in range(n):
                     sr[i] = 0.0
             bank(ring, ipar, fpar, fst, U, lst, lst.shape[0], n, o0, sm, probe,
-                 scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE, big_addr)
+                 scratch2[t], iwork2[t], ubx, sub3[t], pb, tw[t:t + 1], ib, ONE, addrs)
         j += T
 
 
@@ -898,7 +948,7 @@ def render_big_groups(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, pr
 
 @njit(**JIT_OPTS)
 def render_small_group(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch,
-                       iwork):
+                       iwork, addrs):
     """:func:`render_bank` of one coupled group of at most BLOCK members on
     the engine's grid (:func:`bank_kind` gives ``KIND_SMALL_GROUP``): the
     same calls, without the paths of other strings (arguments as
@@ -910,22 +960,24 @@ def render_small_group(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, p
         s = active[a]
         if ipar[s, I_CPL] != s:
             continue                  # rendered with its group's leader
-        _render_coupled_small(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist)
+        _small_at(addrs[A_SMALL])(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
+                                  o0, ONE)
 
 
 @njit(**JIT_OPTS)
-def render_strings(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch, ubx):
+def render_strings(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch, ubx,
+                   addrs):
     """:func:`render_bank` of single strings on the engine's grid that it
     renders one by one (:func:`bank_kind` gives ``KIND_STRINGS`` for one):
     the same calls, without the paths of coupled groups and of hammers
     stepped together (arguments as :func:`render_bank`'s)."""
+    string = _string_at(addrs[A_STRING])
     for a in range(n_active):
-        _render_string(active[a], ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0,
-                       ONE)
+        string(active[a], ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0, ONE)
 
 
 @njit(**PAR_OPTS)
-def render_sharded(bank_addr, big_addr, ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
+def render_sharded(bank_addr, addrs, ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                    probe, scratch2, iwork2, ubx, sub3, smix, plan, pb, tw, ib, nt):
     """:func:`render_bank` of the ``n_active`` strings in ``active`` on
     ``nt`` threads, the same samples for any ``nt``.
@@ -942,7 +994,7 @@ def render_sharded(bank_addr, big_addr, ring, ipar, fpar, fst, U, active, n_acti
 
     bank_addr : int           :func:`bank_address` (render_bank, called by its
                               address: see above)
-    big_addr : int            as :func:`render_bank`'s
+    addrs : int64[:]          as :func:`render_bank`'s
     scratch2, iwork2, sub3 : one row (a :func:`render_bank` ``scratch``,
         ``iwork``, ``sub``) per thread, min(nt, MAX_SHARDS) at least
     smix : float64[MAX_SHARDS - 1, rows of mix, samples of mix]
@@ -975,7 +1027,7 @@ def render_sharded(bank_addr, big_addr, ring, ipar, fpar, fst, U, active, n_acti
     if nsmall <= 1 and (nbig == 0 or nsmall == 0):
         # one unit (or none): as one shard
         bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch2[0],
-             iwork2[0], ubx, sub3[0], pb, tw, ib, nt, big_addr)
+             iwork2[0], ubx, sub3[0], pb, tw, ib, nt, addrs)
         return
     # the big groups, one after the other, their blocks on nt threads
     if nbig > 0:
@@ -985,7 +1037,7 @@ def render_sharded(bank_addr, big_addr, ring, ipar, fpar, fst, U, active, n_acti
                 lists[k] = units[u]
                 k += 1
         bank(ring, ipar, fpar, fst, U, lists, k, n, o0, mix, probe, scratch2[0],
-             iwork2[0], ubx, sub3[0], pb, tw, ib, nt, big_addr)
+             iwork2[0], ubx, sub3[0], pb, tw, ib, nt, addrs)
     if nsmall == 0:
         return
     S = nsmall if nsmall < MAX_SHARDS else MAX_SHARDS
@@ -1023,10 +1075,10 @@ def render_sharded(bank_addr, big_addr, ring, ipar, fpar, fst, U, active, n_acti
         # render_bank; a cold synth demo compiled 164.7 CPU s instead of
         # 170.7, the two trees at once, 2026-11-30, tools/bench.py compile)
         for t in prange(T):
-            _shard_task(bank_addr, big_addr, np.int64(t), T, S, lists, so, ring, ipar, fpar, fst,
+            _shard_task(bank_addr, addrs, np.int64(t), T, S, lists, so, ring, ipar, fpar, fst,
                         U, n, o0, mix, probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)
     else:
-        _shard_task(bank_addr, big_addr, ZERO, ONE, S, lists, so, ring, ipar, fpar, fst, U, n, o0,
+        _shard_task(bank_addr, addrs, ZERO, ONE, S, lists, so, ring, ipar, fpar, fst, U, n, o0,
                     mix, probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)
     rows = mix.shape[0]
     for j in range(1, S):
