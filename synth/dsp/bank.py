@@ -345,6 +345,11 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         self._ib = np.zeros(KR.block_index_length(self.max_group, 1), dtype=np.int64)
         #: the renderers of one unit, by address (:meth:`_units`; 0: not yet)
         self._addrs = np.zeros(KR.N_ADDRS, dtype=np.int64)
+        #: the kinds of unit this bank can have whose address is not yet in
+        #: ``_addrs`` (bits 1 << A_BIG, ...; a big group only where
+        #: ``max_group`` allows one): 0 once all are, and then a block no
+        #: longer asks which kinds are active (:meth:`_active_units`)
+        self._units_left = _ALL_UNITS | ((1 << KR.A_BIG) if self.max_group > KR.BLOCK else 0)
         self._pb = np.zeros(KR.block_mix_shape(self.max_group, 2))
         self._smix = np.zeros((KR.MAX_SHARDS - 1, 1, 1))
         # staging mix of strings on a finer grid (two buses; more rows for a
@@ -924,7 +929,7 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             # the kernel for what is active (the samples render_sharded gives
             # it), so that a scene compiles only what it runs
             if kind == KR.KIND_SHARDS:
-                units = self._units(KR.unit_kinds(self.active, self.n_active, self.ipar))
+                units = self._active_units()
                 KR.render_sharded(self._bank_addr(), units, self.ring, self.ipar, self.fpar,
                                   self.fst, self.U, self.active, self.n_active, c, o0 + done,
                                   mix, self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
@@ -951,7 +956,7 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
                                self.active, self.n_active, c, o0 + done, mix,
                                self.probe, self._scratch2[0], self._iwork2[0], ubx,
                                self._sub3[0], pb, self._tw, self._ib, ntc,
-                               self._units(KR.unit_kinds(self.active, self.n_active, self.ipar)))
+                               self._active_units())
             if gov:
                 self.governor.record(self.governor.clock() - t0, self.n_active * c)
             done += c
@@ -970,6 +975,15 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
                            self._ib, 1, self._addrs)
             a = _ADDR["bank"] = KR.bank_address()
         return a
+
+    def _active_units(self) -> np.ndarray:
+        """:meth:`_units` for the kinds of unit active now
+        (:func:`~synth.kernels.render.unit_kinds`), a scan of the active
+        strings that a block skips once every kind this bank can have has
+        its address (live play: from :meth:`load_kernels` on)."""
+        if not self._units_left:
+            return self._addrs
+        return self._units(KR.unit_kinds(self.active, self.n_active, self.ipar))
 
     def _units(self, mask: int) -> np.ndarray:
         """The bank's ``addrs`` (:func:`synth.kernels.render.render_bank`)
@@ -1003,6 +1017,7 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
                                      mix, self.probe, sc, np.zeros(1), 0, 1)
                 a = _ADDR[k] = KR.unit_address(k)
             addrs[k] = a
+            self._units_left &= ~(1 << k)
         return addrs
 
     #: the bank's renderers, as :meth:`load_kernels` names them
