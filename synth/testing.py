@@ -46,9 +46,13 @@ def _one(check, x, fs, pitch_hz=None, **kw) -> Result:
     return Result("python", f"{check} {name}", measured, expected, bool(ok))
 
 
-def check_f0(x, fs, pitch_hz, cents):
-    """Partial 1 of ``x`` within ``cents`` of ``pitch_hz``."""
-    return _one("f0", x, fs, pitch_hz, cents=cents)
+def check_f0(x, fs, pitch_hz, cents, start_s=None, length_s=None):
+    """Partial 1 of ``x`` within ``cents`` of ``pitch_hz``, over ``length_s``
+    from ``start_s`` (s; default 0.05 and 1.0: the first second after the
+    onset)."""
+    kw = {"cents": cents} | ({} if start_s is None else {"start_s": start_s}) \
+        | ({} if length_s is None else {"length_s": length_s})
+    return _one("f0", x, fs, pitch_hz, **kw)
 
 
 def check_partial(x, fs, pitch_hz, n, cents, hz=None):

@@ -26,7 +26,8 @@ item of the render:
 ============== ================================================ ==================================
 check          measures                                         keys
 ============== ================================================ ==================================
-f0             partial 1 against the voice's tuning (or hz)     cents, [hz]
+f0             partial 1 against the voice's tuning (or hz),    cents, [hz], [start_s],
+               over a window (default 0.05-1.05 s)              [length_s]
 partial        partial n against n x the tuned f0 (or hz)      n, cents, [hz]
 partial_level  partial n re the strongest of the first 16 (dB)  n, min_db, max_db
 t60            T60 of partial n (default 1), s                  [n], min_s, max_s
@@ -268,9 +269,10 @@ def _segment(item: Item, start_s=0.05, length_s=1.0):
     return item.audio[a:a + int(length_s * item.fs)]
 
 
-def measure_f0(item: Item, hint_hz: float) -> float:
-    """Partial 1 (Hz) of a note, from 50 ms to 1.05 s after its onset."""
-    return estimate_f0(_segment(item), item.fs, hint_hz, search_cents=60.0)
+def measure_f0(item: Item, hint_hz: float, start_s: float = 0.05, length_s: float = 1.0) -> float:
+    """Partial 1 (Hz) of a note over ``length_s`` from ``start_s`` after its
+    onset (default 50 ms to 1.05 s)."""
+    return estimate_f0(_segment(item, start_s, length_s), item.fs, hint_hz, search_cents=60.0)
 
 
 def measure_partials(item: Item, f0_hz: float, n: int):
@@ -309,8 +311,13 @@ def _per_item(fn):
 
 def _c_f0(it, e):
     ref = _tuned(it, e)
-    c = cents(measure_f0(it, ref), ref)
-    return (it.label, f"{c:+.2f} cent", f"|x| <= {e['cents']:g} cent of {ref:.3f} Hz",
+    t0, n = e.get("start_s", 0.05), e.get("length_s", 1.0)
+    if ("start_s" in e or "length_s" in e) and t0 + n > len(it.audio) / it.fs + 1e-9:
+        raise SpecError(f"start_s + length_s = {t0 + n:g} is out of range (within the render's "
+                        f"{len(it.audio) / it.fs:g} s)")
+    c = cents(measure_f0(it, ref, t0, n), ref)
+    span = "" if (t0, n) == (0.05, 1.0) else f" ({t0:g}-{t0 + n:g} s)"
+    return (f"{it.label}{span}", f"{c:+.2f} cent", f"|x| <= {e['cents']:g} cent of {ref:.3f} Hz",
             abs(c) <= e["cents"])
 
 
@@ -766,9 +773,9 @@ EXPECT = Section("expect", "what must hold", dict, (
     Field("above_hz", "float", "the band's lower edge, Hz", 1.0, 24000.0,
           when=_on("highband_diff", "band_fall", "centroid_fall")),
     Field("start_s", "float", "start of the part read, s", 0.0, 60.0, optional=True,
-          when=_on("partial_level", "highband_diff", "partial_diff", "halo", "band_fall")),
+          when=_on("f0", "partial_level", "highband_diff", "partial_diff", "halo", "band_fall")),
     Field("length_s", "float", "length of the part read, s", 0.01, 60.0, optional=True,
-          when=_on("partial_level", "highband_diff", "partial_diff", "band_fall")),
+          when=_on("f0", "partial_level", "highband_diff", "partial_diff", "band_fall")),
     Field("min_ratio", "float", "lowest late/early T60", 0.0, 1e3, when=_on("two_stage")),
     Field("min_drop_db", "float", "fall before the knee, dB (default 6)", 0.0, 200.0,
           when=_on("two_stage"), optional=True),
