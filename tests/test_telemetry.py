@@ -66,10 +66,13 @@ def test_telemetry_through_a_strike_on_the_finer_grid():
         assert live["hammer"]["episodes"] == ref["hammer"]["episodes"]
 
 
-@pytest.mark.parametrize("name,key", [("sitar", 50), ("grand-piano", 100)])
+@pytest.mark.parametrize("name,key", [("sitar", 50), ("grand-piano", 100), ("biwa", 50)])
 def test_counting_does_not_change_the_sound(name, key):
     """A counted note takes the per-sample path, the fast path's reference:
-    the same samples to round-off."""
+    the same samples to round-off (the sitar and the biwa with the tension's
+    modulation, whose reading leaves out the first cell's slot, where the
+    two paths may hold different deltas that the next clamp overwrites: a
+    1e-3 difference on the sitar, 3e-5 on the biwa, before it did)."""
     ev = note(key, vel=1.0) + note(key - 5, t=0.05, vel=0.6)
     plain = engine(name).render(ev, duration_s=0.4)
     e = engine(name)

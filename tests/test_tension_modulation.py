@@ -14,7 +14,7 @@ from synth.io.presets import load_preset
 from synth.io.presets.loader import find_preset_file
 from synth.io.presets.validate import validate_dict
 from synth.kernels import strings as K
-from synth.kernels.tension import slope_sum
+from synth.kernels.tension import slope_sum, slope_sum_x0
 from synth.physics.string import IdealString, tension_gain
 
 # a lossless string of N cells, its far end a bend line of a whole number of
@@ -93,7 +93,8 @@ def test_glide_of_a_triangular_pluck_matches_the_closed_form():
 
 def test_the_reading_is_the_ring_slope_sum_without_the_far_end_pair():
     """slope_sum: the circular sum of squared neighbour differences, less
-    the pair at x = L (a loop filter apart), whatever the pair's place."""
+    the pair at x = L (a loop filter apart), whatever the pair's place;
+    slope_sum_x0: the two pairs at x = 0."""
     rng = np.random.default_rng(3)
     ring = rng.normal(size=50)
     P = 40
@@ -103,6 +104,11 @@ def test_the_reading_is_the_ring_slope_sum_without_the_far_end_pair():
     for jn in (0, 7, P - 1):
         want = float(np.sum(d ** 2) - d[jn] ** 2)
         assert slope_sum(ring, off, P, jn) == pytest.approx(want, rel=1e-12)
+    # the two pairs at x = 0 around slot pm (the reading leaves them out too:
+    # the first cell's sub-cell delta lies there), at the ring's wrap as well
+    for pm in (0, 9, P - 1):
+        want = float(d[pm - 1] ** 2 + d[pm] ** 2)
+        assert slope_sum_x0(ring, off, P, pm) == pytest.approx(want, rel=1e-12)
 
 
 def test_lossless_string_energy_stays_bounded_with_the_modulation():
@@ -230,3 +236,4 @@ def test_the_bend_line_room_for_the_modulation():
     y = e.render(note(52, 0.0, 0.3), duration_s=1.6)
     f = estimate_f0(y.reshape(len(y), -1)[int(0.8 * 48000):, 0], 48000, 164.81, search_cents=60)
     assert abs(cents(f, 164.81)) < 1.0
+

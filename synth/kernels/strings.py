@@ -427,9 +427,11 @@ def _render_per_sample(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, ubx, uo, 
             probe[prow, P_F, pi] = F
             probe[prow, P_W, pi] = st[S_HW]
             probe[prow, P_Z, pi] = st[S_HZ]
-        if tmk > 0.0:
+        if tmk > 0.0 and cpl < 0:
             # the tension's reading (synth.kernels.tension), at the same
-            # samples as the fast path's (the ring as it stands after this one)
+            # samples as the fast path's (the ring as it stands after this
+            # one; a coupled group's member reads after the bridge's
+            # correction of its sample at x = L, in _coupled_per_sample)
             st[S_TMC] -= 1.0
             if st[S_TMC] <= 0.0:
                 ipar[s, I_POS] = pm

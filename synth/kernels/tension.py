@@ -20,7 +20,11 @@ the note on a lossy one.  On the ring (both rails in one loop, see
 :mod:`synth.kernels.strings`) it is the sum S of the squared differences
 of neighbouring samples over dx, less the pair at x = L (the sample the
 loop filter wrote last and the one arriving at it are a loop filter and a
-bend line apart, not dx); the ring holds 2N of the loop's D0 samples and
+bend line apart, not dx) and the two pairs at x = 0 (the slot there holds
+the first cell's sub-cell delta, which the next sample's clamp at point 1
+may overwrite: the per-sample path and the fast path leave it different
+there, to no effect on the sound, and the reading must not see it:
+:func:`slope_sum_x0`); the ring holds 2N of the loop's D0 samples and
 the rest are in the loop filter and the bend line, so that
 int (u_r'^2 + u_l'^2) dx = S D0 / (2 N dx), and
 
@@ -83,6 +87,17 @@ def slope_sum(ring, off, P, jn):
     return acc
 
 
+@njit(inline="always", **JIT_OPTS)
+def slope_sum_x0(ring, off, P, pm):
+    """The two pairs of :func:`slope_sum` at x = 0, around slot ``pm``
+    (u_r(1), u_r(0) and u_r(0), vl(1)): m^2."""
+    jm = pm - 1 if pm > 0 else P - 1
+    jp = pm + 1 if pm < P - 1 else 0
+    a = ring[off + pm] - ring[off + jm]
+    b = ring[off + jp] - ring[off + pm]
+    return a * a + b * b
+
+
 @njit(**JIT_OPTS)
 def tension_read(s, ring, ipar, fpar, fst):
     """Read string s's tension now (after its last sample): the smoothed
@@ -99,7 +114,8 @@ def tension_read(s, ring, ipar, fpar, fst):
     jn = ipar[s, I_POS] - N
     if jn < 0:
         jn += P
-    S = slope_sum(ring, ipar[s, I_OFF], P, jn)
+    off = ipar[s, I_OFF]
+    S = slope_sum(ring, off, P, jn) - slope_sum_x0(ring, off, P, ipar[s, I_POS])
     m = st[S_TMS]
     m += fp[F_TMA] * (S - m)
     st[S_TMS] = m

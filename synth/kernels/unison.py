@@ -348,6 +348,9 @@ def _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, n, o0, mix, probe, on
                 mix[r0 + 1, o0 + i] += pan * v
             else:
                 mix[r0, o0 + i] += v
+            # the tension's reading, if due, on the corrected ring (where
+            # the fast path reads: after the chunk, _coupled_tension)
+            tension_after(s, ring, ipar, fpar, fst, ONE)
             s = ipar[s, I_CPLNX]
         fst[lead, S_UBM] = ub
         fst[lead, S_UBW] = ub - a * ubm
