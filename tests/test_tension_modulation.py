@@ -258,3 +258,36 @@ def test_the_sitar_glides_on_a_strong_pluck_and_not_on_a_soft_one():
     soft = glide(20, []) - glide(20, ["string.tension_modulation=0"])
     assert strong >= 3.0, f"velocity 127: {strong:+.2f} cents"
     assert abs(soft) <= 1.0, f"velocity 20: {soft:+.2f} cents"
+
+
+def test_every_string_reads_its_tension_at_the_same_samples_whatever_the_blocks():
+    """The strings on a bridge read at the same samples (a string joining
+    it takes a reading member's phase): the group renders in chunks that
+    end at each member's reading, and readings staggered from each note-on
+    cut a sitar bridge of 32 notes into chunks of a few samples (2x the
+    render's CPU, 128 notes 15x: tools/bench.py live's cluster).  The
+    samples are those of any block sizes, and of the phrase started
+    later."""
+    from synth.engine.engine import Event
+    from synth.io.factory import build_engine
+
+    # (onsets 2 ms apart: 650 internal samples, not a whole number of readings)
+    ev = [Event(0.002 * i, "note_on", 43 + 3 * i, 0.8) for i in range(8)]
+    e = build_engine("sitar")
+    e.render(ev, duration_s=0.05)
+    live = [s for s in range(e.bank.capacity)
+            if e.bank.is_active(s) and e.bank.fpar[s, K.F_TMK] > 0.0]
+    assert len(live) == 8
+    left = {float(e.bank.fst[s, K.S_TMC]) for s in live}
+    assert len(left) == 1, left
+    big = build_engine("sitar").render(ev, duration_s=0.3, block=1024)
+    small = build_engine("sitar").render(ev, duration_s=0.3, block=7)
+    assert np.max(np.abs(big)) > 0.01
+    assert np.max(np.abs(big - small)) <= 1e-12 * np.max(np.abs(big))
+    # the same phrase 0.1 s later (32500 internal samples: not a whole
+    # number of readings; a whole number of the output's and the rate's)
+    d = 0.1
+    late = build_engine("sitar").render([Event(x.time_s + d, x.kind, x.key, x.value) for x in ev],
+                                        duration_s=0.3 + d)
+    n = round(d * 48000)
+    assert np.max(np.abs(late[n:n + len(big)] - big)) <= 1e-9 * np.max(np.abs(big))

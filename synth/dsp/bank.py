@@ -595,7 +595,8 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         if blen:
             self.U[ip[K.I_BOFF]: ip[K.I_BOFF] + blen] = 0.0
         self.fst[s, K.S_BD] = t.bend_delay
-        # the tension's first reading (synth.kernels.tension) F_TMM samples in
+        # the tension's first reading (synth.kernels.tension) F_TMM samples
+        # in (a string joining a bridge takes the bridge's: Bridges.join)
         self.fst[s, K.S_TMC] = self.fpar[s, K.F_TMM]
 
     def _write_template(self, s: int, t: SlotTemplate, keep_cols) -> None:

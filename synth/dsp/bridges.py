@@ -79,6 +79,24 @@ class Bridges:
         # the force of its first sample on the bridge reads the bridge's last
         # step as its own (the lockstep path's reading, :func:`_bridge`)
         self.fst[s, K.S_UBP] = self.fst[lead, K.S_UBM]
+        self._take_reading_phase(s, mem)
+
+    def _take_reading_phase(self, s: int, mem) -> None:
+        """A string with the tension's modulation that joins a bridge reads
+        its tension at the samples another member with it reads (its
+        countdown, ``S_TMC``; synth.kernels.tension).  The group renders in
+        chunks that end at each member's reading: readings counted from
+        each note-on cut a sitar's bridge of 32 notes into chunks of a few
+        samples (2x the render's CPU; 128 notes 15x).  The phase is the
+        first such member's, from its note-on: a phrase renders the same
+        samples whenever it starts and whatever the blocks, and a string off
+        any bridge keeps its own."""
+        if self.fpar[s, K.F_TMK] <= 0.0:
+            return
+        for m in mem:
+            if m != s and self.fpar[m, K.F_TMK] > 0.0 and self.fpar[m, K.F_TMM] == self.fpar[s, K.F_TMM]:
+                self.fst[s, K.S_TMC] = self.fst[m, K.S_TMC]
+                return
 
     def leave(self, s: int) -> None:
         """Slot s leaves its coupled group (its end on a rigid support from

@@ -34,8 +34,9 @@ Why the mean, and why per chunk.  It is the mean tension that a plucked
 string's pitch glide follows (the 2 f0 ripple of the instantaneous
 tension moves no partial to first order; what it adds, the partials it
 mixes, is not modelled).  The mean is read from the energy with a pass
-over the ring every ``F_TMM`` samples (the voice's 256 at 325 kHz: 0.8 ms,
-7 or more readings a period below D5), smoothed by one pole over two
+over the ring every ``F_TMM`` samples (the voice's 256 at 325 kHz: 0.8
+ms; a string joining a bridge takes a member's phase, so that a bridge's
+strings all read at the same samples), smoothed by one pole over two
 periods (``F_TMA``: what the loop filter and the bend line hold at a
 reading is not in S, and a sharp corner there leaves a reading up to 2x
 low on the sitar).  Measured on the sitar's key 50 at 0.08 (3 s, glide =
@@ -43,7 +44,11 @@ pitch over 0.05-0.3 s against 2-3 s): a reading every sample, 16, 256 or
 1024 samples gives the same glide within 0.005 cent (+8.93 cents at
 velocity 127, +2.30 at 20), and every sample costs 15x the render of
 every 256 (3.42 against 0.22 s CPU); the whole modulation costs the
-sitar 1.01-1.05x (docs/lab/2026-11-29-tension-modulation.md).
+sitar 1.01-1.05x (docs/lab/2026-11-29-tension-modulation.md).  On the
+shipped sitar at velocity 127, every 1024 gives the glide of every 256
+within 0.3 cent on key 43 and 0.03 on keys 50, 62 and 74, but its steps
+leave 4 dB more above 4 kHz on a linear string (60 dB under partial 1;
+docs/lab/2026-11-30-sitar-glide.md).
 
 Where it acts.  The reading sets ``S_TM``, the change of the bend line's
 delay (:mod:`synth.kernels.bend`): D0 (1 / sqrt(1 + kappa S) - 1) samples,

@@ -364,7 +364,9 @@ class OneStringVoice(Voice):
     #: note: the biwa's key 50 glided +0.47 cent more at velocity 127 with
     #: 100 cents more room and the modulation all but off (kappa 1e-9)
     TENSION_ROOM_CENTS = 100.0
-    #: internal samples between two readings of the tension (0.79 ms at 325 kHz)
+    #: internal samples between two readings of the tension (0.79 ms at 325 kHz;
+    #: 1024 gave the same glide within 0.3 cent, but 4 dB more of the readings'
+    #: steps above 4 kHz: docs/lab/2026-11-30-sitar-glide.md)
     TENSION_EVERY = 256
     #: the readings are smoothed over this many periods (one pole)
     TENSION_PERIODS = 2.0
