@@ -91,10 +91,11 @@ class Bridges:
         first such member's, from its note-on: a phrase renders the same
         samples whenever it starts and whatever the blocks, and a string off
         any bridge keeps its own."""
-        if self.fpar[s, K.F_TMK] <= 0.0:
+        fp = self.fpar
+        if fp[s, K.F_TMK] <= 0.0:
             return
         for m in mem:
-            if m != s and self.fpar[m, K.F_TMK] > 0.0 and self.fpar[m, K.F_TMM] == self.fpar[s, K.F_TMM]:
+            if m != s and fp[m, K.F_TMK] > 0.0 and fp[m, K.F_TMM] == fp[s, K.F_TMM]:
                 self.fst[s, K.S_TMC] = self.fst[m, K.S_TMC]
                 return
 
