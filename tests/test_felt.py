@@ -332,13 +332,15 @@ def test_a_keys_felt_is_the_voices_hammer_in_the_quasi_static_limit():
 
 def test_the_lumped_laws_converge():
     """The lumped ODE (RK4 for eq. 1.5, Verlet with the exact memory for
-    Publication III eq. 3): 4000 steps per contact are within 2e-4 of
-    16000 (the contact time; measured 1e-4 and 9e-5)."""
+    Publication III eq. 3): 4000 steps per contact are within 3e-4 of
+    16000 (the contact time; measured 1.0e-4 and 2.1e-4 on C4's concert
+    felt since issue 41 softened it, 1e-4 and 9e-5 before; 16000 against
+    64000: 8e-5 and 5e-5)."""
     hf = F.felt_for_key(60)
     for law in ("kv", "sls"):
         a = F.strike_lumped(hf, 2.0, law=law)
         b = F.strike_lumped(hf, 2.0, law=law, steps_per_contact=16000)
-        assert a.contact_time_s == pytest.approx(b.contact_time_s, rel=2e-4)
+        assert a.contact_time_s == pytest.approx(b.contact_time_s, rel=3e-4)
         assert a.peak_force_n == pytest.approx(b.peak_force_n, rel=1e-4)
 
 

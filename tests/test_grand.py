@@ -326,9 +326,14 @@ def _contacts(key, speed, sets=()):
 
 def test_bass_hammers_hit_the_string_more_than_once():
     """Multiple contacts happen in the bass (the hammer is thrown back by
-    the string and meets it again); one contact in the treble."""
+    the string and meets it again); one contact in the treble.  At 4 m/s
+    A0 meets its string twice; above it, with the concert felt of issue 41,
+    some keys twice (E2, D3) and most once (C2, C3: 2 before the felt was
+    softened), as measured forces merge their pulses from E2 up (Chaigne's
+    historic and modern pianos: separate pulses at D#1, merged at E2 and
+    D3)."""
     assert _contacts(21, 4.0)[0] >= 2
-    assert _contacts(48, 4.0)[0] >= 2
+    assert max(_contacts(k, 4.0)[0] for k in (40, 50)) >= 2
     assert _contacts(96, 4.0)[0] == 1
     assert _contacts(21, 0.5)[0] == 1          # a soft blow: one contact
 

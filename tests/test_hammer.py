@@ -228,7 +228,7 @@ def _grand_strike(key, strikes, law, per_sample, block, lossy=True):
 @pytest.mark.parametrize("key,strikes,law,block,lossy", [
     (21, [(0.0, 4.0)], 4, 866, True),       # bass: two force pulses
     (21, [(0.0, 4.0)], 5, 301, True),
-    (48, [(0.0, 5.0), (0.02, 0.05)], 4, 7, True),   # a slow restrike: separate contacts
+    (48, [(0.0, 5.0), (0.015, 0.05)], 4, 7, True),  # a slow restrike: separate contacts
     (48, [(0.0, 5.0), (0.02, 0.05)], 5, 866, True),
     (48, [(0.0, 1.0)], 4, 97, False),       # ideal (lossless) string: ended g cancelled
     (76, [(0.0, 6.0)], 4, 866, True),       # capo bar region below the strike point

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 import soundfile as sf
 
-from synth.apps.grand_study import LAYER_VELOCITY, OCTAVES, octave_model, octave_table
+from synth.apps.grand_study import LAYER_VELOCITY, OCTAVES, model_levels_db, octave_model, octave_table
 from synth.io.factory import build_voice
 from synth.physics import piano as P
 
@@ -97,15 +97,19 @@ def test_the_treble_unisons_beat_at_most_the_stated_rate():
 
 @pytest.mark.slow  # 25 grand notes of 4 s: about 12 s of CPU
 def test_the_fitted_targets_hold_against_the_stored_recording():
-    """The per-octave medians against layer v10 (close position, velocity
-    105) that meet issue 41's targets: partial 1 at 3 s within 6 dB over
-    C2-B2 and at most 10 dB above the recording's over C7-C8 (+0.7 dB: the
-    treble's loss and its unisons' spread, fitted together; +30 before);
-    partials 2-10 within 6 dB over C3-B3, C4-B4 and C6-B6; the first 50
-    ms's centroid within 1.5x over C6-B6 and C7-C8.  What the fit gained
-    without meeting the target: C6-B6's partial 1 at 3 s +18 -> +14 dB
-    (held at 15), as a stronger loss there takes key 87's knee; C7-C8's
-    partials 2-10 +10.5 -> +7.0 dB (held at 8) (docs/lab/2026-11-30-treble.md)."""
+    """The per-octave medians against layer v10 (close position, the grand
+    at v10's matched velocity, 78) that meet issue 41's targets: partial 1
+    at 3 s within 6 dB over C2-B2 and at most 10 dB above the recording's
+    over C7-C8 (+2 dB: the treble's loss and its unisons' spread, fitted
+    together; +30 before); partials 2-10 within 6 dB over C3-B3, C4-B4 and
+    C6-B6; the first 50 ms's centroid within 1.5x on every octave (1.27-1.39x:
+    the softer felt, docs/lab/2026-11-30-felt41.md; 1.49-2.27x at velocity
+    105 with the felt before); the time to the RMS peak within a factor of
+    2 over C2-B4 and C6-B6.  What the fits gained without meeting the
+    target: C6-B6's partial 1 at 3 s +18 -> +14 dB (held at 15), as a
+    stronger loss there takes key 87's knee (docs/lab/2026-11-30-treble.md);
+    C5-B5's time to the peak 6 -> 9 ms against the recording's 19 (held at
+    8)."""
     real = _real(10)
     rows = {r["octave"]: r for r in octave_table(
         octave_model(sorted(real), "close", LAYER_VELOCITY[10], seconds=4.0), real)}
@@ -114,9 +118,26 @@ def test_the_fitted_targets_hold_against_the_stored_recording():
     for o in ("C3-B3", "C4-B4", "C6-B6"):
         assert abs(rows[o]["upper_db"]) <= 6.0, (o, rows[o]["upper_db"])
     assert rows["C7-C8"]["p1_3s_db"] <= 10.0 and rows["C6-B6"]["p1_3s_db"] <= 15.0
-    assert abs(rows["C7-C8"]["upper_db"]) <= 8.0
-    for o in ("C6-B6", "C7-C8"):
-        assert rows[o]["centroid_ratio"] <= 1.5, (o, rows[o]["centroid_ratio"])
+    for o, r in rows.items():
+        assert r["centroid_ratio"] <= 1.5, (o, r["centroid_ratio"])
+    for o in ("C2-B2", "C3-B3", "C4-B4", "C6-B6"):
+        r = rows[o]
+        assert r["peak_ms_real"] / 2 <= r["peak_ms_model"] <= 2 * r["peak_ms_real"], (o, r)
+    assert rows["C5-B5"]["peak_ms_model"] >= 8.0
+
+
+@pytest.mark.slow  # 40 grand notes of 1 s: about 8 s of CPU
+def test_each_layer_is_matched_by_its_step_in_loudness_from_fortissimo():
+    """:data:`LAYER_VELOCITY`: the grand at each layer's velocity is as far
+    under its velocity 127 as the layer is under the library's loudest (v16),
+    within 0.5 dB (maximum momentary loudness, medians over ten keys; the
+    recording's steps stored with their command).  The library's own SFZ
+    plays v10 at velocities 73-80 and v14 at 105-112."""
+    rec = {int(k): v for k, v in DATA["layer_levels"]["re_v16_db"].items()}
+    model = model_levels_db(sorted(LAYER_VELOCITY.values()), seconds=1.0)
+    for layer, v in LAYER_VELOCITY.items():
+        assert model[v] == pytest.approx(rec[layer], abs=0.5), (layer, v, model[v], rec[layer])
+    assert 73 <= LAYER_VELOCITY[10] <= 80 and 105 <= LAYER_VELOCITY[14] <= 112
 
 
 @pytest.mark.slow  # 50 grand notes of 0.6 s: about 9 s of CPU
@@ -168,15 +189,15 @@ def _c4(folder, layer):
 @pytest.mark.slow  # renders a 6 s grand note
 def test_held_out_v4_is_reported_at_its_matched_velocity(tmp_path):
     """``--layer 4``: the table of layer v4, marked held out, the grand at
-    v4's matched velocity (69)."""
+    v4's matched velocity (52)."""
     _c4(tmp_path, 4)
     out = tmp_path / "t.json"
     p = _run(str(tmp_path), "--octaves", "--layer", "4", "--positions", "body", "--json", str(out))
     assert p.returncode == 0, p.stderr
-    assert "layer v4 (held out: the grand was fitted on v10), the grand at velocity 69" in p.stdout
+    assert "layer v4 (held out: the grand was fitted on v10), the grand at velocity 52" in p.stdout
     assert "| C4-B4 |" in p.stdout
     data = json.loads(out.read_text())
-    assert data["layer"] == 4 and data["velocity"] == 69 and list(data["body"]["model"]) == ["60"]
+    assert data["layer"] == 4 and data["velocity"] == 52 and list(data["body"]["model"]) == ["60"]
 
 
 def test_a_bad_velocity_or_change_is_a_one_line_error(tmp_path):

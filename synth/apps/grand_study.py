@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import re
+from pathlib import Path
 
 import numpy as np
 
@@ -258,13 +259,23 @@ OCTAVES = (("C2-B2", 36, 47), ("C3-B3", 48, 59), ("C4-B4", 60, 71), ("C5-B5", 72
 #: the fitted layer of tools/real_grand.py --octaves (issue 41: fit on v10,
 #: report the others without refitting)
 FIT_LAYER = 10
-#: the model's velocity for each recorded layer: 105 for v10 (C4 at the
-#: recording's loudness, issue 41); v4 and v14 by C4's step in loudness
-#: from v10 (the recording's maximum momentary loudness, the close
-#: position): v4 is 5.99 dB under v10, the model's C4 5.88 dB under
-#: velocity 105 at 69; v14 is 4.65 dB over, the model reaches +2.48 dB at
-#: 127 (docs/lab/2026-11-29-fit41.md)
-LAYER_VELOCITY = {4: 69, 10: 105, 14: 127}
+#: the model's velocity for each recorded layer: the velocity at which the
+#: grand is as much under its velocity 127 as the layer is under the
+#: library's loudest, v16 (maximum momentary loudness, median over
+#: :data:`ANCHOR_KEYS`; :func:`layer_levels_db`, :func:`model_velocity_for`;
+#: ``python tools/real_grand.py DIR --layer-velocities``).  The recording's
+#: own level is the library's and the grand's is its calibration's, so
+#: only steps in loudness compare: v4 -13.0, v10 -7.1, v14 -2.6 dB re v16
+#: give velocities 52, 78 and 106 (the Salamander's own SFZ plays v10 at
+#: velocities 73-80 and v14 at 105-112, v4 at 37-43: the grand's soft end
+#: is 4 dB quieter re its fortissimo than the library's).  Issue 41 first
+#: matched C4's level alone (v10 at velocity 105, 5.6 m/s: near fortissimo
+#: where the library has a mezzo-forte; docs/lab/2026-11-30-felt41.md).
+LAYER_VELOCITY = {4: 52, 10: 78, 14: 106}
+#: the keys of the layers' loudness steps (C2-C7 and A2-A5)
+ANCHOR_KEYS = (36, 45, 48, 57, 60, 69, 72, 81, 84, 96)
+#: the library's loudest layer, played at velocity 127
+TOP_LAYER = 16
 #: the onset: the first sample within this level of the note's peak (dB)
 ONSET_DB = -40.0
 
@@ -403,6 +414,61 @@ def octave_model(keys, position: str, velocity: int = 105, seconds: float = 6.0,
         y = eng.render([Event(0.0, NOTE_ON, k, velocity / 127.0)], duration_s=seconds)
         out[k] = issue41_measures(y.mean(axis=1) if y.ndim == 2 else y, k)
     return out
+
+
+def layer_levels_db(folder, layers=(1, 4, 10, 14), keys=ANCHOR_KEYS, seconds: float = 4.0) -> dict:
+    """Each recorded layer's maximum momentary loudness re the loudest
+    layer's (:data:`TOP_LAYER`), dB, the median over ``keys`` of the
+    per-key difference; ``folder`` holds ``piano-velocityN/audio/*.ogg``
+    (the npm packages).  Raises FileNotFoundError naming a missing sample."""
+    from ..analysis.loudness import max_momentary_lufs
+
+    names = {}
+    for p in Path(folder).rglob("*v*.ogg"):
+        km = midi_of(p.name)
+        if km is not None:
+            names[km] = p
+
+    def level(key, layer):
+        if (key, layer) not in names:
+            raise FileNotFoundError(f"no sample of key {key}, layer v{layer} under {folder}")
+        return max_momentary_lufs(load_recording(names[(key, layer)])[:int(seconds * FS)], FS)
+
+    top = {k: level(k, TOP_LAYER) for k in keys}
+    return {L: float(np.median([level(k, L) - top[k] for k in keys])) for L in layers}
+
+
+def model_levels_db(velocities, keys=ANCHOR_KEYS, seconds: float = 2.0, overrides=()) -> dict:
+    """The grand's maximum momentary loudness at each of ``velocities`` re
+    velocity 127, dB (the close position, the mean of its channels), the
+    median over ``keys`` of the per-key difference."""
+    from ..analysis.loudness import max_momentary_lufs
+    from ..dsp.listener import Listener
+    from ..engine.engine import NOTE_ON, Event
+    from ..io.factory import build_engine, build_voice
+
+    overrides = tuple(overrides)
+    voice = build_voice("grand-piano", overrides)
+    lst = None
+    lv = {}
+    for v in sorted(set(velocities) | {127}):
+        row = []
+        for k in keys:
+            eng = build_engine("grand-piano", overrides, voice=voice, threads=1)
+            lst = lst or Listener.design(eng.fs_out, eng.channels, "close")
+            lst.reset()
+            eng.listener = lst
+            y = eng.render([Event(0.0, NOTE_ON, k, v / 127.0)], duration_s=seconds)
+            row.append(max_momentary_lufs(y.mean(axis=1), eng.fs_out))
+        lv[v] = np.array(row)
+    return {v: float(np.median(lv[v] - lv[127])) for v in lv}
+
+
+def model_velocity_for(level_db: float, model_levels: dict) -> float:
+    """The velocity at which the grand is ``level_db`` re its velocity 127,
+    interpolated linearly in :func:`model_levels_db`'s table."""
+    v = np.array(sorted(model_levels))
+    return float(np.interp(level_db, [model_levels[x] for x in v], v))
 
 
 def octave_markdown(rows) -> str:

@@ -675,31 +675,39 @@ THESIS_VOICING = HammerVoicing(183.0, 0.045, 3.7, 0.015, 1.0, 0.0)
 #: the same laws voiced for a concert grand (the grand preset's default,
 #: ``action.voicing = "concert"``): a technician voices a set softer in the
 #: bass and harder in the treble than it leaves the factory.  The static
-#: force at 0.3 mm of compression is x0.25 the thesis's at A0, x1.18 at C4
-#: (7.4 N: Chaigne & Askenfelt 1994's C4 felt, K = 4.5e9 N/m^2.5, gives
-#: 7.0 N), 24.4 N from C#5 to C7 (x1.5 the thesis's at C7; Chaigne &
-#: Askenfelt's C7 felt, K = 1.0e12 N/m^3, gives 27 N) and x2.4 at C8; the exponent rises from 3.7 to 4.3 (thesis 3.7 to
+#: force at 0.3 mm of compression is x0.05 the thesis's at A0, x0.24 at C4
+#: (1.47 N, a fifth of Chaigne & Askenfelt 1994's C4 felt, K = 4.5e9
+#: N/m^2.5: 7.0 N), rising over F#5-C7 to 24.4 N at C7 (x1.5 the thesis's;
+#: Chaigne & Askenfelt's C7 felt, K = 1.0e12 N/m^3, gives 27 N) and x2.4
+#: at C8; the exponent rises from 3.7 to 4.3 (thesis 3.7 to
 #: 5.0; Chaigne & Askenfelt's 2.3, 2.5, 3.0 at C2, C4, C7 and Hall &
 #: Askenfelt 1988's 2.2-3.5 rise the same way, less steeply); the
 #: hereditary time is x0.3 at A0, x0.85 at C4, x1.4 at C#5 (its largest),
-#: x0.7 at C7 and x0.9 at C8.  From C#5 (thesis key 58) to C7 (76) the treble eases from
-#: the concert tilts (x8 stiffness, x3 hereditary time at C8 without the
-#: easing) back to those measured felts (``treble_q`` = ``treble_alpha``
-#: = 0.3 there): with the harder, more hereditary felt the una corda's
-#: softer felt could not darken keys 90-98 (-6 % at C7 under CC67 against
-#: the 10 % asked; with the easing 11-28 % on every key from C#5 up,
-#: docs/voicing.md "The treble's felt"), while the top keys keep their pp
-#: and loudness.
-#: Q0, p and alpha were fitted on the rendered grand (the hammer study of issue
-#: 11: C4's 35 dB from velocity 1 to 127, its partials 2-8 within 25 dB at
-#: velocity 80, the top octave alive at pp), within those measured orders;
+#: x0.7 at C7 and x0.9 at C8.  From F#5 (thesis key 58) to C7 (76) the
+#: treble stiffens by ``treble_q`` = 1.5 and its hereditary time eases by
+#: ``treble_alpha`` = 0.3 (the concert tilts gave x8 stiffness and x3
+#: hereditary time at C8): with the harder, more hereditary felt the una
+#: corda's softer felt could not darken keys 90-98 (docs/voicing.md "The
+#: treble's felt"), while the top keys keep their pp and loudness.
+#: Q0's scale was fitted to a recorded grand (issue 41: the Salamander's
+#: Yamaha C5, its layer v10 played at velocity 78, the loudness step
+#: tools/real_grand.py --layer-velocities matches): at 5x Chaigne &
+#: Askenfelt's force below F#5 (q_a 44, treble_q 0.3, issue 11's fit to a
+#: guessed C4 partials 2-8 within 25 dB, which the recording contradicts)
+#: the first 50 ms were 1.6-1.8x the recording's centroid from C2 to B5,
+#: and the felt rose to 13.7 N within 50 us of touching C4 at 5.6 m/s;
+#: softer, 1.1-1.4x on every octave and held-out layer
+#: (docs/lab/2026-11-30-felt41.md).  The exponent and hereditary time
+#: were fitted on the rendered grand (the hammer study of issue 11: C4's
+#: 35 dB from velocity 1 to 127, the top octave alive at pp), within those
+#: measured orders;
 #: with the preset's hammer speeds 0.2-7.5 m/s (Askenfelt & Jansson 1991: ~1
 #: (p) to 5-7 m/s (ff); 0.2 m/s about the slowest hammer that reaches the
 #: string after let-off).  The masses stay the thesis's (eq. 1.9): their
 #: share per string, 4.96 / 2.76 / 2.01 g at C2 / C4 / C7, is Chaigne &
 #: Askenfelt's 4.9 / 2.97 / 2.2 g.
-CONCERT_VOICING = HammerVoicing(44.0, 0.0750, 3.7, 0.0069, 0.95, 0.0265,
-                               treble_from=58.0, treble_span=18.0, treble_q=0.3, treble_alpha=0.3)
+CONCERT_VOICING = HammerVoicing(8.8, 0.0750, 3.7, 0.0069, 0.95, 0.0265,
+                               treble_from=58.0, treble_span=18.0, treble_q=1.5, treble_alpha=0.3)
 
 #: the voicings a preset may name (``action.voicing``)
 VOICINGS = {"thesis": THESIS_VOICING, "concert": CONCERT_VOICING}
