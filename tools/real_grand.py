@@ -64,7 +64,7 @@ from synth.analysis import attack_centroid_hz, estimate_f0, max_momentary_lufs, 
 from synth.apps.grand_study import (
     ANCHOR_KEYS, FIT_LAYER, LAYER_VELOCITY, OCTAVES, TOP_LAYER, issue41_measures, layer_levels_db,
     load_recording, midi_of, model_levels_db, model_velocity_for, octave_markdown, octave_model,
-    octave_table, onset_index)
+    octave_table, onset_index, recording_files)
 from synth.apps.voicing import FS, decay
 from synth.io.factory import build_voice
 from synth.io.errors import PresetError
@@ -72,7 +72,7 @@ from synth.physics.piano import grand_string
 
 
 def measure(folder: Path) -> dict:
-    files = sorted(p for p in folder.rglob("*") if p.is_file() and midi_of(p.name))
+    files = sorted(recording_files(folder).values())
     if not files:
         raise SystemExit(f"real_grand: error: no samples named like C4v10.ogg under {folder}")
     notes = {}
@@ -146,18 +146,14 @@ def report(notes: dict) -> str:
 
 def _layer_files(folder: Path, layer: int) -> dict:
     """The recorded layer's samples under ``folder``: key -> path."""
-    files = {}
-    for p in folder.rglob("*"):
-        m = midi_of(p.name) if p.is_file() else None
-        if m and m[1] == layer:
-            files[m[0]] = p
-    return files
+    return {k: p for (k, lay), p in recording_files(folder).items() if lay == layer}
 
 
 def _velocity(a) -> int | None:
     """``--velocity``, or the layer's matched one; None (and the error
     printed) out of range."""
-    velocity = a.velocity if a.velocity is not None else LAYER_VELOCITY.get(a.layer, LAYER_VELOCITY[FIT_LAYER])
+    velocity = a.velocity if a.velocity is not None else LAYER_VELOCITY.get(
+        a.layer, LAYER_VELOCITY[FIT_LAYER])
     if not 1 <= velocity <= 127:
         print(f"real_grand: error: --velocity = {velocity} is out of range (1 <= value <= 127)",
               file=sys.stderr)

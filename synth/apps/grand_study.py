@@ -388,14 +388,11 @@ def octave_table(model: dict, real: dict) -> list[dict]:
     return rows
 
 
-def octave_model(keys, position: str, velocity: int = 105, seconds: float = 6.0, voice=None,
-                 overrides=()) -> dict:
-    """The grand's notes for :func:`octave_table`: each of ``keys`` played at
-    ``velocity`` for ``seconds`` on a fresh engine, heard at ``position``
-    (``"body"``: without the listening stage; ``"close"``, ``"player"``,
-    ``"hall"``: ``[listener] position``), the mean of its channels; key ->
-    :func:`issue41_measures`.  ``overrides``: the preset's ``PATH=VALUE``
-    changes (``synth --set``)."""
+def _grand_notes(keys, position: str, velocity: int, seconds: float, voice=None, overrides=()):
+    """Each of ``keys`` played at ``velocity`` for ``seconds`` on a fresh
+    engine, heard at ``position`` (``"body"``: without the listening stage;
+    ``"close"``, ``"player"``, ``"hall"``: ``[listener] position``): yields
+    (key, the mean of its channels at the engine's rate)."""
     from ..dsp.listener import Listener
     from ..engine.engine import NOTE_ON, Event
     from ..io.factory import build_engine, build_voice
@@ -403,7 +400,6 @@ def octave_model(keys, position: str, velocity: int = 105, seconds: float = 6.0,
     overrides = tuple(overrides)
     voice = voice if voice is not None else build_voice("grand-piano", overrides)
     lst = None
-    out = {}
     for k in keys:
         eng = build_engine("grand-piano", overrides, voice=voice, threads=1)
         if position != "body":
@@ -412,22 +408,41 @@ def octave_model(keys, position: str, velocity: int = 105, seconds: float = 6.0,
             lst.reset()
         eng.listener = lst
         y = eng.render([Event(0.0, NOTE_ON, k, velocity / 127.0)], duration_s=seconds)
-        out[k] = issue41_measures(y.mean(axis=1) if y.ndim == 2 else y, k)
-    return out
+        yield k, (y.mean(axis=1) if y.ndim == 2 else y)
+
+
+def octave_model(keys, position: str, velocity: int = 105, seconds: float = 6.0, voice=None,
+                 overrides=()) -> dict:
+    """The grand's notes for :func:`octave_table`: each of ``keys`` played at
+    ``velocity`` for ``seconds`` on a fresh engine, heard at ``position``
+    (``"body"``: without the listening stage; ``"close"``, ``"player"``,
+    ``"hall"``: ``[listener] position``), the mean of its channels; key ->
+    :func:`issue41_measures`.  ``overrides``: the preset's ``PATH=VALUE``
+    changes (``synth --set``)."""
+    return {k: issue41_measures(y, k)
+            for k, y in _grand_notes(keys, position, velocity, seconds, voice, overrides)}
+
+
+def recording_files(folder) -> dict:
+    """The recorded samples under ``folder`` (searched recursively, named
+    as :func:`midi_of` reads them): (key, layer) -> path."""
+    files = {}
+    for p in sorted(Path(folder).rglob("*")):
+        km = midi_of(p.name) if p.is_file() else None
+        if km is not None:
+            files[km] = p
+    return files
 
 
 def layer_levels_db(folder, layers=(1, 4, 10, 14), keys=ANCHOR_KEYS, seconds: float = 4.0) -> dict:
     """Each recorded layer's maximum momentary loudness re the loudest
     layer's (:data:`TOP_LAYER`), dB, the median over ``keys`` of the
-    per-key difference; ``folder`` holds ``piano-velocityN/audio/*.ogg``
-    (the npm packages).  Raises FileNotFoundError naming a missing sample."""
+    per-key difference; ``folder`` holds the samples
+    (:func:`recording_files`: the npm packages' ``piano-velocityN/audio``).
+    Raises FileNotFoundError naming a missing sample."""
     from ..analysis.loudness import max_momentary_lufs
 
-    names = {}
-    for p in Path(folder).rglob("*v*.ogg"):
-        km = midi_of(p.name)
-        if km is not None:
-            names[km] = p
+    names = recording_files(folder)
 
     def level(key, layer):
         if (key, layer) not in names:
@@ -443,24 +458,12 @@ def model_levels_db(velocities, keys=ANCHOR_KEYS, seconds: float = 2.0, override
     velocity 127, dB (the close position, the mean of its channels), the
     median over ``keys`` of the per-key difference."""
     from ..analysis.loudness import max_momentary_lufs
-    from ..dsp.listener import Listener
-    from ..engine.engine import NOTE_ON, Event
-    from ..io.factory import build_engine, build_voice
+    from ..io.factory import build_voice
 
-    overrides = tuple(overrides)
-    voice = build_voice("grand-piano", overrides)
-    lst = None
-    lv = {}
-    for v in sorted(set(velocities) | {127}):
-        row = []
-        for k in keys:
-            eng = build_engine("grand-piano", overrides, voice=voice, threads=1)
-            lst = lst or Listener.design(eng.fs_out, eng.channels, "close")
-            lst.reset()
-            eng.listener = lst
-            y = eng.render([Event(0.0, NOTE_ON, k, v / 127.0)], duration_s=seconds)
-            row.append(max_momentary_lufs(y.mean(axis=1), eng.fs_out))
-        lv[v] = np.array(row)
+    voice = build_voice("grand-piano", tuple(overrides))
+    lv = {v: np.array([max_momentary_lufs(y, FS) for _, y in
+                       _grand_notes(keys, "close", v, seconds, voice, overrides)])
+          for v in sorted(set(velocities) | {127})}
     return {v: float(np.median(lv[v] - lv[127])) for v in lv}
 
 
