@@ -72,3 +72,19 @@ def pytest_itemcollected(item):
     group = XDIST_GROUPS.get(item.path.name)
     if group is not None:
         item.add_marker(pytest.mark.xdist_group(group))
+
+
+# ``-n auto`` starts one worker more than the cores the process may use.  The
+# realtime group's worker spends much of its time waiting: on the JACK
+# server's clock (test_jack.py: 81 s of wall time in a run of the suite), on a
+# browser, on a subprocess's audio stream.  A third worker on two cores runs
+# other tests meanwhile; the JACK clients' process threads run at real-time
+# priority and are not slowed by it.  Measured, the whole suite on the 2-vCPU
+# Xeon (warm cache, bytecode written, 2026-11-30): 2 workers 334.5 s wall for
+# 573.8 s user; 3 workers 311.8 s for 568.6 s (docs/lab/2026-11-30-ci-time.md).
+def pytest_xdist_auto_num_workers(config):
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        cores = os.cpu_count() or 1
+    return cores + 1
