@@ -5,9 +5,10 @@ through a delay line read with third-order Lagrange interpolation
 (:func:`_lagrange3`) at a gliding delay plus a decaying tune-out (the
 contact's pitch rise, undone) plus the tension's modulation (``S_TM``,
 :mod:`synth.kernels.tension`: negative, down to a delay of 1; 0 adds
-nothing): sample by sample (:func:`_bend_line`, the per-sample path) or
-over a fast-path chunk (:func:`_bend_chunk`, the modulation constant over
-it), the same operations for the same samples.  Compiled without re-association
+nothing; it moves in equal steps ``S_TMD`` from one reading to the next):
+sample by sample (:func:`_bend_line`, the per-sample path) or over a
+fast-path chunk (:func:`_bend_chunk`), the same operations for the same
+samples.  Compiled without re-association
 (``SERIAL_OPTS``, :mod:`synth.kernels.config` says why).
 
 May import: :mod:`~synth.kernels.config`, :mod:`~synth.kernels.layout`,
@@ -19,7 +20,7 @@ from __future__ import annotations
 from numba import njit
 
 from .config import SERIAL_OPTS
-from .layout import S_BD, S_BW, S_TM, S_TO
+from .layout import S_BD, S_BW, S_TM, S_TMD, S_TO
 from .ring import _ring_get, _ring_put
 
 
@@ -51,6 +52,7 @@ def _bend_line(y, st, U, boff, blen, bdt, bds, tor, tog):
         D += tm
         if D < 1.0:
             D = 1.0
+    st[S_TM] = tm + st[S_TMD]     # on to the next reading's, step by step
     to *= tor
     if abs(to) < 1e-9:
         to = 0.0
@@ -96,20 +98,24 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
         for i in range(n):
             yb[b + i] = _bend_line(yb[b + i], st, U, boff, blen, bdt, bds, tor, tog)
         return
-    tm = st[S_TM]                 # the tension's modulation, constant over a chunk
+    tm = st[S_TM]                 # the tension's modulation, in equal steps tmd over a chunk
+    tmd = st[S_TMD]
     D = bdt + tog * to
     if tm != 0.0:
         D += tm
         if D < 1.0:
             D = 1.0
     iD = int(D)
-    if to != 0.0:
-        # the history covers the run's integer delays (monotonic: its ends)
-        E = bdt + tog * (to * tor ** n)
-        if tm != 0.0:
-            E += tm
-            if E < 1.0:
-                E = 1.0
+    if to != 0.0 or tmd != 0.0:
+        # the history covers the run's integer delays: each term's largest
+        # over the run (the tune-out's and the modulation's are monotonic:
+        # at their ends)
+        a0 = tog * to
+        a1 = tog * (to * tor ** n)
+        m1 = tm + n * tmd
+        E = bdt + (a0 if a0 > a1 else a1) + (tm if tm > m1 else m1)
+        if E < 1.0:
+            E = 1.0
         iE = int(E)
         if iE > iD:
             iD = iE
@@ -126,7 +132,7 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
     hn = hb[H:H + n]
     for i in range(n):
         hn[i] = y_[i]
-    if to == 0.0:
+    if to == 0.0 and tmd == 0.0:
         f = D - iD
         h0, h1, h2, h3 = _lagrange3(f)
         t0 = hb[3:3 + n]
@@ -142,6 +148,7 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
                 D += tm
                 if D < 1.0:
                     D = 1.0
+            tm = tm + tmd
             to *= tor
             if abs(to) < 1e-9:
                 to = 0.0
@@ -155,6 +162,7 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
             out += h3 * hb[r - 3]
             y_[i] = out
         st[S_TO] = to
+        st[S_TM] = tm
     m = n if n < blen else blen   # the new samples go into the line (its last blen)
     _ring_put(U, boff, blen, (w + n - m) % blen, hb[H + n - m:H + n], 1.0)
     st[S_BW] = (w + n) % blen

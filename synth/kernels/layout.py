@@ -204,7 +204,9 @@ S_U1P = S_TO + 1              # sub-cell contact (F_CURV > 0): u(1) at the last 
 S_TM = S_U1P + 1              # tension modulation: the bend line's delay change now (samples, <= 0)
 S_TMS = S_TM + 1              # its smoothed slope sum (m^2)
 S_TMC = S_TMS + 1             # samples until the next reading (>= 1; the bank sets F_TMM at note-on)
-S_NS = S_TMC + 1
+S_TMD = S_TMC + 1             # S_TM's step per sample: a reading's change spread over the samples to
+#                               the next reading (samples per sample; 0: S_TM holds)
+S_NS = S_TMD + 1
 
 # ---- probe channels (probe[row, ch, n]) ---------------------------------------
 P_U = 0          # u at the excitation point (m)

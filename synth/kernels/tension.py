@@ -50,11 +50,19 @@ within 0.3 cent on key 43 and 0.03 on keys 50, 62 and 74, but its steps
 leave 4 dB more above 4 kHz on a linear string (60 dB under partial 1;
 docs/lab/2026-11-30-sitar-glide.md).
 
-Where it acts.  The reading sets ``S_TM``, the change of the bend line's
-delay (:mod:`synth.kernels.bend`): D0 (1 / sqrt(1 + kappa S) - 1) samples,
-negative (shorter: higher) and read by the bend line from the next sample
-on, per sample and in fast-path chunks alike (the drivers end a chunk at a
+Where it acts.  The reading sets where ``S_TM``, the change of the bend
+line's delay (:mod:`synth.kernels.bend`), goes: D0 (1 / sqrt(1 + kappa S)
+- 1) samples, negative (shorter: higher).  The bend line moves ``S_TM``
+there in equal steps (``S_TMD``) over the samples to the next reading, per
+sample and in fast-path chunks alike (the drivers end a chunk at a
 reading, so that a string renders the same samples whatever its blocks).
+A reading that set ``S_TM`` at once (as until 2026-11-30) stepped the
+delay every ``F_TMM`` samples: each step cut into the wave arriving at the
+bend line, a comb of clicks at fs / ``F_TMM`` (1.27 kHz) and its multiples.
+That was the modulation's "5 kHz residue": on the tanpura's key 37 at
+velocity 127 with the contact off, 2-8 kHz over 0.5-4 s +12.0 dB and 8-16
+kHz +56 dB over the string without modulation; a reading every 16 samples
+left +0.2 dB and +0.3 dB (docs/lab/2026-11-30-tanpura-glide.md).
 With ``F_TMK`` = 0 nothing is read and the bend line adds nothing: the
 samples are those of a string without it, bit for bit.
 
@@ -69,7 +77,7 @@ from numba import njit
 
 from .config import JIT_OPTS
 from .layout import (
-    EXC_NONE, F_TMA, F_TMK, F_TML, F_TMM, I_EXC, I_N, I_OFF, I_POS, S_TM, S_TMC, S_TMS,
+    EXC_NONE, F_TMA, F_TMK, F_TML, F_TMM, I_EXC, I_N, I_OFF, I_POS, S_TM, S_TMC, S_TMD, S_TMS,
 )
 
 
@@ -106,13 +114,17 @@ def slope_sum_x0(ring, off, P, pm):
 @njit(**JIT_OPTS)
 def tension_read(s, ring, ipar, fpar, fst):
     """Read string s's tension now (after its last sample): the smoothed
-    slope sum and the bend line's delay change ``S_TM``; the countdown to
-    the next reading restarts.  While an excitation runs the ring holds
-    its injection's step at the excitation point: the reading is skipped."""
+    slope sum, and the step per sample ``S_TMD`` that takes the bend line's
+    delay change ``S_TM`` from its value now to the reading's over the
+    ``F_TMM`` samples to the next reading; the countdown to the next
+    reading restarts.  While an excitation runs the ring holds its
+    injection's step at the excitation point: the reading is skipped and
+    ``S_TM`` holds."""
     fp = fpar[s]
     st = fst[s]
     st[S_TMC] = fp[F_TMM]
     if ipar[s, I_EXC] != EXC_NONE:
+        st[S_TMD] = 0.0
         return
     N = ipar[s, I_N]
     P = 2 * N
@@ -124,7 +136,8 @@ def tension_read(s, ring, ipar, fpar, fst):
     m = st[S_TMS]
     m += fp[F_TMA] * (S - m)
     st[S_TMS] = m
-    st[S_TM] = fp[F_TML] * (1.0 / math.sqrt(1.0 + fp[F_TMK] * m) - 1.0)
+    target = fp[F_TML] * (1.0 / math.sqrt(1.0 + fp[F_TMK] * m) - 1.0)
+    st[S_TMD] = (target - st[S_TM]) / fp[F_TMM]
 
 
 @njit(inline="always", **JIT_OPTS)
