@@ -14,6 +14,7 @@ import soundfile as sf
 import synth
 from synth.analysis import as_mono, band_centroid_hz, band_db
 from synth.apps.check import SpecError, run_spec
+from synth.io.presets.loader import load_preset
 
 FS = 48_000
 
@@ -152,10 +153,11 @@ def test_raising_the_thread_ends_the_upper_band_sooner():
     """The jiva (thread) lifts the string off the bridge's front edge: the
     higher it is, the sooner the string stops wrapping the bridge as its
     swing decays, and the upper band (4-8 kHz at 3-4 s) goes.  Measured
-    (key 49, velocity 90): +1.8, -4.9, -33.3 and -48.0 dB at 1.0, 1.15,
-    1.4 and 2 times the open jawari's thread; the early band's centre
-    2603, 2572, 2513 and 2267 Hz."""
-    open_m = 0.03 ** 2 / (2 * 2.0)              # the preset's extent^2 / (2 radius)
+    (key 49, velocity 90, with the tension's modulation, 2026-11-30):
+    +4.8, -9.1, -30.7 and -45.4 dB at 1.0, 1.15, 1.4 and 2 times the open
+    jawari's thread; the early band's centre 2593, 2567, 2496 and 2265 Hz."""
+    term = load_preset("tanpura").termination
+    open_m = term.extent_m ** 2 / (2 * term.radius_m)   # the open jawari's s^2 / (2 R)
     late, early = [], []
     for x in (1.0, 1.4, 2.0):
         a = synth.render_note("tanpura", key=49, velocity=90, seconds=4.2,
