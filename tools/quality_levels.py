@@ -73,7 +73,11 @@ def _render_note(name, key, overrides, fs_internal):
     from synth.engine.engine import Event
     from synth.io.factory import build_engine
 
-    e = build_engine(name, overrides, fs_internal=fs_internal)
+    # drone=False: a drone preset's key plucks its one string (the tanpura's
+    # key otherwise starts its four-string cycle, and the partials tracked
+    # were a drone's: key 39's standard level read 14.7-19.8 cents from the
+    # converged "note")
+    e = build_engine(name, overrides, fs_internal=fs_internal, drone=False)
     t0 = time.perf_counter()
     y = e.render([Event(0.0, "note_on", key, 80 / 127)], duration_s=1.05)
     return as_mono(y), e.fs_out, e.inst.pitch_hz(key), time.perf_counter() - t0
