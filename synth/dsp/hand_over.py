@@ -168,7 +168,7 @@ class HandOver:
         share = 1.0 / float(self.damper[s, 0])
         fp[K.F_B0] = float(damper_row[0]) * fp_f[K.F_B0] * share
         fp[K.F_B0T] = float(damper_row[0]) * fp_f[K.F_B0T] * share
-        self.damper[s, :] = damper_row
+        self.set_damper(s, damper_row)
         # the state: what carries over (the bridge, the peak, the telemetry's
         # counts, those in the coarser steps), the filter's to be fitted
         st = self.fst[s]
