@@ -47,8 +47,11 @@ every 256 (3.42 against 0.22 s CPU); the whole modulation costs the
 sitar 1.01-1.05x (docs/lab/2026-11-29-tension-modulation.md).  On the
 shipped sitar at velocity 127, every 1024 gives the glide of every 256
 within 0.3 cent on key 43 and 0.03 on keys 50, 62 and 74, but its steps
-leave 4 dB more above 4 kHz on a linear string (60 dB under partial 1;
-docs/lab/2026-11-30-sitar-glide.md).
+(the delay set at each reading, as then) left 4 dB more above 4 kHz on a
+linear string (60 dB under partial 1; docs/lab/2026-11-30-sitar-glide.md).
+With the delay moving every sample (below), 1024 leaves the same bands as
+256 and saves a 128-note sitar cluster nothing (149 / 152 % of the block on
+one thread; docs/lab/2026-11-30-tanpura-glide.md).
 
 Where it acts.  The reading sets where ``S_TM``, the change of the bend
 line's delay (:mod:`synth.kernels.bend`), goes: D0 (1 / sqrt(1 + kappa S)
@@ -62,7 +65,7 @@ bend line, a comb of clicks at fs / ``F_TMM`` (1.27 kHz) and its multiples.
 That was the modulation's "5 kHz residue": on the tanpura's key 37 at
 velocity 127 with the contact off, 2-8 kHz over 0.5-4 s +12.0 dB and 8-16
 kHz +56 dB over the string without modulation; a reading every 16 samples
-left +0.2 dB and +0.3 dB (docs/lab/2026-11-30-tanpura-glide.md).
+left both within 0.3 dB of it (docs/lab/2026-11-30-tanpura-glide.md).
 With ``F_TMK`` = 0 nothing is read and the bend line adds nothing: the
 samples are those of a string without it, bit for bit.
 

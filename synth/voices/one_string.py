@@ -365,8 +365,9 @@ class OneStringVoice(Voice):
     #: 100 cents more room and the modulation all but off (kappa 1e-9)
     TENSION_ROOM_CENTS = 100.0
     #: internal samples between two readings of the tension (0.79 ms at 325 kHz;
-    #: 1024 gave the same glide within 0.3 cent, but 4 dB more of the readings'
-    #: steps above 4 kHz: docs/lab/2026-11-30-sitar-glide.md)
+    #: 1024 gave the same glide within 0.3 cent; with the delay now moving every
+    #: sample it leaves the same bands and saves no time either:
+    #: docs/lab/2026-11-30-tanpura-glide.md)
     TENSION_EVERY = 256
     #: the readings are smoothed over this many periods (one pole)
     TENSION_PERIODS = 2.0
