@@ -34,6 +34,27 @@ from .excitation import (  # noqa: F401  (re-exported: the voices build their ha
 compile_notice.listen()
 
 _LN1000 = math.log(1000.0)     # 60 dB of amplitude
+#: damper rows' loss factors, exp(-sigma / f1), by row (:func:`damper_down_factor`)
+_DOWN_FACTOR: dict = {}
+
+
+def damper_down_factor(row) -> float:
+    """The loss factor exp(-sigma / f1) of a damper down on its string, for
+    a damper row (b0 undamped, f1_hz, t60_damped_s, t60_free_s):
+    sigma = ln(1000)/T60_damped - ln(1000)/T60_free (1/s, >= 0), computed
+    with the numpy operations of :meth:`StringBank.apply_dampers` (so that
+    b0 times it is that method's value to the bit) once per distinct row
+    and kept (a voice's warm-up computes its rows' ahead of a live stream,
+    :meth:`synth.voices.grand.GrandVoice.warm`)."""
+    row = tuple(float(v) for v in row[:4])
+    g = _DOWN_FACTOR.get(row)
+    if g is None:
+        if len(_DOWN_FACTOR) > 8192:
+            _DOWN_FACTOR.clear()
+        d = np.array([row])
+        sigma = np.maximum(_LN1000 / d[:, 2] - _LN1000 / d[:, 3], 0.0)
+        g = _DOWN_FACTOR[row] = float(np.exp(-sigma / d[:, 1])[0])
+    return g
 #: the kernels that may run loops on several threads (bank.render's kinds)
 _THREADED = (KR.KIND_SHARDS, KR.KIND_BIG_GROUPS, KR.KIND_BANK)
 #: render_bank's address for render_sharded (KR.bank_address), and the
@@ -368,7 +389,6 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         # loss factor of the damper down, exp(-sigma / f1) (:meth:`set_damper`)
         self.damper = np.zeros((self.capacity, 5))
         self.damper[:, :] = (1.0, 1.0, math.inf, math.inf, 1.0)
-        self._down_factor: dict = {}
         self.active = np.zeros(self.capacity, dtype=np.int64)
         self.n_active = 0
         self._is_active = np.zeros(self.capacity, dtype=bool)
@@ -729,21 +749,12 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
     def set_damper(self, s: int, row) -> None:
         """Slot s's damper: ``row`` = (b0 undamped, f1_hz, t60_damped_s,
         t60_free_s) (see :meth:`apply_dampers`).  The loss factor of the
-        damper down, exp(-sigma / f1), is kept beside it (one per distinct
-        row, computed once, with the operations of :meth:`apply_dampers`):
-        a key let go without the pedal, the usual note-off, then costs a
-        gather, not a numpy expression (32 keys let go in one block took
-        0.4-1.1 ms of a 2.67 ms period, 2026-11-30)."""
-        row = tuple(float(v) for v in row[:4])
-        g = self._down_factor.get(row)
-        if g is None:
-            if len(self._down_factor) > 4096:
-                self._down_factor.clear()
-            d = np.array([row])
-            sigma = np.maximum(_LN1000 / d[:, 2] - _LN1000 / d[:, 3], 0.0)
-            g = self._down_factor[row] = float(np.exp(-sigma / d[:, 1])[0])
-        self.damper[s, :4] = row
-        self.damper[s, 4] = g
+        damper down (:func:`damper_down_factor`) is kept beside it: a key
+        let go without the pedal, the usual note-off, then costs a gather,
+        not a numpy expression (32 keys let go in one block took 0.4-1.1 ms
+        of a 2.67 ms period, 2026-11-30)."""
+        self.damper[s, :4] = row[:4]
+        self.damper[s, 4] = damper_down_factor(row)
 
     def apply_dampers(self, slots, lift) -> None:
         """Set the loss of ``slots`` for dampers lifted by ``lift`` (0: on

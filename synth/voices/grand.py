@@ -88,8 +88,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..dsp.bank import (HammerTemplate, SlotTemplate, StringBank, hammer_set, hammer_template,
-                        slot_template)
+from ..dsp.bank import (HammerTemplate, SlotTemplate, StringBank, damper_down_factor, hammer_set,
+                        hammer_template, slot_template)
 from ..kernels import strings as K
 from ..physics import piano as P
 from ..physics.dispersion import BridgeLag, retune_sos_loop, tune_stiff_loop_sos
@@ -184,7 +184,12 @@ class GrandVoice(KeyboardDampers, Voice):
         """Design every key now (about 0.4 s), so that no note-on has to:
         call before a live stream opens.  The designs are kept on disk
         between runs (:mod:`synth.voices.design_store`: named by the code,
-        the preset, the rate and the tolerance, so never stale)."""
+        the preset, the rate and the tolerance, so never stale).  Each
+        key's hammer sets (struck on every string and, una corda, on one
+        fewer) and its dampers' loss factors are made too: without them a
+        key's first strike in a live stream cost 160-180 us of the audio
+        thread against 25-35 us for the next (2026-11-30; a chord of eight
+        keys not yet played, about 1 ms of a 2.67 ms period)."""
         store = self._store_key()
         if not self._keys:
             kept = design_store.load("grand-keys", store)
@@ -192,10 +197,28 @@ class GrandVoice(KeyboardDampers, Voice):
                 self._keys.update(kept)
         n = len(self._keys)
         for key in range(self.KEY_LOW, self.KEY_HIGH + 1):
-            self.setup(key)
-            self.coarse_setup(key)
+            for sus in (self.setup(key), self.coarse_setup(key)):
+                m = len(sus)
+                self._hammer_set_of(key, sus, m)
+                if m >= 2 and all(su.hammer_soft is not None for su in sus[:m - 1]):
+                    self._hammer_set_of(key, sus, m - 1)
+                for su in sus:
+                    damper_down_factor(su.damper)
         if len(self._keys) > n:
             design_store.save("grand-keys", store, dict(self._keys))
+
+    def _hammer_set_of(self, key: int, sus, struck: int):
+        """The hammer set striking ``struck`` of the strings ``sus`` of
+        ``key`` (una corda: the whole hammer on one string fewer), made once
+        per key, grid and strings struck."""
+        hk = (key, sus[0].sub, struck)
+        hs = self._hammer_sets.get(hk)
+        if hs is None:
+            n = len(sus)
+            hs = self._hammer_sets[hk] = hammer_set(
+                [su.hammer if struck == n else su.hammer_soft for su in sus[:struck]],
+                P.UNISON_STRIKE[n][:struck])
+        return hs
 
     def _store_key(self) -> tuple:
         return (self.preset, self.fs, self.quality.dispersion_tol_cents)
@@ -622,14 +645,7 @@ class GrandVoice(KeyboardDampers, Voice):
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
         if fresh and bridge is not None:
             bank.couple(slots[:n], bridge[0], BRIDGE_RETURN_HZ, bridge[1])
-        hk = (key, sus[0].sub, struck)
-        hs = self._hammer_sets.get(hk)
-        if hs is None:
-            # una corda: the whole hammer on one string fewer
-            hs = self._hammer_sets[hk] = hammer_set(
-                [su.hammer if struck == n else su.hammer_soft for su in sus[:struck]],
-                P.UNISON_STRIKE[n][:struck])
-        bank.start_hammers_from(slots[:struck], hs, V, stiff)
+        bank.start_hammers_from(slots[:struck], self._hammer_set_of(key, sus, struck), V, stiff)
         for j, slot in enumerate(slots[:n]):
             # every string sounds: an unstruck one (una corda) through the bridge
             if bridge is not None or j < struck:
