@@ -212,6 +212,14 @@ class OneStringVoice(Voice):
                 pass    # a pitch this rate cannot hold
         if every and len(self._setups) > n:
             design_store.save("setups", store, dict(self._setups))
+        # each setup's slot template at the full buzz, as a note-on makes it:
+        # a key's first note-on in a live stream made it in the audio thread
+        # (56-76 us of the sitar's, 2026-11-30)
+        glides = (StringBank.LOSS_GLIDE_S, StringBank.BEND_GLIDE_S)
+        for su in list(self._setups.values()):
+            hit = self._templates.get(id(su))
+            if hit is None or hit[0] is not su:
+                self._templates[id(su)] = (su, self._template(su, su.U, *glides), glides)
 
     # -- physics at note-on -------------------------------------------------------
     @property
@@ -435,24 +443,27 @@ class OneStringVoice(Voice):
     def strike_log(self):
         return self.exciter.strike_log
 
+    def _template(self, su: OneStringSetup, U, glide_s: float, bend_glide_s: float):
+        """The slot template of the setup ``su`` with the profile ``U``."""
+        pre = self.preset
+        out_mode = 1 if pre.output.signal == "bridge_force" else 0
+        return slot_template(cells=su.cells, k=su.k, dt_s=su.dt_s, U=U, side=su.side,
+                             out_mode=out_mode, gain=pre.output.gain,
+                             tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
+                             b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
+                             lossy=su.lossy, bend_len=su.bend_len, bend_delay=su.bend_delay,
+                             n_disp=su.n_disp, a_disp=su.a_disp, subcell=su.subcell,
+                             glide_s=glide_s, bend_glide_s=bend_glide_s, tension=su.tension)
+
     def _configure(self, bank: StringBank, slot: int, su: OneStringSetup, probe_row: int) -> None:
         U = self._region(su)
         own = U is su.U                # the cached profile (not a buzz depth's)
         hit = self._templates.get(id(su)) if own else None
-        if hit is None or hit[0] is not su:
-            pre = self.preset
-            out_mode = 1 if pre.output.signal == "bridge_force" else 0
-            t = slot_template(cells=su.cells, k=su.k, dt_s=su.dt_s, U=U, side=su.side,
-                              out_mode=out_mode, gain=pre.output.gain,
-                              tension_over_dx=su.string.tension_n / (su.string.c_m_per_s * su.dt_s),
-                              b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
-                              lossy=su.lossy, bend_len=su.bend_len, bend_delay=su.bend_delay,
-                              n_disp=su.n_disp, a_disp=su.a_disp, subcell=su.subcell,
-                              glide_s=bank.LOSS_GLIDE_S, bend_glide_s=bank.BEND_GLIDE_S,
-                              tension=su.tension)
+        if hit is None or hit[0] is not su or hit[2] != (bank.LOSS_GLIDE_S, bank.BEND_GLIDE_S):
+            t = self._template(su, U, bank.LOSS_GLIDE_S, bank.BEND_GLIDE_S)
             if own:
                 # (the setup is kept beside it: its id names no other object)
-                self._templates[id(su)] = (su, t)
+                self._templates[id(su)] = (su, t, (bank.LOSS_GLIDE_S, bank.BEND_GLIDE_S))
         else:
             t = hit[1]
         bank.configure_from(slot, t, probe_row)
