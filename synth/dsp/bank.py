@@ -52,9 +52,15 @@ def damper_down_factor(row) -> float:
         if len(_DOWN_FACTOR) > 8192:
             _DOWN_FACTOR.clear()
         d = np.array([row])
-        sigma = np.maximum(_LN1000 / d[:, 2] - _LN1000 / d[:, 3], 0.0)
-        g = _DOWN_FACTOR[row] = float(np.exp(-sigma / d[:, 1])[0])
+        g = _DOWN_FACTOR[row] = float(_loss_factor(d[:, 2], d[:, 3], d[:, 1])[0])
     return g
+
+
+def _loss_factor(t60_s, t60_free_s, f1_hz):
+    """exp(-sigma / f1) with sigma = ln(1000)/T60 - ln(1000)/T60_free (1/s,
+    >= 0), elementwise: the loop gain's share under a damper (arrays)."""
+    sigma = np.maximum(_LN1000 / t60_s - _LN1000 / t60_free_s, 0.0)
+    return np.exp(-sigma / f1_hz)
 #: the kernels that may run loops on several threads (bank.render's kinds)
 _THREADED = (KR.KIND_SHARDS, KR.KIND_BIG_GROUPS, KR.KIND_BANK)
 #: render_bank's address for render_sharded (KR.bank_address), and the
@@ -763,7 +769,7 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
         decay rate sigma = ln(1000)/T60 - ln(1000)/T60_free (1/s, >= 0) scales the
         loop gain, b0 = b0_undamped exp(-sigma / f1) (a pure gain: the
         tuning does not move).  Glided to like :meth:`set_loss`."""
-        if isinstance(lift, (float, int, np.floating, np.integer)):
+        if np.ndim(lift) == 0:
             if lift >= 1.0:
                 # off the strings: sigma = 0, b0 = b0_undamped exp(-0) to the bit
                 # (a chord let go under the pedal: one such call a key)
@@ -781,14 +787,10 @@ class StringBank(Excitations, Bridges, HandOver, Telemetry):
             # one lift per slot
             lf = np.clip(np.asarray(lift, dtype=float), 0.0, 1.0)
             t = np.exp((1.0 - lf) * np.log(td) + lf * np.log(tf))
-        elif lift <= 0.0:
-            t = td
-        elif lift >= 1.0:
-            t = tf
         else:
+            # half pedal (the ends returned above)
             t = np.exp((1.0 - lift) * np.log(td) + lift * np.log(tf))
-        sigma = np.maximum(_LN1000 / t - _LN1000 / tf, 0.0)
-        self.fpar[slots, K.F_B0T] = d[:, 0] * np.exp(-sigma / d[:, 1])
+        self.fpar[slots, K.F_B0T] = d[:, 0] * _loss_factor(t, tf, d[:, 1])
 
     def _tune_out_samples(self, s: int) -> float:
         return float(self.fpar[s, K.F_TOG] * self.fst[s, K.S_TO])

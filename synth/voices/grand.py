@@ -200,7 +200,7 @@ class GrandVoice(KeyboardDampers, Voice):
             for sus in (self.setup(key), self.coarse_setup(key)):
                 m = len(sus)
                 self._hammer_set_of(key, sus, m)
-                if m >= 2 and all(su.hammer_soft is not None for su in sus[:m - 1]):
+                if m >= 2:
                     self._hammer_set_of(key, sus, m - 1)
                 for su in sus:
                     damper_down_factor(su.damper)

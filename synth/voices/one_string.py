@@ -215,11 +215,10 @@ class OneStringVoice(Voice):
         # each setup's slot template at the full buzz, as a note-on makes it:
         # a key's first note-on in a live stream made it in the audio thread
         # (56-76 us of the sitar's, 2026-11-30)
-        glides = (StringBank.LOSS_GLIDE_S, StringBank.BEND_GLIDE_S)
         for su in list(self._setups.values()):
             hit = self._templates.get(id(su))
             if hit is None or hit[0] is not su:
-                self._templates[id(su)] = (su, self._template(su, su.U, *glides), glides)
+                self._templates[id(su)] = (su, self._template(su, su.U))
 
     # -- physics at note-on -------------------------------------------------------
     @property
@@ -443,8 +442,9 @@ class OneStringVoice(Voice):
     def strike_log(self):
         return self.exciter.strike_log
 
-    def _template(self, su: OneStringSetup, U, glide_s: float, bend_glide_s: float):
-        """The slot template of the setup ``su`` with the profile ``U``."""
+    def _template(self, su: OneStringSetup, U):
+        """The slot template of the setup ``su`` with the profile ``U`` (the
+        bank's loss and bend glides: :class:`StringBank`'s, as every voice's)."""
         pre = self.preset
         out_mode = 1 if pre.output.signal == "bridge_force" else 0
         return slot_template(cells=su.cells, k=su.k, dt_s=su.dt_s, U=U, side=su.side,
@@ -453,17 +453,18 @@ class OneStringVoice(Voice):
                              b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
                              lossy=su.lossy, bend_len=su.bend_len, bend_delay=su.bend_delay,
                              n_disp=su.n_disp, a_disp=su.a_disp, subcell=su.subcell,
-                             glide_s=glide_s, bend_glide_s=bend_glide_s, tension=su.tension)
+                             glide_s=StringBank.LOSS_GLIDE_S,
+                             bend_glide_s=StringBank.BEND_GLIDE_S, tension=su.tension)
 
     def _configure(self, bank: StringBank, slot: int, su: OneStringSetup, probe_row: int) -> None:
         U = self._region(su)
         own = U is su.U                # the cached profile (not a buzz depth's)
         hit = self._templates.get(id(su)) if own else None
-        if hit is None or hit[0] is not su or hit[2] != (bank.LOSS_GLIDE_S, bank.BEND_GLIDE_S):
-            t = self._template(su, U, bank.LOSS_GLIDE_S, bank.BEND_GLIDE_S)
+        if hit is None or hit[0] is not su:
+            t = self._template(su, U)
             if own:
                 # (the setup is kept beside it: its id names no other object)
-                self._templates[id(su)] = (su, t, (bank.LOSS_GLIDE_S, bank.BEND_GLIDE_S))
+                self._templates[id(su)] = (su, t)
         else:
             t = hit[1]
         bank.configure_from(slot, t, probe_row)
