@@ -595,6 +595,10 @@ def test_bench_live_jack_quick_measures_the_loop(server):
             _skip_if_idle_xruns(int(idle.group(1)), float(idle.group(2)), f"{found} of 8 notes found")
     assert found == 8 or (found >= 6 and xruns > 0), out
     assert "median latency <= 6.5 ms: yes (5.02" in out, out
+    # the host's cost of memory left alone, beside the idle client's xruns
+    pt = re.search(r"read again \(2000 random pages of 64 MB, us a page\): after 0 s ([0-9.]+), "
+                   r"after 0.1 s ([0-9.]+), after 1 s ([0-9.]+)", out)
+    assert pt and all(0.0 < float(x) < 1000.0 for x in pt.groups()), out
     # an xrun during play moves the note it falls on a period late (this
     # VM's own, and a first note-on's block may overrun): the spread is
     # judged when the run had none

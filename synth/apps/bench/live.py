@@ -192,6 +192,42 @@ def host_noise(seconds=10.0, block_s=128 / 48000, load=0.5):
             times.max() / np.median(times), cpu.max() / np.median(times))
 
 
+def page_touch_us(pauses_s=(0.0, 0.01, 0.1, 1.0), pages: int = 2000, repeats: int = 3,
+                  size_mb: int = 64) -> list:
+    """What memory left alone costs to read again: ``pages`` pages of a
+    ``size_mb`` MB array (random, one byte each) read after the thread
+    spun ``pause`` seconds touching nothing else, per pause of
+    ``pauses_s`` (median of ``repeats``).  Returns [(pause_s, us per
+    page)].  On a machine with no such cost every pause reads a few ns a
+    page; where the host ages a guest's pages (a VM) a page left for a
+    second can cost microseconds, and a note-on, whose Python touches
+    thousands of pages that no block touched since the last note, pays it
+    in the audio thread (docs/lab/2026-11-30-page-aging.md)."""
+    a = np.ones(size_mb << 20, dtype=np.uint8)
+    idx = np.sort(np.random.default_rng(1).choice(a.size // 4096, pages, replace=False)) * 4096
+    out = []
+    for pause in pauses_s:
+        r = []
+        for _ in range(repeats):
+            int(a[idx].sum())
+            t9 = time.perf_counter()
+            while time.perf_counter() - t9 < pause:
+                pass
+            t = time.perf_counter()
+            int(a[idx].sum())
+            r.append(time.perf_counter() - t)
+        out.append((float(pause), float(np.median(r)) / pages * 1e6))
+    return out
+
+
+def page_touch_line(quick: bool = False) -> str:
+    """One header line of :func:`page_touch_us` (``quick``: one read per
+    pause, 1.1 s in all)."""
+    pt = page_touch_us((0.0, 0.1, 1.0), repeats=1) if quick else page_touch_us()
+    return ("# memory left alone, read again (2000 random pages of 64 MB, us a page): "
+            + ", ".join(f"after {p:g} s {u:.3f}" for p, u in pt))
+
+
 def program_change(switch_s: float, seconds: float = 4.0) -> np.ndarray:
     """Block times / budget of a sitar performance, paced in real time, with
     ``grand-piano`` built in a background thread from its 100th block."""
@@ -556,6 +592,7 @@ def jack_main(a) -> int:
         if idle is not None:
             print(f"# the server alone: a client that does nothing saw {idle} xruns in {idle_s:g} s "
                   f"({idle / idle_s * 60:.0f} a minute; the floor under the synth's count)")
+        print(page_touch_line(a.quick))
         runs = []
         for r in range(a.runs):
             name = f"synthbench{r}"
@@ -736,6 +773,7 @@ def main(argv=None) -> int:
     print(f"# host: a constant loop at 50 % of a 128-sample budget, {a.host_seconds:g} s: {over} "
           f"blocks over budget, {und} underruns, worst {worst:.1f}x its median "
           f"(in the thread's own CPU time: {worst_cpu:.1f}x)")
+    print(page_touch_line(a.quick))
     if a.host_only:
         return 0
     if a.program_change:
