@@ -59,6 +59,6 @@ def test_the_biwa_touches_its_sawari_and_a_grand_note_logs_every_string(tmp_path
     assert max(int(r["termination_points_max"]) for r in rows) > 0
     out, rows = _note(tmp_path, "grand-piano", "--key", "60", "--seconds", "0.05")
     strings = {r["string"] for r in rows}
-    assert strings == {"0", "1", "2"}                      # C4: three strings
+    assert strings == {"0", "1", "2", "3"}           # C4: three strings, the second polarization
     peak = [float(r["hammer_force_max_n"]) for r in rows]
     assert max(peak) > 1.0 and "termination 0.00 ms" in out   # no capo bar below C#5

@@ -27,7 +27,7 @@ def _struck(key, t_s, sets=WHOLE):
         e.render_block(min(n, 240))
         n -= 240
     vo = next(iter(e.voices.values()))
-    return e, list(vo.slots)
+    return e, [s for s in vo.slots if e.bank.is_active(s)]
 
 
 def _snapshot(b):

@@ -99,7 +99,9 @@ def test_the_treble_unisons_beat_at_most_the_stated_rate():
 def test_the_fitted_targets_hold_against_the_stored_recording():
     """The per-octave medians against layer v10 (close position, the grand
     at v10's matched velocity, 78) that meet issue 41's targets: partial 1
-    at 3 s within 6 dB over C2-B2 and at most 10 dB above the recording's
+    at 3 s within 6 dB over C2-B5 (C3-B5 -1.0 to +1.7 dB with the strings'
+    second polarization, ``strings.polarization``; -10 to -12 without it,
+    docs/lab/2026-11-30-polarization.md) and at most 10 dB above the recording's
     over C7-C8 (+2 dB: the treble's loss and its unisons' spread, fitted
     together; +30 before); partials 2-10 within 6 dB over C3-B3, C4-B4 and
     C6-B6; the first 50 ms's centroid within 1.5x on every octave (1.27-1.39x:
@@ -114,7 +116,8 @@ def test_the_fitted_targets_hold_against_the_stored_recording():
     rows = {r["octave"]: r for r in octave_table(
         octave_model(sorted(real), "close", LAYER_VELOCITY[10], seconds=4.0), real)}
     assert [r for r in rows] == [o for o, _, _ in OCTAVES]
-    assert abs(rows["C2-B2"]["p1_3s_db"]) <= 6.0
+    for o in ("C2-B2", "C3-B3", "C4-B4", "C5-B5"):
+        assert abs(rows[o]["p1_3s_db"]) <= 6.0, (o, rows[o]["p1_3s_db"])
     for o in ("C3-B3", "C4-B4", "C6-B6"):
         assert abs(rows[o]["upper_db"]) <= 6.0, (o, rows[o]["upper_db"])
     assert rows["C7-C8"]["p1_3s_db"] <= 10.0 and rows["C6-B6"]["p1_3s_db"] <= 15.0

@@ -152,6 +152,14 @@ class GrandSetup:
     bridge: tuple | None = None             # its key's bridge (R_b N s/m, mass corner Hz); None: rigid
 
 
+#: partials of the second polarization's string tuned to the stiff-string
+#: law (within the quality's tolerance): heard at a tenth of the unison's
+#: level, in an aftersound whose partials above the third are gone within a
+#: second, its loop needs 0-2 biquads over keys 49-83 where all 40 took 2-8
+#: (a middle key cost 1.33-1.42x with them, ``tools/bench.py grand``)
+POLAR_PARTIALS = 10
+
+
 @register_voice("grand")
 class GrandVoice(KeyboardDampers, Voice):
     """The 88-key grand (voice ``grand``)."""
@@ -171,6 +179,9 @@ class GrandVoice(KeyboardDampers, Voice):
             (preset, self.fs, self.quality.dispersion_tol_cents), {})
         st = preset.strings
         self._capo = capo(st.capo_radius_m)
+        #: the unison's strings and, with ``strings.polarization``, one more
+        #: for the keys' second polarization (:meth:`polar_setup`)
+        self.strings_per_voice = 3 + (1 if self.polarization > 0.0 else 0)
         #: per key: (``action.knock``, the whole hammer's mass (kg)), validated
         #: once (:meth:`knock_impulse_ns`)
         self._knock: dict[int, tuple[float, float]] = {}
@@ -197,27 +208,34 @@ class GrandVoice(KeyboardDampers, Voice):
                 self._keys.update(kept)
         n = len(self._keys)
         for key in range(self.KEY_LOW, self.KEY_HIGH + 1):
+            pol = self.polar_setup(key)
             for sus in (self.setup(key), self.coarse_setup(key)):
                 m = len(sus)
-                self._hammer_set_of(key, sus, m)
+                self._hammer_set_of(key, sus, m, pol)
                 if m >= 2:
-                    self._hammer_set_of(key, sus, m - 1)
-                for su in sus:
+                    self._hammer_set_of(key, sus, m - 1, pol)
+                for su in sus + ((pol,) if pol is not None else ()):
                     damper_down_factor(su.damper)
         if len(self._keys) > n:
             design_store.save("grand-keys", store, dict(self._keys))
 
-    def _hammer_set_of(self, key: int, sus, struck: int):
+    def _hammer_set_of(self, key: int, sus, struck: int, polar=None):
         """The hammer set striking ``struck`` of the strings ``sus`` of
-        ``key`` (una corda: the whole hammer on one string fewer), made once
-        per key, grid and strings struck."""
-        hk = (key, sus[0].sub, struck)
+        ``key`` (una corda: the whole hammer on one string fewer), and the
+        second polarization ``polar`` (a :class:`GrandSetup`, struck at the
+        hammer's whole speed) after them, made once per key, grid, strings
+        struck and polarization."""
+        hk = (key, sus[0].sub, struck, polar is not None)
         hs = self._hammer_sets.get(hk)
         if hs is None:
             n = len(sus)
-            hs = self._hammer_sets[hk] = hammer_set(
-                [su.hammer if struck == n else su.hammer_soft for su in sus[:struck]],
-                P.UNISON_STRIKE[n][:struck])
+            soft = struck != n
+            temps = [su.hammer_soft if soft else su.hammer for su in sus[:struck]]
+            factors = tuple(P.UNISON_STRIKE[n][:struck])
+            if polar is not None:
+                temps.append(polar.hammer_soft if soft else polar.hammer)
+                factors += (1.0,)
+            hs = self._hammer_sets[hk] = hammer_set(temps, factors)
         return hs
 
     def _store_key(self) -> tuple:
@@ -348,6 +366,66 @@ class GrandVoice(KeyboardDampers, Voice):
             self._keys[ck] = self._design(key, 1)
         return self._keys[ck]
 
+    @property
+    def polarization(self) -> float:
+        """``strings.polarization``: the second polarization's share of a
+        string's output (0: none)."""
+        return float(self.preset.strings.polarization or 0.0)
+
+    def polar_setup(self, key: int) -> GrandSetup | None:
+        """The key's second polarization, or None (``strings.polarization``
+        0, or the key outside ``strings.polarization_from_key`` ..
+        ``polarization_to_key``): one string standing for the unison's
+        motion parallel to the board.
+
+        Weinreich (1977): the bridge is stiff in that direction, so the
+        string there loses only its own loss (to air and in the wire: the
+        unison's slow T60, :attr:`synth.physics.piano.GrandString.t60_low_s`,
+        with the treble's factors) and is tuned on a rigid end to the key's
+        partial 1; the hammer's slant starts it with the strike, and the
+        board hears it through the bridge's small coupling that way.  Both
+        are one factor on a linear string, its output share
+        ``strings.polarization``: it is struck by its own felt at the
+        hammer's whole speed, so its spectrum is the unison's, and heard at
+        that share.  It stays on the engine's grid (it has no finer grid to
+        leave) and on no bridge; its damper falls with the unison's."""
+        sp = self.preset.strings
+        share = self.polarization
+        key = int(key)
+        if share <= 0.0 or not (int(sp.polarization_from_key) <= key <= int(sp.polarization_to_key)):
+            return None
+        pk = ("polar", key)
+        if pk not in self._keys:
+            self._keys[pk] = self._design_polar(key, share)
+        return self._keys[pk]
+
+    def _design_polar(self, key: int, share: float) -> GrandSetup:
+        """:meth:`polar_setup`'s string, designed on the engine's grid."""
+        gs = P.grand_string(key)
+        pre = self.preset
+        sp = pre.strings
+        f1 = self.tuning_hz(key)
+        fs = self.fs
+        dt = 1.0 / fs
+        dx = gs.c_m_per_s * dt
+        t_own = gs.t60_low_s * self.own_t60_factor(key)
+        t_lo = t_own * sp.t60_scale
+        t_hi = min(gs.t60_s(gs.f_high_hz) * t_own / gs.t60_low_s * sp.t60_scale, t_lo)
+        loop = tune_stiff_loop_sos(f1, gs.inharmonicity_b, fs, t_lo, f1, t_hi,
+                                   max(gs.f_high_hz, 1.5 * f1),
+                                   tol_cents=self.quality.dispersion_tol_cents,
+                                   m_max=sp.dispersion_sections, max_partials=POLAR_PARTIALS)
+        k, U = self._strike_point_and_bar(gs, dx, loop.cells)
+        su = GrandSetup(loop.cells, k, dt, U, loop.b0, loop.a1, loop.eta, loop.extra_delay,
+                        loop.n_fo, loop.a_fo, loop.sos, gs.tension_n, gs.c_m_per_s, f1, sub=1)
+        slot = self._slot(key, su, pre.output.gain * share)
+        n = gs.n_strings
+        t_damped = min(self.release_t60_s(key), t_lo) if gs.has_damper else t_lo
+        return replace(su, slot=slot,
+                       hammer=hammer_template(dt_s=dt, **self._hammer(key, n, su)),
+                       hammer_soft=hammer_template(dt_s=dt, **self._hammer(key, max(n - 1, 1), su)),
+                       damper=(su.b0, f1, t_damped, t_lo))
+
     def fine_window_s(self, key) -> float | None:
         """How long (s) a strike of ``key`` stays on its finer grid before
         its strings go on at the engine's rate (``strings.capo_window_s``),
@@ -405,15 +483,7 @@ class GrandVoice(KeyboardDampers, Voice):
             loop = key_loop if fj == f1 else retune_sos_loop(
                 key_loop, fj, t_lo, fj, t_hi, max(gs.f_high_hz, 1.5 * fj))
             cells = loop.cells
-            # the strike point at its distance from the agraffe or bar (the
-            # loop filter takes its delay out of the cells, so l/L x cells
-            # would strike nearer the end: at 0.35 l on F7)
-            k = min(max(int(round(gs.strike_distance_m / dx)), 1), cells - 2)
-            U = None
-            if gs.has_capo and sp.capo_region_m > 0:
-                R = max(1, int(round(sp.capo_region_m / dx)))
-                R = min(R, cells // 3)
-                U = Termination(self._capo, 1, R).sample(dx)
+            k, U = self._strike_point_and_bar(gs, dx, cells)
             out.append(GrandSetup(cells, k, dt, U, loop.b0, loop.a1, loop.eta,
                                         loop.extra_delay, loop.n_fo, loop.a_fo, loop.sos,
                                         gs.tension_n, gs.c_m_per_s, fj, sub=M))
@@ -423,14 +493,7 @@ class GrandVoice(KeyboardDampers, Voice):
         bridge = None if R_b is None else (R_b, self.bridge_mass_hz(key))
         full = []
         for su in out:
-            slot = slot_template(cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=1,
-                                 out_mode=1, gain=pre.output.gain,
-                                 tension_over_dx=su.tension_n / (su.c_m_per_s * su.dt_s),
-                                 b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
-                                 lossy=True, n_disp=su.n_disp, a_disp=su.a_disp, sos=su.sos,
-                                 glide_s=self.damper_land_s,
-                                 bend_glide_s=StringBank.BEND_GLIDE_S,
-                                 pan=self.pan(key), sub=su.sub)
+            slot = self._slot(key, su, pre.output.gain)
             hp = self._hammer(key, len(out), su)
             hps = self._hammer(key, max(len(out) - 1, 1), su)
             # the damper's felt: T60 from the damped value (release_t60_s, at
@@ -442,6 +505,33 @@ class GrandVoice(KeyboardDampers, Voice):
                                 hammer_soft=hammer_template(dt_s=su.dt_s, **hps),
                                 damper=(su.b0, su.f1_hz, t_damped, t_nat), bridge=bridge))
         return tuple(full)
+
+    def _strike_point_and_bar(self, gs, dx: float, cells: int):
+        """A string's strike point (cells from the end: at its distance from
+        the agraffe or bar, as the loop filter takes its delay out of the
+        cells; l/L x cells would strike nearer the end, at 0.35 l on F7) and
+        its capo bar's profile U (None without a bar)."""
+        sp = self.preset.strings
+        k = min(max(int(round(gs.strike_distance_m / dx)), 1), cells - 2)
+        U = None
+        if gs.has_capo and sp.capo_region_m > 0:
+            R = max(1, int(round(sp.capo_region_m / dx)))
+            R = min(R, cells // 3)
+            U = Termination(self._capo, 1, R).sample(dx)
+        return k, U
+
+    def _slot(self, key: int, su: GrandSetup, gain: float) -> SlotTemplate:
+        """The bank's validated row for string ``su`` of ``key``, heard at
+        ``gain`` (so that a note-on in the audio thread only copies it: ~10
+        us per key instead of ~35)."""
+        return slot_template(cells=su.cells, k=su.k, dt_s=su.dt_s, U=su.U, side=1,
+                             out_mode=1, gain=gain,
+                             tension_over_dx=su.tension_n / (su.c_m_per_s * su.dt_s),
+                             b0=su.b0, a1=su.a1, eta=su.eta, extra_delay=su.extra_delay,
+                             lossy=True, n_disp=su.n_disp, a_disp=su.a_disp, sos=su.sos,
+                             glide_s=self.damper_land_s,
+                             bend_glide_s=StringBank.BEND_GLIDE_S,
+                             pan=self.pan(key), sub=su.sub)
 
     def _treble_weight(self, key: int) -> float:
         """0 up to :data:`TREBLE_LOSS_RAMP_ST` below
@@ -645,11 +735,23 @@ class GrandVoice(KeyboardDampers, Voice):
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
         if fresh and bridge is not None:
             bank.couple(slots[:n], bridge[0], BRIDGE_RETURN_HZ, bridge[1])
-        bank.start_hammers_from(slots[:struck], self._hammer_set_of(key, sus, struck), V, stiff)
+        pol = self.polar_setup(key)
+        hit = slots[:struck]
+        if pol is not None:
+            ps = slots[n]
+            if fresh or not bank.is_active(ps):
+                bank.configure_from(ps, pol.slot, probe_row + n if probe_row >= 0 else -1)
+                bank.set_damper(ps, pol.damper)
+            else:
+                bank.set_loss(ps, pol.b0)
+            hit = tuple(hit) + (ps,)
+        bank.start_hammers_from(hit, self._hammer_set_of(key, sus, struck, pol), V, stiff)
         for j, slot in enumerate(slots[:n]):
             # every string sounds: an unstruck one (una corda) through the bridge
             if bridge is not None or j < struck:
                 bank.activate(slot)
+        if pol is not None:
+            bank.activate(slots[n])
 
     def note_off(self, bank: StringBank, slots, key, f0_hz, pedal: float) -> None:
         """Key up: the damper falls on the strings, as far as the sustain
@@ -659,5 +761,6 @@ class GrandVoice(KeyboardDampers, Voice):
         on."""
         if key is None or not (self.KEY_LOW <= int(round(key)) <= self.KEY_HIGH):
             return
-        n = len(self.setup(int(round(key))))
+        key = int(round(key))
+        n = len(self.setup(key)) + (self.polar_setup(key) is not None)
         self.drop_dampers(bank, slots[:n], pedal)

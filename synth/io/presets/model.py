@@ -148,6 +148,9 @@ class StringsSpec:
     bridge_coupling_treble: float = 1.0   # grand: factor on the bridge's admittance from there up
     unison_spread_hz: float = 0.6         # grand: the most a unison's outer strings differ, Hz (a tuner's beats)
     t60_top_factor: float = 1.0           # grand: a further factor on the treble's own T60, reached at C8
+    polarization: float = 0.0             # grand: the strings' second polarization, its share of the output (0: none)
+    polarization_from_key: int = 49       # grand: the first key that has it
+    polarization_to_key: int = 83         # grand: the last key that has it
 
 
 @dataclass(frozen=True)

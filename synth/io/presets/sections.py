@@ -383,6 +383,16 @@ SECTIONS: tuple[Section, ...] = (
               "than the 0.6 cent of the keys below (synth.physics.piano.UNISON_SPREAD_HZ; the "
               "aftersound's level: detuned strings pass the struck motion on to the slowly "
               "decaying modes)", 0.05, 5.0, when=When("voice", ("grand",)), default=0.6),
+        Field("polarization", "float", "the strings' second polarization, parallel to the "
+              "board: one more string per key, on a rigid end with the strings' own loss (the "
+              "bridge hardly moves that way), struck with the unison and heard at this share of "
+              "a string's force (the hammer's slant times the board's coupling): the middle's "
+              "aftersound (Weinreich 1977); 0: none, and the key has its unison alone", 0.0, 1.0,
+              when=When("voice", ("grand",)), default=0.0),
+        Field("polarization_from_key", "int", "the first key with the second polarization "
+              "(MIDI)", 21, 108, when=When("voice", ("grand",)), default=49),
+        Field("polarization_to_key", "int", "the last key with the second polarization (MIDI)",
+              21, 108, when=When("voice", ("grand",)), default=83),
     ), when=_KEYBOARD),
     Section("dampers", "dampers and sustain pedal of the per-key strings", DampersSpec, (
         Field("release_t60_bass_s", "float", "T60 of a damped bass string, s", 0.02, 5.0),
