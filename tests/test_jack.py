@@ -599,6 +599,9 @@ def test_bench_live_jack_quick_measures_the_loop(server):
     pt = re.search(r"read again \(2000 random pages of 64 MB, us a page\): after 0 s ([0-9.]+), "
                    r"after 0.1 s ([0-9.]+), after 1 s ([0-9.]+)", out)
     assert pt and all(0.0 < float(x) < 1000.0 for x in pt.groups()), out
+    ca = re.search(r"a numpy add of 10 floats \(us\): after 0 s ([0-9.]+), after 0.1 s ([0-9.]+), "
+                   r"after 0.3 s ([0-9.]+)", out)
+    assert ca and all(0.0 < float(x) < 1e6 for x in ca.groups()), out
     # an xrun during play moves the note it falls on a period late (this
     # VM's own, and a first note-on's block may overrun): the spread is
     # judged when the run had none

@@ -220,12 +220,37 @@ def page_touch_us(pauses_s=(0.0, 0.01, 0.1, 1.0), pages: int = 2000, repeats: in
     return out
 
 
+def call_after_us(pauses_s=(0.0, 0.1, 0.3), repeats: int = 3) -> list:
+    """What code left alone costs to run again: one ``numpy.add`` of ten
+    floats after the thread spun ``pause`` seconds (a loop reading the
+    clock), per pause of ``pauses_s`` (median of ``repeats``).  Returns
+    [(pause_s, us)].  A few hundred ns where nothing ages the process's
+    memory; on this VM a millisecond or more after 0.3 s, which every
+    code path a note-on takes pays once (docs/lab/2026-11-30-page-aging.md)."""
+    a = np.zeros(10)
+    np.add(a, 1.0)
+    out = []
+    for pause in pauses_s:
+        r = []
+        for _ in range(repeats):
+            t9 = time.perf_counter()
+            while time.perf_counter() - t9 < pause:
+                pass
+            t = time.perf_counter()
+            np.add(a, 1.0)
+            r.append(time.perf_counter() - t)
+        out.append((float(pause), float(np.median(r)) * 1e6))
+    return out
+
+
 def page_touch_line(quick: bool = False) -> str:
-    """One header line of :func:`page_touch_us` (``quick``: one read per
-    pause, 1.1 s in all)."""
+    """One header line of :func:`page_touch_us` and :func:`call_after_us`
+    (``quick``: one of each per pause, 1.5 s in all)."""
     pt = page_touch_us((0.0, 0.1, 1.0), repeats=1) if quick else page_touch_us()
+    ca = call_after_us(repeats=1) if quick else call_after_us()
     return ("# memory left alone, read again (2000 random pages of 64 MB, us a page): "
-            + ", ".join(f"after {p:g} s {u:.3f}" for p, u in pt))
+            + ", ".join(f"after {p:g} s {u:.3f}" for p, u in pt)
+            + "; a numpy add of 10 floats (us): " + ", ".join(f"after {p:g} s {u:.1f}" for p, u in ca))
 
 
 def program_change(switch_s: float, seconds: float = 4.0) -> np.ndarray:
