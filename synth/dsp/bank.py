@@ -25,6 +25,7 @@ from ..kernels import strings as K
 from ..kernels.energy import ring_energy
 from . import compile_notice, sizing, threads
 from .bridges import Bridges
+from .groups import Groups
 from .hand_over import SLOT_COLS, HandOver
 from .telemetry import Telemetry
 from .excitation import (  # noqa: F401  (re-exported: the voices build their hammers here)
@@ -272,7 +273,7 @@ def slot_template(*, cells: int, k: int, dt_s: float, U: np.ndarray | None, side
     return SlotTemplate(ip, fp, Uc, float(bend_delay))
 
 
-class StringBank(Excitations, Bridges, HandOver, Telemetry):
+class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
     """Preallocated storage for up to ``capacity`` strings.
 
     Loss changes (dampers, releases) are given as a target

@@ -90,6 +90,7 @@ import numpy as np
 
 from ..dsp.bank import (HammerTemplate, SlotTemplate, StringBank, damper_down_factor, hammer_set,
                         hammer_template, slot_template)
+from ..dsp.groups import GroupTemplate, group_template
 from ..kernels import strings as K
 from ..physics import piano as P
 from ..physics.dispersion import BridgeLag, retune_sos_loop, tune_stiff_loop_sos
@@ -190,6 +191,9 @@ class GrandVoice(KeyboardDampers, Voice):
         #: the strike's hammers stacked, by (key, grid, strings struck)
         #: (:meth:`note_on`: one kernel call a strike)
         self._hammer_sets: dict = {}
+        #: a fresh strike's strings packed, by (key, grid, polarization)
+        #: (:meth:`note_on`: one call sets them up)
+        self._groups: dict = {}
 
     def warm(self) -> None:
         """Design every key now (about 0.4 s), so that no note-on has to:
@@ -212,6 +216,7 @@ class GrandVoice(KeyboardDampers, Voice):
             for sus in (self.setup(key), self.coarse_setup(key)):
                 m = len(sus)
                 self._hammer_set_of(key, sus, m, pol)
+                self._group_of(key, sus, pol)
                 if m >= 2:
                     self._hammer_set_of(key, sus, m - 1, pol)
                 for su in sus + ((pol,) if pol is not None else ()):
@@ -237,6 +242,23 @@ class GrandVoice(KeyboardDampers, Voice):
                 factors += (1.0,)
             hs = self._hammer_sets[hk] = hammer_set(temps, factors)
         return hs
+
+    def _group_of(self, key: int, sus, polar=None) -> GroupTemplate:
+        """The strings a fresh strike of ``key`` sets up, packed for one
+        call (:meth:`synth.dsp.bank.StringBank.configure_group`): the unison
+        ``sus`` on its bridge and the second polarization ``polar``; made
+        once per key, grid and polarization."""
+        gk = (key, sus[0].sub, polar is not None)
+        g = self._groups.get(gk)
+        if g is None:
+            strings = tuple(sus) + ((polar,) if polar is not None else ())
+            bridge = sus[0].bridge
+            g = self._groups[gk] = group_template(
+                [su.slot for su in strings], [su.damper for su in strings],
+                n_coupled=len(sus) if bridge is not None else 0,
+                resistance_ns_per_m=None if bridge is None else bridge[0],
+                return_hz=BRIDGE_RETURN_HZ, mass_hz=0.0 if bridge is None else bridge[1])
+        return g
 
     def _store_key(self) -> tuple:
         return (self.preset, self.fs, self.quality.dispersion_tol_cents)
@@ -727,23 +749,23 @@ class GrandVoice(KeyboardDampers, Voice):
         stiff = a.hardness * (1.0 - (1.0 - a.soft_stiffness) * min(max(soft, 0.0), 1.0))
         bridge = sus[0].bridge
         fresh = not restrike or not all(bank.is_active(s) for s in slots[:n])
-        for j, (slot, su) in enumerate(zip(slots, sus)):
-            if fresh:
-                bank.configure_from(slot, su.slot, probe_row + j if probe_row >= 0 else -1)
-                bank.set_damper(slot, su.damper)
-            else:
-                bank.set_loss(slot, su.b0)          # dampers off: the key is down
-        if fresh and bridge is not None:
-            bank.couple(slots[:n], bridge[0], BRIDGE_RETURN_HZ, bridge[1])
         pol = self.polar_setup(key)
         hit = slots[:struck]
+        if fresh:
+            # the unison on its bridge and the second polarization, in one call
+            bank.configure_group(slots[:n + (pol is not None)], self._group_of(key, sus, pol),
+                                 probe_row)
+        else:
+            for slot, su in zip(slots, sus):
+                bank.set_loss(slot, su.b0)          # dampers off: the key is down
         if pol is not None:
             ps = slots[n]
-            if fresh or not bank.is_active(ps):
-                bank.configure_from(ps, pol.slot, probe_row + n if probe_row >= 0 else -1)
-                bank.set_damper(ps, pol.damper)
-            else:
-                bank.set_loss(ps, pol.b0)
+            if not fresh:
+                if bank.is_active(ps):
+                    bank.set_loss(ps, pol.b0)
+                else:
+                    bank.configure_from(ps, pol.slot, probe_row + n if probe_row >= 0 else -1)
+                    bank.set_damper(ps, pol.damper)
             hit = tuple(hit) + (ps,)
         bank.start_hammers_from(hit, self._hammer_set_of(key, sus, struck, pol), V, stiff)
         for j, slot in enumerate(slots[:n]):
