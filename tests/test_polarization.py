@@ -96,3 +96,28 @@ def test_its_damper_falls_with_the_key():
     assert e(on) - e(off) <= 3.0, (e(on), e(off))
     held = _note(ON, seconds=2.5)
     assert e(held) - e(on) >= 30.0
+
+
+def test_a_restrike_strikes_a_sounding_polarization_again_and_does_not_cut_it():
+    """Its unison died away (freed) while the second polarization rings on:
+    a restrike sets the unison up anew and strikes the polarization where
+    it is (its ring is not cleared, its hammer starts again)."""
+    e = build_engine("grand-piano", ON, threads=1)
+    e.schedule([Event(0.0, "note_on", 60, 0.7)])
+    for _ in range(40):
+        e.render_block(128)
+    (vo,) = e.voices.values()
+    uni, pol = vo.slots[:3], vo.slots[3]
+    for s in uni:
+        e.bank.deactivate(s)              # as the engine reaps silent strings
+    off, n = int(e.bank.ipar[pol, K.I_OFF]), int(e.bank.ipar[pol, K.I_N])
+    before = e.bank.ring[off:off + 2 * n].copy()
+    assert np.any(before != 0.0)
+    e.schedule([Event(e.time_in / e.fs_in_exact, "note_on", 60, 0.7)])
+    e.render_block(1)
+    assert all(e.bank.is_active(s) for s in vo.slots)
+    assert int(e.bank.ipar[pol, K.I_EXC]) >= K.EXC_HAMMER3 - 1
+    # one output sample later its ring still holds the note (a cleared ring
+    # would hold only the new strike's first few samples near the hammer)
+    after = e.bank.ring[off:off + 2 * n]
+    assert np.count_nonzero(after) > 0.9 * np.count_nonzero(before)

@@ -217,6 +217,8 @@ class GrandVoice(KeyboardDampers, Voice):
                 m = len(sus)
                 self._hammer_set_of(key, sus, m, pol)
                 self._group_of(key, sus, pol)
+                if pol is not None:
+                    self._group_of(key, sus, None)      # (its polarization still sounding)
                 if m >= 2:
                     self._hammer_set_of(key, sus, m - 1, pol)
                 for su in sus + ((pol,) if pol is not None else ()):
@@ -751,16 +753,20 @@ class GrandVoice(KeyboardDampers, Voice):
         fresh = not restrike or not all(bank.is_active(s) for s in slots[:n])
         pol = self.polar_setup(key)
         hit = slots[:struck]
+        # a second polarization still sounding after its unison died away is
+        # struck again where it is, not set up anew (that would cut it)
+        ring_on = pol is not None and restrike and bank.is_active(slots[n])
         if fresh:
             # the unison on its bridge and the second polarization, in one call
-            bank.configure_group(slots[:n + (pol is not None)], self._group_of(key, sus, pol),
+            both = pol is not None and not ring_on
+            bank.configure_group(slots[:n + both], self._group_of(key, sus, pol if both else None),
                                  probe_row)
         else:
             for slot, su in zip(slots, sus):
                 bank.set_loss(slot, su.b0)          # dampers off: the key is down
         if pol is not None:
             ps = slots[n]
-            if not fresh:
+            if not fresh or ring_on:
                 if bank.is_active(ps):
                     bank.set_loss(ps, pol.b0)
                 else:
