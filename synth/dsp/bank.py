@@ -347,8 +347,9 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         self.ring = np.zeros(self.capacity * 2 * self.max_cells)
         self.ring.fill(0.0)            # fault the pages in now, not at a note-on
         self._clean = np.ones(self.capacity, dtype=bool)
-        #: slot tuples as int64 arrays (:meth:`start_hammers_from`)
+        #: slot tuples as int64 arrays (:meth:`_slot_array`)
         self._slot_rows: dict = {}
+        self._no_probe_rows = np.full(8, -1, dtype=np.int64)
         self.ipar = np.zeros((self.capacity, K.I_NI), dtype=np.int64)
         self.fpar = np.zeros((self.capacity, K.F_NF))
         self.fst = np.zeros((self.capacity, K.S_NS))
@@ -488,6 +489,22 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         out = np.zeros(idx.size)
         ring_energy(self.ring, offs, lens, out)
         return out
+
+    def _slot_array(self, slots) -> np.ndarray:
+        """``slots`` (distinct slot indices, at least one) as an int64 array,
+        checked and kept per tuple (a voice's slots: a few tuples, so a
+        note-on's call allocates nothing)."""
+        key = slots if isinstance(slots, tuple) else tuple(slots)
+        arr = self._slot_rows.get(key)
+        if arr is None:
+            arr = np.array(key, dtype=np.int64)
+            if arr.ndim != 1 or arr.size == 0 or arr.min() < 0 or arr.max() >= self.capacity \
+                    or len(set(key)) != arr.size:
+                raise ValueError(f"slots = {key!r} are out of range (distinct, 0 <= value <= "
+                                 f"{self.capacity - 1}, at least one)")
+            if len(self._slot_rows) < 4096:
+                self._slot_rows[key] = arr
+        return arr
 
     def is_active(self, s: int) -> bool:
         return bool(self._is_active[s])

@@ -146,17 +146,9 @@ class Excitations:
             raise ValueError(f"speed_m_per_s = {speed_m_per_s!r} is out of range (0 < value <= 20)")
         if not (0.0 < stiffness_factor <= 4.0):
             raise ValueError(f"stiffness_factor = {stiffness_factor!r} is out of range (0 < value <= 4)")
-        key = slots if isinstance(slots, tuple) else tuple(slots)
-        arr = self._slot_rows.get(key)
-        if arr is None:
-            arr = np.array(key, dtype=np.int64)
-            if arr.ndim != 1 or arr.size == 0 or arr.min() < 0 or arr.max() >= self.capacity:
-                raise ValueError(f"slots = {key!r} are out of range (0 <= value <= "
-                                 f"{self.capacity - 1}, at least one)")
-            if len(self._slot_rows) < 4096:      # (a voice's slots: a few tuples)
-                self._slot_rows[key] = arr
+        arr = self._slot_array(slots)
         if arr.shape[0] != hs.n:
-            raise ValueError(f"slots = {key!r}: {hs.n} are needed, one per hammer")
+            raise ValueError(f"slots = {tuple(arr.tolist())!r}: {hs.n} are needed, one per hammer")
         bad = start_hammers(self.ring, self.ipar, self.fpar, self.fst, self._clean, arr, hs.n,
                             _HAMMER_COLS, hs.hvals, _HAMMER_Q_COLS, hs.laws, hs.e_ends, hs.dts,
                             float(speed_m_per_s), hs.factors, float(stiffness_factor))

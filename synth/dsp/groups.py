@@ -113,18 +113,9 @@ class Groups:
         then :meth:`couple` the first ``g.n_coupled`` on ``g``'s bridge.  The
         same values to the bit, in one kernel call; a slot still on a
         bridge is first taken off it (:meth:`configure_from` does the same)."""
-        key = slots if isinstance(slots, tuple) else tuple(slots)
-        arr = self._slot_rows.get(key)
-        if arr is None:
-            arr = np.array(key, dtype=np.int64)
-            if arr.ndim != 1 or arr.size == 0 or arr.min() < 0 or arr.max() >= self.capacity \
-                    or len(set(key)) != arr.size:
-                raise ValueError(f"slots = {key!r} are out of range (distinct, 0 <= value <= "
-                                 f"{self.capacity - 1}, at least one)")
-            if len(self._slot_rows) < 4096:      # (a voice's slots: a few tuples)
-                self._slot_rows[key] = arr
+        arr = self._slot_array(slots)
         if arr.shape[0] != g.m:
-            raise ValueError(f"slots = {key!r}: {g.m} are needed, one per template")
+            raise ValueError(f"slots = {tuple(arr.tolist())!r}: {g.m} are needed, one per template")
         cells, region, blen = g.sizes
         if cells > self.max_cells:
             raise ValueError(f"cells = {cells!r} is out of range (8 <= value <= {self.max_cells})")
@@ -133,24 +124,18 @@ class Groups:
         if blen > self.max_bend:
             raise ValueError(f"bend_len = {blen!r} is out of range (0 <= value <= {self.max_bend})")
         if (self._leader[arr] >= 0).any():
-            for s in key:
+            for s in arr.tolist():
                 if self._leader[s] >= 0:
                     self.leave(s)
         if probe_row >= 0:
             probe = np.arange(probe_row, probe_row + g.m, dtype=np.int64)
         else:
-            probe = self._no_probe(g.m)
+            probe = self._no_probe_rows[:g.m]
         configure_group(self.ring, self.ipar, self.fpar, self.fst, self.U, self.damper,
                         self._clean, self._leader, arr, g.m, g.ipar, _WRITE, g.fpar, g.U, g.uoff,
                         g.bend_delay, g.dampers, probe, self.max_block, self.skip_unreachable,
                         g.n_coupled, g.bridge)
         if g.n_coupled:
-            lead = key[0]
-            self._members[lead] = [int(s) for s in key[:g.n_coupled]]
+            lead = int(arr[0])
+            self._members[lead] = arr[:g.n_coupled].tolist()
             self._fit_sub(lead)
-
-    def _no_probe(self, m: int) -> np.ndarray:
-        p = getattr(self, "_no_probe_rows", None)
-        if p is None or p.shape[0] < m:
-            p = self._no_probe_rows = np.full(max(m, 8), -1, dtype=np.int64)
-        return p[:m]
