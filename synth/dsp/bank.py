@@ -26,7 +26,7 @@ from ..kernels.energy import ring_energy
 from . import compile_notice, sizing, threads
 from .bridges import Bridges
 from .groups import Groups
-from .hand_over import SLOT_COLS, HandOver
+from .hand_over import SLOT_COLS, HandOver, _write_mask
 from .telemetry import Telemetry
 from .excitation import (  # noqa: F401  (re-exported: the voices build their hammers here)
     SOLVER_TOL, Excitations, HammerSet, HammerTemplate, hammer_set, hammer_template)
@@ -123,19 +123,6 @@ class SlotTemplate:
                           ("chunk", K.I_CHUNK), ("chunk_free", K.I_CHUNK_FREE)):
             object.__setattr__(self, name, int(ip[col]))
 
-
-#: ``ipar`` columns a template writes, by the columns a slot keeps
-#: (:meth:`StringBank._write_template`): one masked copy per write
-_WRITE_MASKS: dict[tuple, np.ndarray] = {}
-
-
-def _write_mask(keep_cols: tuple) -> np.ndarray:
-    m = _WRITE_MASKS.get(keep_cols)
-    if m is None:
-        m = np.ones(K.I_NI, dtype=bool)
-        m[list(keep_cols)] = False
-        _WRITE_MASKS[keep_cols] = m
-    return m
 
 
 def _index(name: str, v, hi: int) -> int:
@@ -623,15 +610,8 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
 
     def configure_from(self, s: int, t: SlotTemplate, probe_row: int = -1) -> None:
         """Set up slot s from a template (zero state, no excitation)."""
-        cells = t.cells
-        if cells > self.max_cells:
-            raise ValueError(f"cells = {cells!r} is out of range (8 <= value <= {self.max_cells})")
-        R = t.region
-        if R > self.max_region:
-            raise ValueError(f"region points = {R} is out of range (0 <= value <= {self.max_region})")
+        self._check_sizes(t.cells, t.region, t.bend_len)
         blen = t.bend_len
-        if blen > self.max_bend:
-            raise ValueError(f"bend_len = {blen!r} is out of range (0 <= value <= {self.max_bend})")
         if self._leader[s] >= 0:
             self.leave(s)              # a new string: off its bridge
         self.clear(s)                  # (free when the slot is already clean)
@@ -644,6 +624,18 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         # the tension's first reading (synth.kernels.tension) F_TMM samples
         # in (a string joining a bridge takes the bridge's: Bridges.join)
         self.fst[s, K.S_TMC] = self.fpar[s, K.F_TMM]
+
+    def _check_sizes(self, cells: int, region: int, bend_len: int) -> None:
+        """ValueError unless a string of ``cells`` cells, ``region``
+        termination points and a bend line of ``bend_len`` fits a slot."""
+        if cells > self.max_cells:
+            raise ValueError(f"cells = {cells!r} is out of range (8 <= value <= {self.max_cells})")
+        if region > self.max_region:
+            raise ValueError(f"region points = {region} is out of range (0 <= value <= "
+                             f"{self.max_region})")
+        if bend_len > self.max_bend:
+            raise ValueError(f"bend_len = {bend_len!r} is out of range (0 <= value <= "
+                             f"{self.max_bend})")
 
     def _write_template(self, s: int, t: SlotTemplate, keep_cols) -> None:
         """Slot s's parameters and profile from template t, its ``ipar``

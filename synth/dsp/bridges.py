@@ -16,6 +16,34 @@ import numpy as np
 from ..kernels import strings as K
 
 
+def bridge_constants(dt_s: float, resistance_ns_per_m: float, return_hz: float,
+                     mass_hz: float = 0.0) -> tuple[float, float, float]:
+    """A bridge's columns ``F_BRB``, ``F_BRA``, ``F_BRMU`` for its leader's
+    time step ``dt_s`` (s), checked as :meth:`Bridges.couple` checks them:
+    dt / R, the return spring's pole exp(-2 pi return_hz dt), and
+    mu = M / (R dt) with M = R / (2 pi mass_hz), the mass's step against the
+    dashpot's (0 without a mass)."""
+    if not (resistance_ns_per_m > 0.0) or not math.isfinite(resistance_ns_per_m):
+        raise ValueError(f"resistance_ns_per_m = {resistance_ns_per_m!r} is out of range (value > 0)")
+    if not (return_hz >= 0.0):
+        raise ValueError(f"return_hz = {return_hz!r} is out of range (value >= 0)")
+    if not (mass_hz >= 0.0) or not math.isfinite(mass_hz):
+        raise ValueError(f"mass_hz = {mass_hz!r} is out of range (value >= 0, finite)")
+    return (dt_s / resistance_ns_per_m, math.exp(-2.0 * math.pi * return_hz * dt_s),
+            1.0 / (2.0 * math.pi * mass_hz * dt_s) if mass_hz > 0 else 0.0)
+
+
+def bridge_misfit(name: str, ip, lead: str, ip_lead) -> str | None:
+    """Why the string ``name`` (``ipar`` row ``ip``) cannot hang on the
+    bridge led by ``lead`` (row ``ip_lead``), as an error's message, or None."""
+    if ip[K.I_FILT] != 1 or ip[K.I_OUT] != 1:
+        return (f"{name} cannot hang on a bridge (it needs a lossy far end and the "
+                f"bridge-force output)")
+    if ip[K.I_SUB] != ip_lead[K.I_SUB]:
+        return f"{name} runs on another grid than {lead}"
+    return None
+
+
 class Bridges:
     """Coupled and external bridges (a mixin of :class:`synth.dsp.bank.StringBank`)."""
 
@@ -124,30 +152,21 @@ class Bridges:
 
     def _new_bridge(self, lead: int, resistance_ns_per_m: float, return_hz: float,
                     mass_hz: float = 0.0) -> None:
-        if not (resistance_ns_per_m > 0.0) or not math.isfinite(resistance_ns_per_m):
-            raise ValueError(f"resistance_ns_per_m = {resistance_ns_per_m!r} is out of range (value > 0)")
-        if not (return_hz >= 0.0):
-            raise ValueError(f"return_hz = {return_hz!r} is out of range (value >= 0)")
-        if not (mass_hz >= 0.0) or not math.isfinite(mass_hz):
-            raise ValueError(f"mass_hz = {mass_hz!r} is out of range (value >= 0, finite)")
+        brb, bra, brmu = bridge_constants(float(self.fpar[lead, K.F_DT]), resistance_ns_per_m,
+                                          return_hz, mass_hz)
         if self._leader[lead] >= 0:
             self.leave(lead)
         self._check_member(lead, lead)
-        dt = float(self.fpar[lead, K.F_DT])
-        self.fpar[lead, K.F_BRB] = dt / resistance_ns_per_m
-        self.fpar[lead, K.F_BRA] = math.exp(-2.0 * math.pi * return_hz * dt)
-        # mu = M / (R dt) with M = R / (2 pi mass_hz): the mass's step against the dashpot's
-        self.fpar[lead, K.F_BRMU] = 1.0 / (2.0 * math.pi * mass_hz * dt) if mass_hz > 0 else 0.0
+        self.fpar[lead, K.F_BRB] = brb
+        self.fpar[lead, K.F_BRA] = bra
+        self.fpar[lead, K.F_BRMU] = brmu
         self.fst[lead, K.S_UBW] = 0.0
         self.fst[lead, K.S_UBM] = 0.0
 
     def _check_member(self, s: int, lead: int) -> None:
-        ip = self.ipar[s]
-        if ip[K.I_FILT] != 1 or ip[K.I_OUT] != 1:
-            raise ValueError(f"slot {s} cannot hang on a bridge (it needs a lossy far end "
-                             f"and the bridge-force output)")
-        if ip[K.I_SUB] != self.ipar[lead, K.I_SUB]:
-            raise ValueError(f"slot {s} runs on another grid than slot {lead}")
+        why = bridge_misfit(f"slot {s}", self.ipar[s], f"slot {lead}", self.ipar[lead])
+        if why is not None:
+            raise ValueError(why)
 
     def _chain(self, lead: int) -> None:
         """Write the group's chain into the kernel's columns."""

@@ -12,21 +12,20 @@ its second polarization) into a few arrays, made once per key;
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from ..kernels import strings as K
 from ..kernels.configure import configure_group
-from .hand_over import SLOT_COLS
+from .bridges import bridge_constants, bridge_misfit
+from .hand_over import SLOT_COLS, _write_mask
 
 
 @dataclass(frozen=True, eq=False)
 class GroupTemplate:
     """Strings a note-on sets up, packed (:func:`group_template`)."""
 
-    templates: tuple            # the slot templates (SlotTemplate), one per string
     ipar: np.ndarray            # int64 (m, I_NI): their ipar rows
     fpar: np.ndarray            # float64 (m, F_NF)
     U: np.ndarray               # their profiles, one after the other (m)
@@ -39,7 +38,7 @@ class GroupTemplate:
 
     @property
     def m(self) -> int:
-        return len(self.templates)
+        return self.ipar.shape[0]
 
 
 def group_template(templates, damper_rows, n_coupled: int = 0,
@@ -64,31 +63,21 @@ def group_template(templates, damper_rows, n_coupled: int = 0,
     bridge = np.zeros(3)
     if n_coupled:
         t0 = templates[0]
-        for t in templates[:n_coupled]:
-            if t.ipar[K.I_FILT] != 1 or t.ipar[K.I_OUT] != 1:
-                raise ValueError("a string that cannot hang on a bridge (it needs a lossy far end "
-                                 "and the bridge-force output)")
-            if t.ipar[K.I_SUB] != t0.ipar[K.I_SUB]:
-                raise ValueError("the strings of one bridge run on different grids")
-        R = resistance_ns_per_m
-        if R is None or not (R > 0.0) or not math.isfinite(R):
-            raise ValueError(f"resistance_ns_per_m = {R!r} is out of range (value > 0)")
-        if not (return_hz >= 0.0):
-            raise ValueError(f"return_hz = {return_hz!r} is out of range (value >= 0)")
-        if not (mass_hz >= 0.0) or not math.isfinite(mass_hz):
-            raise ValueError(f"mass_hz = {mass_hz!r} is out of range (value >= 0, finite)")
-        # (Bridges._new_bridge's expressions, in Python: the same floats)
-        dt = float(t0.fpar[K.F_DT])
-        bridge[0] = dt / R
-        bridge[1] = math.exp(-2.0 * math.pi * return_hz * dt)
-        bridge[2] = 1.0 / (2.0 * math.pi * mass_hz * dt) if mass_hz > 0 else 0.0
+        for j, t in enumerate(templates[:n_coupled]):
+            why = bridge_misfit(f"string {j}", t.ipar, "string 0", t0.ipar)
+            if why is not None:
+                raise ValueError(why)
+        if resistance_ns_per_m is None:
+            raise ValueError("resistance_ns_per_m = None is out of range (value > 0)")
+        # (Bridges._new_bridge's values: the same floats)
+        bridge[:] = bridge_constants(float(t0.fpar[K.F_DT]), resistance_ns_per_m, return_hz,
+                                     mass_hz)
     Us = [np.zeros(0) if t.U is None or t.region == 0 else np.asarray(t.U, float)[:t.region]
           for t in templates]
     uoff = np.cumsum([0] + [len(u) for u in Us[:-1]]).astype(np.int64)
     dampers = np.array([tuple(float(v) for v in r[:4]) + (damper_down_factor(r),)
                         for r in damper_rows], dtype=np.float64)
     return GroupTemplate(
-        templates=templates,
         ipar=np.ascontiguousarray(np.stack([t.ipar for t in templates]).astype(np.int64)),
         fpar=np.ascontiguousarray(np.stack([t.fpar for t in templates]).astype(np.float64)),
         U=np.ascontiguousarray(np.concatenate(Us + [np.zeros(1)])), uoff=uoff,
@@ -99,8 +88,7 @@ def group_template(templates, damper_rows, n_coupled: int = 0,
 
 
 #: the ``ipar`` columns a template writes (not the slot's own)
-_WRITE = np.ones(K.I_NI, dtype=np.bool_)
-_WRITE[list(SLOT_COLS)] = False
+_WRITE = _write_mask(SLOT_COLS)
 
 
 class Groups:
@@ -116,13 +104,7 @@ class Groups:
         arr = self._slot_array(slots)
         if arr.shape[0] != g.m:
             raise ValueError(f"slots = {tuple(arr.tolist())!r}: {g.m} are needed, one per template")
-        cells, region, blen = g.sizes
-        if cells > self.max_cells:
-            raise ValueError(f"cells = {cells!r} is out of range (8 <= value <= {self.max_cells})")
-        if region > self.max_region:
-            raise ValueError(f"region points = {region} is out of range (0 <= value <= {self.max_region})")
-        if blen > self.max_bend:
-            raise ValueError(f"bend_len = {blen!r} is out of range (0 <= value <= {self.max_bend})")
+        self._check_sizes(*g.sizes)
         if (self._leader[arr] >= 0).any():
             for s in arr.tolist():
                 if self._leader[s] >= 0:

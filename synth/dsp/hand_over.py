@@ -22,6 +22,20 @@ if TYPE_CHECKING:                                # (bank.py imports this module)
 #: per-slot columns of ``ipar`` that a template does not carry (the output
 #: row is the slot's until :meth:`StringBank.set_output_row` changes it)
 SLOT_COLS = (K.I_OFF, K.I_REG_OFF, K.I_GT_OFF, K.I_BOFF, K.I_ROW)
+#: ``ipar`` columns a template writes, by the columns a slot keeps
+#: (:meth:`StringBank._write_template`): one masked copy per write
+_WRITE_MASKS: dict[tuple, np.ndarray] = {}
+
+
+def _write_mask(keep_cols: tuple) -> np.ndarray:
+    m = _WRITE_MASKS.get(keep_cols)
+    if m is None:
+        m = np.ones(K.I_NI, dtype=bool)
+        m[list(keep_cols)] = False
+        _WRITE_MASKS[keep_cols] = m
+    return m
+
+
 #: ``ipar`` columns a slot keeps when it changes grid (:meth:`StringBank.hand_over`)
 _HAND_OVER_KEEP = SLOT_COLS + (K.I_PROBE, K.I_TELEM, K.I_CPL, K.I_CPLN, K.I_CPLNX)
 #: ``fst`` columns it keeps as they are: the peak, the bridge, the telemetry's

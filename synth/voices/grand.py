@@ -88,7 +88,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..dsp.bank import (HammerTemplate, SlotTemplate, StringBank, damper_down_factor, hammer_set,
+from ..dsp.bank import (HammerTemplate, SlotTemplate, StringBank, hammer_set,
                         hammer_template, slot_template)
 from ..dsp.groups import GroupTemplate, group_template
 from ..kernels import strings as K
@@ -201,7 +201,8 @@ class GrandVoice(KeyboardDampers, Voice):
         between runs (:mod:`synth.voices.design_store`: named by the code,
         the preset, the rate and the tolerance, so never stale).  Each
         key's hammer sets (struck on every string and, una corda, on one
-        fewer) and its dampers' loss factors are made too: without them a
+        fewer) and its strings packed for a fresh strike (with their dampers'
+        loss factors, :meth:`_group_of`) are made too: without them a
         key's first strike in a live stream cost 160-180 us of the audio
         thread against 25-35 us for the next (2026-11-30; a chord of eight
         keys not yet played, about 1 ms of a 2.67 ms period)."""
@@ -221,8 +222,6 @@ class GrandVoice(KeyboardDampers, Voice):
                     self._group_of(key, sus, None)      # (its polarization still sounding)
                 if m >= 2:
                     self._hammer_set_of(key, sus, m - 1, pol)
-                for su in sus + ((pol,) if pol is not None else ()):
-                    damper_down_factor(su.damper)
         if len(self._keys) > n:
             design_store.save("grand-keys", store, dict(self._keys))
 
@@ -432,9 +431,7 @@ class GrandVoice(KeyboardDampers, Voice):
         fs = self.fs
         dt = 1.0 / fs
         dx = gs.c_m_per_s * dt
-        t_own = gs.t60_low_s * self.own_t60_factor(key)
-        t_lo = t_own * sp.t60_scale
-        t_hi = min(gs.t60_s(gs.f_high_hz) * t_own / gs.t60_low_s * sp.t60_scale, t_lo)
+        t_lo, t_hi = self._loop_t60s(gs, gs.t60_low_s * self.own_t60_factor(key))
         loop = tune_stiff_loop_sos(f1, gs.inharmonicity_b, fs, t_lo, f1, t_hi,
                                    max(gs.f_high_hz, 1.5 * f1),
                                    tol_cents=self.quality.dispersion_tol_cents,
@@ -490,8 +487,7 @@ class GrandVoice(KeyboardDampers, Voice):
         cpl = sp.bridge_coupling if sp.bridge_coupling is not None else 0.0
         t_own = (gs.t60_low_s if cpl > 0 else gs.t60_prompt_s) * self.own_t60_factor(key)
         out = []
-        t_lo = t_own * sp.t60_scale
-        t_hi = min(gs.t60_s(gs.f_high_hz) * t_own / gs.t60_low_s * sp.t60_scale, t_lo)
+        t_lo, t_hi = self._loop_t60s(gs, t_own)
         # the key's stiffness: second-order allpasses putting partials up to
         # 40 (or 10 kHz) within 2 cents of the stiff-string law, designed once
         # for the key and retuned for each string of its unison
@@ -529,6 +525,15 @@ class GrandVoice(KeyboardDampers, Voice):
                                 hammer_soft=hammer_template(dt_s=su.dt_s, **hps),
                                 damper=(su.b0, su.f1_hz, t_damped, t_nat), bridge=bridge))
         return tuple(full)
+
+    def _loop_t60s(self, gs, t_own_s: float) -> tuple[float, float]:
+        """A string's loop T60s (s) at f0 and at its high frequency
+        ``gs.f_high_hz`` for its own T60 at f0 ``t_own_s``: the law's
+        high-frequency decay scaled alike, times ``strings.t60_scale``, the
+        upper at most the lower."""
+        sc = self.preset.strings.t60_scale
+        t_lo = t_own_s * sc
+        return t_lo, min(gs.t60_s(gs.f_high_hz) * t_own_s / gs.t60_low_s * sc, t_lo)
 
     def _strike_point_and_bar(self, gs, dx: float, cells: int):
         """A string's strike point (cells from the end: at its distance from

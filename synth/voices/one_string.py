@@ -216,9 +216,7 @@ class OneStringVoice(Voice):
         # a key's first note-on in a live stream made it in the audio thread
         # (56-76 us of the sitar's, 2026-11-30)
         for su in list(self._setups.values()):
-            hit = self._templates.get(id(su))
-            if hit is None or hit[0] is not su:
-                self._templates[id(su)] = (su, self._template(su, su.U))
+            self._own_template(su)
 
     # -- physics at note-on -------------------------------------------------------
     @property
@@ -456,17 +454,18 @@ class OneStringVoice(Voice):
                              glide_s=StringBank.LOSS_GLIDE_S,
                              bend_glide_s=StringBank.BEND_GLIDE_S, tension=su.tension)
 
+    def _own_template(self, su: OneStringSetup):
+        """The slot template of ``su`` with its own profile, made once and
+        kept (with the setup beside it: its id names no other object)."""
+        hit = self._templates.get(id(su))
+        if hit is None or hit[0] is not su:
+            hit = self._templates[id(su)] = (su, self._template(su, su.U))
+        return hit[1]
+
     def _configure(self, bank: StringBank, slot: int, su: OneStringSetup, probe_row: int) -> None:
         U = self._region(su)
-        own = U is su.U                # the cached profile (not a buzz depth's)
-        hit = self._templates.get(id(su)) if own else None
-        if hit is None or hit[0] is not su:
-            t = self._template(su, U)
-            if own:
-                # (the setup is kept beside it: its id names no other object)
-                self._templates[id(su)] = (su, t)
-        else:
-            t = hit[1]
+        # the cached profile keeps its template; a buzz depth's is made anew
+        t = self._own_template(su) if U is su.U else self._template(su, U)
         bank.configure_from(slot, t, probe_row)
         # the thesis's strings are lossless and never damped
         t_damped = math.inf if self.study else self.preset.loss.release_t60_s

@@ -192,6 +192,14 @@ def host_noise(seconds=10.0, block_s=128 / 48000, load=0.5):
             times.max() / np.median(times), cpu.max() / np.median(times))
 
 
+def _spin(pause_s: float) -> None:
+    """Keep this thread busy for ``pause_s`` seconds touching nothing else
+    (a loop reading the clock)."""
+    t9 = time.perf_counter()
+    while time.perf_counter() - t9 < pause_s:
+        pass
+
+
 def page_touch_us(pauses_s=(0.0, 0.01, 0.1, 1.0), pages: int = 2000, repeats: int = 3,
                   size_mb: int = 64) -> list:
     """What memory left alone costs to read again: ``pages`` pages of a
@@ -210,9 +218,7 @@ def page_touch_us(pauses_s=(0.0, 0.01, 0.1, 1.0), pages: int = 2000, repeats: in
         r = []
         for _ in range(repeats):
             int(a[idx].sum())
-            t9 = time.perf_counter()
-            while time.perf_counter() - t9 < pause:
-                pass
+            _spin(pause)
             t = time.perf_counter()
             int(a[idx].sum())
             r.append(time.perf_counter() - t)
@@ -233,9 +239,7 @@ def call_after_us(pauses_s=(0.0, 0.1, 0.3), repeats: int = 3) -> list:
     for pause in pauses_s:
         r = []
         for _ in range(repeats):
-            t9 = time.perf_counter()
-            while time.perf_counter() - t9 < pause:
-                pass
+            _spin(pause)
             t = time.perf_counter()
             np.add(a, 1.0)
             r.append(time.perf_counter() - t)
