@@ -23,6 +23,7 @@ every block): a signal whose exception was lost stops the work there.
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 from collections.abc import Iterator
@@ -68,6 +69,9 @@ class Interrupted(KeyboardInterrupt):
         return f"interrupted by {self.signal_name}" + (f": {self.detail}" if self.detail else "")
 
 
+#: the path part of llvmlite's modules (a frame there is LLVM calling back)
+_LLVMLITE = f"{os.sep}llvmlite{os.sep}"
+
 #: signals that arrived inside :func:`interruptible` (its handler appends;
 #: entering and leaving the block clears it)
 _pending: list[int] = []
@@ -107,10 +111,14 @@ def interruptible(signals=HANDLED_SIGNALS) -> Iterator[None]:
         for s in mine:
             signal.signal(s, signal.SIG_IGN)   # no second interruption of the clean-up
         _pending.append(signum)                # in case the exception below is lost
-        if frame is not None and frame.f_code.co_name == "__del__":
+        if frame is not None and (frame.f_code.co_name == "__del__"
+                                  or _LLVMLITE in frame.f_code.co_filename):
             # a finalizer (llvmlite's, numba compiling or loading a kernel)
-            # would swallow it and print "Exception ignored ... Traceback"
-            # on stderr: the next raise_if_interrupted raises it instead
+            # or a callback of LLVM's into llvmlite (its object cache, as a
+            # kernel loads) would swallow it and print "Exception ignored
+            # ... Traceback" on stderr (the callback's then left LLVM
+            # half-way: a segmentation fault, 2026-12-01): the next
+            # raise_if_interrupted raises it instead
             return
         raise Interrupted(signum)
 
