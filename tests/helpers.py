@@ -43,3 +43,31 @@ def cli(capsys, *argv):
     cap = capsys.readouterr()
     assert "Traceback" not in cap.err, cap.err
     return subprocess.CompletedProcess(argv, rc, cap.out, cap.err)
+
+
+def string_table(n):
+    """An ``ipar`` table of ``n`` strings, each by itself on the engine's
+    grid, no probe, chunks of 8 samples while excited (for the render
+    kernels' choices)."""
+    import numpy as np
+
+    from synth.kernels import layout as L
+
+    ip = np.zeros((n, L.I_NI), dtype=np.int64)
+    ip[:, L.I_CPL] = L.CPL_NONE
+    ip[:, L.I_SUB] = 1
+    ip[:, L.I_PROBE] = -1
+    ip[:, L.I_CHUNK] = 8
+    return ip
+
+
+def couple(ip, lead, size):
+    """Strings ``lead`` .. ``lead + size - 1`` of ``ip`` as one coupled
+    group (one bridge) led by ``lead``."""
+    from synth.kernels import layout as L
+
+    for j in range(size):
+        s = lead + j
+        ip[s, L.I_CPL] = lead
+        ip[s, L.I_CPLNX] = s + 1 if j + 1 < size else -1
+    ip[lead, L.I_CPLN] = size

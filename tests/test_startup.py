@@ -15,6 +15,7 @@ from types import SimpleNamespace
 
 import numpy as np
 import pytest
+from helpers import couple, string_table
 
 from synth.dsp import compile_notice as CN
 
@@ -240,27 +241,6 @@ def test_warmup_in_two_processes_reports_each_preset(tmp_path):
     assert [w.compiled for w in again] == [0, 0] and [w.compile_s for w in again] == [0.0, 0.0]
 
 
-def _ipar(n):
-    from synth.kernels import layout as L
-
-    ip = np.zeros((n, L.I_NI), dtype=np.int64)
-    ip[:, L.I_CPL] = L.CPL_NONE
-    ip[:, L.I_SUB] = 1
-    ip[:, L.I_PROBE] = -1
-    ip[:, L.I_CHUNK] = 8
-    return ip
-
-
-def _group(ip, lead, size):
-    from synth.kernels import layout as L
-
-    for j in range(size):
-        s = lead + j
-        ip[s, L.I_CPL] = lead
-        ip[s, L.I_CPLNX] = s + 1 if j + 1 < size else -1
-    ip[lead, L.I_CPLN] = size
-
-
 def test_bank_kind_picks_the_renderer_render_sharded_would_run():
     """The bank's choice of kernel (synth.kernels.render.bank_kind): one
     shard of big groups, one small group, one plain string, anything else
@@ -273,11 +253,11 @@ def test_bank_kind_picks_the_renderer_render_sharded_would_run():
         a = np.array(active, dtype=np.int64)
         return KR.bank_kind(a, len(active), ip, fp, n)
 
-    ip = _ipar(40)
+    ip = string_table(40)
     fp = np.zeros((40, L.F_NF))
     assert kind(ip, []) == KR.KIND_NONE
-    _group(ip, 0, 14)                      # a sitar's bridge
-    _group(ip, 20, 3)                      # a piano key
+    couple(ip, 0, 14)                      # a sitar's bridge
+    couple(ip, 20, 3)                      # a piano key
     # chunks of 8 samples: never the work for a second thread
     assert kind(ip, list(range(14))) == KR.KIND_BIG_GROUPS_ONE
     # chunks of up to 512 samples (GROUP_CHUNK) of 14 strings of cost
@@ -316,7 +296,7 @@ def test_a_sitar_note_compiles_no_parallel_loop():
     out = _printed_on_two_threads(
         "synth.render_note('sitar', key=57, velocity=100, seconds=0.2)\n"
         "print(len(KR._tasks_a_par.signatures), len(KR._tasks_c_par.signatures),"
-        " [str(s[-1]) for s in KR.render_big_groups.signatures])\n")
+        " [str(s[-2]) for s in KR.render_big_groups.signatures])\n")
     assert out[-1:] == ["0 0 ['none']"], out
 
 

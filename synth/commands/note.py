@@ -104,9 +104,17 @@ def run(args) -> int:
         fail(str(e))
     from ..dsp.compile_notice import compile_seconds, timing_note
 
+    from ..apps import cold_start
+
     c0 = compile_seconds()
     t = time.perf_counter()
-    y = play_note(eng, key, f0, velocity, seconds, args.hammer_speed)
+    # (a cold cache: a second process compiles part of the kernels meanwhile)
+    helper = cold_start.start(eng, args.preset, args.set, args.threads)
+    try:
+        y = play_note(eng, key, f0, velocity, seconds, args.hammer_speed)
+    finally:
+        if helper is not None:
+            helper.close()
     comp = compile_seconds() - c0
     el = time.perf_counter() - t - comp
     info = write_audio(args.output, y, eng.fs_out, args.pcm24, fmt, gain=preset.output.gain)

@@ -57,6 +57,7 @@ def run(args) -> int:
     --max-seconds, the progress bar, Ctrl-C and SIGTERM, the atomic
     write).  Options are checked here first, under their own names."""
     from ..api.render import stream_midi
+    from ..apps import cold_start
     from ..apps.render import (check_max_seconds, log_stderr, output_interruptible,
                                write_render)
     from ..engine.mpe import LOWER
@@ -79,8 +80,14 @@ def run(args) -> int:
         midi = stream_midi(args.midi_file, args.preset, args.set, max_seconds=args.max_seconds,
                            channels=channels, drums=args.drums, rate=rate,
                            internal_rate=args.internal_rate, mpe=mpe, log=log_stderr)
-        res = write_render(midi, args.output, pcm24=args.pcm24, fmt=fmt, log=log_stderr,
-                           stream=sys.stderr)
+        # (a cold cache: a second process compiles part of the kernels meanwhile)
+        helper = cold_start.start(midi.engine, args.preset, args.set, args.threads)
+        try:
+            res = write_render(midi, args.output, pcm24=args.pcm24, fmt=fmt, log=log_stderr,
+                               stream=sys.stderr)
+        finally:
+            if helper is not None:
+                helper.close()
     warn = peak_warning(args.output, res.peak_dbfs, res.output_gain, res.n_clipped)
     if warn:
         print(warn, file=sys.stderr)

@@ -22,6 +22,7 @@ import numpy as np
 
 from ..kernels import render as KR
 from ..kernels import strings as K
+from .units import _ADDR, _wait_elsewhere, _with_needs, elsewhere
 from ..kernels.energy import ring_energy
 from . import compile_notice, sizing, threads
 from .bridges import Bridges
@@ -64,11 +65,12 @@ def _loss_factor(t60_s, t60_free_s, f1_hz):
     return np.exp(-sigma / f1_hz)
 #: the kernels that may run loops on several threads (bank.render's kinds)
 _THREADED = (KR.KIND_SHARDS, KR.KIND_BIG_GROUPS, KR.KIND_BANK)
-#: render_bank's address for render_sharded (KR.bank_address), and the
-#: renderers of one unit's for render_bank (KR.unit_address): once per process
-_ADDR: dict[object, int] = {}
 #: the renderers of one unit besides a big group's (live play, synth warmup)
 _ALL_UNITS = (1 << KR.A_SMALL) | (1 << KR.A_STRING)
+#: the units render_big_groups calls (its per-sample path, its blocks' first half)
+_BIG_NEEDS = KR.NEEDS[KR.A_BIG]
+#: the units a coupled group calls only where it needs them (KR.groups_need)
+_GROUPS_NEED = (1 << KR.A_PER) | (1 << KR.A_HAMMERS)
 #: the shortest fast-path chunk a slot is given while its excitation runs
 #: (:func:`slot_template`): a shorter one renders per sample
 MIN_FAST_CHUNK = 2
@@ -365,7 +367,8 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         #: ``_addrs`` (bits 1 << A_BIG, ...; a big group only where
         #: ``max_group`` allows one): 0 once all are, and then a block no
         #: longer asks which kinds are active (:meth:`_active_units`)
-        self._units_left = _ALL_UNITS | ((1 << KR.A_BIG) if self.max_group > KR.BLOCK else 0)
+        self._units_left = _with_needs(
+            _ALL_UNITS | ((1 << KR.A_BIG) if self.max_group > KR.BLOCK else 0)) | _GROUPS_NEED
         self._pb = np.zeros(KR.block_mix_shape(self.max_group, 2))
         self._smix = np.zeros((KR.MAX_SHARDS - 1, 1, 1))
         # staging mix of strings on a finer grid (two buses; more rows for a
@@ -975,8 +978,14 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
             # the kernel for what is active (the samples render_sharded gives
             # it), so that a scene compiles only what it runs
             if kind == KR.KIND_SHARDS:
-                units = self._active_units()
-                KR.render_sharded(self._bank_addr(), units, self.ring, self.ipar, self.fpar,
+                # (what another process compiles, last: its wait then costs least)
+                if elsewhere("bank"):
+                    units = self._active_units()
+                    bank = self._bank_addr()
+                else:
+                    bank = self._bank_addr()
+                    units = self._active_units()
+                KR.render_sharded(bank, units, self.ring, self.ipar, self.fpar,
                                   self.fst, self.U, self.active, self.n_active, c, o0 + done,
                                   mix, self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                                   smix, self._plan, pb, self._tw, self._ib, ntc)
@@ -984,10 +993,20 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
                 # (nt None: the blocks on this thread, a separate compile
                 # without the parallel loops, which one note never needs)
                 # (the governor's one thread: 1, the same compiled kernel)
+                big_nt = ntc if kind == KR.KIND_BIG_GROUPS and nt > 1 else None
+                addrs = self._addrs
+                if self._units_left & (_BIG_NEEDS | _GROUPS_NEED):
+                    # the renderer first (no string: it runs no unit), then
+                    # the units it calls, which another process may be compiling
+                    KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U,
+                                         self.active[:0], 0, 0, 0, mix, self.probe,
+                                         self._scratch2[0], self._iwork2[0], pb, self._tw,
+                                         self._ib, big_nt, addrs)
+                    addrs = self._units(_BIG_NEEDS)
                 KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                      self.active, self.n_active, c, o0 + done, mix, self.probe,
                                      self._scratch2[0], self._iwork2[0], pb, self._tw, self._ib,
-                                     ntc if kind == KR.KIND_BIG_GROUPS and nt > 1 else None)
+                                     big_nt, addrs)
             elif kind == KR.KIND_SMALL_GROUP:
                 KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                       self.active, self.n_active, c, o0 + done, mix, self.probe,
@@ -1014,6 +1033,7 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         that renders nothing, then its address taken, once per process."""
         a = _ADDR.get("bank")
         if a is None:
+            _wait_elsewhere("bank")
             mix = np.zeros((self._row_top + 1, 1))
             KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, self.active[:0], 0, 0,
                            0, mix, self.probe, self._scratch2[0], self._iwork2[0],
@@ -1033,32 +1053,43 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
 
     def _units(self, mask: int) -> np.ndarray:
         """The bank's ``addrs`` (:func:`synth.kernels.render.render_bank`)
-        with the renderer of every unit kind in ``mask`` (bits 1 << A_BIG,
-        ...; :func:`~synth.kernels.render.unit_kinds`) in it: each loaded
-        (or compiled) the first time a scene needs it, by a call that
-        renders nothing, then its address taken, once per process.  A
-        coupled group of more than BLOCK members is asked for only where
-        ``max_group`` allows one (:class:`~synth.dsp.bridges.Bridges`
-        refuses a larger group than ``max_group``)."""
+        with every unit in ``mask`` (bits 1 << A_BIG, ...;
+        :mod:`synth.kernels.address`) and the units they call in it: each
+        loaded (or compiled) the first time a scene needs it, then its
+        address taken, once per process (a renderer of one unit by a call
+        that renders nothing, the others for their signature).  Units
+        another process is compiling (:func:`compile_elsewhere`) come last,
+        after the wait.  The coupled groups' per-sample path (``A_PER``)
+        and their hammers (``A_HAMMERS``) come in only where a group may
+        take them before the next event
+        (:func:`~synth.kernels.unison.groups_need`: a probe, a felt, a
+        chord of more plucks than a chunk's rows; a hammer).  A coupled group of more than BLOCK members is
+        asked for only where ``max_group`` allows one
+        (:class:`~synth.dsp.bridges.Bridges` refuses a larger group than
+        ``max_group``)."""
         addrs = self._addrs
-        for k in (KR.A_BIG, KR.A_SMALL, KR.A_STRING):
-            if not (mask >> k) & 1 or addrs[k] != 0:
-                continue
-            if k == KR.A_BIG and self.max_group <= KR.BLOCK:
-                continue
+        if self.max_group <= KR.BLOCK:
+            mask &= ~(1 << KR.A_BIG)
+        mask = _with_needs(mask)
+        if addrs[KR.A_PER] == 0 or addrs[KR.A_HAMMERS] == 0:
+            # (a coupled group may render per sample, or has hammers)
+            mask |= KR.groups_need(self.active, self.n_active, self.ipar)
+        want = [k for k in range(KR.N_ADDRS) if (mask >> k) & 1 and addrs[k] == 0]
+        for k in sorted(want, key=elsewhere):
             a = _ADDR.get(k)
             if a is None:
+                _wait_elsewhere(k)
                 mix = np.zeros((self._row_top + 1, 1))
                 iw = self._iwork2[0][:1]
                 sc = self._scratch2[0]
                 if k == KR.A_BIG:
                     KR.render_coupled_big(0, self.ring, self.ipar, self.fpar, self.fst, self.U, 0,
                                           0, mix, self.probe, sc, iw, iw, 0, 1, self._pb,
-                                          self._tw, self._ib, 1)
+                                          self._tw, self._ib, 1, addrs)
                 elif k == KR.A_SMALL:
                     KR.render_coupled_small(0, self.ring, self.ipar, self.fpar, self.fst, self.U,
-                                            0, 0, mix, self.probe, sc, iw, iw, 0, 1)
-                else:
+                                            0, 0, mix, self.probe, sc, iw, iw, 0, 1, addrs)
+                elif k == KR.A_STRING:
                     KR.render_string(0, self.ring, self.ipar, self.fpar, self.fst, self.U, 0, 0,
                                      mix, self.probe, sc, np.zeros(1), 0, 1)
                 a = _ADDR[k] = KR.unit_address(k)
@@ -1086,7 +1117,7 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         KR.bank_kind(none, 0, self.ipar, self.fpar, c)
         # (the renderers of one unit that render_bank may call, whatever the
         # scene: a bridge of many strings where the bank has room for one)
-        every = _ALL_UNITS | (1 << KR.A_BIG)
+        every = _ALL_UNITS | (1 << KR.A_BIG) | _GROUPS_NEED
         if "sharded" in want:
             KR.render_sharded(self._bank_addr(), self._units(every), self.ring, self.ipar,
                               self.fpar, self.fst, self.U, none, 0, c, 0, mix,
@@ -1096,7 +1127,8 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
             for big_nt in (nt, None):
                 KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c,
                                      0, mix, self.probe, self._scratch2[0], self._iwork2[0],
-                                     self._pb, self._tw, self._ib, big_nt)
+                                     self._pb, self._tw, self._ib, big_nt,
+                                     self._units(_BIG_NEEDS | _GROUPS_NEED))
         if "small_group" in want:
             KR.render_small_group(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0,
                                   mix, self.probe, self._scratch2[0], self._iwork2[0],

@@ -44,9 +44,12 @@ PROBE_INDEX = "render.render_bank-*.nbi"
 #: whose phrases of overlapping notes also compile the shards of several strings
 #: (``render_sharded``), 104-133 s and 194-219 s, and 50 s (model 207) with its
 #: phrases on two processes and the renderers called by address (2026-11-30);
-#: docs/benchmarks.md, "Start-up")
-MESSAGE = ("synth: compiling the string kernels for this CPU, once (on 2 cores about a "
-           "minute for a note, up to 4 for a phrase; `synth warmup` does it ahead of time) ...")
+#: a note with half its kernels compiled by a second process, model 167: the
+#: sitar 19-20 s, the grand 39 s, the biwa 24 s (2026-12-01); docs/benchmarks.md,
+#: "Start-up")
+MESSAGE = ("synth: compiling the string kernels for this CPU, once (on 2 cores 20-40 s "
+           "for a note, a minute or more for a phrase; `synth warmup` does it ahead of "
+           "time) ...")
 
 _lock = threading.Lock()
 _state = {
@@ -110,12 +113,14 @@ def keyed_folders() -> list[Path]:
     return [b / f"synth-kernels-{d}" for b in bases]
 
 
-def cache_looks_warm() -> bool:
+def cache_looks_warm(probe: str = PROBE_INDEX) -> bool:
     """True when the first existing keyed folder holds the bank renderer's
-    cache index: the kernels were compiled for these sources (for some
-    CPU: a cache shared between different CPUs still compiles, and the
-    listener then says so).  No numba import; about 20 ms, most of it
-    reading the installed versions of numba, llvmlite and numpy."""
+    cache index (or the index file pattern ``probe``, such as
+    ``"render._block_a-*.nbi"``): the kernels were compiled for these
+    sources (for some CPU: a cache shared between different CPUs still
+    compiles, and the listener then says so).  No numba import; about 20
+    ms, most of it reading the installed versions of numba, llvmlite and
+    numpy."""
     folders = keyed_folders()
     if os.environ.get("NUMBA_CACHE_DIR"):
         # numba compiles into that folder (synth.kernels.cache creates it if
@@ -123,7 +128,7 @@ def cache_looks_warm() -> bool:
         folders = folders[:1]
     for path in folders:
         if path.is_dir():
-            return any(path.glob("*/" + PROBE_INDEX)) or any(path.glob(PROBE_INDEX))
+            return any(path.glob("*/" + probe)) or any(path.glob(probe))
     return False
 
 
@@ -239,6 +244,13 @@ def listen() -> None:
 
     ev.register("numba:compile", _Listener())
     _state["listening"] = True
+
+
+def add_compile_seconds(seconds: float) -> None:
+    """Count ``seconds`` of waiting for another process's compile
+    (:mod:`synth.apps.cold_start`) as compiling."""
+    with _lock:
+        _state["seconds"] += float(seconds)
 
 
 def compile_seconds() -> float:

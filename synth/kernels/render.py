@@ -59,12 +59,16 @@ from __future__ import annotations
 
 import numpy as np
 from numba import njit, prange, types
-from numba.core import cgutils
-from numba.extending import intrinsic
 
+from .address import (  # noqa: F401  (the units and their signatures: re-exported)
+    A_BIG, A_BLOCKA, A_HAMMERS, A_PER, A_SMALL, A_STRING, A_TAIL, BIG_SIG, BLOCKA_SIG, F1, F2, F3, I1, I2,
+    INT, N_ADDRS, NEEDS, PER_SIG, SIGS, SMALL_SIG, STRING_SIG, TAIL_SIG, address_of, big_at,
+    blocka_at, function_at, per_at, small_at, string_at,
+)
 from .config import JIT_OPTS, PAR_OPTS
 from .contact import _region_step
 from .coupled import _bridge_steps, _far_lanes, _force_row
+from .excite import _excite_group
 from .far_end import _far_filter, _far_prep, _far_write
 from .layout import (
     CPL_NONE, EXC_FELT, EXC_HAMMER3, F_CURV, GROUP, GROUP_CHUNK, ROWS, I_BUS, I_CHUNK,
@@ -76,7 +80,7 @@ from .strings import _chunk_end, _render_group, _render_string, _work_windows
 # defined there and re-exported)
 from .unison import (  # noqa: F401  (BLOCK, ONE, ZERO: re-exported)
     BLOCK, ONE, ZERO, _coupled_chunk_small_or_split, _coupled_diag, _coupled_head, _coupled_next,
-    _coupled_per_sample, _coupled_tension,
+    _coupled_per_sample, _coupled_tail, _coupled_tension, groups_need,
 )
 
 #: (Compile time.)  numba links each callee's optimised module into its
@@ -183,6 +187,17 @@ def _balance(cost, n, T, task, load, order):
         load[best] += cost[j]
 
 
+@njit(inline="always", **JIT_OPTS)
+def _per_sample(addrs):
+    """:func:`~synth.kernels.unison._coupled_per_sample` at its address
+    ``addrs[A_PER]``, which the bank loads where a group may take it
+    (:func:`~synth.kernels.unison.groups_need`); an error, not a
+    jump to address 0, if it did not."""
+    if addrs[A_PER] == 0:
+        raise RuntimeError("a coupled group renders per sample, but its kernel is not loaded")
+    return per_at(addrs[A_PER])
+
+
 # ---- a big coupled group's blocks --------------------------------------------------
 
 @njit(**JIT_OPTS)
@@ -258,14 +273,16 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, nrow, scratch, pm, tw):
 
 
 @njit(inline="always", **JIT_OPTS)
-def _task_a(t, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb):
+def _task_a(t, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs):
     """Task t: the blocks b with ib[nb + b] = t (first half; block b's
-    force row: the last row of ``pb[b]``)."""
+    force row: the last row of ``pb[b]``), :func:`_block_a` called by its
+    address ``addrs[A_BLOCKA]``."""
     F = pb.shape[1] - 1
+    block_a = blocka_at(addrs[A_BLOCKA])
     for b in range(nb):
         if ib[nb + b] == t:
             pm = pb[b]
-            _block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw[t], ubm, pm[F])
+            block_a(b, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw[t], ubm, pm[F])
 
 
 @njit(inline="always", **JIT_OPTS)
@@ -279,9 +296,9 @@ def _task_c(t, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, ro
 
 
 @njit(**PAR_OPTS)
-def _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb):
+def _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs):
     for t in prange(T):
-        _task_a(np.int64(t), nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
+        _task_a(np.int64(t), nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs)
 
 
 @njit(**PAR_OPTS)
@@ -316,7 +333,7 @@ def _bridge_blocks(lead, nb, fpar, fst, C, row, pb):
 
 @njit(inline="always", **JIT_OPTS)
 def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
-                    pb, tw, ib, nt):
+                    pb, tw, ib, nt, addrs):
     """Steps 3 and 4 of :func:`_coupled_chunk` for a group of more than
     BLOCK members: the blocks' first halves (:func:`_block_a`), the
     bridge, the blocks' second halves (:func:`_block_c`) each into its
@@ -336,12 +353,12 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
     if nt is None:
         for b in range(nb):
             ib[nb + b] = 0
-        _task_a(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
+        _task_a(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs)
         _bridge_blocks(lead, nb, fpar, fst, C, cw[2 * G * _CW:2 * G * _CW + C + 1], pb)
         _task_c(ZERO, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
     else:
         _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb, tw, ib, nt,
-                        nb, ubm, rows, scratch)
+                        nb, ubm, rows, scratch, addrs)
     for b in range(nb):
         pm = pb[b]
         for r in range(rows):
@@ -353,7 +370,7 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
 
 @njit(inline="always", **JIT_OPTS)
 def _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb, tw, ib, nt, nb,
-                    ubm, rows, scratch):
+                    ubm, rows, scratch, addrs):
     """:func:`_coupled_blocks`' halves and bridge on min(nt, blocks)
     threads, balanced by cost (one thread when the chunk's work is below
     :data:`PAR_MIN_WORK`)."""
@@ -375,11 +392,11 @@ def _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb,
             T = 1
     if T > 1:
         _balance(cost, nb, T, ib[nb:2 * nb], ib[3 * nb:3 * nb + T], ib[4 * nb:5 * nb])
-        _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
+        _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs)
     else:
         for b in range(nb):
             ib[nb + b] = 0
-        _task_a(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb)
+        _task_a(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs)
     _bridge_blocks(lead, nb, fpar, fst, C, cw[2 * G * _CW:2 * G * _CW + C + 1], pb)
     if T > 1:
         _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
@@ -391,17 +408,18 @@ def _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb,
 
 @njit(inline="always", **JIT_OPTS)
 def _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist, pb, tw,
-                       ib, nt):
+                       ib, nt, addrs):
     """:func:`_coupled_chunk` of a group of more than BLOCK members (a
     sitar's bridge): its blocks (:func:`_coupled_blocks`)."""
-    row, work, cw, lock = _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist)
+    row, work, cw, lock = _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist,
+                                        addrs)
     _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
-                    pb, tw, ib, nt)
+                    pb, tw, ib, nt, addrs)
 
 
 @njit(**JIT_OPTS)
 def render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0,
-                       psub, pb, tw, ib, nt):
+                       psub, pb, tw, ib, nt, addrs):
     """:func:`_render_coupled` of a group of more than BLOCK members (a
     sitar's bridge), for :func:`render_bank`, which calls it by its address
     (:data:`BIG_SIG`, :func:`unit_address`): a bank with no such group (a
@@ -416,18 +434,18 @@ def render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratc
     while done < n:
         C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
-            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                                one, po0 + (done // psub), psub)
+            _per_sample(addrs)(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
+                                 one, po0 + (done // psub), psub)
         else:
             _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
-                               iw, ist, pb, tw, ib, nt)
+                               iw, ist, pb, tw, ib, nt, addrs)
             _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
 
 @njit(**JIT_OPTS)
 def render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, po0,
-                         psub):
+                         psub, addrs):
     """n steps of the coupled group of at most BLOCK members led by
     ``lead`` (a piano key's unison) into mix[:, o0:o0+n]: lockstep
     fast-path chunks (:func:`synth.kernels.unison.
@@ -447,11 +465,11 @@ def render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scra
     while done < n:
         C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
-            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                                one, po0 + (done // psub), psub)
+            _per_sample(addrs)(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
+                                 one, po0 + (done // psub), psub)
         else:
             C = _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, n - done,
-                                              o0 + done, mix, scratch, iw, ist)
+                                              o0 + done, mix, scratch, iw, ist, addrs)
             _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
@@ -476,16 +494,16 @@ def _render_coupled(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, 
     :func:`render_coupled_big` for more than BLOCK members (``nt``
     threads for its blocks), else :func:`render_coupled_small`."""
     if ipar[lead, I_CPLN] > BLOCK:
-        _big_at(addrs[A_BIG])(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
-                              po0, psub, pb, tw, ib, nt)
+        big_at(addrs[A_BIG])(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
+                             po0, psub, pb, tw, ib, nt, addrs)
     else:
-        _small_at(addrs[A_SMALL])(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw,
-                                  ist, po0, psub)
+        small_at(addrs[A_SMALL])(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw,
+                                 ist, po0, psub, addrs)
 
 
 @njit(inline="always", **JIT_OPTS)
 def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist, pb,
-                        tw, ib, nt):
+                        tw, ib, nt, addrs):
     """:func:`_render_coupled` of a group of more than BLOCK members on the
     engine's grid."""
     G = ipar[lead, I_CPLN]
@@ -495,11 +513,11 @@ def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scrat
     while done < n:
         C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
-            _coupled_per_sample(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                                one, o0 + done, ONE)
+            _per_sample(addrs)(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
+                                 one, o0 + done, ONE)
         else:
             _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw,
-                               ist, pb, tw, ib, nt)
+                               ist, pb, tw, ib, nt, addrs)
             _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
@@ -637,7 +655,7 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
                                 o0, M, pb, tw, ib, nt, addrs)
             else:
                 # (an external bridge's M steps per sample, from this segment's)
-                _string_at(addrs[A_STRING])(s, ring, ipar, fpar, fst, U, nm, ZERO, sm, probe,
+                string_at(addrs[A_STRING])(s, ring, ipar, fpar, fst, U, nm, ZERO, sm, probe,
                                             scratch, ubx[o0 * M:], o0, M)
             if lo != 0:
                 _shift_rows(s, G, ipar, lo)
@@ -651,7 +669,7 @@ def render_bank(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix,
             iwork[nh] = s
             nh += 1
         else:
-            _string_at(addrs[A_STRING])(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch,
+            string_at(addrs[A_STRING])(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch,
                                         ubx, o0, ONE)
     # strings with similar chunk lengths together (a group's chunk is the
     # shortest any member allows): insertion sort by I_CHUNK
@@ -708,57 +726,20 @@ def plan_length(capacity: int) -> int:
 # holds no pointer of this process).  render_bank in turn calls
 # :func:`render_coupled_big` (a coupled group of more than BLOCK members: its
 # blocks and their parallel loops, a third of render_bank's tree) by address,
-# so that a bank with no such group (a piano, a biwa) never compiles it.
+# so that a bank with no such group (a piano, a biwa) never compiles it; and
+# those call a big group's blocks' first half, a small group's far half and
+# any group's per-sample path by address too (:mod:`synth.kernels.address`):
+# a note never loads the per-sample path, and a cold start compiles the
+# units on two processes (:mod:`synth.apps.cold_start`).
 
-_F1 = types.Array(types.float64, 1, "C")
-_F2 = types.Array(types.float64, 2, "C")
-_F3 = types.Array(types.float64, 3, "C")
-_I1 = types.Array(types.int64, 1, "C")
-_I2 = types.Array(types.int64, 2, "C")
-_INT = types.int64
+# The other units called by address, their signatures and the intrinsics
+# that call them: :mod:`synth.kernels.address`.
+
 #: :func:`render_bank`'s signature as the bank and :func:`render_sharded`
 #: call it (every array C-contiguous; the scalars int64)
-BANK_SIG = types.none(_F1, _I2, _F2, _F2, _F1, _I1, _INT, _INT, _INT, _F2, _F3, _F1, _I1, _F1, _F2,
-                      _F3, _F2, _I1, _INT, _I1)
-#: :func:`render_coupled_big`'s, as :func:`_render_coupled` calls it
-BIG_SIG = types.none(_INT, _F1, _I2, _F2, _F2, _F1, _INT, _INT, _F2, _F3, _F1, _I1, _I1, _INT, _INT,
-                     _F3, _F2, _I1, _INT)
-#: :func:`render_coupled_small`'s
-SMALL_SIG = types.none(_INT, _F1, _I2, _F2, _F2, _F1, _INT, _INT, _F2, _F3, _F1, _I1, _I1, _INT,
-                       _INT)
-#: :func:`render_string`'s
-STRING_SIG = types.none(_INT, _F1, _I2, _F2, _F2, _F1, _INT, _INT, _F2, _F3, _F1, _F1, _INT, _INT)
-#: the renderers of one unit in ``addrs`` (:func:`render_bank`), and their
-#: bits in :func:`unit_kinds`
-A_BIG, A_SMALL, A_STRING = 0, 1, 2
-N_ADDRS = 3
-
-
-def _function_at(sig):
-    """An intrinsic that makes, from an int64 address, a numba first-class
-    function of signature ``sig`` (its ``jit_addr``: numba's own calling
-    convention, arrays as numba passes them, errors propagated)."""
-    fn_type = types.FunctionType(sig)
-
-    @intrinsic
-    def at(typingctx, addr):
-        def codegen(context, builder, signature, args):
-            fn = cgutils.create_struct_proxy(fn_type)(context, builder)
-            fn.jit_addr = builder.inttoptr(args[0], cgutils.voidptr_t)
-            return fn._getvalue()
-        return fn_type(types.int64), codegen
-    return at
-
-
-_bank_at = _function_at(BANK_SIG)
-_big_at = _function_at(BIG_SIG)
-_small_at = _function_at(SMALL_SIG)
-_string_at = _function_at(STRING_SIG)
-
-
-def _address(dispatcher, sig) -> int:
-    cres = dispatcher.get_compile_result(sig)
-    return cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
+BANK_SIG = types.none(F1, I2, F2, F2, F1, I1, INT, INT, INT, F2, F3, F1, I1, F1, F2,
+                      F3, F2, I1, INT, I1)
+_bank_at = function_at(BANK_SIG)
 
 
 def bank_address() -> int:
@@ -767,21 +748,24 @@ def bank_address() -> int:
     Call render_bank once with the bank's arrays first (as the bank does):
     it then loads from numba's cache under the key a call from Python
     saves, which a compile for the full signature would miss."""
-    return _address(render_bank, BANK_SIG)
+    return address_of(render_bank, BANK_SIG)
 
 
 def unit_address(which: int) -> int:
-    """The address of the renderer of one unit ``which`` (``A_BIG``:
-    :func:`render_coupled_big`, ``A_SMALL``: :func:`render_coupled_small`,
-    ``A_STRING``: :func:`render_string`) for ``addrs``, as
-    :func:`bank_address` (a call with ``n`` 0 from Python first)."""
-    if which == A_BIG:
-        return _address(render_coupled_big, BIG_SIG)
-    if which == A_SMALL:
-        return _address(render_coupled_small, SMALL_SIG)
-    if which == A_STRING:
-        return _address(render_string, STRING_SIG)
-    raise ValueError(f"which = {which!r} is not one of A_BIG, A_SMALL, A_STRING (0, 1, 2)")
+    """The address of unit ``which`` for ``addrs``
+    (:mod:`synth.kernels.address`): ``A_BIG``
+    :func:`render_coupled_big`, ``A_SMALL`` :func:`render_coupled_small`,
+    ``A_STRING`` :func:`render_string` (each after a call with ``n`` 0 from
+    Python, as :func:`bank_address`); ``A_PER``
+    :func:`~synth.kernels.unison._coupled_per_sample`, ``A_BLOCKA``
+    :func:`_block_a`, ``A_TAIL`` :func:`~synth.kernels.unison._coupled_tail`,
+    ``A_HAMMERS`` :func:`~synth.kernels.excite._excite_group` (compiled or
+    loaded for their signature: no Python call)."""
+    units = (render_coupled_big, render_coupled_small, render_string, _coupled_per_sample,
+             _block_a, _coupled_tail, _excite_group)
+    if not (isinstance(which, int) and 0 <= which < N_ADDRS):
+        raise ValueError(f"which = {which!r} is not a unit (0 <= value < {N_ADDRS})")
+    return address_of(units[which], SIGS[which])
 
 
 @njit(**JIT_OPTS)
@@ -930,7 +914,7 @@ def _group_work(lead, ipar, fpar, n):
 
 @njit(**JIT_OPTS)
 def render_big_groups(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe, scratch,
-                      iwork, pb, tw, ib, nt):
+                      iwork, pb, tw, ib, nt, addrs):
     """:func:`render_bank` of a list of coupled groups of more than BLOCK
     members on the engine's grid (:func:`bank_kind` gives
     ``KIND_BIG_GROUPS``): the same calls, without the paths of other
@@ -943,7 +927,7 @@ def render_big_groups(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, pr
         if ipar[s, I_CPL] != s:
             continue                  # rendered with its group's leader
         _render_coupled_big(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
-                            pb, tw, ib, nt)
+                            pb, tw, ib, nt, addrs)
 
 
 @njit(**JIT_OPTS)
@@ -960,8 +944,8 @@ def render_small_group(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, p
         s = active[a]
         if ipar[s, I_CPL] != s:
             continue                  # rendered with its group's leader
-        _small_at(addrs[A_SMALL])(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
-                                  o0, ONE)
+        small_at(addrs[A_SMALL])(s, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, iw, ist,
+                                 o0, ONE, addrs)
 
 
 @njit(**JIT_OPTS)
@@ -971,7 +955,7 @@ def render_strings(ring, ipar, fpar, fst, U, active, n_active, n, o0, mix, probe
     renders one by one (:func:`bank_kind` gives ``KIND_STRINGS`` for one):
     the same calls, without the paths of coupled groups and of hammers
     stepped together (arguments as :func:`render_bank`'s)."""
-    string = _string_at(addrs[A_STRING])
+    string = string_at(addrs[A_STRING])
     for a in range(n_active):
         string(active[a], ring, ipar, fpar, fst, U, n, o0, mix, probe, scratch, ubx, o0, ONE)
 

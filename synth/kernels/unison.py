@@ -23,7 +23,7 @@ chunk does and how its length is chosen:
 (Split from :mod:`synth.kernels.render` when the split chunk took it over
 1,200 lines: the code moved unchanged, the samples with it.)
 
-May import: :mod:`~synth.kernels.config`, :mod:`~synth.kernels.layout`,
+May import: :mod:`~synth.kernels.address`, :mod:`~synth.kernels.config`, :mod:`~synth.kernels.layout`,
 :mod:`~synth.kernels.contact`, :mod:`~synth.kernels.coupled`,
 :mod:`~synth.kernels.excite`, :mod:`~synth.kernels.far_end`,
 :mod:`~synth.kernels.tension`, :mod:`~synth.kernels.strings`.
@@ -34,14 +34,15 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .address import A_HAMMERS, A_PER, A_TAIL, hammers_at, tail_at
 from .config import JIT_OPTS
 from .contact import _region_step
 from .coupled import _bridge, _far_lanes, _lanes_ok
-from .excite import _excite_chunk, _excite_group
+from .excite import _excite_chunk
 from .far_end import _far_filter, _far_prep, _far_write
 from .layout import (
     EXC_FELT, EXC_HAMMER3, EXC_NONE, F_BRA, F_BRB, F_BRMU, F_BTDX, F_GAIN, F_PAN, F_TDX, GROUP,
-    GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPLNX, I_EXC, I_EXC_END, I_EXC_M, I_FILT, I_K,
+    GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL, I_CPLN, I_CPLNX, I_EXC, I_EXC_END, I_EXC_M, I_FILT, I_K,
     I_N, I_OFF, I_OUT, I_POS, I_PROBE, I_REG_N, I_ROW, I_TELEM, ROWS, S_PEAK, S_UBM, S_UBP,
     S_UBW, _CW, _GROW, _SCRATCH_GROUP,
 )
@@ -74,12 +75,13 @@ BLOCK = 4
 
 
 @njit(**JIT_OPTS)
-def _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist):
+def _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist, addrs):
     """The start of a coupled group's lockstep chunk (C samples of the G
     strings of the chain from ``lead`` on one bridge, on the fast path; C
     within every member's fast-path limit, at most ROWS members
     exciting, GROUP of them hammers): running hammers stepped together
-    (:func:`_excite_group`),
+    (:func:`~synth.kernels.excite._excite_group`, by its address
+    ``addrs[A_HAMMERS]``),
     plucks one by one (member m's g row at scratch[row * _GROW:], its
     string at iw[row]); returns (row, work, cw, lock): the rows used, the
     work windows, the coupled area and whether the lanes apply.  The rest
@@ -110,7 +112,9 @@ def _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist):
             row += 1
         s = ipar[s, I_CPLNX]
     if nh > 0:
-        _excite_group(ring, ipar, fpar, fst, C, iw, nh, scratch, ist)
+        if addrs[A_HAMMERS] == 0:
+            raise RuntimeError("a coupled group has hammers, but their kernel is not loaded")
+        hammers_at(addrs[A_HAMMERS])(ring, ipar, fpar, fst, C, iw, nh, scratch, ist)
     for r in range(nh, row):
         _excite_chunk(iw[r], ring, ipar, fpar, fst, U, C, scratch[r * _GROW:r * _GROW + C])
     # ---- 3. regions, and 4. the loop filters into the coupled area
@@ -121,18 +125,20 @@ def _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist):
 
 
 @njit(**JIT_OPTS)
-def _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist):
+def _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist, addrs):
     """:func:`_coupled_chunk` of a group of at most BLOCK members (a piano
     key's unison): each member's region, then :func:`_coupled_tail` (the
     loop filters, in lockstep where :func:`coupled._lanes_ok`, the bridge,
-    each member's output)."""
-    row, work, cw, lock = _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist)
+    each member's output), called by its address ``addrs[A_TAIL]``
+    (:mod:`synth.kernels.address`)."""
+    row, work, cw, lock = _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist,
+                                        addrs)
     s = lead
     for m in range(G):
         w1, w2, w3, hb = _work_windows(work, C, ipar[s, I_REG_N])
         _region_step(s, ring, ipar, fpar, fst, U, C, w1, w2, w3)
         s = ipar[s, I_CPLNX]
-    _coupled_tail(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, row)
+    tail_at(addrs[A_TAIL])(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, row)
 
 
 @njit(**JIT_OPTS)
@@ -221,7 +227,8 @@ def _coupled_split(lead, G, ipar, fpar, fst, avail, C):
 
 
 @njit(**JIT_OPTS)
-def _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, C, d, o0, mix, scratch, iw, ist):
+def _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, C, d, o0, mix, scratch, iw, ist,
+                         addrs):
     """:func:`_coupled_chunk_small` over C samples in two tempi
     (:func:`_coupled_split`): the excitation and the regions in pieces of
     at most d samples, each piece from its own ring position and ended at
@@ -259,7 +266,7 @@ def _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, C, d, o0, mix, scrat
             s = ipar[s, I_CPLNX]
         if c < 1:
             c = 1
-        _coupled_head(lead, G, ring, ipar, fpar, fst, U, c, scratch, iw, ist)
+        _coupled_head(lead, G, ring, ipar, fpar, fst, U, c, scratch, iw, ist, addrs)
         s = lead
         for m in range(G):
             w1, w2, w3, hb = _work_windows(work, c, ipar[s, I_REG_N])
@@ -274,21 +281,22 @@ def _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, C, d, o0, mix, scrat
         ipar[s, I_POS] = ist[P0 + m]
         s = ipar[s, I_CPLNX]
     # (every member has the force output: no g row is read, row 0)
-    _coupled_tail(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ZERO)
+    tail_at(addrs[A_TAIL])(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ZERO)
 
 
 @njit(inline="always", **JIT_OPTS)
 def _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, avail, o0, mix, scratch,
-                                  iw, ist):
+                                  iw, ist, addrs):
     """A small group's next chunk: C samples as :func:`_coupled_next` gave
     them or, when :func:`_coupled_split` finds an excitation holding them
     short, the far end's longer span in two tempi; returns the samples
     stepped."""
     d, Cs = _coupled_split(lead, G, ipar, fpar, fst, avail, C)
     if d > 0:
-        _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, Cs, d, o0, mix, scratch, iw, ist)
+        _coupled_chunk_split(lead, G, ring, ipar, fpar, fst, U, Cs, d, o0, mix, scratch, iw, ist,
+                             addrs)
         return Cs
-    _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist)
+    _coupled_chunk_small(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist, addrs)
     return C
 
 
@@ -403,6 +411,47 @@ def _coupled_next(lead, G, ipar, fpar, fst, avail, diag):
     if slow and not diag and C > 64:
         C = 64                     # look again soon: the fast path may apply
     return C, slow
+
+
+@njit(**JIT_OPTS)
+def groups_need(active, n_active, ipar):
+    """The units the coupled groups among the ``n_active`` strings of
+    ``active`` may call before the next note event (bits 1 << unit,
+    :mod:`synth.kernels.address`): ``A_PER`` where a group may render per
+    sample (:func:`_coupled_per_sample`), :func:`_coupled_next`'s
+    conditions taken where they can only fall within a render call
+    (excitations end, none begins): a probe or telemetry, a felt hammer, a
+    member whose chunk is 0 excited or free or whose excitation is at its
+    end, or more excitations than the chunk's rows; ``A_HAMMERS`` where a
+    member has a hammer running (:func:`_coupled_head`).  The bank leaves
+    the others unloaded: a cold sitar note compiles neither."""
+    need = 0
+    for a in range(n_active):
+        lead = active[a]
+        if ipar[lead, I_CPL] != lead:
+            continue                        # a lone string, or not its group's leader
+        G = ipar[lead, I_CPLN]
+        nexc = 0
+        nham = 0
+        s = lead
+        slow = False
+        for m in range(G):
+            if ipar[s, I_PROBE] >= 0 or ipar[s, I_TELEM] != 0 or ipar[s, I_CHUNK_FREE] <= 0:
+                slow = True
+            exc = ipar[s, I_EXC]
+            if exc > EXC_NONE:
+                nexc += 1
+                if exc >= EXC_HAMMER3:
+                    nham += 1
+                if exc == EXC_FELT or ipar[s, I_CHUNK] <= 0 \
+                        or ipar[s, I_EXC_END] - ipar[s, I_EXC_M] + 1 <= 0:
+                    slow = True
+            s = ipar[s, I_CPLNX]
+        if slow or nexc > ROWS or nham > GROUP:
+            need |= 1 << A_PER
+        if nham > 0:
+            need |= 1 << A_HAMMERS
+    return need
 
 
 @njit(inline="always", **JIT_OPTS)
