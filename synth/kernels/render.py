@@ -76,6 +76,7 @@ from .layout import (
     I_TELEM, S_PEAK, S_UBM, S_UBP, _CW, _GROW,
 )
 from .strings import _chunk_end, _render_group, _render_string, _work_windows
+from .tension import tension_after
 # (a small coupled group's chunks, split from here; ZERO, ONE and BLOCK are
 # defined there and re-exported)
 from .unison import (  # noqa: F401  (BLOCK, ONE, ZERO: re-exported)
@@ -238,7 +239,7 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, nrow, scratch, pm, tw):
     ``cw``), far-end write and output, into the block's own mix ``pm``
     (zeroed first, its first C samples), as :func:`_coupled_chunk` writes
     them (``iw[0:nrow]``: the excited strings, their g rows in
-    ``scratch``)."""
+    ``scratch``), then its tension's reading if due."""
     rows = pm.shape[0]
     for r in range(rows):
         pr = pm[r]
@@ -269,6 +270,12 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, nrow, scratch, pm, tw):
         plucking = r >= 0
         gb = scratch[(r if r >= 0 else 0) * _GROW:(r if r >= 0 else 0) * _GROW + C]
         _chunk_end(s, ring, ipar, fpar, fst, C, ZERO, pm, w1, w2, w3, gb, plucking, False, peak)
+        # its tension's reading, if due (unison._coupled_tension's, for a
+        # small group after its chunk): it reads and writes only this
+        # string, whose chunk is complete here, so on the blocks' threads
+        # (the sitar's 45 strings on the calling thread took a 32-voice
+        # render on 2 threads from 1.6x to 1.44x, 2026-12-01)
+        tension_after(s, ring, ipar, fpar, fst, C)
         s = ipar[s, I_CPLNX]
 
 
@@ -435,11 +442,11 @@ def render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratc
         C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
             _per_sample(addrs)(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                                 one, po0 + (done // psub), psub)
+                               one, po0 + (done // psub), psub)
         else:
+            # (each member's tension reading, if due, in its block: _block_c)
             _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
                                iw, ist, pb, tw, ib, nt, addrs)
-            _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
 
@@ -466,7 +473,7 @@ def render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scra
         C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
             _per_sample(addrs)(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                                 one, po0 + (done // psub), psub)
+                               one, po0 + (done // psub), psub)
         else:
             C = _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, n - done,
                                               o0 + done, mix, scratch, iw, ist, addrs)
@@ -514,11 +521,11 @@ def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scrat
         C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
             _per_sample(addrs)(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                                 one, o0 + done, ONE)
+                               one, o0 + done, ONE)
         else:
+            # (each member's tension reading, if due, in its block: _block_c)
             _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw,
                                ist, pb, tw, ib, nt, addrs)
-            _coupled_tension(lead, G, ring, ipar, fpar, fst, C)
         done += C
 
 
