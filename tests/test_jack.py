@@ -122,7 +122,18 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
         out, err = _stop(proc, tester)
     assert proc.returncode == 0, err
     assert "JACK client 'synthtest'" in out and "synthtest:out_2" in out
-    assert "24 notes" in out and " 0 late events, 0 errors" in out, out
+    assert " 0 late events, 0 errors" in out, out
+    # every message reaches the synth, but one sent in a cycle the server
+    # lost may not (the VM's xruns: 47 of 48 messages, with 5 xruns and no
+    # block of the synth's over its budget, twice in the full suite on a
+    # 2-vCPU Xeon, 2026-12-01); each message missing must have been sent
+    # near an xrun the tester saw (the window of a torn note, below)
+    got = int(re.search(r"(\d+) MIDI messages", out).group(1))
+    sent = [f for at in onsets for f in (at, at + hold)]
+    near = sum(any(f - 2 * 128 <= x <= f + 1024 + int(0.1 * FS) for _, x, _ in tester.xruns)
+               for f in sent)
+    assert got == len(sent) or len(sent) - got <= near, (out, tester.xruns)
+    assert got < len(sent) or "24 notes" in out, out
     # each note against the same note offline (the live engine's output, latency included)
     lags, corr = [], []
     n = int(0.1 * FS)
