@@ -369,6 +369,12 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         #: longer asks which kinds are active (:meth:`_active_units`)
         self._units_left = _with_needs(
             _ALL_UNITS | ((1 << KR.A_BIG) if self.max_group > KR.BLOCK else 0)) | _GROUPS_NEED
+        # (the units this process has loaded already: a live engine built
+        # after its warm-up starts with all of them, and no block scans)
+        for k in range(KR.N_ADDRS):
+            if (self._units_left >> k) & 1 and k in _ADDR:
+                self._addrs[k] = _ADDR[k]
+                self._units_left &= ~(1 << k)
         self._pb = np.zeros(KR.block_mix_shape(self.max_group, 2))
         self._smix = np.zeros((KR.MAX_SHARDS - 1, 1, 1))
         # staging mix of strings on a finer grid (two buses; more rows for a
@@ -1096,6 +1102,14 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
             addrs[k] = a
             self._units_left &= ~(1 << k)
         return addrs
+
+    def load_units(self) -> None:
+        """Load (or compile) every unit this bank may call
+        (:mod:`synth.kernels.address`), whether or not a scene has needed
+        it yet: live play's warm-up, so that no unit loads mid-performance
+        (the coupled groups' per-sample path comes in offline only where a
+        group takes it: a chord of more plucks than a chunk holds)."""
+        self._units(_ALL_UNITS | (1 << KR.A_BIG) | _GROUPS_NEED)
 
     #: the bank's renderers, as :meth:`load_kernels` names them
     RENDERERS = ("sharded", "big_groups", "small_group", "strings", "bank")

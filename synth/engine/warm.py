@@ -42,7 +42,9 @@ def warm_up(voice, *, fs_out: int, block: int, **engine_kw) -> None:
     ``fs_out`` Hz, about 50 ms) on a throwaway :class:`Engine` built with
     ``engine_kw``, measuring the voices as a full pool does (the
     stealing's kernel) and shedding a voice on the way (the overload
-    path)."""
+    path); then every unit the bank's kernels may call
+    (:meth:`~synth.dsp.bank.StringBank.load_units`), so that none loads
+    during live play."""
     voice.warm()
     scratch = Engine(voice, fs_out=fs_out, **engine_kw)
     scratch.schedule(warm_phrase(voice))
@@ -52,3 +54,6 @@ def warm_up(voice, *, fs_out: int, block: int, **engine_kw) -> None:
         scratch._quietest(list(scratch.voices))     # the voice stealing's measure
     scratch.shed(1)
     scratch.render_block(block)
+    # every unit of the bank, those the phrase did not need too (the
+    # engine built next finds them loaded)
+    scratch.bank.load_units()
