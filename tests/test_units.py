@@ -111,6 +111,20 @@ def test_a_note_loads_no_per_sample_path_and_a_probe_does():
                                                        "grand-piano 1 1 1 True"]
 
 
+@pytest.mark.slow  # a subprocess loads a unit (about 2 s)
+def test_the_big_unit_loads_first_thing_on_one_thread():
+    """The big group's renderer holds its blocks' parallel loops: loaded
+    from the cache and called before the process had run any parallel loop
+    (numba's threading layer not yet up: live play's warm-up now loads the
+    units before its phrase), it crashed (SIGSEGV); the bank starts the
+    layer first."""
+    code = ("from synth.io.factory import build_engine\n"
+            "from synth.kernels import render as KR\n"
+            "e = build_engine('sitar', (), threads=1)\n"
+            "print(int(e.bank._units(1 << KR.A_BIG)[KR.A_BIG] != 0))\n")
+    assert _printed(code) == ["1"]
+
+
 @pytest.mark.slow  # a subprocess warms two engines (about 4 s)
 def test_a_live_engine_has_every_unit_before_it_plays():
     """Live play's warm-up loads every unit the bank may call, those its
@@ -125,7 +139,7 @@ def test_a_live_engine_has_every_unit_before_it_plays():
     assert _printed(code) == ["sitar 0 7", "grand-piano 0 5"]
 
 
-@pytest.mark.slow  # a second process loads the units (about 3 s)
+@pytest.mark.slow  # a second process loads the units, twice (about 8 s)
 def test_a_second_process_compiles_units_the_bank_then_waits_for(tmp_path):
     """cold_start.start spawns the second process where the cache lacks
     its units (here: made to look cold); the bank, needing the unit, waits
@@ -156,6 +170,31 @@ def test_a_second_process_compiles_units_the_bank_then_waits_for(tmp_path):
                          check=True, env=dict(os.environ, SYNTH_THREADS="2",
                                               SYNTH_COMPILE_NOTICE="0")).stdout.splitlines()
     assert out == ["(4,) 1 0 True"], out
+    # live play: render_bank and the blocks' first half, before the engine
+    # exists; its warm-up waits for them and loads every unit
+    code = (
+        "import synth.apps.cold_start as CS\n"
+        "import synth.dsp.compile_notice as CN\n"
+        "import synth.dsp.units as U\n"
+        "from synth.io.live import ready_engine\n"
+        "def main():\n"
+        "    CN.cache_looks_warm = lambda probe=None: False\n"
+        "    h = CS.start_live('sitar', [], None)\n"
+        "    waits = []\n"
+        "    for u in h.units:\n"
+        "        w = U._ELSEWHERE[u]\n"
+        "        U._ELSEWHERE[u] = lambda w=w: (waits.append(1), w())\n"
+        "    e = ready_engine('sitar')\n"
+        "    h.close()\n"
+        "    print(h.units, len(waits), h.proc.exitcode, e.bank._units_left,"
+        " sorted(map(str, U._ADDR)))\n"
+        "if __name__ == '__main__':\n"
+        "    main()\n")
+    script.write_text(code)
+    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                         check=True, env=dict(os.environ, SYNTH_THREADS="2",
+                                              SYNTH_COMPILE_NOTICE="0")).stdout.splitlines()
+    assert out == ["('bank', 4) 2 0 0 ['0', '1', '2', '3', '4', '5', '6', 'bank']"], out
     # one thread: no second process
     out = subprocess.run(
         [sys.executable, "-c",

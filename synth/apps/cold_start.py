@@ -56,7 +56,8 @@ def _index(u) -> str:
 def _compile(units, preset, overrides) -> None:
     """The second process: load (compiling into the cache) ``units``; a
     bank of ``preset`` (with ``overrides``) gives ``render_bank`` its
-    arrays' types."""
+    arrays' types, and a big group's unit is compiled only where that bank
+    can have one."""
     import signal
 
     from ..dsp import threads
@@ -65,12 +66,16 @@ def _compile(units, preset, overrides) -> None:
     # (Ctrl-C at a terminal reaches this process too: the command stops it)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     threads.set_default(1)
+    eng = None
+    if "bank" in units or KR.A_BLOCKA in units:
+        from ..io.factory import build_engine
+
+        eng = build_engine(preset, overrides, extra_low_key=0, threads=1)
     for u in units:
         if u == "bank":
-            from ..io.factory import build_engine
-
-            eng = build_engine(preset, overrides, extra_low_key=0, threads=1)
             eng.bank._bank_addr()
+        elif u == KR.A_BLOCKA and eng.bank.max_group <= KR.BLOCK:
+            continue                    # (no big group in this preset)
         else:
             KR.unit_address(u)
 
@@ -93,17 +98,34 @@ class Helper:
         self.proc.join()
 
 
+def start_live(preset, overrides, threads: int | None = None) -> Helper | None:
+    """:func:`start` for ``synth play``, before its engine is built: live
+    play compiles every renderer of the bank (the shards', each unit's),
+    about 90 s on a cold cache; the second process compiles ``render_bank``
+    and, where the preset has a bridge of more than four strings, its
+    blocks' first half."""
+    from ..kernels import address as KA
+
+    return _spawn(("bank", KA.A_BLOCKA), preset, overrides, threads)
+
+
 def start(eng, preset, overrides, threads: int | None = None) -> Helper | None:
     """Start the second process for engine ``eng`` (built from ``preset``
     with ``overrides``) when it helps: the cache holds none of its units
     (:func:`plan`) and the command may use two threads or more
     (``threads``; None: every core this process may use).  None when it
     would not help."""
+    return _spawn(plan(eng), preset, overrides, threads)
+
+
+def _spawn(units, preset, overrides, threads) -> Helper | None:
+    """The second process for ``units`` not in the cache yet, when the
+    command may use two threads or more."""
     from ..dsp.compile_notice import cache_looks_warm
     from ..dsp.threads import resolve
     from ..dsp.units import compile_elsewhere
 
-    units = tuple(u for u in plan(eng) if not cache_looks_warm(_index(u)))
+    units = tuple(u for u in units if not cache_looks_warm(_index(u)))
     if not units or resolve(threads) < 2:
         return None
     ctx = multiprocessing.get_context("spawn")

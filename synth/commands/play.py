@@ -115,6 +115,14 @@ def run(args) -> int:
                              stats=args.stats, overrides=args.set, channels=args.channels,
                              drums=args.drums, record=args.record, rate=args.rate,
                              midi_api=args.midi_api or "auto", mpe=args.mpe)
-    player.start()
+    from ..apps import cold_start
+
+    # (a cold cache: a second process compiles part of the kernels meanwhile)
+    helper = cold_start.start_live(args.preset, args.set, args.threads)
+    try:
+        player.start()
+    finally:
+        if helper is not None:
+            helper.close()
     player.run(seconds=args.seconds)
     return 1 if player.stopped else 0

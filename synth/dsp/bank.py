@@ -18,6 +18,7 @@ import heapq
 import math
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 
 from ..kernels import render as KR
@@ -1089,6 +1090,10 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
                 iw = self._iwork2[0][:1]
                 sc = self._scratch2[0]
                 if k == KR.A_BIG:
+                    # (its blocks' parallel loops need numba's threading
+                    # layer: loaded from the cache and called by a process
+                    # that had run no parallel loop yet, it crashed)
+                    numba.get_num_threads()
                     KR.render_coupled_big(0, self.ring, self.ipar, self.fpar, self.fst, self.U, 0,
                                           0, mix, self.probe, sc, iw, iw, 0, 1, self._pb,
                                           self._tw, self._ib, 1, addrs)
@@ -1103,13 +1108,19 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
             self._units_left &= ~(1 << k)
         return addrs
 
-    def load_units(self) -> None:
+    def load_units(self, wait: bool = True) -> None:
         """Load (or compile) every unit this bank may call
         (:mod:`synth.kernels.address`), whether or not a scene has needed
         it yet: live play's warm-up, so that no unit loads mid-performance
         (the coupled groups' per-sample path comes in offline only where a
-        group takes it: a chord of more plucks than a chunk holds)."""
-        self._units(_ALL_UNITS | (1 << KR.A_BIG) | _GROUPS_NEED)
+        group takes it: a chord of more plucks than a chunk holds).  With
+        ``wait`` False, only those no other process is compiling
+        (:func:`synth.dsp.units.compile_elsewhere`): a cold start's first
+        process compiles its share before it waits for the other's."""
+        mask = _ALL_UNITS | (1 << KR.A_BIG) | _GROUPS_NEED
+        if not wait:
+            mask &= ~sum(1 << k for k in range(KR.N_ADDRS) if elsewhere(k))
+        self._units(mask)
 
     #: the bank's renderers, as :meth:`load_kernels` names them
     RENDERERS = ("sharded", "big_groups", "small_group", "strings", "bank")

@@ -47,6 +47,9 @@ def warm_up(voice, *, fs_out: int, block: int, **engine_kw) -> None:
     during live play."""
     voice.warm()
     scratch = Engine(voice, fs_out=fs_out, **engine_kw)
+    # the units first, but for those another process is compiling (a cold
+    # start, synth.apps.cold_start): the phrase waits for them
+    scratch.bank.load_units(wait=False)
     scratch.schedule(warm_phrase(voice))
     for _ in range(int(0.05 * fs_out / block) + 1):
         scratch.render_block(block)
