@@ -82,11 +82,17 @@ def test_compile_elsewhere_checks_its_units():
         compile_elsewhere([9], lambda: None)
 
 
-def _printed(code: str, **env) -> list[str]:
-    """The lines ``code`` prints in a new process on two threads."""
-    env = dict(os.environ, SYNTH_THREADS="2", SYNTH_COMPILE_NOTICE="0", **env)
-    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          check=True, env=env).stdout.splitlines()
+def _printed(code: str, script=None) -> list[str]:
+    """The lines ``code`` prints in a new process on two threads; run from
+    the file ``script`` where given (a process it spawns imports it)."""
+    env = dict(os.environ, SYNTH_THREADS="2", SYNTH_COMPILE_NOTICE="0")
+    if script is None:
+        cmd = [sys.executable, "-c", code]
+    else:
+        script.write_text(code)
+        cmd = [sys.executable, str(script)]
+    return subprocess.run(cmd, capture_output=True, text=True, check=True,
+                          env=env).stdout.splitlines()
 
 
 @pytest.mark.slow  # two subprocesses render a note (about 3 s each)
@@ -165,10 +171,7 @@ def test_a_second_process_compiles_units_the_bank_then_waits_for(tmp_path):
         "if __name__ == '__main__':\n"
         "    main()\n")
     script = tmp_path / "second.py"
-    script.write_text(code)
-    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
-                         check=True, env=dict(os.environ, SYNTH_THREADS="2",
-                                              SYNTH_COMPILE_NOTICE="0")).stdout.splitlines()
+    out = _printed(code, script)
     assert out == ["(4,) 1 0 True"], out
     # live play: render_bank and the blocks' first half, before the engine
     # exists; its warm-up waits for them and loads every unit
@@ -190,18 +193,11 @@ def test_a_second_process_compiles_units_the_bank_then_waits_for(tmp_path):
         " sorted(map(str, U._ADDR)))\n"
         "if __name__ == '__main__':\n"
         "    main()\n")
-    script.write_text(code)
-    out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
-                         check=True, env=dict(os.environ, SYNTH_THREADS="2",
-                                              SYNTH_COMPILE_NOTICE="0")).stdout.splitlines()
+    out = _printed(code, script)
     assert out == ["('bank', 4) 2 0 0 ['0', '1', '2', '3', '4', '5', '6', 'bank']"], out
     # one thread: no second process
-    out = subprocess.run(
-        [sys.executable, "-c",
-         "import synth.apps.cold_start as CS, synth.dsp.compile_notice as CN\n"
-         "from synth.api.render import note_engine\n"
-         "CN.cache_looks_warm = lambda probe=None: False\n"
-         "print(CS.start(note_engine('sitar', [], 50, None), 'sitar', [], 1))\n"],
-        capture_output=True, text=True, check=True,
-        env=dict(os.environ, SYNTH_COMPILE_NOTICE="0")).stdout.splitlines()
+    out = _printed("import synth.apps.cold_start as CS, synth.dsp.compile_notice as CN\n"
+                   "from synth.api.render import note_engine\n"
+                   "CN.cache_looks_warm = lambda probe=None: False\n"
+                   "print(CS.start(note_engine('sitar', [], 50, None), 'sitar', [], 1))\n")
     assert out == ["None"], out

@@ -31,16 +31,14 @@ bank compiles the unit itself.
 from __future__ import annotations
 
 import multiprocessing
-import time
 
 
 def plan(eng) -> tuple:
     """The units a second process should compile for engine ``eng``'s
     scenes (unit indices of :mod:`synth.kernels.address`, or ``"bank"``)."""
     from ..kernels import address as KA
-    from ..kernels.render import BLOCK
 
-    if eng.bank.max_group > BLOCK:
+    if eng.bank.big_groups:
         return (KA.A_BLOCKA,)
     return ("bank",)
 
@@ -74,7 +72,7 @@ def _compile(units, preset, overrides) -> None:
     for u in units:
         if u == "bank":
             eng.bank._bank_addr()
-        elif u == KR.A_BLOCKA and eng.bank.max_group <= KR.BLOCK:
+        elif u == KR.A_BLOCKA and not eng.bank.big_groups:
             continue                    # (no big group in this preset)
         else:
             KR.unit_address(u)
@@ -87,7 +85,6 @@ class Helper:
     def __init__(self, proc, units):
         self.proc = proc
         self.units = tuple(units)
-        self.t0 = time.perf_counter()
 
     def wait(self) -> None:
         self.proc.join()

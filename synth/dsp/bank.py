@@ -23,7 +23,7 @@ import numpy as np
 
 from ..kernels import render as KR
 from ..kernels import strings as K
-from .units import _ADDR, _wait_elsewhere, _with_needs, elsewhere
+from .units import _ADDR, _wait_elsewhere, _with_needs, elsewhere, preloaded
 from ..kernels.energy import ring_energy
 from . import compile_notice, sizing, threads
 from .bridges import Bridges
@@ -68,10 +68,12 @@ def _loss_factor(t60_s, t60_free_s, f1_hz):
 _THREADED = (KR.KIND_SHARDS, KR.KIND_BIG_GROUPS, KR.KIND_BANK)
 #: the renderers of one unit besides a big group's (live play, synth warmup)
 _ALL_UNITS = (1 << KR.A_SMALL) | (1 << KR.A_STRING)
-#: the units render_big_groups calls (its per-sample path, its blocks' first half)
+#: the unit render_big_groups always calls (its blocks' first half)
 _BIG_NEEDS = KR.NEEDS[KR.A_BIG]
 #: the units a coupled group calls only where it needs them (KR.groups_need)
 _GROUPS_NEED = (1 << KR.A_PER) | (1 << KR.A_HAMMERS)
+#: every unit a bank may call (live play's warm-up, synth warmup)
+_EVERY_UNIT = _ALL_UNITS | (1 << KR.A_BIG) | _GROUPS_NEED
 #: the shortest fast-path chunk a slot is given while its excitation runs
 #: (:func:`slot_template`): a shorter one renders per sample
 MIN_FAST_CHUNK = 2
@@ -368,14 +370,10 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         #: ``_addrs`` (bits 1 << A_BIG, ...; a big group only where
         #: ``max_group`` allows one): 0 once all are, and then a block no
         #: longer asks which kinds are active (:meth:`_active_units`)
-        self._units_left = _with_needs(
-            _ALL_UNITS | ((1 << KR.A_BIG) if self.max_group > KR.BLOCK else 0)) | _GROUPS_NEED
-        # (the units this process has loaded already: a live engine built
-        # after its warm-up starts with all of them, and no block scans)
-        for k in range(KR.N_ADDRS):
-            if (self._units_left >> k) & 1 and k in _ADDR:
-                self._addrs[k] = _ADDR[k]
-                self._units_left &= ~(1 << k)
+        #: (those this process has loaded already are in from the start: a
+        #: live engine built after its warm-up has all, and no block scans)
+        self._units_left = preloaded(self._addrs, _with_needs(
+            _ALL_UNITS | ((1 << KR.A_BIG) if self.big_groups else 0)) | _GROUPS_NEED)
         self._pb = np.zeros(KR.block_mix_shape(self.max_group, 2))
         self._smix = np.zeros((KR.MAX_SHARDS - 1, 1, 1))
         # staging mix of strings on a finer grid (two buses; more rows for a
@@ -1003,12 +1001,13 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
                 big_nt = ntc if kind == KR.KIND_BIG_GROUPS and nt > 1 else None
                 addrs = self._addrs
                 if self._units_left & (_BIG_NEEDS | _GROUPS_NEED):
-                    # the renderer first (no string: it runs no unit), then
-                    # the units it calls, which another process may be compiling
-                    KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U,
-                                         self.active[:0], 0, 0, 0, mix, self.probe,
-                                         self._scratch2[0], self._iwork2[0], pb, self._tw,
-                                         self._ib, big_nt, addrs)
+                    if self._units_left & _BIG_NEEDS:
+                        # the renderer first (no string: it runs no unit), then
+                        # the unit it calls, which another process may be compiling
+                        KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U,
+                                             self.active[:0], 0, 0, 0, mix, self.probe,
+                                             self._scratch2[0], self._iwork2[0], pb, self._tw,
+                                             self._ib, big_nt, addrs)
                     addrs = self._units(_BIG_NEEDS)
                 KR.render_big_groups(self.ring, self.ipar, self.fpar, self.fst, self.U,
                                      self.active, self.n_active, c, o0 + done, mix, self.probe,
@@ -1070,12 +1069,11 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         and their hammers (``A_HAMMERS``) come in only where a group may
         take them before the next event
         (:func:`~synth.kernels.unison.groups_need`: a probe, a felt, a
-        chord of more plucks than a chunk's rows; a hammer).  A coupled group of more than BLOCK members is
-        asked for only where ``max_group`` allows one
-        (:class:`~synth.dsp.bridges.Bridges` refuses a larger group than
-        ``max_group``)."""
+        chord of more plucks than a chunk's rows; a hammer).  A coupled
+        group of more than BLOCK members is asked for only where
+        :attr:`big_groups`."""
         addrs = self._addrs
-        if self.max_group <= KR.BLOCK:
+        if not self.big_groups:
             mask &= ~(1 << KR.A_BIG)
         mask = _with_needs(mask)
         if addrs[KR.A_PER] == 0 or addrs[KR.A_HAMMERS] == 0:
@@ -1108,6 +1106,13 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
             self._units_left &= ~(1 << k)
         return addrs
 
+    @property
+    def big_groups(self) -> bool:
+        """Whether this bank can hold a coupled group of more than BLOCK
+        members (a sitar's bridge, rendered by its blocks; ``max_group``
+        bounds a group: :class:`~synth.dsp.bridges.Bridges`)."""
+        return self.max_group > KR.BLOCK
+
     def load_units(self, wait: bool = True) -> None:
         """Load (or compile) every unit this bank may call
         (:mod:`synth.kernels.address`), whether or not a scene has needed
@@ -1117,7 +1122,7 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         ``wait`` False, only those no other process is compiling
         (:func:`synth.dsp.units.compile_elsewhere`): a cold start's first
         process compiles its share before it waits for the other's."""
-        mask = _ALL_UNITS | (1 << KR.A_BIG) | _GROUPS_NEED
+        mask = _EVERY_UNIT
         if not wait:
             mask &= ~sum(1 << k for k in range(KR.N_ADDRS) if elsewhere(k))
         self._units(mask)
@@ -1142,9 +1147,8 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         KR.bank_kind(none, 0, self.ipar, self.fpar, c)
         # (the renderers of one unit that render_bank may call, whatever the
         # scene: a bridge of many strings where the bank has room for one)
-        every = _ALL_UNITS | (1 << KR.A_BIG) | _GROUPS_NEED
         if "sharded" in want:
-            KR.render_sharded(self._bank_addr(), self._units(every), self.ring, self.ipar,
+            KR.render_sharded(self._bank_addr(), self._units(_EVERY_UNIT), self.ring, self.ipar,
                               self.fpar, self.fst, self.U, none, 0, c, 0, mix,
                               self.probe, self._scratch2, self._iwork2, ubx, self._sub3,
                               self._smix, self._plan, self._pb, self._tw, self._ib, nt)
@@ -1164,7 +1168,7 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         if "bank" in want:
             KR.render_bank(self.ring, self.ipar, self.fpar, self.fst, self.U, none, 0, c, 0, mix,
                            self.probe, self._scratch2[0], self._iwork2[0], ubx, self._sub3[0],
-                           self._pb, self._tw, self._ib, nt, self._units(every))
+                           self._pb, self._tw, self._ib, nt, self._units(_EVERY_UNIT))
 
     # -- inspection (tests, analysis) ----------------------------------------
     def rails(self, s: int):

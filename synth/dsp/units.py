@@ -63,6 +63,17 @@ def _wait_elsewhere(u) -> None:
         add_compile_seconds(time.perf_counter() - t0)
 
 
+def preloaded(addrs, mask: int) -> int:
+    """Put in ``addrs`` the address of every unit of ``mask`` (bits 1 <<
+    unit) that this process has loaded already; returns the bits of those
+    still to load."""
+    for k in range(KA.N_ADDRS):
+        if (mask >> k) & 1 and k in _ADDR:
+            addrs[k] = _ADDR[k]
+            mask &= ~(1 << k)
+    return mask
+
+
 def _with_needs(mask: int) -> int:
     """``mask`` (bits 1 << unit) with the units its units call
     (:data:`synth.kernels.address.NEEDS`)."""

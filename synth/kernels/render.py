@@ -61,9 +61,9 @@ import numpy as np
 from numba import njit, prange, types
 
 from .address import (  # noqa: F401  (the units and their signatures: re-exported)
-    A_BIG, A_BLOCKA, A_HAMMERS, A_PER, A_SMALL, A_STRING, A_TAIL, BIG_SIG, BLOCKA_SIG, F1, F2, F3, I1, I2,
-    INT, N_ADDRS, NEEDS, PER_SIG, SIGS, SMALL_SIG, STRING_SIG, TAIL_SIG, address_of, big_at,
-    blocka_at, function_at, per_at, small_at, string_at,
+    A_BIG, A_BLOCKA, A_HAMMERS, A_PER, A_SMALL, A_STRING, A_TAIL, BIG_SIG, BLOCKA_SIG, F1, F2,
+    F3, I1, I2, INT, N_ADDRS, NEEDS, PER_SIG, SIGS, SMALL_SIG, STRING_SIG, TAIL_SIG, address_of,
+    big_at, blocka_at, function_at, per_at, small_at, string_at,
 )
 from .config import JIT_OPTS, PAR_OPTS
 from .contact import _region_step
@@ -81,7 +81,7 @@ from .tension import tension_after
 # defined there and re-exported)
 from .unison import (  # noqa: F401  (BLOCK, ONE, ZERO: re-exported)
     BLOCK, ONE, ZERO, _coupled_chunk_small_or_split, _coupled_diag, _coupled_head, _coupled_next,
-    _coupled_per_sample, _coupled_tail, _coupled_tension, groups_need,
+    _coupled_per_sample, _coupled_tail, _coupled_tension, groups_need, loaded,
 )
 
 #: (Compile time.)  numba links each callee's optimised module into its
@@ -186,17 +186,6 @@ def _balance(cost, n, T, task, load, order):
                 best = t
         task[j] = best
         load[best] += cost[j]
-
-
-@njit(inline="always", **JIT_OPTS)
-def _per_sample(addrs):
-    """:func:`~synth.kernels.unison._coupled_per_sample` at its address
-    ``addrs[A_PER]``, which the bank loads where a group may take it
-    (:func:`~synth.kernels.unison.groups_need`); an error, not a
-    jump to address 0, if it did not."""
-    if addrs[A_PER] == 0:
-        raise RuntimeError("a coupled group renders per sample, but its kernel is not loaded")
-    return per_at(addrs[A_PER])
 
 
 # ---- a big coupled group's blocks --------------------------------------------------
@@ -441,8 +430,9 @@ def render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratc
     while done < n:
         C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
-            _per_sample(addrs)(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                               one, po0 + (done // psub), psub)
+            per = per_at(loaded(addrs, A_PER))
+            per(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe, one,
+                po0 + (done // psub), psub)
         else:
             # (each member's tension reading, if due, in its block: _block_c)
             _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
@@ -472,8 +462,9 @@ def render_coupled_small(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scra
     while done < n:
         C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
-            _per_sample(addrs)(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                               one, po0 + (done // psub), psub)
+            per = per_at(loaded(addrs, A_PER))
+            per(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe, one,
+                po0 + (done // psub), psub)
         else:
             C = _coupled_chunk_small_or_split(lead, G, ring, ipar, fpar, fst, U, C, n - done,
                                               o0 + done, mix, scratch, iw, ist, addrs)
@@ -520,8 +511,8 @@ def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scrat
     while done < n:
         C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
-            _per_sample(addrs)(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe,
-                               one, o0 + done, ONE)
+            per = per_at(loaded(addrs, A_PER))
+            per(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe, one, o0 + done, ONE)
         else:
             # (each member's tension reading, if due, in its block: _block_c)
             _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw,
@@ -738,9 +729,6 @@ def plan_length(capacity: int) -> int:
 # any group's per-sample path by address too (:mod:`synth.kernels.address`):
 # a note never loads the per-sample path, and a cold start compiles the
 # units on two processes (:mod:`synth.apps.cold_start`).
-
-# The other units called by address, their signatures and the intrinsics
-# that call them: :mod:`synth.kernels.address`.
 
 #: :func:`render_bank`'s signature as the bank and :func:`render_sharded`
 #: call it (every array C-contiguous; the scalars int64)

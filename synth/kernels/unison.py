@@ -23,8 +23,8 @@ chunk does and how its length is chosen:
 (Split from :mod:`synth.kernels.render` when the split chunk took it over
 1,200 lines: the code moved unchanged, the samples with it.)
 
-May import: :mod:`~synth.kernels.address`, :mod:`~synth.kernels.config`, :mod:`~synth.kernels.layout`,
-:mod:`~synth.kernels.contact`, :mod:`~synth.kernels.coupled`,
+May import: :mod:`~synth.kernels.address`, :mod:`~synth.kernels.config`,
+:mod:`~synth.kernels.layout`, :mod:`~synth.kernels.contact`, :mod:`~synth.kernels.coupled`,
 :mod:`~synth.kernels.excite`, :mod:`~synth.kernels.far_end`,
 :mod:`~synth.kernels.tension`, :mod:`~synth.kernels.strings`.
 """
@@ -42,7 +42,8 @@ from .excite import _excite_chunk
 from .far_end import _far_filter, _far_prep, _far_write
 from .layout import (
     EXC_FELT, EXC_HAMMER3, EXC_NONE, F_BRA, F_BRB, F_BRMU, F_BTDX, F_GAIN, F_PAN, F_TDX, GROUP,
-    GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL, I_CPLN, I_CPLNX, I_EXC, I_EXC_END, I_EXC_M, I_FILT, I_K,
+    GROUP_CHUNK, I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL, I_CPLN, I_CPLNX, I_EXC, I_EXC_END, I_EXC_M,
+    I_FILT, I_K,
     I_N, I_OFF, I_OUT, I_POS, I_PROBE, I_REG_N, I_ROW, I_TELEM, ROWS, S_PEAK, S_UBM, S_UBP,
     S_UBW, _CW, _GROW, _SCRATCH_GROUP,
 )
@@ -72,6 +73,16 @@ BLOCK = 4
 #: ``NUMBA_CACHE_DIR=$(mktemp -d) python tools/bench.py compile demo -o d.wav``).
 #: The samples are the same to the bit (tests/test_golden.py), and a render's
 #: time did not move beyond the machine's noise (a call per chunk).
+
+
+@njit(inline="always", **JIT_OPTS)
+def loaded(addrs, k):
+    """``addrs[k]``, the address of a unit the bank loads only where a
+    group may call it (:func:`groups_need`: the per-sample path, the
+    hammers); an error, not a jump to address 0, if it did not."""
+    if addrs[k] == 0:
+        raise RuntimeError("a coupled group calls a kernel by its address, but it is not loaded")
+    return addrs[k]
 
 
 @njit(**JIT_OPTS)
@@ -112,9 +123,7 @@ def _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist, addrs)
             row += 1
         s = ipar[s, I_CPLNX]
     if nh > 0:
-        if addrs[A_HAMMERS] == 0:
-            raise RuntimeError("a coupled group has hammers, but their kernel is not loaded")
-        hammers_at(addrs[A_HAMMERS])(ring, ipar, fpar, fst, C, iw, nh, scratch, ist)
+        hammers_at(loaded(addrs, A_HAMMERS))(ring, ipar, fpar, fst, C, iw, nh, scratch, ist)
     for r in range(nh, row):
         _excite_chunk(iw[r], ring, ipar, fpar, fst, U, C, scratch[r * _GROW:r * _GROW + C])
     # ---- 3. regions, and 4. the loop filters into the coupled area
