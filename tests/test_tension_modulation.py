@@ -295,10 +295,11 @@ def test_every_string_reads_its_tension_at_the_same_samples_whatever_the_blocks(
 
 @pytest.mark.slow  # over 2 s: two 4.2 s notes of the tanpura's low Sa
 def test_the_readings_leave_no_comb_of_clicks_on_a_linear_string():
-    """Between two readings (every 256 internal samples, 0.79 ms) the bend
+    """Between two readings (every 1024 internal samples, 3.2 ms) the bend
     line moves its delay in equal steps.  A reading that set the delay at
-    once cut the wave arriving at the bend line every 0.79 ms: a comb of
-    clicks at 1.27 kHz and its multiples, the modulation's "5 kHz residue".
+    once cut the wave arriving at the bend line at every reading (every
+    0.79 ms then): a comb of clicks at 1.27 kHz and its multiples, the
+    modulation's "5 kHz residue".
     The tanpura's key 37 (one string) at velocity 127 with the contact off
     (termination.buzz = 0), over 0.5-4 s: with the steps (the kernel of
     628a2da, the preset's 8 mm pluck of then), 2-8 kHz +12 dB over the

@@ -34,7 +34,7 @@ Why the mean, and why per chunk.  It is the mean tension that a plucked
 string's pitch glide follows (the 2 f0 ripple of the instantaneous
 tension moves no partial to first order; what it adds, the partials it
 mixes, is not modelled).  The mean is read from the energy with a pass
-over the ring every ``F_TMM`` samples (the voice's 256 at 325 kHz: 0.8
+over the ring every ``F_TMM`` samples (the voice's 1024 at 325 kHz: 3.2
 ms; a string joining a bridge takes a member's phase, so that a bridge's
 strings all read at the same samples), smoothed by one pole over two
 periods (``F_TMA``: what the loop filter and the bend line hold at a
@@ -50,8 +50,13 @@ within 0.3 cent on key 43 and 0.03 on keys 50, 62 and 74, but its steps
 (the delay set at each reading, as then) left 4 dB more above 4 kHz on a
 linear string (60 dB under partial 1; docs/lab/2026-11-30-sitar-glide.md).
 With the delay moving every sample (below), 1024 leaves the same bands as
-256 and saves a 128-note sitar cluster nothing (149 / 152 % of the block on
-one thread; docs/lab/2026-11-30-tanpura-glide.md).
+256 (docs/lab/2026-11-30-tanpura-glide.md), and since the readings run on
+the bridge's blocks' threads it costs less: a bridge's chunks end at its
+readings, and fewer chunks mean fewer loop launches and bridge heads.  The
+128-note sitar cluster on two threads 66-69 % of the block on mean, 82-85
+% at the 99th percentile, against 72-74 % and 88-91 % at 256; 32 held
+voices 7 % less on one thread; the glide within 0.14 cent and the bands
+within 0.9 dB (docs/lab/2026-12-01-readings.md).
 
 Where it acts.  The reading sets where ``S_TM``, the change of the bend
 line's delay (:mod:`synth.kernels.bend`), goes: D0 (1 / sqrt(1 + kappa S)

@@ -369,11 +369,11 @@ class OneStringVoice(Voice):
     #: note: the biwa's key 50 glided +0.47 cent more at velocity 127 with
     #: 100 cents more room and the modulation all but off (kappa 1e-9)
     TENSION_ROOM_CENTS = 100.0
-    #: internal samples between two readings of the tension (0.79 ms at 325 kHz;
-    #: 1024 gave the same glide within 0.3 cent; with the delay now moving every
-    #: sample it leaves the same bands and saves no time either:
-    #: docs/lab/2026-11-30-tanpura-glide.md)
-    TENSION_EVERY = 256
+    #: internal samples between two readings of the tension (3.2 ms at 325 kHz):
+    #: the glide of every 256 within 0.14 cent and its bands within 0.9 dB, and
+    #: a sitar cluster 5-6 % of the block cheaper, since a bridge's chunks end
+    #: at its readings (synth.kernels.tension; docs/lab/2026-12-01-readings.md)
+    TENSION_EVERY = 1024
     #: the readings are smoothed over this many periods (one pole)
     TENSION_PERIODS = 2.0
 
