@@ -388,3 +388,46 @@ def test_two_processes_saving_two_signatures_never_swap_their_code(tmp_path, gua
         assert any(v is not None for v in got.values())
     else:
         assert got["key-int64"] == "code for none", got     # the race the guard closes
+
+
+LIGHT_RUN = """
+    import sys
+    import numba
+    from numba.core import caching
+    refreshes = []
+    ctx = numba.core.registry.cpu_target.target_context
+    plain_refresh = type(ctx).refresh
+    type(ctx).refresh = lambda self: (refreshes.append(1), plain_refresh(self))[1]
+    import {pkg}.caller as c
+    v = c.f()
+    print(v, sum(c.f.stats.cache_hits.values()), len(refreshes), "numba.np.linalg" in sys.modules)
+
+    @numba.njit
+    def g(x):                       # not cached: a compile after the load
+        return x * 2.0
+
+    print(g(c.f()), "numba.np.linalg" in sys.modules)
+"""
+
+
+@pytest.mark.slow  # three subprocesses, two compiles
+def test_a_warm_load_skips_numbas_refresh_and_a_later_compile_still_works(tmp_path):
+    """Loading the keyed folder's compiled code does not refresh numba's
+    target context (the lowering registries, 0.24 s of a warm ``synth
+    note``): the second run of the toy ``keyed`` package loads its caller
+    with no refresh and without importing numba's linalg lowering; a
+    function compiled afterwards in the same process (numba's compiler
+    refreshes the contexts itself) still compiles and runs.  The control
+    ``plain``, another library's cached functions, keeps numba's load,
+    which refreshes."""
+    env = _env(tmp_path, tmp_path / "nc")
+    for pkg, init in (("keyed", KEYED_INIT), ("plain", "")):
+        _toy(tmp_path, pkg, init, "1.0")
+    _run(LIGHT_RUN.format(pkg="keyed"), env, tmp_path)          # compiles
+    _run(LIGHT_RUN.format(pkg="plain"), env, tmp_path)
+    first, second = _run(LIGHT_RUN.format(pkg="keyed"), env, tmp_path)
+    assert first.split() == ["1.5", "1", "0", "False"], first
+    assert second.split() == ["3.0", "True"], second
+    first, _ = _run("import keyed\n" + textwrap.dedent(LIGHT_RUN.format(pkg="plain")), env, tmp_path)
+    value, hits, refreshes, _ = first.split()
+    assert (value, hits) == ("1.5", "1") and int(refreshes) >= 1, first

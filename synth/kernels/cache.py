@@ -60,6 +60,11 @@ decides the compiled code but the CPU, which numba's index keys itself.  ``synth
 calls it, so importing any kernel module imports them all (about 15 ms
 beyond ``strings``, which every user of the kernels imports anyway).
 
+Loading: a kernel loaded from the keyed folder skips numba's refresh of
+its target context, which imports every lowering registry numba has and
+cost a warm note a third of its time (:func:`install_light_load`); a
+compile still refreshes.
+
 Old folders: each load marks its folder as used (its modification time) and
 deletes the siblings of the same name pattern beyond the :data:`KEEP` most
 recently used, never the current one and never anything else in the base
@@ -269,6 +274,7 @@ def load_keyed(package: str, folder: str | os.PathLike, name: str = NAME,
             pass
         prune(path, name, keep)
         install_save_lock(path)
+        install_light_load(path)
     return path
 
 
@@ -381,6 +387,56 @@ def install_save_lock(root: str | os.PathLike) -> bool:
     save._synth_locked = True
     save.__wrapped_plain__ = plain
     cls.save = save
+    return True
+
+
+_LIGHT_ROOTS: set[str] = set()
+
+
+def install_light_load(root: str | os.PathLike) -> bool:
+    """Load cached entries under ``root`` without numba's refresh of the
+    target context; returns whether the change is in place.
+
+    numba 0.68's ``Cache.load_overload`` calls ``target_context.refresh()``
+    before it reads an entry.  The first refresh of a process imports and
+    installs every lowering registry numba has (its linalg, random, typed
+    containers, datetime, the CPython builtins) and refreshes the typing
+    context: what a *compile* needs.  Loading compiled code needs none of
+    it: ``CompileResult._rebuild`` unserializes the library, links it
+    (which needs the runtime's symbols, :func:`rtsys.initialize`, the first
+    thing refresh does) and runs the parallel loops' re-initialisers.  A
+    compile still refreshes the contexts itself (``CompilerBase``), so a
+    cache miss later in the process is unaffected.  A warm ``synth note
+    sitar`` spent 0.24 s of its 0.63 s after start-up in that refresh
+    (2026-12-01, 2-vCPU Xeon: 0.41 s without it, the same bytes;
+    docs/lab/2026-12-01-readings.md).  Entries of other folders (other
+    libraries' numba functions) keep numba's own load."""
+    try:
+        from numba.core import caching
+        from numba.core.runtime import rtsys
+    except ImportError:                      # pragma: no cover
+        return False
+    cls = getattr(caching, "Cache", None)
+    if (cls is None or not hasattr(cls, "load_overload") or not hasattr(cls, "_load_overload")
+            or not hasattr(cls, "_guard_against_spurious_io_errors")
+            or not hasattr(rtsys, "initialize")):
+        return False                         # another numba: leave it as it is
+    _LIGHT_ROOTS.add(os.path.abspath(os.fspath(root)))
+    if getattr(cls.load_overload, "_synth_light", False):
+        return True
+    plain = cls.load_overload
+
+    def load_overload(self, sig, target_context):
+        cache_path = os.path.abspath(getattr(self, "_cache_path", ""))
+        if not any(cache_path == r or cache_path.startswith(r + os.sep) for r in _LIGHT_ROOTS):
+            return plain(self, sig, target_context)
+        rtsys.initialize(target_context)
+        with self._guard_against_spurious_io_errors():
+            return self._load_overload(sig, target_context)
+
+    load_overload._synth_light = True
+    load_overload.__wrapped_plain__ = plain
+    cls.load_overload = load_overload
     return True
 
 
