@@ -357,37 +357,62 @@ def install_save_lock(root: str | os.PathLike) -> bool:
         from numba.core import caching
     except ImportError:                      # pragma: no cover
         return False
-    cls = getattr(caching, "IndexDataCacheFile", None)
-    need = ("save", "_load_index", "_save_index", "_save_data", "_data_name")
-    if cls is None or not all(hasattr(cls, a) for a in need):
+
+    def make(plain):
+        def save(self, key, data):
+            root = _root_of(self, _LOCKED_ROOTS)
+            if root is None:
+                return plain(self, key, data)
+            with _flocked(os.path.join(root, LOCK_NAME)):
+                _save_in_order(self, key, data)
+        return save
+
+    return _patch(getattr(caching, "IndexDataCacheFile", None), "save",
+                  ("_load_index", "_save_index", "_save_data", "_data_name"),
+                  _LOCKED_ROOTS, root, make)
+
+
+def _save_in_order(self, key, data) -> None:
+    """numba's ``IndexDataCacheFile.save`` with the data written before
+    the index (:func:`install_save_lock`)."""
+    overloads = self._load_index()
+    data_name = overloads.get(key)
+    if data_name is None:
+        used = set(overloads.values())
+        i = 1
+        while self._data_name(i) in used:
+            i += 1
+        data_name = self._data_name(i)
+    self._save_data(data_name, data)
+    overloads[key] = data_name
+    self._save_index(overloads)
+
+
+def _patch(cls, name: str, need, roots: set, root, make) -> bool:
+    """Replace numba's ``cls.<name>`` by ``make(the plain method)`` (once
+    per process), for the cache folders of ``roots``, to which ``root`` is
+    added; False (nothing changed) for a numba whose ``cls`` lacks the
+    method or any of the attributes ``need`` the replacement relies on."""
+    if cls is None or not all(hasattr(cls, a) for a in (name, *need)):
         return False                         # another numba: leave it as it is
-    _LOCKED_ROOTS.add(os.path.abspath(os.fspath(root)))
-    if getattr(cls.save, "_synth_locked", False):
+    roots.add(os.path.abspath(os.fspath(root)))
+    plain = getattr(cls, name)
+    if hasattr(plain, "__wrapped_plain__"):
         return True
-    plain = cls.save
-
-    def save(self, key, data):
-        cache_path = os.path.abspath(getattr(self, "_cache_path", ""))
-        roots = [r for r in _LOCKED_ROOTS if cache_path == r or cache_path.startswith(r + os.sep)]
-        if not roots:
-            return plain(self, key, data)
-        with _flocked(os.path.join(roots[0], LOCK_NAME)):
-            overloads = self._load_index()
-            data_name = overloads.get(key)
-            if data_name is None:
-                used = set(overloads.values())
-                i = 1
-                while self._data_name(i) in used:
-                    i += 1
-                data_name = self._data_name(i)
-            self._save_data(data_name, data)
-            overloads[key] = data_name
-            self._save_index(overloads)
-
-    save._synth_locked = True
-    save.__wrapped_plain__ = plain
-    cls.save = save
+    new = make(plain)
+    new.__wrapped_plain__ = plain
+    setattr(cls, name, new)
     return True
+
+
+def _root_of(cache, roots) -> str | None:
+    """The folder of ``roots`` that holds the entries of ``cache`` (a numba
+    cache object: its ``_cache_path``), or None."""
+    path = os.path.abspath(getattr(cache, "_cache_path", ""))
+    for r in roots:
+        if path == r or path.startswith(r + os.sep):
+            return r
+    return None
 
 
 _LIGHT_ROOTS: set[str] = set()
@@ -416,28 +441,20 @@ def install_light_load(root: str | os.PathLike) -> bool:
         from numba.core.runtime import rtsys
     except ImportError:                      # pragma: no cover
         return False
-    cls = getattr(caching, "Cache", None)
-    if (cls is None or not hasattr(cls, "load_overload") or not hasattr(cls, "_load_overload")
-            or not hasattr(cls, "_guard_against_spurious_io_errors")
-            or not hasattr(rtsys, "initialize")):
-        return False                         # another numba: leave it as it is
-    _LIGHT_ROOTS.add(os.path.abspath(os.fspath(root)))
-    if getattr(cls.load_overload, "_synth_light", False):
-        return True
-    plain = cls.load_overload
+    if not hasattr(rtsys, "initialize"):
+        return False                         # pragma: no cover - another numba
 
-    def load_overload(self, sig, target_context):
-        cache_path = os.path.abspath(getattr(self, "_cache_path", ""))
-        if not any(cache_path == r or cache_path.startswith(r + os.sep) for r in _LIGHT_ROOTS):
-            return plain(self, sig, target_context)
-        rtsys.initialize(target_context)
-        with self._guard_against_spurious_io_errors():
-            return self._load_overload(sig, target_context)
+    def make(plain):
+        def load_overload(self, sig, target_context):
+            if _root_of(self, _LIGHT_ROOTS) is None:
+                return plain(self, sig, target_context)
+            rtsys.initialize(target_context)
+            with self._guard_against_spurious_io_errors():
+                return self._load_overload(sig, target_context)
+        return load_overload
 
-    load_overload._synth_light = True
-    load_overload.__wrapped_plain__ = plain
-    cls.load_overload = load_overload
-    return True
+    return _patch(getattr(caching, "Cache", None), "load_overload",
+                  ("_load_overload", "_guard_against_spurious_io_errors"), _LIGHT_ROOTS, root, make)
 
 
 class _flocked:
