@@ -30,6 +30,7 @@ bank compiles the unit itself.
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 
 
@@ -64,11 +65,9 @@ def _compile(units, preset, overrides) -> None:
     # (Ctrl-C at a terminal reaches this process too: the command stops it)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     threads.set_default(1)
-    eng = None
-    if "bank" in units or KR.A_BLOCKA in units:
-        from ..io.factory import build_engine
+    from ..io.factory import build_engine
 
-        eng = build_engine(preset, overrides, extra_low_key=0, threads=1)
+    eng = build_engine(preset, overrides, extra_low_key=0, threads=1)
     for u in units:
         if u == "bank":
             eng.bank._bank_addr()
@@ -93,6 +92,18 @@ class Helper:
         if self.proc.is_alive():
             self.proc.terminate()
         self.proc.join()
+
+
+@contextlib.contextmanager
+def meanwhile(helper: "Helper | None"):
+    """The command's work with ``helper`` (:func:`start`, :func:`start_live`;
+    None: no second process) compiling beside it, stopped when the work
+    ends, however it ends."""
+    try:
+        yield helper
+    finally:
+        if helper is not None:
+            helper.close()
 
 
 def start_live(preset, overrides, threads: int | None = None) -> Helper | None:

@@ -109,12 +109,8 @@ def run(args) -> int:
     c0 = compile_seconds()
     t = time.perf_counter()
     # (a cold cache: a second process compiles part of the kernels meanwhile)
-    helper = cold_start.start(eng, args.preset, args.set, args.threads)
-    try:
+    with cold_start.meanwhile(cold_start.start(eng, args.preset, args.set, args.threads)):
         y = play_note(eng, key, f0, velocity, seconds, args.hammer_speed)
-    finally:
-        if helper is not None:
-            helper.close()
     comp = compile_seconds() - c0
     el = time.perf_counter() - t - comp
     info = write_audio(args.output, y, eng.fs_out, args.pcm24, fmt, gain=preset.output.gain)

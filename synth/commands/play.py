@@ -118,11 +118,7 @@ def run(args) -> int:
     from ..apps import cold_start
 
     # (a cold cache: a second process compiles part of the kernels meanwhile)
-    helper = cold_start.start_live(args.preset, args.set, args.threads)
-    try:
+    with cold_start.meanwhile(cold_start.start_live(args.preset, args.set, args.threads)):
         player.start()
-    finally:
-        if helper is not None:
-            helper.close()
     player.run(seconds=args.seconds)
     return 1 if player.stopped else 0

@@ -81,13 +81,10 @@ def run(args) -> int:
                            channels=channels, drums=args.drums, rate=rate,
                            internal_rate=args.internal_rate, mpe=mpe, log=log_stderr)
         # (a cold cache: a second process compiles part of the kernels meanwhile)
-        helper = cold_start.start(midi.engine, args.preset, args.set, args.threads)
-        try:
+        with cold_start.meanwhile(cold_start.start(midi.engine, args.preset, args.set,
+                                                   args.threads)):
             res = write_render(midi, args.output, pcm24=args.pcm24, fmt=fmt, log=log_stderr,
                                stream=sys.stderr)
-        finally:
-            if helper is not None:
-                helper.close()
     warn = peak_warning(args.output, res.peak_dbfs, res.output_gain, res.n_clipped)
     if warn:
         print(warn, file=sys.stderr)

@@ -372,20 +372,20 @@ def install_save_lock(root: str | os.PathLike) -> bool:
                   _LOCKED_ROOTS, root, make)
 
 
-def _save_in_order(self, key, data) -> None:
-    """numba's ``IndexDataCacheFile.save`` with the data written before
-    the index (:func:`install_save_lock`)."""
-    overloads = self._load_index()
+def _save_in_order(cache_file, key, data) -> None:
+    """numba's ``IndexDataCacheFile.save`` of ``cache_file`` with the data
+    written before the index (:func:`install_save_lock`)."""
+    overloads = cache_file._load_index()
     data_name = overloads.get(key)
     if data_name is None:
         used = set(overloads.values())
         i = 1
-        while self._data_name(i) in used:
+        while cache_file._data_name(i) in used:
             i += 1
-        data_name = self._data_name(i)
-    self._save_data(data_name, data)
+        data_name = cache_file._data_name(i)
+    cache_file._save_data(data_name, data)
     overloads[key] = data_name
-    self._save_index(overloads)
+    cache_file._save_index(overloads)
 
 
 def _patch(cls, name: str, need, roots: set, root, make) -> bool:
