@@ -255,6 +255,8 @@ def test_play_argument_errors_come_before_any_device(capsys):
              (["play", "--preset", "sitar", "--latency-ms", "1"], "--latency-ms = 1 is out of range"),
              (["play", "--preset", "sitar", "--latency-ms", "-3"], "--latency-ms = -3"),
              (["play", "--preset", "sitar", "--set", "play.polyphony=0"], "play.polyphony"),
+             (["play", "--preset", "sitar", "--warm-every-ms", "1"],
+              "--warm-every-ms = 1 is out of range (0: off, or 2 <= value <= 1000)"),
              (["play", "--preset", "sitar", "--set", "nosuch.key=1"], "nosuch")]
     for argv, frag in cases:
         rc = main(argv)
@@ -424,7 +426,10 @@ print("JSON " + json.dumps(dict(blocks=st.blocks, errors=st.errors, underruns=st
                                 max_voices=p.max_voices, peak=p.peak, notes=p.n_notes,
                                 messages=p.n_messages, handler_errors=p.handler_errors,
                                 preset=p.preset_name, programs=p.n_program_changes,
-                                ready_s=p.ready_s, closed=p.stream is None and p.port is None)))
+                                ready_s=p.ready_s, closed=p.stream is None and p.port is None,
+                                rehearsed=p.rehearsal.notes, rehearsal_error=p.rehearsal.error,
+                                rehearsal_on_biwa=p.rehearsal.engine.inst is p.instruments["biwa"],
+                                rehearsal_alive=p.rehearsal.is_alive())))
 """
 
 
@@ -449,6 +454,10 @@ def test_real_stream_on_the_null_device_plays_messages(null_home, tmp_path):
     assert 1e-3 < r["peak"] < 1.0                             # it sounded, unclipped
     assert r["preset"] == "biwa" and r["programs"] == 1
     assert r["closed"]
+    # the silent notes that keep the paths warm: on the program's preset, stopped with the play
+    assert r["rehearsed"] > 20 and r["rehearsal_error"] is None
+    assert r["rehearsal_on_biwa"] and not r["rehearsal_alive"]
+    assert f"kept warm by {r['rehearsed']} silent notes on an understudy, one every 10 ms" in out
     # --record: what went to the device, as a complete WAV file
     info = soundfile.info(str(rec))
     assert info.channels == 2 and info.frames >= r["blocks"] * 128 * 0.9

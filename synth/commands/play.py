@@ -68,6 +68,11 @@ def add_arguments(parser) -> None:
                         help="show block time, voices and underruns once a second, and the "
                              "latest note's contacts per string (hammer, termination; default: "
                              "off)")
+    parser.add_argument("--warm-every-ms", type=float, default=10.0, metavar="MS",
+                        help="every MS milliseconds a background thread plays a silent note on a "
+                             "small copy of the instrument, so that a chord after a quiet moment "
+                             "does not find its code cold (on a virtual machine that cost "
+                             "milliseconds a chord); 0: off, else 2 .. 1000 (default: 10)")
     parser.add_argument("--list-ports", action="store_true",
                         help="list MIDI input ports (ALSA and JACK) and audio output devices, then "
                              "exit (default: off)")
@@ -104,7 +109,7 @@ def run(args) -> int:
         player = JackPlayer(args.preset, programs, name=args.jack_name, connect=args.connect,
                             stats=args.stats, overrides=args.set, channels=args.channels,
                             drums=args.drums, record=args.record, reconnect=args.reconnect,
-                            mpe=args.mpe)
+                            mpe=args.mpe, warm_every_ms=args.warm_every_ms)
     else:
         for opt, val in (("--connect", args.connect), ("--reconnect", args.reconnect)):
             if val:
@@ -114,7 +119,8 @@ def run(args) -> int:
                              audio_device=args.audio_device, midi_port=args.midi_port,
                              stats=args.stats, overrides=args.set, channels=args.channels,
                              drums=args.drums, record=args.record, rate=args.rate,
-                             midi_api=args.midi_api or "auto", mpe=args.mpe)
+                             midi_api=args.midi_api or "auto", mpe=args.mpe,
+                             warm_every_ms=args.warm_every_ms)
     from ..apps import cold_start
 
     # (a cold cache: a second process compiles part of the kernels meanwhile)

@@ -351,13 +351,14 @@ def start_jackd(name: str, period: int = 128):
         raise SystemExit(str(e)) from None
 
 
-def synth_play(server: str, name: str, preset: str, seconds: float = 600.0):
-    """``synth play --jack`` in a subprocess on ``server`` (as tests/test_jack.py)."""
+def synth_play(server: str, name: str, preset: str, seconds: float = 600.0, extra=()):
+    """``synth play --jack`` in a subprocess on ``server`` (as tests/test_jack.py),
+    with ``extra`` arguments."""
     import subprocess
 
     env = dict(os.environ, JACK_DEFAULT_SERVER=server)
     return subprocess.Popen([sys.executable, "-m", "synth.cli", "play", "--jack", "--preset", preset,
-                             "--jack-name", name, "--seconds", str(seconds)], env=env,
+                             "--jack-name", name, "--seconds", str(seconds), *extra], env=env,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
 
@@ -446,14 +447,15 @@ def _pct_ms(x, q):
 
 
 def jack_run(server: str, mode: str, n_notes: int, voices: int, preset: str, settle_s: float,
-             name: str, cycles: int = 3) -> dict:
-    """One run: ``synth play --jack`` started, waited for and connected to
-    the tool's client; then the notes (mode "notes") or the chords (mode
-    "voices"), and the synth's report after SIGINT."""
+             name: str, cycles: int = 3, extra=()) -> dict:
+    """One run: ``synth play --jack`` (with ``extra`` arguments) started,
+    waited for and connected to the tool's client; then the notes (mode
+    "notes") or the chords (mode "voices"), and the synth's report after
+    SIGINT."""
     import signal
 
     jack = _jack()
-    proc = synth_play(server, name, preset)
+    proc = synth_play(server, name, preset, extra=extra)
     probe = None
     t_start = time.perf_counter()
     try:
@@ -623,10 +625,14 @@ def jack_main(a) -> int:
                   f"({idle / idle_s * 60:.0f} a minute; the floor under the synth's count)")
         print(page_touch_line(a.quick))
         runs = []
-        for r in range(a.runs):
-            name = f"synthbench{r}"
+        warms = [None] if a.warm_every_ms is None else a.warm_every_ms
+        plan = [(r, w) for r in range(a.runs) for w in warms]
+        for i, (r, w) in enumerate(plan):
+            name = f"synthbench{i}"
+            extra = () if w is None else ("--warm-every-ms", f"{w:g}")
             res = jack_run(server, mode, a.notes, a.voices, a.preset, a.settle, name,
-                           cycles=a.cycles)
+                           cycles=a.cycles, extra=extra)
+            res["warm"] = w
             runs.append(res)
             rep, bp = res["synth"], res["by_phase"]
             xr_line = (f"xruns (the server's, seen by the tool's client): {bp['activation']} at its "
@@ -634,7 +640,8 @@ def jack_main(a) -> int:
                        f"{a.settle:g} s settle, {bp['play']} during play; the synth counted "
                        f"{rep['xruns']:.0f} in all (from its own activation)"
                        if rep["xruns"] is not None else "the synth's report has no xrun count")
-            head = (f"\nrun {r + 1}/{a.runs}: exit {res['returncode']}, {res['wall_s']:.0f} s; synth "
+            said = "" if w is None else f" (--warm-every-ms {w:g})"
+            head = (f"\nrun {r + 1}/{a.runs}{said}: exit {res['returncode']}, {res['wall_s']:.0f} s; synth "
                     f"block time worst {rep['worst']}%, 99th pct {rep['p99']}%, mean {rep['mean']}%, "
                     f"{rep['over']} blocks over budget ({rep['over_cpu']} in its CPU time, whose "
                     f"worst is {rep['worst_cpu']}%), "
@@ -668,6 +675,15 @@ def jack_main(a) -> int:
                 if res["near_chords"]:
                     print("  play xruns, (frames after the latest chord's onset, its keys): "
                           + "; ".join(f"({d}, {list(k)})" for d, k in res["near_chords"]))
+        if len(warms) > 1:
+            print("\n## by --warm-every-ms (runs alternated)")
+            for w in warms:
+                mine = [x for x in runs if x["warm"] == w]
+                print(f"{w:g} ms: xruns during play {[x['by_phase']['play'] for x in mine]}; the "
+                      f"synth's blocks over budget in its CPU time "
+                      f"{[x['synth']['over_cpu'] for x in mine]}, worst "
+                      f"{[x['synth']['worst_cpu'] for x in mine]} %; 99th pct "
+                      f"{[x['synth']['p99'] for x in mine]} %")
         if a.runs > 1:
             print(f"\n## over {a.runs} runs")
             play = [r["by_phase"]["play"] for r in runs]
@@ -758,6 +774,10 @@ def main(argv=None) -> int:
     jk.add_argument("--idle", type=float, default=None, metavar="S",
                     help="first, seconds of a client that does nothing on the server, whose "
                          "xruns are the server's own (default 20; --quick 4; 0: none)")
+    jk.add_argument("--warm-every-ms", default=None, metavar="MS[,MS...]",
+                    type=lambda t: [float(x) for x in t.split(",")],
+                    help="synth play's --warm-every-ms; a list alternates the runs between its "
+                         "values (e.g. 0,10; default: synth play's own)")
     jk.add_argument("--settle", type=float, default=1.0,
                     help="seconds between connecting and the first note (default 1)")
     harness.add_target_option(ap)

@@ -38,6 +38,7 @@ import numpy as np
 from synth.io.errors import SynthError
 from synth.io.live.devices import _one_line, _quiet_c_stderr
 from synth.io.live.player import SWITCH_INTERVAL_S, Player
+from synth.io.live.rehearsal import DEFAULT_EVERY_MS
 from synth.io.rates import check_rate
 
 __all__ = ["JackPlayer", "check_jack", "INSTALL_JACK"]
@@ -63,7 +64,7 @@ class JackPlayer(Player):
 
     Parameters
     ----------
-    preset, program_map, stats, out, overrides, channels, drums, record, mpe
+    preset, program_map, stats, out, overrides, channels, drums, record, mpe, warm_every_ms
         As :class:`synth.io.live.player.Player`.
     name : str
         The client's name (``--jack-name``; JACK may add a suffix when it is
@@ -90,7 +91,8 @@ class JackPlayer(Player):
     def __init__(self, preset: str, program_map=None, *, name: str = "synth",
                  connect: bool = False, server: str | None = None, stats: bool = False,
                  out=None, overrides=(), channels=None, drums: bool = False,
-                 record: str | None = None, reconnect: bool = False, mpe=()):
+                 record: str | None = None, reconnect: bool = False, mpe=(),
+                 warm_every_ms: float = DEFAULT_EVERY_MS):
         self._jack_name = str(name)
         self._connect = bool(connect)
         self._server = server
@@ -104,7 +106,7 @@ class JackPlayer(Player):
         self._shutdown = None           # why the server closed us, from its thread
         super().__init__(preset, program_map, block=128, midi=False, stats=stats, out=out,
                          overrides=overrides, channels=channels, drums=drums, record=record,
-                         mpe=mpe)
+                         mpe=mpe, warm_every_ms=warm_every_ms)
 
     def _check_outside(self, audio_device, midi_port, midi: bool) -> None:
         """The JACK library, and a server to join: the client is opened now
@@ -159,6 +161,7 @@ class JackPlayer(Player):
             self._buf = np.zeros((4096, self.channels), dtype=np.float32)
             self._start_recording(self.channels)
             self.rt.start()
+            self._start_rehearsal()
             self._attach()
         except BaseException:
             self.close()

@@ -36,6 +36,7 @@ from synth.io.live.devices import (FS_OUT, _one_line, _quiet_c_stderr, check_aud
                                    pick_audio_device, pick_midi_api, pick_midi_port,
                                    port_lister)
 from synth.io.live.engines import ready_engine
+from synth.io.live.rehearsal import DEFAULT_EVERY_MS, Rehearsal
 from synth.io.live.programs import ProgramMap
 
 __all__ = ["SWITCH_INTERVAL_S", "normalise", "Player"]
@@ -143,6 +144,12 @@ class Player:
         ``--mpe``: MPE zones set on the engine before the stream opens
         (:func:`synth.engine.mpe.parse_mpe`); a program change keeps the
         zones the engine has then (:meth:`Realtime.swap`).
+    warm_every_ms : float
+        ``--warm-every-ms``: every so many milliseconds a background
+        thread plays a silent note on a small copy of the instrument, so
+        that a chord after a quiet moment finds its code and data warm
+        (:mod:`synth.io.live.rehearsal`); 0 turns it off, else 2 .. 1000
+        (default 10).
     rate : int or None
         Output rate (Hz, ``--rate``), 22050 .. 192000; None: 48 kHz, or
         the device's own rate when it cannot play 48 kHz (a JACK server's
@@ -161,7 +168,7 @@ class Player:
                  midi_port: str | None = None, midi: bool = True, stats: bool = False,
                  out=None, overrides=(), channels=None, drums: bool = False,
                  record: str | None = None, rate: int | None = None, midi_api: str = "auto",
-                 mpe=()):
+                 mpe=(), warm_every_ms: float = DEFAULT_EVERY_MS):
         from synth.engine.engine import Engine
         from synth.io.presets import load_preset
 
@@ -169,6 +176,13 @@ class Player:
             raise SynthError(f"--block = {block} is out of range (16 <= value <= "
                              f"{Engine.MAX_BLOCK_OUT})")
         self.block = int(block)
+        w = float(warm_every_ms)
+        if not (w == 0.0 or 2.0 <= w <= 1000.0):
+            raise SynthError(f"--warm-every-ms = {warm_every_ms:g} is out of range (0: off, or "
+                             "2 <= value <= 1000)")
+        self.warm_every_ms = w
+        #: the silent notes that keep a note's paths warm (None: off)
+        self.rehearsal = None
         self._rate = None if rate is None else check_rate(rate)
         self.fs = self._rate
         self.overrides = tuple(overrides)
@@ -278,6 +292,7 @@ class Player:
             # the cyclic collector off while playing (Realtime.start), and the
             # stream's sample 0 stamped now
             self.rt.start()
+            self._start_rehearsal()
             self.stream.start()
             if self.midi_port_name is not None:
                 try:
@@ -289,6 +304,14 @@ class Player:
             self.close()
             raise
         self._ready(t_call)
+
+    def _start_rehearsal(self) -> None:
+        """Start the silent notes on an understudy engine
+        (:class:`synth.io.live.rehearsal.Rehearsal`, ``--warm-every-ms``)."""
+        if self.warm_every_ms > 0.0:
+            self.rehearsal = Rehearsal(self.preset_name, self.instruments[self.preset_name],
+                                       self.fs, self.block, self.warm_every_ms / 1e3)
+            self.rehearsal.start()
 
     def _open_port(self) -> None:
         with _quiet_c_stderr():
@@ -383,6 +406,10 @@ class Player:
         """Drop a program change still being built, restore the switch
         interval and the garbage collector, and finish the recording (once
         the audio has stopped)."""
+        reh = self.rehearsal
+        if reh is not None:
+            reh.stop()
+            reh.join(timeout=10.0)
         rec, self.recorder = self.recorder, None
         if rec is not None:
             self.record_line = rec.close()
@@ -453,6 +480,12 @@ class Player:
                        for what, n in sorted(ignored.items(), key=lambda kv: (-kv[1], kv[0])))
         if self.record_line:
             rest += f"\n{self.record_line}"
+        reh = self.rehearsal
+        if reh is not None:
+            rest += (f"\nkept warm by {reh.notes} silent notes on an understudy, one every "
+                     f"{self.warm_every_ms:g} ms")
+            if reh.error is not None:
+                rest += f" (stopped early: {reh.error})"
         return (f"{self.rt.report()}\n{ready}{self.n_messages} MIDI messages, {self.n_notes} notes, "
                 f"{self.n_program_changes} program changes, at most {self.max_voices} voices, "
                 f"{stolen} voices stolen, peak {peak}{clip}, {self.handler_errors} message "
@@ -477,6 +510,8 @@ class Player:
         n = self.rt.engine.n_voices
         if n > self.max_voices:
             self.max_voices = n
+        if self.rehearsal is not None:
+            self.rehearsal.tick()
 
     def _callback(self, outdata, frames, time_info, status) -> None:
         """The stream's callback: the real-time driver, then the peak and
@@ -551,9 +586,17 @@ class Player:
             self._say(f"\nprogram {program}: {name} failed: {_one_line(e)}")
             return
         eng.telemetry = self.stats
+        understudy = None
+        if self.rehearsal is not None:
+            try:
+                understudy = self.rehearsal.understudy(name, self.instruments[name])
+            except Exception as e:
+                self._say(f"\nprogram {program}: no rehearsal for {name}: {_one_line(e)}")
         with self._lock:
             if gen != self._gen or self.rt is None:
                 return
+            if understudy is not None:
+                self.rehearsal.follow(understudy)
             self.rt.swap(eng)
             self.preset_name = name
             self.n_program_changes += 1
