@@ -520,6 +520,29 @@ def test_reconnect_waits_for_the_server_and_plays_on(private_server, tmp_path):
     assert info.samplerate == FS and info.frames > FS
 
 
+def test_sigterm_stops_the_play_as_ctrl_c_does(server, tmp_path):
+    """SIGTERM (a service manager, ``kill``; the one a job started in the
+    background with ``&`` still takes, its SIGINT being ignored) stops
+    ``synth play`` as Ctrl-C does: exit status 0, the report, and the
+    recording complete (it used to die with no report and no file)."""
+    import soundfile
+
+    rec = tmp_path / "t.wav"
+    proc = _synth_play(server, "--preset", "biwa", "--jack-name", "termed", "--record", str(rec))
+    lines = _Lines(proc)
+    try:
+        lines.wait_for("ready in")
+        time.sleep(0.5)
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        out, err = lines.rest()
+    assert proc.returncode == 0, (out, err)
+    assert "stopped by SIGTERM" in out and "JACK xruns" in out and "Traceback" not in err, out
+    info = soundfile.info(str(rec))
+    assert info.samplerate == FS and info.frames >= 0.4 * FS
+    assert f"recorded {info.frames / FS:.1f} s to" in out
+
+
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_portaudio_with_jack_midi(private_server, tmp_path):
     """The PortAudio player (no --jack) on a machine whose MIDI is JACK's:

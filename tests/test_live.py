@@ -457,7 +457,7 @@ def test_real_stream_on_the_null_device_plays_messages(null_home, tmp_path):
     # the silent notes that keep the paths warm: on the program's preset, stopped with the play
     assert r["rehearsed"] > 20 and r["rehearsal_error"] is None
     assert r["rehearsal_on_biwa"] and not r["rehearsal_alive"]
-    assert f"kept warm by {r['rehearsed']} silent notes on an understudy, one every 10 ms" in out
+    assert f"kept warm by {r['rehearsed']} silent notes on an understudy, one every 20 ms" in out
     # --record: what went to the device, as a complete WAV file
     info = soundfile.info(str(rec))
     assert info.channels == 2 and info.frames >= r["blocks"] * 128 * 0.9

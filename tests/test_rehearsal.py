@@ -113,3 +113,11 @@ def test_keys_and_period_range():
     assert rehearsal_keys(build_voice("paper/biwa-ideal")) == [-1]
     with pytest.raises(ValueError, match=r"every_s = 0\.001 is out of range \(0\.002 <= value <= 1\)"):
         Rehearsal("biwa", build_voice("biwa"), 48_000, BLOCK, every_s=0.001)
+
+
+def test_the_command_line_default_is_the_players():
+    from synth.cli import build_parser
+    from synth.io.live.rehearsal import DEFAULT_EVERY_MS
+
+    args = build_parser().parse_args(["play", "--preset", "sitar"])
+    assert args.warm_every_ms == DEFAULT_EVERY_MS

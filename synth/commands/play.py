@@ -68,11 +68,11 @@ def add_arguments(parser) -> None:
                         help="show block time, voices and underruns once a second, and the "
                              "latest note's contacts per string (hammer, termination; default: "
                              "off)")
-    parser.add_argument("--warm-every-ms", type=float, default=10.0, metavar="MS",
+    parser.add_argument("--warm-every-ms", type=float, default=20.0, metavar="MS",
                         help="every MS milliseconds a background thread plays a silent note on a "
                              "small copy of the instrument, so that a chord after a quiet moment "
                              "does not find its code cold (on a virtual machine that cost "
-                             "milliseconds a chord); 0: off, else 2 .. 1000 (default: 10)")
+                             "milliseconds a chord); 0: off, else 2 .. 1000 (default: 20)")
     parser.add_argument("--list-ports", action="store_true",
                         help="list MIDI input ports (ALSA and JACK) and audio output devices, then "
                              "exit (default: off)")

@@ -451,7 +451,7 @@ def jack_run(server: str, mode: str, n_notes: int, voices: int, preset: str, set
     """One run: ``synth play --jack`` (with ``extra`` arguments) started,
     waited for and connected to the tool's client; then the notes (mode
     "notes") or the chords (mode "voices"), and the synth's report after
-    SIGINT."""
+    SIGTERM."""
     import signal
 
     jack = _jack()
@@ -492,7 +492,9 @@ def jack_run(server: str, mode: str, n_notes: int, voices: int, preset: str, set
     finally:
         if probe is not None:
             probe.close()
-        proc.send_signal(signal.SIGINT)
+        # (SIGTERM: a tool started in the background with & passes its
+        # children SIGINT ignored, and synth play keeps it so)
+        proc.send_signal(signal.SIGTERM)
         out, err = proc.communicate(timeout=120)
     rep = parse_report(out)
     res = {"synth": rep, "returncode": proc.returncode, "wall_s": time.perf_counter() - t_start,

@@ -149,7 +149,7 @@ class Player:
         thread plays a silent note on a small copy of the instrument, so
         that a chord after a quiet moment finds its code and data warm
         (:mod:`synth.io.live.rehearsal`); 0 turns it off, else 2 .. 1000
-        (default 10).
+        (default 20).
     rate : int or None
         Output rate (Hz, ``--rate``), 22050 .. 192000; None: 48 kHz, or
         the device's own rate when it cannot play 48 kHz (a JACK server's
@@ -425,29 +425,35 @@ class Player:
             self.rt.stop()
 
     def run(self, seconds: float | None = None, interval_s: float = 1.0) -> str:
-        """Play until Ctrl-C (or for ``seconds``), then close and print the
-        report, which is returned.  With ``stats`` the meter is printed once
-        per ``interval_s`` on one line."""
+        """Play until Ctrl-C or SIGTERM (or for ``seconds``), then close
+        (the recording complete) and print the report, which is returned.
+        With ``stats`` the meter is printed once per ``interval_s`` on one
+        line.  (A signal ignored when the process started, as for a job
+        started in the background with ``&`` or ``nohup``, stays ignored.)"""
+        from synth.io.interrupt import interruptible
+
         if self.stream is None:
             raise RuntimeError("Player.run() before start()")
         t_end = None if seconds is None else time.monotonic() + seconds
         stopped = None
+        by = None
         try:
-            while True:
-                wait = interval_s if t_end is None else min(interval_s, t_end - time.monotonic())
-                if wait > 0:
-                    time.sleep(wait)
-                gc.collect(0)          # the young generation only, from this thread
-                self._watch_port()
-                if self.stats:
-                    print("\r" + self.rt.meter(), end="", file=self.out, flush=True)
-                stopped = self._stopped()
-                if stopped:
-                    break
-                if t_end is not None and time.monotonic() >= t_end:
-                    break
-        except KeyboardInterrupt:
-            pass
+            with interruptible():
+                while True:
+                    wait = interval_s if t_end is None else min(interval_s, t_end - time.monotonic())
+                    if wait > 0:
+                        time.sleep(wait)
+                    gc.collect(0)          # the young generation only, from this thread
+                    self._watch_port()
+                    if self.stats:
+                        print("\r" + self.rt.meter(), end="", file=self.out, flush=True)
+                    stopped = self._stopped()
+                    if stopped:
+                        break
+                    if t_end is not None and time.monotonic() >= t_end:
+                        break
+        except KeyboardInterrupt as e:
+            by = getattr(e, "signal_name", None)
         finally:
             self.close()
         if self.stats:
@@ -456,6 +462,8 @@ class Player:
         rep = self.report()
         if stopped:
             rep += f"\n{stopped}"
+        if by == "SIGTERM":
+            rep += "\nstopped by SIGTERM"
         self._say(rep)
         return rep
 
@@ -483,7 +491,7 @@ class Player:
         reh = self.rehearsal
         if reh is not None:
             rest += (f"\nkept warm by {reh.notes} silent notes on an understudy, one every "
-                     f"{self.warm_every_ms:g} ms")
+                     f"{self.warm_every_ms:g} ms ({reh.cpu_s:.2f} s of CPU time)")
             if reh.error is not None:
                 rest += f" (stopped early: {reh.error})"
         return (f"{self.rt.report()}\n{ready}{self.n_messages} MIDI messages, {self.n_notes} notes, "

@@ -14,26 +14,49 @@ inside the audio callback.
 :class:`Rehearsal` is a background thread that every ``every_s`` plays one
 silent note on an *understudy*: a small engine of the same preset (two
 voices, one thread) sharing the live engine's voice, so its key designs
-and hammer sets stay warm too.  It strikes a key, renders a block, lets
-the key go (every fourth note it also moves the sustain pedal), renders
-another block, on a full pool (the steal's path too); the keys go round the
-preset's range.  Nothing it does reaches the live engine or the output:
-the voice's shared state is read-only caches.  The thread runs at Linux's
-``SCHED_IDLE`` policy where it can, so it only takes a core no one else
-wants, and the numba kernels release the GIL; the player's 0.1 ms switch
-interval hands the GIL to the audio thread at once.  Its cost: about 0.6
-ms of one core a note on that VM (6 % of a core at the default 10 ms).
+and hammer sets stay warm too.  Right after one of the audio thread's
+blocks (:meth:`Rehearsal.tick`) it strikes a key and renders a few
+samples; after the next block it lets the key go (every fourth note it
+also moves the sustain pedal) and renders a few more: the same code as a
+block's, in the quiet time between blocks, on a full pool (the steal's
+path too); the keys go round the preset's range.  The messages are made
+as MIDI bytes and converted as live ones are.  Nothing it does reaches
+the live engine or the output: the voice's shared state is read-only
+caches.  The numba kernels release the GIL, and the player's 0.1 ms
+switch interval hands it to the audio thread at once.  The thread runs at
+the process's normal priority, not ``SCHED_IDLE``: starved by other
+processes while it held the GIL, an idle-priority thread kept the audio
+thread waiting for it (a JACK test under two busy processes failed 3 of 3
+at ``SCHED_IDLE``, passed 3 of 3 at normal priority).  Its cost on that VM:
+about 0.9 ms of one core a part, two parts a note, 11 % of a core at the
+default 20 ms (the player's report gives its CPU time).  Measured there
+through JACK with 32 grand voices (``tools/bench.py live --jack --voices 32
+--warm-every-ms 0,20``): the audio thread's blocks over their period 1-17
+a run without it, 0-5 with it (``docs/lab/2026-12-01-rehearsal.md``).
 """
 
 from __future__ import annotations
 
-import os
 import threading
+import time
 
 __all__ = ["Rehearsal", "DEFAULT_EVERY_MS"]
 
 #: default period of the rehearsal (ms; ``--warm-every-ms``)
-DEFAULT_EVERY_MS = 10.0
+DEFAULT_EVERY_MS = 20.0
+#: output samples the understudy renders per part
+PART_OUT = 32
+
+
+def _to_event(data: bytes):
+    """A MIDI message's bytes as an engine event: the live players'
+    conversion (:func:`synth.io.live.player.normalise` of the parsed
+    message), so that its code stays warm too."""
+    import mido
+
+    from synth.io.live.player import normalise
+
+    return normalise(mido.Message.from_bytes(data))
 
 
 def rehearsal_keys(voice) -> list:
@@ -63,24 +86,34 @@ class Rehearsal(threading.Thread):
         The stream's block (output samples, 16 <= value <= 4096).
     every_s : float
         Seconds between two rehearsed notes (0.002 <= value <= 1).
+    to_event : callable or None
+        MIDI bytes -> engine :class:`~synth.engine.engine.Event` (or None):
+        the conversion live messages take (default: the players',
+        :func:`synth.io.live.player.normalise`).
 
     Attributes
     ----------
     notes : int
         Notes rehearsed so far.
+    cpu_s : float
+        The thread's CPU time so far (s).
     error : str or None
         Why the rehearsal stopped early (one line), or None.
     """
 
     def __init__(self, preset: str, voice, fs_out: int, block: int,
-                 every_s: float = DEFAULT_EVERY_MS / 1e3):
+                 every_s: float = DEFAULT_EVERY_MS / 1e3, to_event=None):
         super().__init__(name="synth-rehearsal", daemon=True)
         if not (0.002 <= float(every_s) <= 1.0):
             raise ValueError(f"every_s = {every_s!r} is out of range (0.002 <= value <= 1)")
         self.every_s = float(every_s)
         self.block = int(block)
+        # a part renders a few output samples: the same code as a block's
+        self.part_out = min(self.block, PART_OUT)
+        self._to_event = _to_event if to_event is None else to_event
         self.fs_out = int(fs_out)
         self.notes = 0
+        self.cpu_s = 0.0
         self.error = None
         self._halt = threading.Event()
         self._go = threading.Event()
@@ -133,16 +166,11 @@ class Rehearsal(threading.Thread):
         self._go.set()
 
     def run(self) -> None:
-        from synth.engine.engine import CC_SUSTAIN, CONTROL, NOTE_OFF, NOTE_ON, Event
+        from synth.engine.engine import CONTROL, Event
 
-        if hasattr(os, "sched_setscheduler") and hasattr(os, "SCHED_IDLE"):
-            try:
-                os.sched_setscheduler(threading.get_native_id(), os.SCHED_IDLE,
-                                      os.sched_param(0))
-            except OSError:
-                pass
         i = 0
         key = None
+        c0 = time.thread_time()
         try:
             while True:
                 self._go.wait()
@@ -156,17 +184,25 @@ class Rehearsal(threading.Thread):
                 if not self._part:
                     # strike a key (every fourth note, the pedal moves too)
                     key = self._keys[(i * 37) % len(self._keys)]
-                    evs = [Event(t, NOTE_ON, key, 0.3 + 0.06 * ((i * 7) % 10))]
+                    msgs = [(0x90, max(key, 0), 40 + (i * 29) % 80)]
                     if i % 4 == 0:
-                        evs.append(Event(t, CONTROL, CC_SUSTAIN, float((i // 4) % 2 == 0)))
-                    eng.schedule(evs)
+                        msgs.append((0xB0, 64, 127 if (i // 4) % 2 == 0 else 0))
                 else:
                     # and let it go, a block later
-                    eng.schedule([Event(t, NOTE_OFF, key, 0.5)])
+                    msgs = [(0x80, max(key, 0), 64)]
                     i += 1
                     self.notes += 1
-                eng.render_block(self.block)
+                evs = []
+                for m in msgs:
+                    ev = self._to_event(bytes(m))
+                    if ev is not None:
+                        # (a study string plays its own pitch: key -1)
+                        k = ev.key if (key >= 0 or ev.kind == CONTROL) else -1
+                        evs.append(Event(t, ev.kind, k, ev.value, ev.channel))
+                eng.schedule(evs)
+                eng.render_block(self.part_out)
                 self._part = not self._part
+                self.cpu_s = time.thread_time() - c0
                 self.done.set()
         except Exception as e:          # the performance goes on without it
             self.error = f"{type(e).__name__}: {e}".splitlines()[0]
