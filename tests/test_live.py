@@ -213,6 +213,31 @@ def test_warm_up_leaves_no_kernel_to_compile_in_the_callback():
     assert res == {"sitar": {}, "grand-piano": {}, "paper/sitar-case1": {}}, res
 
 
+def _shipped_presets():
+    from synth.io.presets import list_presets
+
+    return [n for n, _ in list_presets()]
+
+
+@pytest.mark.slow  # the grand's engine takes 1-2 s to build and warm
+@pytest.mark.parametrize("name", _shipped_presets())
+def test_every_shipped_preset_is_ready_for_a_keyboard(name):
+    """``synth play --preset NAME`` builds its engine for any key a keyboard
+    may send (``ready_engine``: every key designed, sized for key 0), and a
+    note-on at either end of MIDI's range plays or is dropped, never an
+    error: the hammered sitar's keys 126-127, too short for its jawari's
+    sub-cell contact, stopped its warm-up (``synth play`` could not start)."""
+    from synth.engine.engine import NOTE_OFF, NOTE_ON, Event
+    from synth.io.live.engines import ready_engine
+
+    eng = ready_engine(name, 128, {})
+    eng.schedule([Event(0.0, NOTE_ON, k, 0.8) for k in (0, 60, 127)]
+                 + [Event(0.01, NOTE_OFF, k, 0.5) for k in (0, 60, 127)])
+    y = np.concatenate([eng.render_block(128) for _ in range(8)], axis=-1)
+    assert np.isfinite(y).all()
+    assert eng.n_voices + eng.n_dropped >= 1
+
+
 # ---------------------------------------------------------------------------
 # Program map
 # ---------------------------------------------------------------------------

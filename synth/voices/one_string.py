@@ -216,7 +216,13 @@ class OneStringVoice(Voice):
         # a key's first note-on in a live stream made it in the audio thread
         # (56-76 us of the sitar's, 2026-11-30)
         for su in list(self._setups.values()):
-            self._own_template(su)
+            try:
+                self._own_template(su)
+            except ValueError:
+                # a string too short for its termination's contact (the
+                # hammered sitar's keys 126-127: 2 region points): its
+                # note-on raises the same, and the engine drops the note
+                pass
 
     # -- physics at note-on -------------------------------------------------------
     @property
