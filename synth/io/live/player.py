@@ -309,9 +309,14 @@ class Player:
         """Start the silent notes on an understudy engine
         (:class:`synth.io.live.rehearsal.Rehearsal`, ``--warm-every-ms``)."""
         if self.warm_every_ms > 0.0:
-            self.rehearsal = Rehearsal(self.preset_name, self.instruments[self.preset_name],
-                                       self.fs, self.block, self.warm_every_ms / 1e3)
-            self.rehearsal.start()
+            try:
+                reh = Rehearsal(self.preset_name, self.instruments[self.preset_name],
+                                self.fs, self.block, self.warm_every_ms / 1e3)
+            except Exception as e:          # the play goes on without it
+                self._say(f"no rehearsal (--warm-every-ms): {_one_line(e)}")
+                return
+            self.rehearsal = reh
+            reh.start()
 
     def _open_port(self) -> None:
         with _quiet_c_stderr():
