@@ -36,7 +36,7 @@ from synth.io.live.devices import (FS_OUT, _one_line, _quiet_c_stderr, check_aud
                                    pick_audio_device, pick_midi_api, pick_midi_port,
                                    port_lister)
 from synth.io.live.engines import ready_engine
-from synth.io.live.rehearsal import DEFAULT_EVERY_MS, Rehearsal
+from synth.io.live.rehearsal import DEFAULT_EVERY_MS, EVERY_MS_RANGE, Rehearsal
 from synth.io.live.programs import ProgramMap
 
 __all__ = ["SWITCH_INTERVAL_S", "normalise", "Player"]
@@ -177,9 +177,10 @@ class Player:
                              f"{Engine.MAX_BLOCK_OUT})")
         self.block = int(block)
         w = float(warm_every_ms)
-        if not (w == 0.0 or 2.0 <= w <= 1000.0):
+        lo, hi = EVERY_MS_RANGE
+        if not (w == 0.0 or lo <= w <= hi):
             raise SynthError(f"--warm-every-ms = {warm_every_ms:g} is out of range (0: off, or "
-                             "2 <= value <= 1000)")
+                             f"{lo:g} <= value <= {hi:g})")
         self.warm_every_ms = w
         #: the silent notes that keep a note's paths warm (None: off)
         self.rehearsal = None

@@ -40,10 +40,12 @@ from __future__ import annotations
 import threading
 import time
 
-__all__ = ["Rehearsal", "DEFAULT_EVERY_MS"]
+__all__ = ["Rehearsal", "DEFAULT_EVERY_MS", "EVERY_MS_RANGE"]
 
 #: default period of the rehearsal (ms; ``--warm-every-ms``)
 DEFAULT_EVERY_MS = 20.0
+#: the periods allowed (ms, both ends included)
+EVERY_MS_RANGE = (2.0, 1000.0)
 #: output samples the understudy renders per part
 PART_OUT = 32
 
@@ -85,11 +87,8 @@ class Rehearsal(threading.Thread):
     block : int
         The stream's block (output samples, 16 <= value <= 4096).
     every_s : float
-        Seconds between two rehearsed notes (0.002 <= value <= 1).
-    to_event : callable or None
-        MIDI bytes -> engine :class:`~synth.engine.engine.Event` (or None):
-        the conversion live messages take (default: the players',
-        :func:`synth.io.live.player.normalise`).
+        Seconds between two rehearsed notes (0.002 <= value <= 1,
+        :data:`EVERY_MS_RANGE`).
 
     Attributes
     ----------
@@ -102,15 +101,15 @@ class Rehearsal(threading.Thread):
     """
 
     def __init__(self, preset: str, voice, fs_out: int, block: int,
-                 every_s: float = DEFAULT_EVERY_MS / 1e3, to_event=None):
+                 every_s: float = DEFAULT_EVERY_MS / 1e3):
         super().__init__(name="synth-rehearsal", daemon=True)
-        if not (0.002 <= float(every_s) <= 1.0):
-            raise ValueError(f"every_s = {every_s!r} is out of range (0.002 <= value <= 1)")
+        lo, hi = (ms / 1e3 for ms in EVERY_MS_RANGE)
+        if not (lo <= float(every_s) <= hi):
+            raise ValueError(f"every_s = {every_s!r} is out of range ({lo:g} <= value <= {hi:g})")
         self.every_s = float(every_s)
         self.block = int(block)
         # a part renders a few output samples: the same code as a block's
         self.part_out = min(self.block, PART_OUT)
-        self._to_event = _to_event if to_event is None else to_event
         self.fs_out = int(fs_out)
         self.notes = 0
         self.cpu_s = 0.0
@@ -194,7 +193,7 @@ class Rehearsal(threading.Thread):
                     self.notes += 1
                 evs = []
                 for m in msgs:
-                    ev = self._to_event(bytes(m))
+                    ev = _to_event(bytes(m))
                     if ev is not None:
                         # (a study string plays its own pitch: key -1)
                         k = ev.key if (key >= 0 or ev.kind == CONTROL) else -1
