@@ -20,6 +20,8 @@ import time
 
 import numpy as np
 
+from synth.io.live.record import resident_zeros
+
 __all__ = ["start_dummy_server", "wait_ports", "connect", "Loopback"]
 
 
@@ -130,7 +132,10 @@ class Loopback:
         self.client = jack.Client(name, no_start_server=True, servername=server)
         self.midi_out = self.client.midi_outports.register("midi_out")
         self.ins = [self.client.inports.register(f"in_{i + 1}") for i in range(n_in)]
-        self.rec = np.zeros((int(seconds * self.rate), n_in), dtype=np.float32)
+        # mapped now, not page by page in the process callback: a fresh page
+        # there stalled the callback past its period (the server's "client =
+        # bench was not finished" xruns, 2 a run of tools/bench.py live --jack)
+        self.rec = resident_zeros((int(seconds * self.rate), n_in))
         self.t0 = None
         self.events: list = []
         self.i = 0
