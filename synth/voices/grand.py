@@ -704,9 +704,13 @@ class GrandVoice(KeyboardDampers, Voice):
     #: point within a period, and recedes (the treble's 0.24-1 ms periods).
     #: Measured: the longest gap between two contacts of one strike is
     #: 0.34 ms from key 51 up, 0.08 ms from key 84 up, 1.22 ms on key 21
-    #: (every third key, velocities 0.1-1, 20 ms); keys 72-108 render the
-    #: same samples to round-off with either rule (tests/test_hammer.py)
-    RELEASE_PERIODS = 2.0
+    #: (every third key, velocities 0.1-1, 20 ms); keys 48-108 (every third,
+    #: velocities 0.05-1) render the same samples as with the 4 ms rule to
+    #: 1.3e-12 of their peak with one period, and still with a quarter
+    #: (tests/test_hammer.py).  Two periods, as before 2026-12-01, cost a
+    #: treble strike's first block 15-19 % more CPU (keys 96 and 105:
+    #: 418 -> 353 and 433 -> 350 us on one thread).
+    RELEASE_PERIODS = 1.0
 
     def release_s(self, su: GrandSetup) -> float:
         """How long (s) the hammer of string ``su`` stays on after its last
