@@ -570,3 +570,32 @@ def test_the_audio_threads_buffers_are_mapped_before_play():
     assert lazy_growth < 8 * 1024 * 1024, lazy_growth  # the check can tell them apart
     assert growth > 40 * 1024 * 1024, growth
     del lazy
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs Linux's /proc")
+def test_a_live_engine_has_its_buffers_mapped_and_unchanged(monkeypatch):
+    """``ready_engine`` maps every page of the engine's large arrays
+    (:func:`synth.engine.warm.fault_in`), so that none waits for its first
+    use in play (the sitar's hand-over buffer, the mix's rows for longer
+    blocks: whether malloc hands out fresh pages depends on what the
+    process freed before), and the walk keeps every value."""
+    from synth.engine import warm
+    from synth.io import factory
+    from synth.io.live.engines import ready_engine
+
+    seen = []
+    monkeypatch.setattr(factory, "fault_in", lambda e: seen.append(e) or warm.fault_in(e))
+    eng = ready_engine("sitar", 128, {}, fs_out=48000)
+    assert seen == [eng]
+    # a fresh array the bank holds (48 MB: above malloc's largest mmap
+    # threshold, its own mapping, no page yet)
+    eng.bank._fresh_for_test = np.zeros(6 << 20)
+    before = _rss_bytes()
+    walked = warm.fault_in(eng)
+    assert _rss_bytes() - before > 40 << 20
+    assert walked >= eng.bank.ring.nbytes + (48 << 20)
+    ring = eng.bank.ring
+    ring[::977] = np.arange(ring[::977].size, dtype=float)
+    copy = ring.copy()
+    warm.fault_in(eng)
+    assert np.array_equal(ring, copy)

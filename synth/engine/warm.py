@@ -11,8 +11,16 @@ leaves no sound behind.
 
 from __future__ import annotations
 
+import numpy as np
+
 from .play import PlayRules
 from .engine import CC_SOFT, CC_SUSTAIN, CONTROL, NOTE_OFF, NOTE_ON, PITCH_BEND, Engine, Event
+
+#: arrays at least this large are faulted in by :func:`fault_in` (bytes);
+#: smaller ones share pages that are already in use
+FAULT_IN_MIN_BYTES = 64 * 1024
+#: the page size :func:`fault_in` steps by (bytes; a huge page is many of them)
+PAGE_BYTES = 4096
 
 
 def warm_phrase(voice) -> list[Event]:
@@ -60,3 +68,47 @@ def warm_up(voice, *, fs_out: int, block: int, **engine_kw) -> None:
     # every unit of the bank, those the phrase did not need too (the
     # engine built next finds them loaded)
     scratch.bank.load_units()
+
+
+def _arrays(obj, depth: int, seen: set):
+    """The numpy arrays held by ``obj`` and by the objects of this package
+    it holds (lists, tuples and dicts of them included), ``depth`` levels
+    down."""
+    if id(obj) in seen:
+        return
+    seen.add(id(obj))
+    if isinstance(obj, np.ndarray):
+        yield obj
+        return
+    if isinstance(obj, (list, tuple)):
+        items = obj
+    elif isinstance(obj, dict):
+        items = obj.values()
+    elif type(obj).__module__.startswith("synth.") and hasattr(obj, "__dict__"):
+        items = vars(obj).values()
+    else:
+        return
+    if depth < 0:
+        return
+    for v in items:
+        yield from _arrays(v, depth - 1, seen)
+
+
+def fault_in(engine: Engine, depth: int = 3) -> int:
+    """Map every page of the engine's large arrays now, keeping their
+    contents: one byte per page is read and written back.  ``np.zeros``
+    maps an array's pages only when they are first written, and an array
+    the warm-up's phrase did not reach (a hand-over buffer, the mix rows
+    of a longer block) would otherwise map them inside the audio callback
+    the first time a performance needs it (on this project's 2-vCPU VM a
+    fresh 2 MB page took 5.1 ms, 4 KB pages about a microsecond each:
+    ``docs/lab/2026-12-01-jack-page-faults.md``).  Returns the bytes
+    walked."""
+    total = 0
+    for a in _arrays(engine, depth, set()):
+        if a.nbytes < FAULT_IN_MIN_BYTES or not a.flags.writeable or not a.flags.c_contiguous:
+            continue
+        b = a.reshape(-1).view(np.uint8)
+        b[::PAGE_BYTES] |= 0
+        total += a.nbytes
+    return total

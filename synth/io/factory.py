@@ -18,7 +18,7 @@ from collections.abc import Sequence
 
 from ..engine.engine import Engine
 from ..dsp import threads as threads_mod
-from ..engine.warm import warm_up
+from ..engine.warm import fault_in, warm_up
 from ..voices import voice_for
 from .errors import SynthError
 from .presets import Preset, load_preset
@@ -125,6 +125,9 @@ def build_engine(preset: str | os.PathLike | Preset, overrides: Sequence[str] = 
     try:
         if warm:
             warm_up(voice, fs_out=fs_out, block=block, **kw)
-        return Engine(voice, fs_out=fs_out, drone=drone, **kw)
+        eng = Engine(voice, fs_out=fs_out, drone=drone, **kw)
+        if warm:
+            fault_in(eng)               # its buffers mapped before the stream opens
+        return eng
     except ValueError as e:
         raise SynthError(f"{voice.preset.name}: {e}") from None
