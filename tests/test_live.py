@@ -546,33 +546,44 @@ def test_set_overrides_the_first_preset_of_live_play():
     assert ready_engine("sitar").polyphony != 7
 
 
-def _rss_bytes() -> int:
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+def _resident_fraction(a: np.ndarray) -> float:
+    """The share of ``a``'s pages that are mapped now (the "present" bit of
+    each page's entry in /proc/self/pagemap, which any process may read)."""
+    addr = a.__array_interface__["data"][0]
+    p0, p1 = addr // 4096, (addr + a.nbytes - 1) // 4096
+    with open("/proc/self/pagemap", "rb") as f:
+        f.seek(p0 * 8)
+        e = np.frombuffer(f.read((p1 - p0 + 1) * 8), dtype=np.uint64)
+    return float(np.mean((e >> np.uint64(63)) & np.uint64(1)))
 
 
-@pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs Linux's /proc")
+def _fresh(n_bytes: int) -> np.ndarray:
+    """A float64 array on pages no one has touched (its own anonymous
+    mapping: malloc might hand back pages a freed array had mapped)."""
+    import mmap
+
+    return np.frombuffer(mmap.mmap(-1, n_bytes), dtype=np.float64)
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/self/pagemap"), reason="needs Linux's /proc")
 def test_the_audio_threads_buffers_are_mapped_before_play():
     """The recording ring and the loopback's capture are resident when
     made, so the process callback never waits for a page (a fresh 2 MB
-    page cost 5 ms on this VM, two periods).  ``np.zeros`` alone is not:
-    its pages come on first write."""
+    page cost 5 ms on this VM, two periods).  ``np.zeros`` alone is not
+    (its pages come on first write): the check tells the two apart."""
     from synth.io.live.record import resident_zeros
 
-    n = 48 * 1024 * 1024 // 8                        # 48 MB of float32 pairs
-    before = _rss_bytes()
-    lazy = np.zeros((n, 2), dtype=np.float32)
-    lazy_growth = _rss_bytes() - before
-    before = _rss_bytes()
-    mapped = resident_zeros((n, 2))
-    growth = _rss_bytes() - before
-    assert mapped.shape == (n, 2) and mapped.dtype == np.float32 and not mapped.any()
-    assert lazy_growth < 8 * 1024 * 1024, lazy_growth  # the check can tell them apart
-    assert growth > 40 * 1024 * 1024, growth
-    del lazy
+    fresh = _fresh(48 << 20)
+    assert _resident_fraction(fresh) < 0.01
+    fresh[::512] = 0.0
+    assert _resident_fraction(fresh) == 1.0
+    mapped = resident_zeros((6 << 20, 2))
+    # (before anything reads it: a read maps the kernel's zero page, which
+    # the check would count, and a write would still fault)
+    assert _resident_fraction(mapped) == 1.0
+    assert mapped.shape == (6 << 20, 2) and mapped.dtype == np.float32 and not mapped.any()
 
 
-@pytest.mark.skipif(not os.path.exists("/proc/self/statm"), reason="needs Linux's /proc")
 def test_a_live_engine_has_its_buffers_mapped_and_unchanged(monkeypatch):
     """``ready_engine`` maps every page of the engine's large arrays
     (:func:`synth.engine.warm.fault_in`), so that none waits for its first
@@ -587,13 +598,12 @@ def test_a_live_engine_has_its_buffers_mapped_and_unchanged(monkeypatch):
     monkeypatch.setattr(factory, "fault_in", lambda e: seen.append(e) or warm.fault_in(e))
     eng = ready_engine("sitar", 128, {}, fs_out=48000)
     assert seen == [eng]
-    # a fresh array the bank holds (48 MB: above malloc's largest mmap
-    # threshold, its own mapping, no page yet)
-    eng.bank._fresh_for_test = np.zeros(6 << 20)
-    before = _rss_bytes()
-    walked = warm.fault_in(eng)
-    assert _rss_bytes() - before > 40 << 20
-    assert walked >= eng.bank.ring.nbytes + (48 << 20)
+    if os.path.exists("/proc/self/pagemap"):
+        assert _resident_fraction(eng.bank.ring) == 1.0
+        eng.bank._fresh_for_test = fresh = _fresh(8 << 20)    # an array the bank holds
+        assert _resident_fraction(fresh) < 0.01
+        assert warm.fault_in(eng) >= eng.bank.ring.nbytes + fresh.nbytes
+        assert _resident_fraction(fresh) == 1.0
     ring = eng.bank.ring
     ring[::977] = np.arange(ring[::977].size, dtype=float)
     copy = ring.copy()
