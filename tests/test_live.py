@@ -571,7 +571,7 @@ def test_the_audio_threads_buffers_are_mapped_before_play():
     made, so the process callback never waits for a page (a fresh 2 MB
     page cost 5 ms on this VM, two periods).  ``np.zeros`` alone is not
     (its pages come on first write): the check tells the two apart."""
-    from synth.io.live.record import resident_zeros
+    from synth.engine.warm import resident_zeros
 
     fresh = _fresh(48 << 20)
     assert _resident_fraction(fresh) < 0.01

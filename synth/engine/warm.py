@@ -80,6 +80,8 @@ def _arrays(obj, depth: int, seen: set):
     if isinstance(obj, np.ndarray):
         yield obj
         return
+    if depth < 0:
+        return
     if isinstance(obj, (list, tuple)):
         items = obj
     elif isinstance(obj, dict):
@@ -88,27 +90,46 @@ def _arrays(obj, depth: int, seen: set):
         items = vars(obj).values()
     else:
         return
-    if depth < 0:
-        return
     for v in items:
         yield from _arrays(v, depth - 1, seen)
 
 
+def _map_pages(a: np.ndarray) -> None:
+    """Map every page of C-contiguous, writeable ``a`` now, keeping its
+    contents: one byte per page is read and written back (and the last
+    byte).  ``np.zeros``
+    maps a large array's pages only when they are first written (numpy
+    asks for huge pages there), so a buffer an audio callback writes would
+    otherwise take those faults inside the callback: on this project's
+    2-vCPU VM one 128-frame block into a fresh 9 MB array took 5.1 ms (a
+    2 MB page zeroed and mapped), two periods at 128; the walk itself took
+    85 ms over a fresh 40 MB array, 8 us a 4 KB page
+    (``docs/lab/2026-12-01-jack-page-faults.md``)."""
+    b = a.reshape(-1).view(np.uint8)
+    b[::PAGE_BYTES] |= 0
+    if b.size:
+        b[-1] |= 0          # (the last page, when the data starts past a page's start)
+
+
+def resident_zeros(shape, dtype=np.float32) -> np.ndarray:
+    """A zeroed array whose pages are already mapped (:func:`_map_pages`):
+    for a buffer an audio callback writes (the ``--record`` ring, a JACK
+    loopback's capture)."""
+    a = np.zeros(shape, dtype=dtype)
+    _map_pages(a)
+    return a
+
+
 def fault_in(engine: Engine, depth: int = 3) -> int:
     """Map every page of the engine's large arrays now, keeping their
-    contents: one byte per page is read and written back.  ``np.zeros``
-    maps an array's pages only when they are first written, and an array
-    the warm-up's phrase did not reach (a hand-over buffer, the mix rows
-    of a longer block) would otherwise map them inside the audio callback
-    the first time a performance needs it (on this project's 2-vCPU VM a
-    fresh 2 MB page took 5.1 ms, 4 KB pages about a microsecond each:
-    ``docs/lab/2026-12-01-jack-page-faults.md``).  Returns the bytes
-    walked."""
+    contents (:func:`_map_pages`): an array the warm-up's phrase did not
+    reach (a hand-over buffer, the mix rows of a longer block) would
+    otherwise map them inside the audio callback the first time a
+    performance needs it.  Returns the bytes walked."""
     total = 0
     for a in _arrays(engine, depth, set()):
         if a.nbytes < FAULT_IN_MIN_BYTES or not a.flags.writeable or not a.flags.c_contiguous:
             continue
-        b = a.reshape(-1).view(np.uint8)
-        b[::PAGE_BYTES] |= 0
+        _map_pages(a)
         total += a.nbytes
     return total

@@ -18,9 +18,7 @@ from __future__ import annotations
 import subprocess
 import time
 
-import numpy as np
-
-from synth.io.live.record import resident_zeros
+from synth.engine.warm import resident_zeros
 
 __all__ = ["start_dummy_server", "wait_ports", "connect", "Loopback"]
 

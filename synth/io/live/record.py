@@ -17,26 +17,13 @@ import threading
 
 import numpy as np
 
+from synth.engine.warm import resident_zeros
 from synth.io.errors import SynthError, display_path
 
-__all__ = ["Recorder", "RING_S", "check_record_path", "resident_zeros"]
+__all__ = ["Recorder", "RING_S", "check_record_path"]
 
 #: the ring buffer's length (s of audio)
 RING_S = 10.0
-
-
-def resident_zeros(shape, dtype=np.float32) -> np.ndarray:
-    """A zeroed array whose memory is already mapped: for a buffer an
-    audio callback writes.  ``np.zeros`` of a large array maps its pages
-    only when they are first written, and numpy asks for huge pages there:
-    writing 128-frame blocks into a fresh 9 MB float32 array, one block
-    took 5.1 ms (a 2 MB page zeroed and mapped on a VM), 0.007 ms once the
-    array had been written (2026-12-01, 2-vCPU Xeon VM; an audio cycle at
-    period 128 is 2.7 ms).  Writing the zeros here faults every page in
-    now, outside the callback."""
-    a = np.zeros(shape, dtype=dtype)
-    a.fill(0)
-    return a
 
 
 def check_record_path(path) -> str:
