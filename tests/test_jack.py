@@ -387,9 +387,16 @@ class _Lines:
         raise AssertionError(f"{text!r} not said: {self.lines}")
 
     def rest(self, timeout=60):
-        """Wait for the process; (stdout, stderr)."""
+        """Wait for the process; (stdout, stderr).  A process that does not
+        end within ``timeout`` seconds is killed and the test fails (it
+        used to wait on its stderr for ever: a hung close, 2026-12-01)."""
+        try:
+            self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+            raise AssertionError(f"the process did not end in {timeout} s: {self.lines}") from None
         err = self.proc.stderr.read()
-        self.proc.wait(timeout=timeout)
         self.thread.join(timeout=10)
         return "".join(self.lines), err
 
@@ -759,3 +766,61 @@ def _drone_capture(server, name, stop_s, seconds):
     finally:
         out, err = _stop(proc, tester)
     return rec, at, t0, xruns, out, err, proc.returncode
+
+
+_CLOSE_UNDER_CONTENTION = r"""
+import sys, threading, time
+from synth.io.live.jack import JackPlayer
+
+class Spinner(threading.Thread):
+    # stands where the rehearsal stands: a thread of ours that holds the
+    # interpreter's lock most of the time, stopped by the player's close()
+    def __init__(self):
+        super().__init__(daemon=True)
+        self.halt = threading.Event()
+    def stop(self):
+        self.halt.set()
+    def tick(self):
+        return False
+    def run(self):
+        while not self.halt.is_set():
+            sum(range(2000))
+
+for i in range(int(sys.argv[2])):
+    p = JackPlayer("biwa", name=f"gate{i}", server=sys.argv[1], warm_every_ms=0)
+    p.start()
+    cycle = p._cycle
+    def slow_cycle(frames, cycle=cycle):
+        # about a millisecond of Python in the process thread, as a loaded
+        # machine's cycle: the cycle is in progress when close() comes
+        sum(range(20000))
+        cycle(frames)
+    p._cycle = slow_cycle
+    p.rehearsal = Spinner()
+    p.rehearsal.start()
+    time.sleep(0.2)
+    p.close()
+    print("closed", i, flush=True)
+"""
+
+
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
+def test_close_while_the_callback_and_another_thread_want_the_lock(server, tmp_path):
+    """JACK2's deactivate cancels the process thread; one cancelled inside
+    the Python callback (waiting for the interpreter's lock that another
+    thread of ours holds) left the process hung for ever (a full-suite run,
+    2026-12-01).  The player closes its gate and stops its threads first: four
+    closes under contention all return.  Without the order, about four
+    closes in five hang (synth.io.live.gate)."""
+    script = tmp_path / "close.py"
+    script.write_text(_CLOSE_UNDER_CONTENTION)
+    proc = subprocess.Popen([sys.executable, str(script), server, "4"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = proc.communicate(timeout=90)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        raise AssertionError(f"a close hung: {out!r}") from None
+    assert proc.returncode == 0 and "Exception" not in err, err[-2000:]
+    assert [f"closed {i}" in out for i in range(4)] == [True] * 4, out

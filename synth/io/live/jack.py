@@ -38,6 +38,7 @@ import numpy as np
 from synth.io.errors import SynthError
 from synth.io.live.devices import _one_line, _quiet_c_stderr
 from synth.io.live.player import SWITCH_INTERVAL_S, Player
+from synth.io.live.gate import ProcessGate
 from synth.io.live.rehearsal import DEFAULT_EVERY_MS
 from synth.io.rates import check_rate
 
@@ -104,6 +105,7 @@ class JackPlayer(Player):
         self._links: set = set()        # (own port's short name, other port's name)
         self._notes: list = []          # messages from the server's threads, said by run()
         self._shutdown = None           # why the server closed us, from its thread
+        self._gate = ProcessGate()      # the callback out of Python before deactivate
         super().__init__(preset, program_map, block=128, midi=False, stats=stats, out=out,
                          overrides=overrides, channels=channels, drums=drums, record=record,
                          mpe=mpe, warm_every_ms=warm_every_ms)
@@ -178,6 +180,7 @@ class JackPlayer(Player):
         client.set_process_callback(self._process)
         client.set_xrun_callback(self._xrun)
         client.set_shutdown_callback(self._closed)
+        self._gate.open()
         client.set_blocksize_callback(self._blocksize)
         client.set_port_connect_callback(self._connected)
         self._started = False
@@ -225,7 +228,12 @@ class JackPlayer(Player):
             client.connect(cap[0], self.midi_in)
 
     def close(self) -> None:
-        """Deactivate and close the client (idempotent)."""
+        """Silence the callback, stop our threads (the recording complete),
+        then deactivate and close the client (idempotent).  In that order:
+        JACK2 cancels the process thread on deactivate, and one cancelled
+        in Python hangs the process (:mod:`synth.io.live.gate`)."""
+        self._gate.close()
+        self._stop_threads()
         client, self.client = self.client, None
         self.stream = None
         if client is not None:
@@ -234,7 +242,6 @@ class JackPlayer(Player):
                     step()
                 except Exception:
                     pass
-        self._stop_threads()
 
     def _watch_port(self) -> None:
         """About once a second: say what the server's threads noted (a MIDI
@@ -252,6 +259,13 @@ class JackPlayer(Player):
         if not self._reconnect:
             return gone
         self._say(f"\n{gone}; waiting for it to come back (--reconnect; Ctrl-C stops)")
+        # (the callback out of Python, and the rehearsal, which holds the
+        # interpreter's lock for long, stopped before deactivate: gate.py)
+        self._gate.close()
+        reh, self.rehearsal = self.rehearsal, None
+        if reh is not None:
+            reh.stop()
+            reh.join(timeout=10.0)
         old, self.client, self.stream = self.client, None, None
         for step in (old.deactivate, old.close):
             try:
@@ -270,6 +284,8 @@ class JackPlayer(Player):
                     f"{self._buf.shape[0]}: start synth play again")
         self._shutdown = None
         self.block = int(self.client.blocksize)
+        if reh is not None:
+            self._start_rehearsal()
         self._attach()
         self.reconnects += 1
         self._say(f"the JACK server is back: playing again ({self.fs} Hz, period {self.block}, "
@@ -334,7 +350,19 @@ class JackPlayer(Player):
     # -- the server's threads ---------------------------------------------------------
     def _process(self, frames: int) -> None:
         """The process callback: this cycle's MIDI at its frames, then the
-        cycle's audio."""
+        cycle's audio (silence once the gate is closed)."""
+        gate = self._gate
+        gate.inside = True
+        try:
+            if gate.closed:
+                for port in self.outs:
+                    port.get_array()[:] = 0.0
+                return
+            self._cycle(frames)
+        finally:
+            gate.inside = False
+
+    def _cycle(self, frames: int) -> None:
         self._started = True
         rt = self.rt
         fs = self.fs

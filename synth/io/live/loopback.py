@@ -19,6 +19,7 @@ import subprocess
 import time
 
 from synth.engine.warm import resident_zeros
+from synth.io.live.gate import ProcessGate
 
 __all__ = ["start_dummy_server", "wait_ports", "connect", "Loopback"]
 
@@ -139,6 +140,7 @@ class Loopback:
         self.i = 0
         self.phase = "activation"
         self.xruns: list = []
+        self._gate = ProcessGate()
         self.client.set_process_callback(self._process)
         self.client.set_xrun_callback(self._xrun)
 
@@ -174,6 +176,17 @@ class Loopback:
         return at
 
     def _process(self, frames):
+        gate = self._gate
+        gate.inside = True
+        try:
+            if gate.closed:
+                self.midi_out.clear_buffer()
+                return
+            self._cycle(frames)
+        finally:
+            gate.inside = False
+
+    def _cycle(self, frames):
         ft = self.client.last_frame_time
         if self.t0 is None:
             self.t0 = ft
@@ -200,7 +213,9 @@ class Loopback:
         return sum(1 for p, _, _ in self.xruns if p == phase)
 
     def close(self) -> None:
-        """Deactivate and close (idempotent, never raises)."""
+        """Deactivate and close (idempotent, never raises); the callback is
+        let out of Python first (:mod:`synth.io.live.gate`)."""
+        self._gate.close()
         for step in (self.client.deactivate, self.client.close):
             try:
                 step()
