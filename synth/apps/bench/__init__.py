@@ -30,6 +30,7 @@ BENCHMARKS: dict[str, tuple[str, str]] = {
     "heads": ("heads", "the far end's loop-filter variants of the grand"),
     "reach": ("reach", "what skipping an out-of-reach termination saves (--callgrind: instructions)"),
     "decimator": ("decimator", "the streaming decimator, ns per output sample"),
+    "body": ("body", "the soundboard body's cost per output sample, through its wrapper"),
     "listener": ("listener", "the listening position's stage, alone and in the grand, live and offline"),
     "busy": ("busy", "offline renders beside busy processes: 1 thread, governed, always threaded"),
     "startup": ("startup", "live play's start-up: import, build and warm the engine"),
