@@ -270,7 +270,7 @@ FIT_LAYER = 10
 #: velocities 73-80 and v14 at 105-112, v4 at 37-43: the grand's soft end
 #: is 4 dB quieter re its fortissimo than the library's).  Issue 41 first
 #: matched C4's level alone (v10 at velocity 105, 5.6 m/s: near fortissimo
-#: where the library has a mezzo-forte; docs/lab/2026-11-30-felt41.md).
+#: where the library has a mezzo-forte).
 LAYER_VELOCITY = {4: 52, 10: 78, 14: 106}
 #: the keys of the layers' loudness steps (C2-C7 and A2-A5)
 ANCHOR_KEYS = (36, 45, 48, 57, 60, 69, 72, 81, 84, 96)
@@ -327,7 +327,7 @@ def upper_partials_db(y, key, t0=0.05, t1=0.5, n=10):
 #: nothing above 10.75-16 kHz (every 250 Hz band above the cut -125 to
 #: -155 dB re the strongest over the first second, digital silence; the
 #: lowest cuts on the keys C5 up, whose partials reach them: 10.75 kHz on
-#: v4, 11.25 on v10, 11.5 on v14; docs/lab/2026-11-29-attack41.md), so a
+#: v4, 11.25 on v10, 11.5 on v14), so a
 #: centroid over the whole band counted the model's 10-24 kHz against a
 #: recording that cannot hold it (C7 1.91x over 0-24 kHz, 1.53x over 0-12).
 CENTROID_MAX_HZ = 10_000.0

@@ -103,8 +103,7 @@ def _map_pages(a: np.ndarray) -> None:
     otherwise take those faults inside the callback: on this project's
     2-vCPU VM one 128-frame block into a fresh 9 MB array took 5.1 ms (a
     2 MB page zeroed and mapped), two periods at 128; the walk itself took
-    85 ms over a fresh 40 MB array, 8 us a 4 KB page
-    (``docs/lab/2026-12-01-jack-page-faults.md``)."""
+    85 ms over a fresh 40 MB array, 8 us a 4 KB page."""
     b = a.reshape(-1).view(np.uint8)
     b[::PAGE_BYTES] |= 0
     if b.size:

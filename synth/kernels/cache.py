@@ -433,8 +433,7 @@ def install_light_load(root: str | os.PathLike) -> bool:
     compile still refreshes the contexts itself (``CompilerBase``), so a
     cache miss later in the process is unaffected.  A warm ``synth note
     sitar`` spent 0.24 s of its 0.63 s after start-up in that refresh
-    (2026-12-01, 2-vCPU Xeon: 0.41 s without it, the same bytes;
-    docs/lab/2026-12-01-readings.md).  Entries of other folders (other
+    (2026-12-01, 2-vCPU Xeon: 0.41 s without it, the same bytes).  Entries of other folders (other
     libraries' numba functions) keep numba's own load."""
     try:
         from numba.core import caching

@@ -11,7 +11,7 @@ polarization), written from packed rows
 
 Why one call: about 15 numpy operations a string become one dispatch, and
 a chord's eight fresh note-ons cost 416 us against 732 (warm, in one
-process, alternated; ``docs/lab/2026-11-30-page-aging.md``).  After the
+process, alternated).  After the
 audio thread has been idle on a virtual machine whose host ages memory the
 call's own first dispatch dominates and the two paths cost the same.
 

@@ -715,8 +715,8 @@ def plan_length(capacity: int) -> int:
 # module and optimises and emits the whole tree again (in the shards'
 # parallel loop three times: the loop's function, its wrapper, the caller),
 # which made render_sharded the single longest compile of a cold start
-# (161 of a cold ``synth demo``'s 247 CPU s; render_bank's own tree 109,
-# docs/lab/2026-11-29-parallel-warmup.md).  Called by address, render_bank
+# (161 of a cold ``synth demo``'s 247 CPU s; render_bank's own tree 109).
+# Called by address, render_bank
 # compiles once, as the bank's KIND_BANK renderer, and every shard of every
 # thread count runs that same machine code.  A dispatcher passed as an
 # argument would do the same at 50-80 us a call (numba converts it on each

@@ -44,19 +44,19 @@ pitch over 0.05-0.3 s against 2-3 s): a reading every sample, 16, 256 or
 1024 samples gives the same glide within 0.005 cent (+8.93 cents at
 velocity 127, +2.30 at 20), and every sample costs 15x the render of
 every 256 (3.42 against 0.22 s CPU); the whole modulation costs the
-sitar 1.01-1.05x (docs/lab/2026-11-29-tension-modulation.md).  On the
+sitar 1.01-1.05x.  On the
 shipped sitar at velocity 127, every 1024 gives the glide of every 256
 within 0.3 cent on key 43 and 0.03 on keys 50, 62 and 74, but its steps
 (the delay set at each reading, as then) left 4 dB more above 4 kHz on a
-linear string (60 dB under partial 1; docs/lab/2026-11-30-sitar-glide.md).
+linear string (60 dB under partial 1).
 With the delay moving every sample (below), 1024 leaves the same bands as
-256 (docs/lab/2026-11-30-tanpura-glide.md), and since the readings run on
+256, and since the readings run on
 the bridge's blocks' threads it costs less: a bridge's chunks end at its
 readings, and fewer chunks mean fewer loop launches and bridge heads.  The
 128-note sitar cluster on two threads 66-69 % of the block on mean, 82-85
 % at the 99th percentile, against 72-74 % and 88-91 % at 256; 32 held
 voices 7 % less on one thread; the glide within 0.14 cent and the bands
-within 0.9 dB (docs/lab/2026-12-01-readings.md).
+within 0.9 dB.
 
 Where it acts.  The reading sets where ``S_TM``, the change of the bend
 line's delay (:mod:`synth.kernels.bend`), goes: D0 (1 / sqrt(1 + kappa S)
@@ -70,7 +70,7 @@ bend line, a comb of clicks at fs / ``F_TMM`` (1.27 kHz) and its multiples.
 That was the modulation's "5 kHz residue": on the tanpura's key 37 at
 velocity 127 with the contact off, 2-8 kHz over 0.5-4 s +12.0 dB and 8-16
 kHz +56 dB over the string without modulation; a reading every 16 samples
-left both within 0.3 dB of it (docs/lab/2026-11-30-tanpura-glide.md).
+left both within 0.3 dB of it.
 With ``F_TMK`` = 0 nothing is read and the bend line adds nothing: the
 samples are those of a string without it, bit for bit.
 

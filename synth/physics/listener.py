@@ -36,8 +36,8 @@ open lid's beam), - off it (the player sees the board's edge, the lid opens
 away from him).  Close microphones, 0.5 m over a board some 1.5 m across,
 are in its near field, where no far-field directivity has formed: 0 dB
 there (with +3 dB the una corda's darkening of keys 90 and 96, -11.6 and
--11.8 % at the body, read -9.6 and -7.9 %, against issue 11's -10 %:
-``docs/lab/2026-11-29-listener.md``).  The shape is ``directivity_db f^2 / (f^2 + f_d^2)`` with
+-11.8 % at the body, read -9.6 and -7.9 %, against issue 11's -10 %).
+The shape is ``directivity_db f^2 / (f^2 + f_d^2)`` with
 ``f_d`` = :data:`DIRECTIVITY_HZ`: a board radiates evenly below about
 1 kHz and ever more unevenly above (J. Meyer, *Acoustics and the
 Performance of Music*, 5th ed., Springer 2009, ch. 4.5, the grand piano's

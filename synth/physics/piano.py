@@ -696,8 +696,7 @@ THESIS_VOICING = HammerVoicing(183.0, 0.045, 3.7, 0.015, 1.0, 0.0)
 #: guessed C4 partials 2-8 within 25 dB, which the recording contradicts)
 #: the first 50 ms were 1.6-1.8x the recording's centroid from C2 to B5,
 #: and the felt rose to 13.7 N within 50 us of touching C4 at 5.6 m/s;
-#: softer, 1.1-1.4x on every octave and held-out layer
-#: (docs/lab/2026-11-30-felt41.md).  The exponent and hereditary time
+#: softer, 1.1-1.4x on every octave and held-out layer.  The exponent and hereditary time
 #: were fitted on the rendered grand (the hammer study of issue 11: C4's
 #: 35 dB from velocity 1 to 127, the top octave alive at pp), within those
 #: measured orders;

@@ -123,7 +123,7 @@ DISPERSION_TOL_CENTS = quality_level("standard").dispersion_tol_cents
 #: semitones over which a treble string's own loss rises to
 #: ``strings.t60_treble_scale`` (log-linear in key, reaching it at
 #: ``strings.t60_treble_from_key``): the recorded grand's partial 1 at 3 s
-#: falls 10-20 dB from B5 to C6 (docs/lab/2026-11-29-fit41.md)
+#: falls 10-20 dB from B5 to C6 (tools/real_grand.py)
 TREBLE_LOSS_RAMP_ST = 6
 
 

@@ -378,7 +378,7 @@ class OneStringVoice(Voice):
     #: internal samples between two readings of the tension (3.2 ms at 325 kHz):
     #: the glide of every 256 within 0.14 cent and its bands within 0.9 dB, and
     #: a sitar cluster 5-6 % of the block cheaper, since a bridge's chunks end
-    #: at its readings (synth.kernels.tension; docs/lab/2026-12-01-readings.md)
+    #: at its readings (synth.kernels.tension)
     TENSION_EVERY = 1024
     #: the readings are smoothed over this many periods (one pole)
     TENSION_PERIODS = 2.0

@@ -210,7 +210,7 @@ def page_touch_us(pauses_s=(0.0, 0.01, 0.1, 1.0), pages: int = 2000, repeats: in
     page; where the host ages a guest's pages (a VM) a page left for a
     second can cost microseconds, and a note-on, whose Python touches
     thousands of pages that no block touched since the last note, pays it
-    in the audio thread (docs/lab/2026-11-30-page-aging.md)."""
+    in the audio thread."""
     a = np.ones(size_mb << 20, dtype=np.uint8)
     idx = np.sort(np.random.default_rng(1).choice(a.size // 4096, pages, replace=False)) * 4096
     out = []
@@ -232,7 +232,7 @@ def call_after_us(pauses_s=(0.0, 0.1, 0.3), repeats: int = 3) -> list:
     clock), per pause of ``pauses_s`` (median of ``repeats``).  Returns
     [(pause_s, us)].  A few hundred ns where nothing ages the process's
     memory; on this VM a millisecond or more after 0.3 s, which every
-    code path a note-on takes pays once (docs/lab/2026-11-30-page-aging.md)."""
+    code path a note-on takes pays once."""
     a = np.zeros(10)
     np.add(a, 1.0)
     out = []

@@ -3,7 +3,7 @@
 
 On some machines, virtual ones most of all, memory that no thread touched
 for a while costs far more to touch again.  Measured on a 2-vCPU
-Firecracker VM (``docs/lab/2026-11-30-page-aging.md``): a page left alone
+Firecracker VM (``tools/bench.py live``'s page probe): a page left alone
 for 0.3 s cost about 1 us to read back, and a ``numpy.add`` of ten floats
 1.6 ms the first time after a 0.3 s pause against 0.6 us warm.  A chord's
 note-ons take code paths (the engine's Python, numpy's and numba's
@@ -32,7 +32,7 @@ about 0.9 ms of one core a part, two parts a note, 11 % of a core at the
 default 20 ms (the player's report gives its CPU time).  Measured there
 through JACK with 32 grand voices (``tools/bench.py live --jack --voices 32
 --warm-every-ms 0,20``): the audio thread's blocks over their period 1-17
-a run without it, 0-5 with it (``docs/lab/2026-12-01-rehearsal.md``).
+a run without it, 0-5 with it.
 """
 
 from __future__ import annotations
