@@ -234,6 +234,17 @@ def test_to_wav_round_trip(sitar, tmp_path):
     assert info.subtype == "PCM_24" and info.frames == sitar.frames
 
 
+def test_to_wav_writes_the_format_its_extension_names(sitar, tmp_path):
+    sitar.to_wav(tmp_path / "a.flac")
+    sitar.to_wav(tmp_path / "a.OGG")
+    assert sf.info(str(tmp_path / "a.flac")).format == "FLAC"
+    assert sf.info(str(tmp_path / "a.OGG")).format == "OGG"
+    with pytest.raises(ValueError, match=r"a\.mp3'?: the extension must choose an audio format "
+                                         r"\(\.wav, \.flac, \.ogg\)"):
+        sitar.to_wav(tmp_path / "a.mp3")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.OGG", "a.flac"]
+
+
 def test_to_wav_errors(sitar, tmp_path):
     with pytest.raises(ValueError, match=r"subtype = 'pcm16' is not allowed \(choices: 'float', 'pcm24'\)"):
         sitar.to_wav(tmp_path / "a.wav", subtype="pcm16")

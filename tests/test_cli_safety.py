@@ -293,6 +293,39 @@ def test_files_of_the_wrong_type_are_named(capsys, tmp_path, monkeypatch):
     assert sorted(os.listdir(".")) == ["fake.wav", "notes.txt", "take.wav"]
 
 
+def test_a_file_given_as_a_preset_or_a_spec_is_named(capsys, tmp_path, monkeypatch):
+    """note, compare and check say what the file is and what they wanted
+    (they said "unknown preset" and "cannot read the spec
+    (UnicodeDecodeError)").  (The engine's factory loads the preset: no
+    no_work here.)"""
+    (tmp_path / "notes.txt").write_text("hello\n")
+    sf.write("take.wav", np.zeros(4800), 48000)
+    mido = pytest.importorskip("mido")
+    mido.MidiFile().save("tune.mid")
+    rc, _, err = run(capsys, "note", "notes.txt", "-o", "x.wav")
+    one_line_error(rc, err, "notes.txt is a text file, not a preset: give a preset's name (",
+                   "sitar", "or a preset's .toml file")
+    rc, _, err = run(capsys, "compare", "take.wav", "tune.mid", "-o", "cmp")
+    one_line_error(rc, err, "tune.mid is a MIDI file, not a preset")   # (a WAV file is a stimulus)
+    rc, _, err = run(capsys, "check", "take.wav")
+    one_line_error(rc, err, "take.wav: not a spec: it is WAV audio, and a spec is a TOML text file")
+    rc, _, err = run(capsys, "check", "tune.mid")
+    one_line_error(rc, err, "tune.mid: not a spec: it is a MIDI file")
+    assert sorted(os.listdir(".")) == ["notes.txt", "take.wav", "tune.mid"]
+
+
+def test_file_kind():
+    from synth.io.filekind import file_kind
+
+    cases = {"a.mid": b"MThd\x00\x00\x00\x06", "a.bin": bytes(range(256)), "a.txt": "h\u00e9llo".encode(),
+             "e": b"", "a.flac": b"fLaC\x00", "a.ogg": b"OggS\x00"}
+    for name, data in cases.items():
+        Path(name).write_bytes(data)
+    assert [file_kind(n) for n in cases] == ["a MIDI file", "binary data", "a text file",
+                                            "an empty file", "FLAC audio", "Ogg audio"]
+    assert file_kind("missing") is None and file_kind(".") is None
+
+
 @pytest.mark.parametrize("argv,module,fragment", [
     (["analyze", "biwa", "--key", "52", "--plot", "p.png"], "matplotlib",
      '--plot needs the [plots] extra (matplotlib not installed): pip install "synth[plots]"'),
@@ -470,7 +503,12 @@ def test_every_command_has_examples():
 
 
 def test_seconds_has_one_default():
+    import inspect
+
+    import synth
     from synth.commands.common import DEFAULT_SECONDS
+
+    assert inspect.signature(synth.render_note).parameters["seconds"].default == DEFAULT_SECONDS
 
     _, parsers = _parsers()
     d = dict(parsers)

@@ -99,32 +99,43 @@ class Audio:
 
     # -- output ---------------------------------------------------------------
     def to_wav(self, path, subtype: str = "float") -> None:
-        """Write the samples to a WAV file (atomically, as ``synth note``
-        does: :func:`synth.io.wav.write_wav`).
+        """Write the samples to an audio file (atomically, as ``synth note``
+        does: :func:`synth.io.wav.write_wav`), its format chosen by the
+        extension as for ``synth note -o``.
 
         Parameters
         ----------
         path : str or path-like
-            The file; replaced if it exists, never left half-written.
+            The file, ending in ``.wav``, ``.flac`` (24-bit PCM) or ``.ogg``
+            (Ogg Vorbis, clipped to full scale); replaced if it exists, never
+            left half-written.
         subtype : {"float", "pcm24"}
-            32-bit float (the default; values beyond full scale kept) or
-            24-bit PCM (clipped to full scale).
+            For ``.wav``: 32-bit float (the default; values beyond full
+            scale kept) or 24-bit PCM (clipped to full scale).
 
         Raises
         ------
         ValueError
-            Another ``subtype``.
+            Another ``subtype``, or an extension of no format written here
+            (``.mp3``: nothing is written).
         OSError
             The file cannot be written (a missing directory, a full disk):
             one line naming it.
         """
-        from ..io.wav import SUBTYPES, write_wav
+        from ..io.wav import FORMATS, SUBTYPES, write_wav
 
         if subtype not in SUBTYPES:
             raise ValueError(f"subtype = {subtype!r} is not allowed (choices: "
                              f"{', '.join(repr(s) for s in SUBTYPES)})")
+        # the extension chooses the container, as for synth note -o: never
+        # WAV data under another format's name
+        ext = os.path.splitext(os.fspath(path))[1].lower()
+        fmt = {e: f for f, e in FORMATS.items()}.get(ext)
+        if fmt is None:
+            raise ValueError(f"path = {os.fspath(path)!r}: the extension must choose an audio "
+                             f"format ({', '.join(FORMATS.values())})")
         try:
-            write_wav(os.fspath(path), self.samples, self.fs, subtype)
+            write_wav(os.fspath(path), self.samples, self.fs, subtype, fmt)
         except SynthError as e:
             raise OSError(str(e)) from None
 

@@ -106,7 +106,7 @@ def play_note(eng, key: int | None, f0: float | None, velocity: int, seconds: fl
     return eng.render([ev], duration_s=seconds)
 
 
-def render_note(preset, key: int | None = None, velocity: int = 100, seconds: float = 2.0,
+def render_note(preset, key: int | None = None, velocity: int = 100, seconds: float = 3.0,
                 set=None, *, f0: float | None = None, rate: int | None = None) -> Audio:
     """Render one note of a preset, held for ``seconds`` (``synth note``).
 
@@ -121,7 +121,7 @@ def render_note(preset, key: int | None = None, velocity: int = 100, seconds: fl
     velocity : int
         MIDI velocity, 1-127 (an integer: 0.5 or 1.0 is refused).
     seconds : float
-        Length (s), 0 < seconds <= 600.
+        Length (s), 0 < seconds <= 600; 3 as ``synth note``.
     set : dict or sequence of str, optional
         Preset overrides, ``{"pluck.position": 0.7, "play.quality":
         "draft"}`` or ``["pluck.position=0.7"]`` (``synth note --set``),

@@ -77,6 +77,7 @@ from ..analysis import (
     two_stage_summary,
 )
 from ..io.errors import SynthError
+from ..io.filekind import file_kind
 from ..io.presets.schema import ABSENT, GIVEN, Field, OrderCheck, Section, When, _fmt_literal
 from ..io.presets.validate import check_rows, validate_table
 
@@ -156,7 +157,10 @@ def load_spec(path) -> Spec:
         raw = tomllib.loads(p.read_text(encoding="utf-8"))
     except FileNotFoundError:
         raise SpecError(f"{src}: no such spec file") from None
-    except (OSError, UnicodeDecodeError) as e:
+    except UnicodeDecodeError:
+        raise SpecError(f"{src}: not a spec: it is {file_kind(p) or 'binary data'}, and a spec is a "
+                        "TOML text file (synth help check)") from None
+    except OSError as e:
         raise SpecError(f"{src}: cannot read the spec ({e.__class__.__name__})") from None
     except tomllib.TOMLDecodeError as e:
         raise SpecError(f"{src}: not valid TOML ({e})") from None

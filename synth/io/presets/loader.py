@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from synth.io.errors import PresetError, display_path as _display_path
+from synth.io.filekind import file_kind
 
 from .model import Preset
 from .validate import _apply_overrides, validate_dict
@@ -240,6 +241,10 @@ def load_preset(name_or_path: str | os.PathLike, overrides: Sequence[str] = ()) 
         found = _scan()
         if text not in found:
             names = sorted(found)
+            kind = file_kind(text)
+            if kind is not None:
+                raise PresetError(f"{text} is {kind}, not a preset: give a preset's name "
+                                  f"({', '.join(names)}) or a preset's .toml file")
             close = difflib.get_close_matches(text, names, n=1)
             hint = f"; did you mean '{close[0]}'?" if close else ""
             avail = ", ".join(names) if names else (
