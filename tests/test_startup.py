@@ -5,6 +5,7 @@ compile (synth.dsp.compile_notice)."""
 from __future__ import annotations
 
 import io
+import time
 import json
 import os
 import re
@@ -108,6 +109,26 @@ def test_nothing_on_a_warm_cache_or_when_turned_off(tmp_path, monkeypatch, notic
     CN._on_start(_event())
     CN._on_end(_event())
     assert tty.getvalue() == ""
+
+
+def test_the_progress_line_moves_while_a_kernel_compiles(tmp_path, monkeypatch, notice_state):
+    """On a terminal the elapsed time is redrawn every TICK_S during one
+    long compile (tqdm redraws only when a kernel finishes, and one may take
+    15 s), and no more once the compiles are over."""
+    import re
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(CN, "TICK_S", 0.05)
+    tty = _Tty()
+    CN.arm(tty)
+    CN._on_start(_event())
+    time.sleep(1.2)
+    shown = re.findall(r"kernels compiled: \d+ \[(\d\d:\d\d)\]", tty.getvalue())
+    assert len(shown) >= 5 and shown[-1] == "00:01", shown
+    CN._on_end(_event())
+    n = len(tty.getvalue())
+    time.sleep(0.3)
+    assert len(tty.getvalue()) == n and CN._state["ticker"] is None
 
 
 def test_timing_note():

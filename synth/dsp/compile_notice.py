@@ -61,8 +61,14 @@ _state = {
     "seconds": 0.0,       # wall time in outermost compiles, summed
     "count": 0,           # synth kernels compiled in this process
     "bar": None,
+    "ticker": None,       # the Event that stops the bar's refreshing thread
     "listening": False,
 }
+
+#: seconds between two refreshes of the progress line while a kernel compiles
+#: (tqdm redraws only on an update, and one kernel may compile for 15 s: the
+#: elapsed time would stand still)
+TICK_S = 0.5
 
 
 def _kernels_dir() -> Path:
@@ -172,7 +178,23 @@ def disarm() -> None:
         _close_bar()
 
 
+def _tick(bar, stop: threading.Event) -> None:
+    """Redraw ``bar`` (its elapsed time) every :data:`TICK_S` until stopped."""
+    while not stop.wait(TICK_S):
+        with _lock:
+            if _state["bar"] is not bar:
+                return
+            try:
+                bar.refresh()
+            except Exception:  # pragma: no cover
+                return
+
+
 def _close_bar() -> None:
+    ticker = _state["ticker"]
+    if ticker is not None:
+        _state["ticker"] = None
+        ticker.set()
     bar = _state["bar"]
     if bar is not None:
         _state["bar"] = None
@@ -209,11 +231,16 @@ def _on_start(data) -> None:
                 try:
                     from tqdm import tqdm
 
-                    _state["bar"] = tqdm(desc="synth: kernels compiled", unit=" kernels",
-                                         initial=_state["count"], file=stream, leave=False,
-                                         bar_format="{desc}: {n_fmt} [{elapsed}]")
+                    bar = tqdm(desc="synth: kernels compiled", unit=" kernels",
+                               initial=_state["count"], file=stream, leave=False,
+                               bar_format="{desc}: {n_fmt} [{elapsed}]")
                 except Exception:
-                    _state["bar"] = None
+                    bar = None
+                _state["bar"] = bar
+                if bar is not None:
+                    stop = _state["ticker"] = threading.Event()
+                    threading.Thread(target=_tick, args=(bar, stop), name="synth-compile-bar",
+                                     daemon=True).start()
 
 
 def _on_end(data) -> None:
