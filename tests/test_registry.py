@@ -143,13 +143,14 @@ def test_excitation_kinds_are_named_once():
 
 
 def test_the_engine_uses_no_hasattr_and_indexes_no_kernel_table():
-    """Outside the string bank (synth/dsp/bank.py and its mixins
-    excitation.py, bridges.py, groups.py, hand_over.py and telemetry.py), the kernels and the benchmarks that time
+    """Outside the string bank (synth/dsp/bank.py, its mixins
+    excitation.py, bridges.py, groups.py, hand_over.py and telemetry.py, and
+    templates.py, the slots' validated rows), the kernels and the benchmarks that time
     and inspect them (synth/apps/bench, as the tests of the kernels do), no
     synth module indexes ipar/fpar/fst, and the engine (with its channels'
     mixin) does not probe its instrument."""
     bank = {"dsp/bank.py", "dsp/excitation.py", "dsp/bridges.py", "dsp/groups.py",
-            "dsp/hand_over.py", "dsp/telemetry.py"}
+            "dsp/hand_over.py", "dsp/telemetry.py", "dsp/templates.py"}
     tables = {"ipar", "fpar", "fst"}
     for path in sorted(SYNTH.rglob("*.py")):
         rel = path.relative_to(SYNTH).as_posix()
