@@ -88,3 +88,96 @@ def pytest_xdist_auto_num_workers(config):
     except AttributeError:  # not on Linux
         cores = os.cpu_count() or 1
     return cores + 1
+
+
+# ---- the machine to itself, for a capture through a real-time server ---------------
+#
+# A test that captures a live synth through JACK judges what the server's
+# clock did: a cycle the server lost (an xrun) tears the capture.  On two
+# cores with three workers, the other workers' renders took the cores from
+# the synth's process thread (its callback waits for the GIL, which a thread
+# of normal priority in the synth may hold), and CI on a 2-vCPU Zen 1 VM
+# failed three JACK tests in one run (4 of 8 notes found with 155 xruns during
+# play; 2026-12-01) that pass when the machine is quiet.  So such a test
+# takes the machine to itself for its capture: ``with alone(): ...`` waits
+# until no other worker runs a test, and keeps them from starting one, until
+# it ends.  The rest of the test (starting the synth, its kernels, the
+# offline references) shares the machine as every test does.
+#
+# Two flock(2) files in a directory the controller makes for the run (the
+# workers inherit its environment): every test holds "room" shared from its
+# set-up to its tear-down; ``alone`` holds "gate" and converts its own
+# "room" lock to exclusive.  A test entering passes "gate" first, so a
+# waiting ``alone`` is not starved by tests that keep arriving.  A worker that
+# dies drops its locks with its file descriptors.
+import contextlib
+import fcntl
+import shutil
+import tempfile
+
+_SHARE_ENV = "SYNTH_TEST_SHARE_DIR"
+
+
+class _Share:
+    """This process's hold on the run's machine (see above)."""
+
+    def __init__(self, folder: str):
+        self.gate = os.open(os.path.join(folder, "gate"), os.O_RDWR | os.O_CREAT, 0o600)
+        self.room = os.open(os.path.join(folder, "room"), os.O_RDWR | os.O_CREAT, 0o600)
+
+    def enter(self):
+        fcntl.flock(self.gate, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(self.room, fcntl.LOCK_SH)
+        finally:
+            fcntl.flock(self.gate, fcntl.LOCK_UN)
+
+    def leave(self):
+        fcntl.flock(self.room, fcntl.LOCK_UN)
+
+    @contextlib.contextmanager
+    def alone(self):
+        fcntl.flock(self.gate, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(self.room, fcntl.LOCK_EX)   # waits for the other workers' tests to end
+            try:
+                yield
+            finally:
+                fcntl.flock(self.room, fcntl.LOCK_SH)
+        finally:
+            fcntl.flock(self.gate, fcntl.LOCK_UN)
+
+
+_share = None
+
+
+def pytest_configure(config):
+    global _share
+    if not hasattr(config, "workerinput") and _SHARE_ENV not in os.environ:
+        folder = tempfile.mkdtemp(prefix="synth-pytest-share-")
+        os.environ[_SHARE_ENV] = folder      # before xdist starts the workers
+        config._synth_share_dir = folder
+    _share = _Share(os.environ[_SHARE_ENV])
+
+
+def pytest_unconfigure(config):
+    folder = getattr(config, "_synth_share_dir", None)
+    if folder is not None:
+        os.environ.pop(_SHARE_ENV, None)
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    _share.enter()
+    try:
+        yield
+    finally:
+        _share.leave()
+
+
+@pytest.fixture
+def alone():
+    """``with alone(): ...``: the block runs with no other worker's test
+    running (see the comment above ``_Share``)."""
+    return _share.alone

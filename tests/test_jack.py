@@ -84,7 +84,7 @@ def _stop(proc, tester=None):
 
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine
-def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_path):
+def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_path, alone):
     """24 notes sent through JACK MIDI at chosen frames to ``synth play
     --jack --preset grand-piano``, its audio captured through JACK: each
     note the server kept time for (no xrun reported during its capture)
@@ -103,21 +103,22 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
         probe.close()
         keys = [48 + (5 * i) % 36 for i in range(24)]
         spacing, hold = int(0.4 * FS), int(0.2 * FS)
-        tester = Loopback(server, 2, 24 * 0.4 + 1.5)
-        tester.client.activate()
-        connect(tester.client, [(tester.midi_out, "synthtest:midi_in"),
-                                 ("synthtest:out_1", tester.ins[0]),
-                                 ("synthtest:out_2", tester.ins[1])])
-        time.sleep(0.2)
-        start = tester.client.last_frame_time + FS // 2
-        onsets = []
-        for i, k in enumerate(keys):
-            at = start + i * spacing + (37 * i) % 128        # every offset in the period
-            onsets.append(at)
-            tester.events += [(at, bytes([0x90, k, 100])), (at + hold, bytes([0x80, k, 64]))]
-        time.sleep(24 * 0.4 + 1.0)
-        tester.client.deactivate()
-        rec, t0 = tester.rec, tester.t0
+        with alone():   # the capture judges the server's clock (conftest)
+            tester = Loopback(server, 2, 24 * 0.4 + 1.5)
+            tester.client.activate()
+            connect(tester.client, [(tester.midi_out, "synthtest:midi_in"),
+                                     ("synthtest:out_1", tester.ins[0]),
+                                     ("synthtest:out_2", tester.ins[1])])
+            time.sleep(0.2)
+            start = tester.client.last_frame_time + FS // 2
+            onsets = []
+            for i, k in enumerate(keys):
+                at = start + i * spacing + (37 * i) % 128        # every offset in the period
+                onsets.append(at)
+                tester.events += [(at, bytes([0x90, k, 100])), (at + hold, bytes([0x80, k, 64]))]
+            time.sleep(24 * 0.4 + 1.0)
+            tester.client.deactivate()
+            rec, t0 = tester.rec, tester.t0
     finally:
         out, err = _stop(proc, tester)
     assert proc.returncode == 0, err
@@ -403,7 +404,7 @@ class _Lines:
 
 @pytest.mark.parametrize("rate,period", [(44_100, 128), (96_000, 256)])
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine
-def test_other_rates_through_jack(private_server, rate, period, tmp_path):
+def test_other_rates_through_jack(private_server, rate, period, tmp_path, alone):
     """A server at 44.1 or 96 kHz: synth plays at its rate, each note as
     the same note rendered offline at that rate (correlation >= 0.9, each
     at the loop's period plus the engine's latency at that rate), and the
@@ -424,9 +425,10 @@ def test_other_rates_through_jack(private_server, rate, period, tmp_path):
         lag = _lag("grand-piano", rate, period)
         for k in keys:
             _reference("grand-piano", k, rate)
-        tester = _Tester(srv.name, "rated", 2, 12.0, rate=rate)
-        time.sleep(0.2)
-        heard = [tester.sound(k, "grand-piano", lag) for k in keys]
+        with alone():   # the capture judges the server's clock (conftest)
+            tester = _Tester(srv.name, "rated", 2, 12.0, rate=rate)
+            time.sleep(0.2)
+            heard = [tester.sound(k, "grand-piano", lag) for k in keys]
     finally:
         out, err = _stop(proc, tester)
     assert proc.returncode == 0, err
@@ -608,7 +610,7 @@ def test_portaudio_with_jack_midi(private_server, tmp_path):
 
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine
-def test_bench_live_jack_quick_measures_the_loop(server):
+def test_bench_live_jack_quick_measures_the_loop(server, alone):
     """``tools/bench.py live --jack --quick`` (issue 36's measuring tool, on
     the module's dummy server): every note found, at 241 samples (the
     loop's period and the grand's decimator and limiter), a spread under
@@ -616,8 +618,10 @@ def test_bench_live_jack_quick_measures_the_loop(server):
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "live", "--jack", "--quick",
-                        "--server", server], capture_output=True, text=True, timeout=600)
+    with alone():   # the tool judges the server's clock (conftest)
+        p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "live", "--jack",
+                            "--quick", "--server", server], capture_output=True, text=True,
+                           timeout=600)
     assert p.returncode == 0, p.stderr
     out = p.stdout
     # an xrun of the dummy server can tear a note's capture (this VM's own:
@@ -652,7 +656,7 @@ def test_bench_live_jack_quick_measures_the_loop(server):
 
 
 @pytest.mark.slow  # over 2 s: a JACK server, synth play and 3.5 s of a drone
-def test_the_drone_player_plays_live_through_jack(private_server, tmp_path, monkeypatch):
+def test_the_drone_player_plays_live_through_jack(private_server, tmp_path, monkeypatch, alone):
     """``synth play --jack`` on a preset with a [drone] table: one key sent
     through JACK MIDI starts the drone (a key-up does nothing), the same key
     again stops it; the captured audio is the offline render of those two
@@ -694,7 +698,7 @@ def test_the_drone_player_plays_live_through_jack(private_server, tmp_path, monk
     win = int(0.5 * FS)
     tries = []
     for _ in range(3):
-        rec, at, t0, xruns, out, err, code = _drone_capture(server, NAME, stop_s, seconds)
+        rec, at, t0, xruns, out, err, code = _drone_capture(server, NAME, stop_s, seconds, alone)
         assert code == 0, err
         seg = rec[at - t0:]
         lags, corrs, torn = [], [], []
@@ -742,7 +746,7 @@ def _skip_if_idle_xruns(n, seconds, shown):
                     f"idle client on it: this machine is not keeping time now ({shown[:300]})")
 
 
-def _drone_capture(server, name, stop_s, seconds):
+def _drone_capture(server, name, stop_s, seconds, alone):
     """``synth play --jack`` on the drone preset ``name``: key 49 through
     JACK MIDI half a second after the capture starts (its key-up 0.1 s
     later), key 49 again ``stop_s`` later; returns the capture (mono), the
@@ -755,14 +759,15 @@ def _drone_capture(server, name, stop_s, seconds):
         probe = jack.Client("waiter", no_start_server=True, servername=server)
         wait_ports(probe, "synthdrone", 2, proc)
         probe.close()
-        tester = Loopback(server, 1, seconds + 1.0).attach("synthdrone")
-        time.sleep(0.2)
-        at = tester.client.last_frame_time + FS // 2
-        tester.events += [(at, bytes([0x90, 49, 100])), (at + FS // 10, bytes([0x80, 49, 64])),
-                          (at + int(stop_s * FS), bytes([0x90, 49, 90]))]
-        time.sleep(seconds + 1.0)
-        tester.client.deactivate()
-        rec, t0, xruns = tester.rec[:, 0].copy(), tester.t0, list(tester.xruns)
+        with alone():   # the capture judges the server's clock (conftest)
+            tester = Loopback(server, 1, seconds + 1.0).attach("synthdrone")
+            time.sleep(0.2)
+            at = tester.client.last_frame_time + FS // 2
+            tester.events += [(at, bytes([0x90, 49, 100])), (at + FS // 10, bytes([0x80, 49, 64])),
+                              (at + int(stop_s * FS), bytes([0x90, 49, 90]))]
+            time.sleep(seconds + 1.0)
+            tester.client.deactivate()
+            rec, t0, xruns = tester.rec[:, 0].copy(), tester.t0, list(tester.xruns)
     finally:
         out, err = _stop(proc, tester)
     return rec, at, t0, xruns, out, err, proc.returncode
