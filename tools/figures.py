@@ -4,6 +4,8 @@ Usage
 -----
     python tools/figures.py tanpura-thread [-o docs/img/tanpura/thread.png]
     python tools/figures.py drone [-o docs/img/tanpura/drone.png]
+    python tools/figures.py harpsichord [-o docs/img/keyboard/harpsichord.png]
+    python tools/figures.py hammered-sitar [-o docs/img/keyboard/hammered-sitar.png]
     python tools/figures.py list
 
 ``tanpura-thread``: the tanpura's Sa (key 49, velocity 90, 5 s) with the
@@ -17,6 +19,15 @@ spectrograms to 8 kHz with the centre of the 2-8 kHz band
 times, keys and velocities (its taraf ringing along): spectrograms to 8
 kHz with the 2-8 kHz centre, and the momentary loudness (400 ms, BS.1770)
 of both over time.
+
+``harpsichord``, ``hammered-sitar``: the preset across its keyboard, as a
+player judges it: the loudness of each key (the loudest 400 ms, BS.1770)
+at velocities 30, 64, 100 and 127; the brightness of each attack (the
+spectral centroid of its first 100 ms,
+:func:`synth.analysis.attack_centroid_hz`) at velocity 100 beside the
+instrument it is voiced against (the grand, the plucked sitar); and
+spectrograms of a low, a middle and a high key at velocity 100.  The keys
+are those of the preset's spec (``synth/presets/checks``).
 
 Needs matplotlib (the ``[plots]`` extra).  Exit 0 after writing the PNG;
 2 with a one-line error.
@@ -40,13 +51,14 @@ def _plt():
     return plt
 
 
-def _spectrogram(ax, y, fs, title, top_hz=8000.0):
+def _spectrogram(ax, y, fs, title, top_hz=8000.0, centre=True):
     from synth.analysis import band_centroid_hz
 
     ax.specgram(y, NFFT=2048, Fs=fs, noverlap=1536, cmap="magma", vmin=-150, vmax=-40)
-    t = np.arange(0.25, len(y) / fs - 0.3, 0.25)
-    c = [band_centroid_hz(y, fs, 2000.0, 8000.0, x - 0.25, x + 0.25) for x in t]
-    ax.plot(t, c, "c-", lw=2, label="centre of 2-8 kHz")
+    if centre:
+        t = np.arange(0.25, len(y) / fs - 0.3, 0.25)
+        c = [band_centroid_hz(y, fs, 2000.0, 8000.0, x - 0.25, x + 0.25) for x in t]
+        ax.plot(t, c, "c-", lw=2, label="centre of 2-8 kHz")
     ax.set_ylim(0, top_hz)
     ax.set_title(title, fontsize=10)
     ax.set_xlabel("s")
@@ -112,8 +124,59 @@ def drone(out: str, seconds: float = 60.0) -> None:
     fig.savefig(out, dpi=70)
 
 
+#: preset -> (keys, the preset its brightness is shown beside, note length in s)
+KEYBOARDS = {"harpsichord": (range(29, 90, 4), "grand-piano", 1.5),
+             "hammered-sitar": (range(43, 75, 3), "sitar", 1.5)}
+VELOCITIES = (30, 64, 100, 127)
+
+
+def keyboard(preset: str, out: str) -> None:
+    import synth
+    from synth.analysis import as_mono, attack_centroid_hz, max_momentary_lufs
+
+    plt = _plt()
+    keys, beside, seconds = KEYBOARDS[preset]
+    keys = list(keys)
+
+    def note(name, key, velocity, secs=seconds):
+        a = synth.render_note(name, key=key, velocity=velocity, seconds=secs)
+        return as_mono(np.asarray(a)), a.fs
+
+    fig = plt.figure(figsize=(16, 9))
+    grid = fig.add_gridspec(2, 3)
+    ax = fig.add_subplot(grid[0, :2])
+    for v in VELOCITIES:
+        lufs = [max_momentary_lufs(*note(preset, k, v)) for k in keys]
+        ax.plot(keys, lufs, "o-", label=f"velocity {v}")
+    ax.set_xlabel("MIDI key")
+    ax.set_ylabel("loudest 400 ms (LUFS)")
+    ax.set_title(f"{preset}: loudness across the keyboard")
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax = fig.add_subplot(grid[0, 2])
+    for name, style in ((preset, "o-"), (beside, "s--")):
+        c = [attack_centroid_hz(*note(name, k, 100)) for k in keys]
+        ax.plot(keys, c, style, label=name)
+    ax.set_yscale("log")
+    ax.set_xlabel("MIDI key")
+    ax.set_ylabel("centroid of the first 100 ms (Hz)")
+    ax.set_title("brightness of the attack, velocity 100")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    shown = (keys[0], keys[len(keys) // 2], keys[-1])
+    for col, k in enumerate(shown):
+        y, fs = note(preset, k, 100, 3.0)
+        _spectrogram(fig.add_subplot(grid[1, col]), y, fs, f"key {k}, velocity 100, 3 s",
+                     top_hz=12000.0, centre=False)
+    fig.suptitle(f"{preset} across its keys and velocities")
+    fig.tight_layout()
+    fig.savefig(out, dpi=70)
+
+
 FIGURES = {"tanpura-thread": (tanpura_thread, "docs/img/tanpura/thread.png"),
            "drone": (drone, "docs/img/tanpura/drone.png")}
+FIGURES.update({name: (lambda out, name=name: keyboard(name, out), f"docs/img/keyboard/{name}.png")
+                for name in KEYBOARDS})
 
 
 def main(argv=None) -> int:
@@ -126,6 +189,8 @@ def main(argv=None) -> int:
             print(f"{name}  ->  {path}")
         return 0
     fn, path = FIGURES[a.figure]
+    from pathlib import Path
+    Path(a.output or path).parent.mkdir(parents=True, exist_ok=True)
     fn(a.output or path)
     print(f"wrote {a.output or path}")
     return 0
