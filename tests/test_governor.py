@@ -156,3 +156,52 @@ def test_a_governor_switching_every_call_plays_the_same_samples():
     g = eng.bank.governor
     assert g.calls[0] > 0 and g.calls[1] > 0, g.calls
     assert np.array_equal(out, ref)
+
+
+def test_short_and_long_calls_are_decided_apart():
+    """Calls of 325 internal samples faster on one thread (what they pay
+    once outweighs the threads), calls of 4096 faster on the threads, the
+    short ones first (a sitar's note-ons 1 ms apart, then the held notes):
+    each size class ends in its own faster mode, and the long calls run on
+    the threads from their first probe on (one set of timings kept them on
+    one thread for a second of a 2 s render)."""
+    clock = Clock()
+    gov = threads.Governor(probe_calls=8, probe_s=0.5, clock=clock)
+
+    def run(calls, samples, rate):
+        modes = []
+        for _ in range(calls):
+            par = gov.pick(2, 45.0 * samples, samples) > 1
+            modes.append(par)
+            gov.record(rate(par) * 45.0 * samples, 45.0 * samples)
+            clock.t += 0.002
+        return modes
+
+    short = run(40, 325, lambda par: 4e-8 if par else 2.5e-8)
+    assert not gov.parallel and short[-20:].count(False) >= 19
+    long = run(300, 4096, lambda par: 1.3e-8 if par else 2.0e-8)
+    assert gov.parallel
+    assert long[10:].count(False) <= 3 * (290 * 0.002 / 0.5 + 2), long.count(False)
+    assert gov.size_class(325) != gov.size_class(4096) == gov.size_class(8191) != gov.size_class(8192)
+
+
+def test_a_class_s_cold_first_call_does_not_decide_it():
+    """The first call of a mode in a size class is not kept: a pedalled
+    grand chord's blocks are calls of 4096 and 2837 internal samples, and
+    the first 2837-sample call on the threads took 7.0 ns per unit, the
+    next ones 2.8 (4.8 on one thread); kept, that one call moved its class
+    to one thread for the rest of the render."""
+    clock = Clock()
+    gov = threads.Governor(probe_calls=8, probe_s=0.5, clock=clock)
+    seen = set()
+    modes = {4096: [], 2837: []}
+    for _ in range(100):
+        for samples in (4096, 2837):
+            par = gov.pick(2, 20.0 * samples, samples) > 1
+            cold = par and samples not in seen
+            seen.add(samples) if par else None
+            rate = 7.0e-9 if cold else (2.8e-9 if par else 4.8e-9)
+            gov.record(rate * 20.0 * samples, 20.0 * samples)
+            modes[samples].append(par)
+            clock.t += 0.001
+    assert modes[2837][10:].count(False) <= 3 and gov.parallel

@@ -163,7 +163,7 @@ class Governor:
 
     How it decides: each timed call gives seconds per unit of work (the
     caller's measure, strings x samples), and the last :attr:`keep` of each
-    mode are kept (but the threads' first, which starts them).  The bank
+    mode are kept (but the first of each mode in each class: :class:`_Class`).  The bank
     starts on its threads.  After one call, and then at most every
     :attr:`probe_calls` calls and
     :attr:`probe_s` seconds (doubled, up to 8 times, each time a probe keeps
@@ -173,7 +173,9 @@ class Governor:
     it falls below 1 / :attr:`margin` times: on a busy machine single timings
     of the threads scatter over a factor of ten, medians do not.  Live play
     (:attr:`realtime_dt_s`) probes the calling thread only where the call
-    surely fits there.
+    surely fits there.  Calls are timed and decided by size class
+    (:meth:`size_class`: calls within a factor of two of each other in
+    internal samples), each class with its own timings, mode and probes.
 
     Parameters
     ----------
@@ -225,25 +227,158 @@ class Governor:
         self.probe_s = float(probe_s)
         self.margin = float(margin)
         self.clock = time.perf_counter if clock is None else clock
+        #: the state of each size class of call (:meth:`size_class`)
+        self._classes: dict[int, _Class] = {}
+        self._cur = None
+        self._cur = self._class(0)
+
+    @staticmethod
+    def size_class(samples: int) -> int:
+        """The class of a call of ``samples`` internal samples: calls within
+        a factor of two of each other share one (``samples.bit_length()``;
+        0 for a call whose size is not given).  A call's time per unit of
+        work includes what it pays once (its parallel loops' launches, the
+        bridge's head), so a short call gains less from the threads than a
+        long one and may lose: a sitar's 32 note-ons 1 ms apart, calls of
+        325 samples, ran faster on one thread, and with one set of timings
+        the governor then kept the 4096-sample calls after them on one
+        thread too, where the threads were 1.5x faster (a second of a 2 s
+        render, 2026-12-02).  Each class is timed and decided apart."""
+        return max(0, int(samples)).bit_length()
+
+    def _class(self, c: int) -> "_Class":
+        st = self._classes.get(c)
+        if st is None:
+            # a new class starts in the mode of the last call's (a machine
+            # found busy stays on one thread until the class's probe)
+            st = self._classes[c] = _Class(self.probe_calls, self.probe_s)
+            if self._cur is not None:
+                st.parallel = self._cur.parallel
+        return st
+
+    # the current class's state, as one governor's before the classes
+    @property
+    def parallel(self) -> bool:
+        """Whether the threads are the mode in use (the last call's class)."""
+        return self._cur.parallel
+
+    @property
+    def rates(self):
+        """The last timings (s per unit) of the last call's class:
+        [calling thread, threads]."""
+        return self._cur.rates
+
+    @property
+    def calls(self) -> list[int]:
+        """Calls timed in each mode, every class: [calling thread, threads]."""
+        return [sum(st.calls[0] for st in self._classes.values()),
+                sum(st.calls[1] for st in self._classes.values())]
+
+    def median(self, parallel: bool) -> float | None:
+        """Median of the kept timings of a mode (s per unit) in the last
+        call's class, None if none."""
+        return self._cur.median(parallel)
+
+    def _fits_one_thread(self, st, nt: int, units: float, samples: int) -> bool:
+        """Whether a call of ``units`` over ``samples`` internal samples
+        surely fits :attr:`realtime_share` of its real-time budget on one
+        thread (always true offline: :attr:`realtime_dt_s` None)."""
+        dt = self.realtime_dt_s
+        if dt is None:
+            return True
+        p = st.median(True)
+        if p is None or samples <= 0:
+            return False
+        return p * units * nt <= self.realtime_share * samples * dt
+
+    def pick(self, nt: int, units: float = 0.0, samples: int = 0) -> int:
+        """Threads for the next call of a kernel given ``nt``: ``nt`` or 1.
+        ``units``, ``samples``: the call's work and internal samples (what
+        :meth:`record` will be given; the call's size class and live play's
+        budget need them).  With ``nt`` 1 there is nothing to decide (1,
+        nothing kept)."""
+        if nt <= 1:
+            return 1
+        st = self._cur = self._class(self.size_class(samples))
+        if not self.auto:
+            st.mode = True
+            return nt
+        if st.probing == 0 and st.since >= self.probe_calls:
+            now = self.clock()
+            if ((st.last_probe is None or now - st.last_probe >= st.wait_s)
+                    and (not st.parallel or self._fits_one_thread(st, nt, units, samples))):
+                st.probing = self.burst
+                st.since = 0
+                st.last_probe = now
+        par = st.parallel
+        if st.probing > 0:
+            par = not par
+            st.probing -= 1
+            st.judge = st.probing == 0
+        else:
+            st.since += 1
+        st.mode = par
+        return nt if par else 1
+
+    def record(self, seconds: float, units: float) -> None:
+        """Time of the call :meth:`pick` chose threads for (s), and its work
+        (units > 0: nothing kept otherwise)."""
+        if not units > 0 or not seconds >= 0:
+            return
+        st = self._cur
+        m = int(st.mode)
+        if st.fresh[m]:
+            st.fresh[m] = False              # cold: not kept (the class's docs)
+            return
+        kept = st.rates[m]
+        kept.append(seconds / units)
+        if len(kept) > self.keep:
+            del kept[0]
+        st.calls[m] += 1
+        if st.probing:
+            return
+        was = st.parallel
+        s, p = st.median(False), st.median(True)
+        if s is not None and p is not None:
+            if st.parallel and p > self.margin * s:
+                st.parallel = False
+            elif not st.parallel and p * self.margin < s:
+                st.parallel = True
+        if st.judge:                         # a probe's last call
+            st.judge = False
+            st.wait_s = (self.probe_s if st.parallel != was
+                         else min(2.0 * st.wait_s, 8.0 * self.probe_s))
+
+
+class _Class:
+    """One size class's share of a :class:`Governor`: its timings, its
+    mode and its probes.  The first call of each mode in a class is not
+    kept: the threads' first call starts them, and a class's first call
+    finds its memory cold (a pedalled grand chord's first 2837-sample call
+    on the threads took 7.0 ns per unit against 2.8 after, 4.8 on one
+    thread; kept, it moved that class to one thread for the rest of a 4 s
+    render, whose wall time never reached the next probe: 2026-12-02)."""
+
+    def __init__(self, probe_calls: int, probe_s: float):
+        #: whether the next call of each mode is the class's first: [one, threads]
+        self.fresh = [True, True]
         #: whether the threads are the mode in use
         self.parallel = True
         #: the last timings (s per unit): [calling thread, threads]
         self.rates = ([], [])
         #: calls timed in each mode: [calling thread, threads]
         self.calls = [0, 0]
-        # (the first probe after one call, whose time is not kept: it starts
-        # the threads; a busy machine is found at once, where a sitar chord's
-        # call on stalled threads took about 0.28 s against 1.5 ms on one,
-        # python tools/bench.py busy)
-        self._since = self.probe_calls - 1
-        self._fresh = True
-        self._probing = 0
-        self._last_probe = None
-        self._mode = True
+        # (the first probe after one call; a busy machine is found at once,
+        # where a sitar chord's call on stalled threads took about 0.28 s
+        # against 1.5 ms on one, python tools/bench.py busy)
+        self.since = probe_calls - 1
+        self.probing = 0
+        self.last_probe = None
+        self.mode = True
         # the wait between probes: probe_s, doubled (to 8 probe_s) each time a
         # probe keeps the mode (a machine busy for long is probed less)
-        self._wait_s = self.probe_s
-        self._judge = False
+        self.wait_s = probe_s
+        self.judge = False
 
     def median(self, parallel: bool) -> float | None:
         """Median of the kept timings of a mode (s per unit), None if none."""
@@ -252,70 +387,3 @@ class Governor:
             return None
         k = len(r) // 2
         return r[k] if len(r) % 2 else 0.5 * (r[k - 1] + r[k])
-
-    def _fits_one_thread(self, nt: int, units: float, samples: int) -> bool:
-        """Whether a call of ``units`` over ``samples`` internal samples
-        surely fits :attr:`realtime_share` of its real-time budget on one
-        thread (always true offline: :attr:`realtime_dt_s` None)."""
-        dt = self.realtime_dt_s
-        if dt is None:
-            return True
-        p = self.median(True)
-        if p is None or samples <= 0:
-            return False
-        return p * units * nt <= self.realtime_share * samples * dt
-
-    def pick(self, nt: int, units: float = 0.0, samples: int = 0) -> int:
-        """Threads for the next call of a kernel given ``nt``: ``nt`` or 1.
-        ``units``, ``samples``: the call's work and internal samples (what
-        :meth:`record` will be given; live play's budget needs them).  With
-        ``nt`` 1 there is nothing to decide (1, nothing kept)."""
-        if nt <= 1:
-            return 1
-        if not self.auto:
-            self._mode = True
-            return nt
-        if self._probing == 0 and self._since >= self.probe_calls:
-            now = self.clock()
-            if ((self._last_probe is None or now - self._last_probe >= self._wait_s)
-                    and (not self.parallel or self._fits_one_thread(nt, units, samples))):
-                self._probing = self.burst
-                self._since = 0
-                self._last_probe = now
-        par = self.parallel
-        if self._probing > 0:
-            par = not par
-            self._probing -= 1
-            self._judge = self._probing == 0
-        else:
-            self._since += 1
-        self._mode = par
-        return nt if par else 1
-
-    def record(self, seconds: float, units: float) -> None:
-        """Time of the call :meth:`pick` chose threads for (s), and its work
-        (units > 0: nothing kept otherwise)."""
-        if not units > 0 or not seconds >= 0:
-            return
-        m = int(self._mode)
-        if m and self._fresh:
-            self._fresh = False              # the threads' first call: their start
-            return
-        kept = self.rates[m]
-        kept.append(seconds / units)
-        if len(kept) > self.keep:
-            del kept[0]
-        self.calls[m] += 1
-        if self._probing:
-            return
-        was = self.parallel
-        s, p = self.median(False), self.median(True)
-        if s is not None and p is not None:
-            if self.parallel and p > self.margin * s:
-                self.parallel = False
-            elif not self.parallel and p * self.margin < s:
-                self.parallel = True
-        if self._judge:                      # a probe's last call
-            self._judge = False
-            self._wait_s = (self.probe_s if self.parallel != was
-                            else min(2.0 * self._wait_s, 8.0 * self.probe_s))
