@@ -229,7 +229,7 @@ class Governor:
         self.clock = time.perf_counter if clock is None else clock
         #: the state of each size class of call (:meth:`size_class`)
         self._classes: dict[int, _Class] = {}
-        self._cur = None
+        self._cur = None                     # (the first class follows no call's mode)
         self._cur = self._class(0)
 
     @staticmethod
