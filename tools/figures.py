@@ -124,21 +124,29 @@ def drone(out: str, seconds: float = 60.0) -> None:
     fig.savefig(out, dpi=70)
 
 
-#: preset -> (keys, the preset its brightness is shown beside, note length in s)
-KEYBOARDS = {"harpsichord": (range(29, 90, 4), "grand-piano", 1.5),
-             "hammered-sitar": (range(43, 75, 3), "sitar", 1.5)}
+#: preset -> the preset its attack's brightness is shown beside
+KEYBOARDS = {"harpsichord": "grand-piano", "hammered-sitar": "sitar"}
 VELOCITIES = (30, 64, 100, 127)
+#: each key's note for the loudness and the centroid (s)
+NOTE_S = 1.5
 
 
 def keyboard(preset: str, out: str) -> None:
+    from functools import lru_cache
+
     import synth
     from synth.analysis import as_mono, attack_centroid_hz, max_momentary_lufs
+    from synth.apps.check import load_spec
+    from synth.io.presets import shipped_checks_dir
 
     plt = _plt()
-    keys, beside, seconds = KEYBOARDS[preset]
-    keys = list(keys)
+    beside = KEYBOARDS[preset]
+    # the keys of the preset's spec (its first render)
+    keys = list(load_spec(shipped_checks_dir() / f"{preset}.toml").renders[0]["keys"])
 
-    def note(name, key, velocity, secs=seconds):
+    @lru_cache(maxsize=None)
+    def note(name, key, velocity, secs=NOTE_S):
+        # (velocity 100 serves both the loudness and the centroid)
         a = synth.render_note(name, key=key, velocity=velocity, seconds=secs)
         return as_mono(np.asarray(a)), a.fs
 

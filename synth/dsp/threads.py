@@ -263,21 +263,10 @@ class Governor:
         return self._cur.parallel
 
     @property
-    def rates(self):
-        """The last timings (s per unit) of the last call's class:
-        [calling thread, threads]."""
-        return self._cur.rates
-
-    @property
     def calls(self) -> list[int]:
         """Calls timed in each mode, every class: [calling thread, threads]."""
         return [sum(st.calls[0] for st in self._classes.values()),
                 sum(st.calls[1] for st in self._classes.values())]
-
-    def median(self, parallel: bool) -> float | None:
-        """Median of the kept timings of a mode (s per unit) in the last
-        call's class, None if none."""
-        return self._cur.median(parallel)
 
     def _fits_one_thread(self, st, nt: int, units: float, samples: int) -> bool:
         """Whether a call of ``units`` over ``samples`` internal samples
