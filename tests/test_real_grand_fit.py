@@ -111,12 +111,13 @@ def test_the_fitted_targets_hold_against_the_stored_recording():
     together; +30 before); partials 2-10 within 6 dB over C3-B3, C4-B4 and
     C6-B6; the first 50 ms's centroid within 1.5x on every octave (1.27-1.39x:
     the softer felt, docs/lab/2026-11-30-felt41.md; 1.49-2.27x at velocity
-    105 with the felt before); the time to the RMS peak within a factor of
-    2 over C2-B4 and C6-B6.  What the fits gained without meeting the
-    target: C6-B6's partial 1 at 3 s +18 -> +14 dB (held at 15), as a
-    stronger loss there takes key 87's knee (docs/lab/2026-11-30-treble.md);
-    C5-B5's time to the peak 6 -> 9 ms against the recording's 19 (held at
-    8)."""
+    105 with the felt before; 1.39-1.48x with the board's spread); the time
+    to the RMS peak within a factor of 2 on every octave (the board's
+    spread, ``body.spread_ms``: C5-B5 21 ms against the recording's 19,
+    C7-C8 15 against 15; 9 and 6 without it).  What the fits gained without
+    meeting the target: C6-B6's partial 1 at 3 s +18 -> +14 dB (held at 15;
+    +8 since the treble's loss), as a stronger loss there takes key 87's
+    knee (docs/lab/2026-11-30-treble.md)."""
     real = _real(10)
     rows = {r["octave"]: r for r in octave_table(
         octave_model(sorted(real), "close", LAYER_VELOCITY[10], seconds=4.0), real)}
@@ -128,10 +129,8 @@ def test_the_fitted_targets_hold_against_the_stored_recording():
     assert rows["C7-C8"]["p1_3s_db"] <= 10.0 and rows["C6-B6"]["p1_3s_db"] <= 15.0
     for o, r in rows.items():
         assert r["centroid_ratio"] <= 1.5, (o, r["centroid_ratio"])
-    for o in ("C2-B2", "C3-B3", "C4-B4", "C6-B6"):
-        r = rows[o]
+    for o, r in rows.items():
         assert r["peak_ms_real"] / 2 <= r["peak_ms_model"] <= 2 * r["peak_ms_real"], (o, r)
-    assert rows["C5-B5"]["peak_ms_model"] >= 8.0
 
 
 @pytest.mark.slow  # 40 grand notes of 1 s: about 8 s of CPU
@@ -151,8 +150,8 @@ def test_each_layer_is_matched_by_its_step_in_loudness_from_fortissimo():
 @pytest.mark.slow  # 50 grand notes of 0.6 s: about 9 s of CPU
 def test_the_knock_sets_the_time_to_the_rms_peak():
     """The time to the RMS peak follows the knock (``action.knock``).  One
-    5 ms pulse (the preset's knock before, 3.9) peaked every octave within
-    8 ms.  The knock built up over 20 ms (the preset: 2 ms pushes, the
+    5 ms pulse (the preset's knock before, 3.9, and without the board's
+    spread) peaked every octave within 8 ms.  The knock built up over 20 ms (the preset: 2 ms pushes, the
     thump's build-up and its reach to 1 kHz fitted to the recording's)
     peaks C3-B3 and C4-B4 within a factor of 2 of the recording's v10 (30 /
     28 ms against 35 / 26), and its first 50 ms are darker: C7-C8's
@@ -163,7 +162,8 @@ def test_the_knock_sets_the_time_to_the_rms_peak():
     the figures of 1 s notes to the last digit (2026-11-30)."""
     real = _real(10)
     keys = sorted(real)
-    pulse = ["action.knock=3.9", "action.knock_s=0.005", "action.knock_build_s=0"]
+    # the pulse as it was, before the board's spread too (body.spread_ms)
+    pulse = ["action.knock=3.9", "action.knock_s=0.005", "action.knock_build_s=0", "body.spread_ms=0"]
     rows_p = octave_table(octave_model(keys, "close", LAYER_VELOCITY[10], seconds=0.6,
                                        overrides=pulse), real)
     rows_b = octave_table(octave_model(keys, "close", LAYER_VELOCITY[10], seconds=0.6), real)

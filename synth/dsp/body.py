@@ -47,6 +47,7 @@ import numbers
 import numpy as np
 
 from .signal import as_mono_block, output_block
+from .spread import Spread
 
 from synth.kernels.body import body_process as _kernel_mono
 from synth.kernels.body import body_process_mimo as _kernel_mimo
@@ -102,6 +103,10 @@ class Body:
         Named resonances on top of the ``n_modes`` diffuse modes (a gourd's
         air mode, a top plate's first modes), see
         :func:`synth.physics.soundboard.soundboard_modes`; default none.
+    spread_ms : float, optional
+        The radiation's spread, ms (0 .. 20; 0, the default: none): an
+        allpass cascade on the outputs
+        (:func:`synth.physics.soundboard.spread_allpasses`).
 
     Attributes
     ----------
@@ -117,7 +122,7 @@ class Body:
     """
 
     def __init__(self, fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, wet=DEFAULT_WET,
-                 size=1.0, brightness=0.0, inputs=1, outputs=1, peaks=()):
+                 size=1.0, brightness=0.0, inputs=1, outputs=1, peaks=(), spread_ms=0.0):
         self.modes = soundboard_modes(fs, n_modes=n_modes, seed=seed, size=size,
                                       brightness=brightness, inputs=inputs, outputs=outputs,
                                       peaks=peaks)
@@ -162,6 +167,8 @@ class Body:
         self.ir_first = np.array([[banks[c][b][0].sum() for b in range(B)] for c in range(C)])
         self._cross = float((m.dry * self.ir_first).sum() / B)
         self.wet = wet
+        #: the radiation's spread on the outputs (:class:`synth.dsp.spread.Spread`), or None
+        self.spread = None if float(spread_ms) == 0.0 else Spread(self.fs, spread_ms, C)
 
     @classmethod
     def from_design(cls, fs, design):
@@ -169,7 +176,8 @@ class Body:
         :class:`synth.physics.soundboard.BodyDesign`) at the rate ``fs`` (Hz)."""
         return cls(fs, n_modes=design.n_modes, seed=design.seed, wet=design.wet,
                    size=design.size, brightness=design.brightness,
-                   inputs=design.inputs, outputs=design.outputs, peaks=design.peaks)
+                   inputs=design.inputs, outputs=design.outputs, peaks=design.peaks,
+                   spread_ms=design.spread_ms)
 
     def _bank(self, c, b, coefs=None):
         """Coefficients (3, K) of the modal path from input b to output c
@@ -256,6 +264,8 @@ class Body:
 
         b = copy.copy(self)
         b._state = np.zeros_like(self._state)
+        if self.spread is not None:
+            b.spread = self.spread.fresh_copy()
         if not self._mono:
             b._dry2 = self._dry2.copy()       # the wet setter writes it in place
         return b
@@ -263,6 +273,8 @@ class Body:
     def reset(self):
         """Forget all history (silence before the next sample)."""
         self._state[:] = 0.0
+        if self.spread is not None:
+            self.spread.reset()
 
     def _inputs(self, x):
         """x as a (B, n) float64 array with contiguous rows (a view when it can be)."""
@@ -318,8 +330,16 @@ class Body:
         -------
         ndarray of float64
             ``out[:n]`` for one output, ``out[:, :n]`` for two: the direct
-            part plus the modes.
+            part plus the modes, through the radiation's spread if the body
+            has one (:attr:`spread`).
         """
+        y = self._modes(x, out)
+        if self.spread is not None:
+            self.spread.process(y)
+        return y
+
+    def _modes(self, x, out):
+        """:meth:`process` without the spread."""
         if self._mono:
             if isinstance(x, np.ndarray) and x.ndim == 2 and x.shape[0] == 1:
                 x = x[0]
@@ -385,9 +405,10 @@ class Body:
             raise ValueError(f"n = {n!r} is out of range (integer, 0 <= value <= {MAX_IR_SAMPLES})")
         n = int(n)
         saved = self._state.copy()
+        saved_spread = None if self.spread is None else self.spread.state()
         try:
             if self._mono:
-                self._state[:] = 0.0
+                self.reset()
                 y = np.zeros(n)
                 if n:
                     y[0] = 1.0
@@ -396,7 +417,7 @@ class Body:
             C, B = self.outputs, self.inputs
             h = np.zeros((C, B, n))
             for b in range(B):
-                self._state[:] = 0.0
+                self.reset()
                 d = np.zeros((B, n))
                 if n:
                     d[b, 0] = 1.0
@@ -404,6 +425,8 @@ class Body:
             return h
         finally:
             self._state[:] = saved
+            if saved_spread is not None:
+                self.spread.restore(saved_spread)
 
     def response(self, f_hz, weights=None):
         """Complex frequency response of the body (current ``wet``).
@@ -420,7 +443,8 @@ class Body:
         -------
         ndarray of complex128
             Shape (C, B, F), or (C, F) with ``weights``: ``dry_gain dry_cb +
-            wet_gain sum_k pickup_ck drive_bk H_k(f)``.
+            wet_gain sum_k pickup_ck drive_bk H_k(f)``, times the spread's
+            response (of magnitude 1) if the body has one.
         """
         f = np.atleast_1d(np.asarray(f_hz, dtype=np.float64))
         m = self.modes
@@ -432,6 +456,8 @@ class Body:
                 for b in range(B):
                     H[c, b, s:s + _RESPONSE_CHUNK] = (self.wet_gain * (m.pickup[c] * m.drive[b]) @ R
                                                       + self.dry_gain * m.dry[c, b])
+        if self.spread is not None:
+            H *= self.spread.response(f)
         if weights is None:
             return H
         w = np.asarray(weights, dtype=np.float64)

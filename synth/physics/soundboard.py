@@ -180,6 +180,36 @@ c s / (s^2 + alpha s + beta) with c, alpha > 0, a positive-real function:
 coefficient array is laid out (3, K) -- rows b0, a1, a2 -- so the kernel's
 loop over modes reads contiguous rows and vectorises.
 
+The radiation's spread
+----------------------
+The modal bank keeps what a partial's steady level needs and drops the
+transfer's phases (positive residues), so its response to a tone is there
+at once: a sum of positive band-passes starts every mode in phase at the
+strike.  A listener near a board some 1.5 m across hears more than that:
+each part of the board starts to move when the bending wave from the
+bridge reaches it (about 300-550 m/s from 1 to 3.5 kHz, a few ms across
+the board, then the rim's reflections) and is heard at its own distance
+(0.5 m over the strings: path differences up to about 1.2 m, 3.5 ms).  So
+a note's sound arrives spread over some milliseconds and builds up: the
+recorded Yamaha C5 (Salamander V3, v10, close microphones) starts at
+0.1-0.3 of its peak (1 ms RMS frames, both channels) and reaches the peak
+5-12 ms later on every key from C4 up, where the modal bank peaked in its
+first millisecond (``docs/voicing.md``, the grand against the recording).
+:func:`spread_allpasses` restores that spread without changing the steady
+spectrum: ``spread_ms`` sets a cascade of three Schroeder allpasses
+(Schroeder, JAES 10, 1962),
+
+    A_s(z) = (-g + z^-D_s) / (1 - g z^-D_s),   D_s = spread_ms (0.382, 0.618, 1),  g = 0.5,
+
+each of gain 1 at every frequency, so a partial's level, the key-to-key
+evenness and the loudness are the bank's, while the first arrival is
+g^3 = 0.125 of the input and the rest follows in echoes whose energy
+builds with time constants of the delays.  Delays in the golden ratio
+keep the three echo series from coinciding.  The same cascade runs on
+every output, so the channels' sum (a mono mix) stays flat.  ``spread_ms
+= 0`` (the default): none.  The grand's 3.4 ms is fitted to the
+recording's time to the RMS peak (``tools/real_grand.py --octaves``).
+
 The knock
 ---------
 :func:`knock_pulse` and :func:`knock_impulse_ns`: when the key hits the
@@ -220,6 +250,7 @@ __all__ = [
     "smoothed_db",
     "knock_pulse",
     "knock_impulse_ns",
+    "spread_allpasses",
 ]
 
 #: Default number of modes.
@@ -293,6 +324,11 @@ KNOCK_SEED = 41
 KNOCK_IMPULSE_RATIO = 0.1
 #: the largest knock ratio allowed (the grand's fitted 3.9, with room)
 KNOCK_RATIO_MAX = 10.0
+#: The radiation's spread (:func:`spread_allpasses`): the allpasses' delays
+#: as fractions of ``spread_ms``, their common gain, the allowed range (ms)
+SPREAD_RATIOS = (0.382, 0.618, 1.0)
+SPREAD_GAIN = 0.5
+SPREAD_RANGE_MS = (0.0, 20.0)
 
 
 @dataclass(frozen=True)
@@ -309,6 +345,7 @@ class BodyDesign:
     outputs : int       outputs, 1 (mono) or 2 (0: left, 1: right)
     peaks : tuple       named resonances ((f_hz, q, level_db), ...) on top of the
                         diffuse modes (:func:`soundboard_modes`); () = none
+    spread_ms : float   the radiation's spread (:func:`spread_allpasses`), ms; 0 = none
     """
 
     wet: float
@@ -319,6 +356,7 @@ class BodyDesign:
     inputs: int = 1
     outputs: int = 1
     peaks: tuple = ()
+    spread_ms: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -939,3 +977,35 @@ def knock_pulse(fs, impulse_ns, duration_s=KNOCK_DURATION_S, build_s=0.0):
     e1 = float(np.dot(pulse, pulse))
     e = float(np.dot(out, out))
     return out * math.sqrt(e1 / e) if e > 0.0 else out
+
+
+def spread_allpasses(fs, spread_ms):
+    """The radiation's spread as allpasses (see the module docstring).
+
+    Parameters
+    ----------
+    fs : float
+        Rate the cascade runs at, Hz (>= 8000).
+    spread_ms : float
+        The longest allpass's delay, ms, within :data:`SPREAD_RANGE_MS`;
+        0: no spread.
+
+    Returns
+    -------
+    delays : ndarray of int64, shape (S,)
+        Each allpass's delay in samples at ``fs`` (``spread_ms`` times
+        :data:`SPREAD_RATIOS`, rounded, each at least one more than the
+        last); empty when ``spread_ms`` is 0.
+    gains : ndarray of float64, shape (S,)
+        Each allpass's gain, :data:`SPREAD_GAIN`.
+    """
+    fs = _fs_param(fs)
+    v = _float_param("spread_ms", spread_ms, *SPREAD_RANGE_MS, " ms")
+    if v == 0.0:
+        return np.zeros(0, dtype=np.int64), np.zeros(0)
+    delays, last = [], 0
+    for r in SPREAD_RATIOS:
+        d = max(int(round(v * 1e-3 * r * fs)), last + 1)
+        delays.append(d)
+        last = d
+    return np.array(delays, dtype=np.int64), np.full(len(delays), SPREAD_GAIN)

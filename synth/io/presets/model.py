@@ -169,7 +169,8 @@ class DampersSpec:
 class BodySpec:
     """Body: modal bank on the 48 kHz bridge signal(s) (synth.physics.soundboard);
     ``peaks``: named resonances ((f_hz, q, level_db), ...);
-    ``inputs``/``outputs`` (grand only, else None): bridge inputs and outputs, 1 or 2."""
+    ``inputs``/``outputs`` (grand only, else None): bridge inputs and outputs, 1 or 2;
+    ``spread_ms``: the radiation's spread (0: none)."""
 
     wet: float
     modes: int
@@ -179,6 +180,7 @@ class BodySpec:
     peaks: tuple = ()
     inputs: int | None = None
     outputs: int | None = None
+    spread_ms: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -45,7 +45,7 @@ from .model import (
 from synth.physics.listener import (
     DIRECTIVITY_RANGE_DB, DISTANCE_RANGE_M, HUMIDITY_RANGE_PERCENT, LEVELS, POSITIONS, ROOM_NAMES,
     TEMPERATURE_RANGE_C)
-from synth.physics.soundboard import PEAK_HZ_RANGE
+from synth.physics.soundboard import PEAK_HZ_RANGE, SPREAD_RANGE_MS
 
 #: the drone player's cycle length range (s); synth.engine.drone.CYCLE_RANGE_S
 #: (the range its tempo controller sweeps) is the same, checked by
@@ -421,6 +421,10 @@ SECTIONS: tuple[Section, ...] = (
               "treble end)", 1, 2, when=When("voice", ("grand",))),
         Field("outputs", "int", "outputs of the board: 1 (mono) or 2 (left, right)", 1, 2,
               when=When("voice", ("grand",))),
+        Field("spread_ms", "float", "the radiation's spread, ms: the sound of each part of the "
+              "board arrives at its own time, so a note builds up over a few ms (an allpass "
+              "cascade: no change to a partial's steady level; 0: none)", *SPREAD_RANGE_MS,
+              default=0.0),
     ), when=When("kind", ("musical",)), optional=True),
     Section("output", "what is written to the WAV", OutputSpec, (
         Field("signal", "str", "displacement u(l,t) at the pluck point (m) or bridge force at x=L (N)",
