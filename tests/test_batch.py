@@ -445,3 +445,28 @@ def test_the_local_cluster_s_workers_have_one_malloc_arena_others_get_a_note(tmp
         cluster.run(_set_env, "MALLOC_ARENA_MAX", "1")
     assert any(n.startswith("note: 2 of the cluster's 2 workers run without MALLOC_ARENA_MAX=1")
                for n in notes)
+
+
+def test_a_warmed_worker_has_run_the_analysis_once(monkeypatch):
+    """warm_worker runs the manifest's analysis on a made-up note once per
+    process (its first call imports SciPy's filters and pyloudnorm, which
+    would otherwise be timed in the worker's first job): the made-up note
+    reads as the 220 Hz tone it is, with no analysis error, and a second
+    warm-up does not analyse again."""
+    from synth.apps import batch_worker as W
+
+    seen = []
+    real = W._analysis
+
+    def spy(x, fs, job, expected):
+        out = real(x, fs, job, expected)
+        seen.append(out)
+        return out
+
+    monkeypatch.setattr(W, "_analysis", spy)
+    monkeypatch.setattr(W, "_ANALYSIS_WARM", False)
+    W.warm_worker([])
+    W.warm_worker([])
+    assert len(seen) == 1
+    assert seen[0]["analysis_error"] is None
+    assert abs(seen[0]["f0_cents"]) < 1.0 and seen[0]["t60_s"] > 0
