@@ -343,18 +343,31 @@ def test_without_the_extra_the_error_says_how_to_install(monkeypatch, tmp_path):
 
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine
-def test_the_throughput_benchmark_runs_in_its_quick_mode():
+def test_the_throughput_benchmark_runs_in_its_quick_mode(tmp_path):
     """tools/bench.py batch (docs/benchmarks.md, "Batch rendering") in CI's quick mode."""
+    import json
+
     root = Path(__file__).resolve().parents[1]
-    p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "batch", "--quick"],
-                       capture_output=True, text=True, cwd=root, timeout=600)
+    out = tmp_path / "batch.json"
+    p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "batch", "--quick",
+                        "--json", str(out)], capture_output=True, text=True, cwd=root, timeout=600)
     assert p.returncode == 0, p.stderr
-    for way in ("| one process | 1 |", "| Dask, 1 worker | 1 |", "| Dask, 2 workers | 2 |"):
-        assert way in p.stdout
-    assert "Dask's overhead per job" in p.stdout
-    assert "| biwa | 4 |" in p.stdout                    # the table per preset
+    d = json.loads(out.read_text())
+    assert d["jobs"] == 4 and d["audio_s"] == pytest.approx(4.0) and d["runs"] == 1
+    assert [(w["way"], w["workers"]) for w in d["ways"]] == [
+        ("one process", 1), ("Dask, 1 worker", 1), ("Dask, 2 workers", 2)]
+    assert all(w["wall_s"] > 0 and w["cpu_s"] > 0 for w in d["ways"])
+    assert d["ways"][0]["start_s"] is None and all(w["start_s"] > 0 for w in d["ways"][1:])
+    b = d["presets"]["biwa"]
+    assert list(d["presets"]) == ["biwa"] and b["jobs"] == 4
+    # a job's time holds its render, its analysis and its write
+    assert b["render_s"] + b["analysis_s"] + b["store_s"] <= b["wall_s"] * 1.001
+    assert b["audio_s_per_wall_s"] == pytest.approx(1.0 / b["wall_s"], rel=1e-9)
+    pr = d["projection"]
+    assert pr["jobs"] == 2000 and pr["cores"] == 100 and pr["mix"] == {"biwa": 1.0}
+    assert pr["rendering_s"] == pytest.approx(2000 * (pr["job_cpu_s"] + pr["dask_own_s"]) / 100)
+    assert pr["total_s"] >= max(pr["rendering_s"], pr["client_writes_s"], pr["network_s"])
     assert "Projection: 2000 jobs with the mix of biwa" in p.stdout
-    assert "the manifest of 2000 rows" in p.stdout
 
 
 @pytest.mark.slow  # a Dask cluster renders a spec: 5 s

@@ -171,18 +171,29 @@ def test_taraf_tables_are_validated():
 
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine: a benchmark in a subprocess
-def test_the_cost_benchmark_runs_in_its_quick_mode():
+def test_the_cost_benchmark_runs_in_its_quick_mode(tmp_path):
     """tools/bench.py taraf (docs/benchmarks.md, "Sitar taraf") in CI's quick mode."""
     import subprocess
     import sys
     from pathlib import Path
 
+    import json
+
     root = Path(__file__).resolve().parents[1]
-    p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "taraf", "--quick"],
-                       capture_output=True, text=True, cwd=root, timeout=600)
+    out = Path(tmp_path) / "taraf.json"
+    p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "taraf", "--quick",
+                        "--json", str(out)], capture_output=True, text=True, cwd=root, timeout=600)
     assert p.returncode == 0, p.stderr
-    for name in ("bare", "taraf", "taraf and chikari"):
-        assert f"{name}: median" in p.stdout
+    d = json.loads(out.read_text())
+    assert d["keys"] == [55] and d["runs"] == 1 and d["seconds"] == 0.3
+    v = d["variants"]
+    assert list(v) == ["bare", "taraf", "taraf and chikari"]
+    # the variants are what they say: the played string, the 11 taraf, the 2 chikari
+    assert [v[k]["strings"] for k in v] == [1, 12, 14]
+    assert v["bare"]["ratio_median"] == 1.0
+    for k, r in v.items():
+        assert len(r["times_s"]) == 1 and r["median_s"] == r["times_s"][0] > 0.0
+        assert f"{k}: median {r['median_s']:.3f} s, {r['ratio_median']:.2f}x bare" in p.stdout
 
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine: a study in a subprocess

@@ -63,6 +63,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import shutil
 import statistics
@@ -366,6 +367,8 @@ def main(argv=None) -> int:
                     help="run the clusters with Dask's own settings for its threads and "
                          "glibc's own malloc arenas (not QUIET_DASK, MALLOC_ARENA_MAX=1)")
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--json", metavar="OUT.json",
+                    help="also write the figures printed as JSON (the ways, the presets, the projection)")
     a = ap.parse_args(argv)
     if a.quick:
         a.preset, a.jobs, a.seconds, a.runs, a.spec = "biwa", 4, 1.0, 1, None
@@ -517,6 +520,16 @@ def main(argv=None) -> int:
             print(f"| {p} | {k} | {s['wall'] / k:.3f} | {s['cpu'] / k:.3f} | "
                   f"{s['render'] / k:.3f} | {s['analysis'] / k:.3f} | {s['store'] / k:.4f} | "
                   f"{s['audio'] / s['wall']:.2f} | {s['bytes'] / k / 1e6:.2f} |")
+        out_json = {
+            "jobs": n, "audio_s": audio_s, "runs": a.runs,
+            "ways": [{"way": name, "workers": w, "wall_s": el, "cpu_s": cpu, "start_s": start}
+                     for name, w, el, start, cpu in rows],
+            "overhead_per_job_s": {"wall": per, "cpu": per_cpu, "machinery": machinery},
+            "presets": {p: {"jobs": s["n"], **{f"{key}_s": s[key] / s["n"] for key in
+                                               ("wall", "cpu", "render", "analysis", "store")},
+                            "audio_s_per_wall_s": s["audio"] / s["wall"],
+                            "wav_bytes": s["bytes"] / s["n"]} for p, s in by.items()},
+            "projection": None}
 
         if a.project:
             import pickle
@@ -572,6 +585,14 @@ def main(argv=None) -> int:
                           ("the network", net), key=lambda x: x[1])
             print(f"* these overlap; the longest is {longest[0]}: about "
                   f"{_hms(longest[1] + t_df + t_pq)} with the manifest")
+            out_json["projection"] = {
+                "jobs": N, "cores": C, "mix": {p: mix[p] / tot for p in mix},
+                "job_cpu_s": job_cpu, "job_wall_s": job_s, "dask_own_s": own,
+                "rendering_s": compute, "client_writes_s": client_s, "network_s": net,
+                "scheduler_s": sched, "manifest_s": t_df + t_pq, "resume_check_s": N * check_s,
+                "longest": longest[0], "total_s": longest[1] + t_df + t_pq}
+        if a.json:
+            Path(a.json).write_text(json.dumps(out_json, indent=1) + "\n", "utf-8")
     finally:
         shutil.rmtree(work, ignore_errors=True)
     return 0

@@ -6,6 +6,7 @@ Usage
                                 [--seconds 4] [--runs 7] [--set taraf.coupling=4 ...]
                                 [--cpu-name {host,haswell,generic,all}]
     python tools/bench.py taraf --quick      # CI: one short run, checks it runs
+    python tools/bench.py taraf --json OUT.json   # also the figures as JSON
 
 Each run renders one note per key (a fresh engine per note, one note-on at
 t = 0, ``Engine.render`` in its default blocks) with three variants of the
@@ -29,6 +30,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import os
 import time
 
@@ -60,6 +62,7 @@ def main(argv=None) -> int:
     ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE",
                     help="preset override for every variant (repeatable)")
     ap.add_argument("--quick", action="store_true", help="one short run (CI)")
+    ap.add_argument("--json", metavar="OUT.json", help="also write the figures printed as JSON")
     harness.add_target_option(ap)
     a = ap.parse_args(argv)
     rc = harness.dispatch("taraf", a.cpu_name, argv)
@@ -80,8 +83,22 @@ def main(argv=None) -> int:
     times = harness.alternate(
         {k: (lambda p=p: run(p, keys, a.velocity, a.seconds)) for k, p in vs.items()}, a.runs)
     print(f"sitar; keys {keys}, velocity {a.velocity:g}, {a.seconds:g} s each, {a.runs} runs")
+    out = {"keys": keys, "velocity": a.velocity, "seconds": a.seconds, "runs": a.runs,
+           "variants": {}}
     for k, t in times.items():
         r_med, r_lo, r_hi = harness.summary(harness.ratios(t, times["bare"]))
         print(f"{k:>17}: median {harness.summary(t)[0]:.3f} s, {r_med:.2f}x bare "
               f"(range {r_lo:.2f}-{r_hi:.2f})")
+        out["variants"][k] = {"median_s": harness.summary(t)[0], "times_s": list(t),
+                              "ratio_median": r_med, "ratio_range": [r_lo, r_hi],
+                              "strings": _strings(vs[k])}
+    if a.json:
+        with open(a.json, "w", encoding="utf-8") as f:
+            json.dump(out, f, indent=1)
+            f.write("\n")
     return 0
+
+
+def _strings(preset) -> int:
+    """Strings a played note of ``preset`` sounds: the played one, the taraf's, the chikari's."""
+    return 1 + sum(len(t.keys) for t in (preset.taraf, preset.chikari) if t is not None)
