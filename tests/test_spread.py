@@ -156,3 +156,21 @@ def test_the_grand_has_the_spread_and_a_preset_may_set_it():
     assert build_voice("sitar", ["body.spread_ms=2"]).body().spread_ms == 2.0
     with pytest.raises(PresetError, match=r"spread_ms.*20"):
         build_voice("grand-piano", ["body.spread_ms=25"])
+
+
+def test_the_raw_kernel_with_odd_delays_and_gains():
+    """The kernel alone (no wrapper): delays 1, 7 and 50 samples, gains of
+    both signs, three channels, a block longer than every line and then
+    short ones, against the reference."""
+    delays = np.array([1, 7, 50], dtype=np.int64)
+    gains = np.array([-0.7, 0.3, 0.9])
+    offsets = np.array([0, 1, 8], dtype=np.int64)
+    rng = np.random.default_rng(9)
+    x = rng.standard_normal((3, 700))
+    lines = np.zeros((3, 58))
+    pos = np.zeros(3, dtype=np.int64)
+    y = x.copy()
+    for a, b in ((0, 400), (400, 403), (403, 700)):
+        allpass_cascade(y[:, a:], b - a, delays, gains, offsets, lines, pos)
+    np.testing.assert_allclose(y, reference(x, delays, gains), rtol=0, atol=1e-12)
+    assert list(pos) == [0, 700 % 7, 700 % 50]
