@@ -119,3 +119,33 @@ def test_octaves_tables_the_grand_against_the_recording(tmp_path):
     assert set(data) == {"real", "body", "layer", "velocity", "set"} and [r["octave"] for r in data["body"]["rows"]] == ["C4-B4"]
     # the synthetic note's partial 1 falls 60 dB in 2 s, then sits 25 dB down with a 20 s T60
     assert -40.0 < data["real"]["60"]["p1_3s_db"] < -25.0
+
+
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine: the tool in a subprocess, two renders
+def test_attacks_draws_the_first_30_ms_with_and_without_the_spread(tmp_path):
+    """``--attacks C7 --png``: a synthetic note (4 kHz: four cycles a
+    frame, so a frame's RMS follows the envelope) whose onset ramps up
+    over 5 ms reads as 1 ms frames rising to 1 within 8 ms; the
+    grand's frames with and without the board's spread are printed and
+    drawn (30 each, re their largest); without ``--png`` a one-line error."""
+    pytest.importorskip("matplotlib")
+    layer = tmp_path / "piano-velocity10" / "audio"
+    layer.mkdir(parents=True)
+    fs = 44_100
+    t = np.arange(int(1.0 * fs)) / fs
+    y = 0.3 * np.minimum(t / 0.005, 1.0) * np.exp(-t) * np.sin(2 * np.pi * 4000.0 * t)
+    sf.write(str(layer / "C7v10.ogg"), np.c_[y, y], fs)
+    p = _run(str(tmp_path), "--attacks", "C7")
+    assert p.returncode == 2 and "--attacks needs --png" in p.stderr
+    png = tmp_path / "a.png"
+    p = _run(str(tmp_path), "--attacks", "C7", "--png", str(png))
+    assert p.returncode == 0, p.stderr
+    assert png.stat().st_size > 1000
+    rows = {line.split(":")[0].split(None, 1)[1].strip(): [float(v) for v in line.split(":")[1].split()]
+            for line in p.stdout.splitlines() if line.startswith("C7 ")}
+    assert set(rows) == {"recording v10", "grand", "no spread"}
+    assert all(len(r) == 30 and max(r) == 1.0 for r in rows.values())
+    rec = rows["recording v10"]
+    assert rec[0] < 0.3 and rec[0] < rec[2] < rec[4] and max(rec[:8]) > 0.95
+    # the spread builds the grand's attack up; without it the first ms is near full
+    assert rows["grand"][0] < 0.3 < rows["no spread"][0]

@@ -45,6 +45,10 @@ velocity 127 (needs the layers 1, 4, 10, 14 and 16).
 ``--spectrograms C4,C7 --png OUT.png`` draws instead each named key's
 spectrogram (0-3 s, 0-8 kHz), the recording's layer ``--layer`` beside the
 grand at its velocity (the close position, ``--set`` applied).
+``--attacks C4,C6,C7,A7 --png OUT.png`` draws each named key's first 30 ms
+as 1 ms RMS frames re their largest (from the onset, -40 dB re the peak):
+the recording, the grand, and the grand without the board's spread
+(``body.spread_ms=0``), and prints the frames.
 
 Exit 0 after printing the tables; 2 with a one-line error on stderr (no
 such folder, no samples in it).
@@ -271,6 +275,76 @@ def spectrograms(folder: Path, a) -> int:
     return 0
 
 
+#: the attack figure's span and frame (s)
+ATTACK_S, ATTACK_FRAME_S = 0.03, 0.001
+
+
+def attack_frames(y) -> np.ndarray:
+    """The first :data:`ATTACK_S` of ``y`` after its onset as RMS frames
+    of :data:`ATTACK_FRAME_S`, re the largest of them."""
+    y = np.asarray(y, float)[onset_index(y):]
+    n = int(round(ATTACK_FRAME_S * FS))
+    k = int(round(ATTACK_S / ATTACK_FRAME_S))
+    seg = np.zeros(n * k)
+    m = min(len(y), n * k)
+    seg[:m] = y[:m]
+    e = np.sqrt(np.mean(seg.reshape(k, n) ** 2, axis=1))
+    return e / e.max() if e.max() > 0 else e
+
+
+def attacks(folder: Path, a) -> int:
+    """The first 30 ms of the recording and of the grand, with and without
+    the board's spread, one panel per key (``--attacks``)."""
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("real_grand: error: --attacks needs matplotlib: pip install 'synth[plots]'",
+              file=sys.stderr)
+        return 2
+    from synth.dsp.listener import Listener
+    from synth.engine.engine import NOTE_ON, Event
+    from synth.io.factory import build_engine
+    from synth.physics.piano import MIDI_HIGH, MIDI_LOW
+
+    names = [n.strip() for n in a.attacks.split(",") if n.strip()]
+    velocity = _velocity(a)
+    if velocity is None:
+        return 2
+    files = _layer_files(folder, a.layer)
+    keys = []
+    for n in names:
+        m = midi_of(f"{n}v{a.layer}.ogg")
+        if m is None or not MIDI_LOW <= m[0] <= MIDI_HIGH or m[0] not in files:
+            print(f"real_grand: error: --attacks: no sample {n}v{a.layer}.ogg under {folder}",
+                  file=sys.stderr)
+            return 2
+        keys.append(m[0])
+    fig, axes = plt.subplots(1, len(keys), figsize=(2.4 * len(keys), 2.4), sharey=True,
+                             squeeze=False)
+    t_ms = (np.arange(int(round(ATTACK_S / ATTACK_FRAME_S))) + 0.5) * ATTACK_FRAME_S * 1e3
+    for ax, n, k in zip(axes[0], names, keys):
+        curves = [(f"recording v{a.layer}", attack_frames(load_recording(files[k])), "k", "-")]
+        for label, extra, style in (("grand", [], "-"), ("no spread", ["body.spread_ms=0"], "--")):
+            eng = build_engine("grand-piano", list(a.set) + extra, threads=1)
+            eng.listener = Listener.design(eng.fs_out, eng.channels, "close")
+            m = eng.render([Event(0.0, NOTE_ON, k, velocity / 127.0)], duration_s=0.1).mean(axis=1)
+            curves.append((label, attack_frames(m), "C1", style))
+        for label, e, color, style in curves:
+            ax.plot(t_ms, e, color=color, linestyle=style, linewidth=1.2, label=label)
+            print(f"{n} {label:>14}: " + " ".join(f"{v:.2f}" for v in e))
+        ax.set_title(f"{n}, velocity {velocity}", fontsize=8)
+        ax.set_xlabel("ms after the onset", fontsize=7)
+        ax.tick_params(labelsize=7)
+    axes[0][0].set_ylabel("1 ms RMS re its largest", fontsize=7)
+    axes[0][0].legend(fontsize=6, loc="lower right")
+    fig.tight_layout()
+    fig.savefig(a.png, dpi=72)
+    print(f"wrote {a.png}")
+    return 0
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("folder", help="folder holding the samples (searched recursively)")
@@ -287,7 +361,10 @@ def main(argv=None) -> int:
                     help="with --octaves: a change to the grand's preset (repeatable)")
     ap.add_argument("--spectrograms", metavar="C4,C7",
                     help="instead: these keys' spectrograms, the recording beside the grand (--png)")
-    ap.add_argument("--png", metavar="OUT.png", help="with --spectrograms: the file to write")
+    ap.add_argument("--attacks", metavar="C4,C7",
+                    help="instead: these keys' first 30 ms, the recording beside the grand with and "
+                         "without the board's spread (--png)")
+    ap.add_argument("--png", metavar="OUT.png", help="with --spectrograms or --attacks: the file to write")
     ap.add_argument("--layer-velocities", action="store_true",
                     help="instead: each layer's loudness re v16 and the grand's velocity that is as "
                          "far under its 127 (the matched velocities)")
@@ -296,6 +373,11 @@ def main(argv=None) -> int:
     if not folder.is_dir():
         print(f"real_grand: error: {folder} is not a folder", file=sys.stderr)
         return 2
+    if a.attacks:
+        if not a.png:
+            print("real_grand: error: --attacks needs --png OUT.png", file=sys.stderr)
+            return 2
+        return attacks(folder, a)
     if a.spectrograms:
         if not a.png:
             print("real_grand: error: --spectrograms needs --png OUT.png", file=sys.stderr)
