@@ -190,11 +190,12 @@ each part of the board starts to move when the bending wave from the
 bridge reaches it (about 300-550 m/s from 1 to 3.5 kHz, a few ms across
 the board, then the rim's reflections) and is heard at its own distance
 (0.5 m over the strings: path differences up to about 1.2 m, 3.5 ms).  So
-a note's sound arrives spread over some milliseconds and builds up: the
-recorded Yamaha C5 (Salamander V3, v10, close microphones) starts at
-0.1-0.3 of its peak (1 ms RMS frames, both channels) and reaches the peak
-5-12 ms later on every key from C4 up, where the modal bank peaked in its
-first millisecond (``docs/voicing.md``, the grand against the recording).
+a note's sound arrives spread over some milliseconds and builds up: on
+the recorded Yamaha C5 (Salamander V3, v10, close microphones; 1 ms RMS
+frames re their largest, in each channel alike) C6 starts at 0.21 and
+reaches 1 at 9 ms, C7 starts at 0.08 and reaches 1 at 12 ms, A7 starts at
+0.16 and reaches 1 at 11 ms, where the modal bank was at 0.8-0.9 in its
+first millisecond (``tools/real_grand.py --attacks``).
 :func:`spread_allpasses` restores that spread without changing the steady
 spectrum: ``spread_ms`` sets a cascade of three Schroeder allpasses
 (Schroeder, JAES 10, 1962),
