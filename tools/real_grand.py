@@ -216,34 +216,46 @@ def layer_velocities(folder: Path, a) -> int:
     return 0
 
 
-def spectrograms(folder: Path, a) -> int:
-    """The recording beside the grand, one row per key (``--spectrograms``)."""
+def _figure_setup(folder: Path, a, option: str, names_text: str):
+    """What ``--spectrograms`` and ``--attacks`` share: pyplot, the named
+    keys and the recording's files for them, the grand's velocity; or None
+    after a one-line error on stderr."""
     try:
         import matplotlib
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
-        print("real_grand: error: --spectrograms needs matplotlib: pip install 'synth[plots]'",
+        print(f"real_grand: error: {option} needs matplotlib: pip install 'synth[plots]'",
               file=sys.stderr)
-        return 2
-    from synth.dsp.listener import Listener
-    from synth.engine.engine import NOTE_ON, Event
-    from synth.io.factory import build_engine
+        return None
     from synth.physics.piano import MIDI_HIGH, MIDI_LOW
 
-    names = [n.strip() for n in a.spectrograms.split(",") if n.strip()]
+    names = [n.strip() for n in names_text.split(",") if n.strip()]
     velocity = _velocity(a)
     if velocity is None:
-        return 2
+        return None
     files = _layer_files(folder, a.layer)
     keys = []
     for n in names:
         m = midi_of(f"{n}v{a.layer}.ogg")
         if m is None or not MIDI_LOW <= m[0] <= MIDI_HIGH or m[0] not in files:
-            print(f"real_grand: error: --spectrograms: no sample {n}v{a.layer}.ogg under {folder}",
+            print(f"real_grand: error: {option}: no sample {n}v{a.layer}.ogg under {folder}",
                   file=sys.stderr)
-            return 2
+            return None
         keys.append(m[0])
+    return plt, names, keys, files, velocity
+
+
+def spectrograms(folder: Path, a) -> int:
+    """The recording beside the grand, one row per key (``--spectrograms``)."""
+    setup = _figure_setup(folder, a, "--spectrograms", a.spectrograms)
+    if setup is None:
+        return 2
+    plt, names, keys, files, velocity = setup
+    from synth.dsp.listener import Listener
+    from synth.engine.engine import NOTE_ON, Event
+    from synth.io.factory import build_engine
+
     fig, axes = plt.subplots(len(keys), 2, figsize=(7.0, 2.2 * len(keys)), sharex=True, sharey=True,
                              squeeze=False)
     for row, (n, k) in enumerate(zip(names, keys)):
@@ -295,32 +307,14 @@ def attack_frames(y) -> np.ndarray:
 def attacks(folder: Path, a) -> int:
     """The first 30 ms of the recording and of the grand, with and without
     the board's spread, one panel per key (``--attacks``)."""
-    try:
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-    except ImportError:
-        print("real_grand: error: --attacks needs matplotlib: pip install 'synth[plots]'",
-              file=sys.stderr)
+    setup = _figure_setup(folder, a, "--attacks", a.attacks)
+    if setup is None:
         return 2
+    plt, names, keys, files, velocity = setup
     from synth.dsp.listener import Listener
     from synth.engine.engine import NOTE_ON, Event
     from synth.io.factory import build_engine
-    from synth.physics.piano import MIDI_HIGH, MIDI_LOW
 
-    names = [n.strip() for n in a.attacks.split(",") if n.strip()]
-    velocity = _velocity(a)
-    if velocity is None:
-        return 2
-    files = _layer_files(folder, a.layer)
-    keys = []
-    for n in names:
-        m = midi_of(f"{n}v{a.layer}.ogg")
-        if m is None or not MIDI_LOW <= m[0] <= MIDI_HIGH or m[0] not in files:
-            print(f"real_grand: error: --attacks: no sample {n}v{a.layer}.ogg under {folder}",
-                  file=sys.stderr)
-            return 2
-        keys.append(m[0])
     fig, axes = plt.subplots(1, len(keys), figsize=(2.4 * len(keys), 2.4), sharey=True,
                              squeeze=False)
     t_ms = (np.arange(int(round(ATTACK_S / ATTACK_FRAME_S))) + 0.5) * ATTACK_FRAME_S * 1e3
