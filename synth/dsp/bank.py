@@ -24,6 +24,7 @@ from ..kernels import render as KR
 from ..kernels import strings as K
 from .units import _ADDR, _wait_elsewhere, _with_needs, elsewhere, preloaded
 from ..kernels.energy import ring_energy
+from ..kernels.bend import TO_FLOOR
 from . import compile_notice, sizing, threads
 from .bridges import Bridges
 from .groups import Groups
@@ -667,7 +668,9 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         lo, hi = self._tune_out_room(s)
         self.fpar[s, K.F_TOG] = gain
         self.fpar[s, K.F_TOR] = math.exp(-float(self.fpar[s, K.F_DT]) / tau_s)
-        self.fst[s, K.S_TO] = (min(max(gain * float(delay), lo), hi) / gain) if gain > 0.0 else float(delay)
+        to = (min(max(gain * float(delay), lo), hi) / gain) if gain > 0.0 else float(delay)
+        # (under the bend line's floor a tune-out is 0, as it decays there)
+        self.fst[s, K.S_TO] = 0.0 if abs(to) < TO_FLOOR else to
 
     def set_tune_out_gain(self, s: int, gain: float) -> None:
         """Rescale slot s's tune-out (:meth:`set_tune_out`) to ``gain`` (>= 0)
@@ -682,6 +685,7 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         lo, hi = self._tune_out_room(s)
         if gain > 0.0:
             to = min(max(gain * to, lo), hi) / gain
+            to = 0.0 if abs(to) < TO_FLOOR else to
             self.fst[s, K.S_TO] = to
         self.fst[s, K.S_BD] += (old - gain) * to
         self.fpar[s, K.F_TOG] = gain

@@ -17,11 +17,17 @@ May import: :mod:`~synth.kernels.config`, :mod:`~synth.kernels.layout`,
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from .config import SERIAL_OPTS
 from .layout import S_BD, S_BW, S_TM, S_TMD, S_TO
 from .ring import _ring_get, _ring_put
+
+#: a tune-out (``S_TO``) under this (samples, at gain 1) is 0: the bend line
+#: sets it so as it decays, and :meth:`synth.dsp.bank.StringBank.set_tune_out`
+#: stores a smaller one as 0, so that every run starts with 0 or at least this
+TO_FLOOR = 1e-9
 
 
 @njit(**SERIAL_OPTS)
@@ -54,7 +60,7 @@ def _bend_line(y, st, U, boff, blen, bdt, bds, tor, tog):
             D = 1.0
     st[S_TM] = tm + st[S_TMD]     # on to the next reading's, step by step
     to *= tor
-    if abs(to) < 1e-9:
+    if abs(to) < TO_FLOOR:
         to = 0.0
     st[S_TO] = to
     i = int(D)
@@ -141,28 +147,66 @@ def _bend_chunk(yb, b, n, st, U, boff, blen, bdt, bds, tor, tog, hb):
         for i in range(n):
             y_[i] = h0 * t0[i] + h1 * t1[i] + h2 * t2[i] + h3 * hb[i]
     else:
+        # a tune-out decaying or the tension's ramp (a sounding sitar
+        # note's usual case: its tune-out lasts some 17 s): each sample's
+        # delay by the per-sample recursions, into y_ (its input is in hn),
+        # then the reads.  Split so that only the short mul and add chains
+        # are recursions: in one loop with the reads, a sample took 4.2 ns,
+        # split 1.7 (a 130-sample chunk in a numba loop, Zen 5 host build).
+        # The same operations in the same order as _bend_line's, bit for bit
+        # (the tune-out's products p run on unchecked, so that its chain is
+        # one multiply: |p| only falls, and a tune-out is 0 or at least
+        # TO_FLOOR when a run starts, so _bend_line's value, set to 0 once
+        # under TO_FLOOR and 0 from then on, is p where |p| >= TO_FLOOR,
+        # else 0)
+        lo = np.inf
+        hi = -np.inf
+        p = to
         for i in range(n):
+            tu = p
+            if abs(p) < TO_FLOOR:
+                tu = 0.0
             D = bdt
-            D += tog * to
+            D += tog * tu
             if tm != 0.0:
                 D += tm
                 if D < 1.0:
                     D = 1.0
             tm = tm + tmd
-            to *= tor
-            if abs(to) < 1e-9:
-                to = 0.0
-            k = int(D)
-            f = D - k
-            h0, h1, h2, h3 = _lagrange3(f)
-            r = H + i - k + 1     # delay k - 1
-            out = h0 * hb[r]
-            out += h1 * hb[r - 1]
-            out += h2 * hb[r - 2]
-            out += h3 * hb[r - 3]
-            y_[i] = out
-        st[S_TO] = to
+            p = p * tor
+            y_[i] = D
+            lo = D if D < lo else lo
+            hi = D if D > hi else hi
+        st[S_TO] = 0.0 if abs(p) < TO_FLOOR else p
         st[S_TM] = tm
+        k0 = int(lo)
+        if int(hi) == k0:
+            # one integer part for the whole run (the usual case: the delay
+            # moves by a small part of a sample a chunk): contiguous reads
+            # with per-sample taps, which vectorises
+            base = H - k0 + 1
+            t0 = hb[base:base + n]
+            t1 = hb[base - 1:base - 1 + n]
+            t2 = hb[base - 2:base - 2 + n]
+            t3 = hb[base - 3:base - 3 + n]
+            for i in range(n):
+                h0, h1, h2, h3 = _lagrange3(y_[i] - k0)
+                out = h0 * t0[i]
+                out += h1 * t1[i]
+                out += h2 * t2[i]
+                out += h3 * t3[i]
+                y_[i] = out
+        else:
+            for i in range(n):
+                D = y_[i]
+                k = int(D)
+                h0, h1, h2, h3 = _lagrange3(D - k)
+                r = H + i - k + 1     # delay k - 1
+                out = h0 * hb[r]
+                out += h1 * hb[r - 1]
+                out += h2 * hb[r - 2]
+                out += h3 * hb[r - 3]
+                y_[i] = out
     m = n if n < blen else blen   # the new samples go into the line (its last blen)
     _ring_put(U, boff, blen, (w + n - m) % blen, hb[H + n - m:H + n], 1.0)
     st[S_BW] = (w + n) % blen
