@@ -316,3 +316,49 @@ def test_the_readings_leave_no_comb_of_clicks_on_a_linear_string():
                      for lo, hi in ((200.0, 2000.0), (2000.0, 8000.0), (8000.0, 16000.0))]
     assert abs(bands[1][1] - bands[0][1]) <= 1.0, bands
     assert bands[1][0] - bands[1][2] >= 65.0, bands
+
+
+def test_the_bend_lines_chunk_is_its_per_sample_step_bit_for_bit():
+    """``_bend_chunk`` against ``_bend_line`` sample by sample (the slow
+    reference), on random lines while a tune-out decays, the tension's ramp
+    runs, both, or neither: the same outputs, state and line to the bit,
+    runs whose delay crosses an integer (its per-sample reads) and runs
+    that keep one (its contiguous reads) alike, and a tune-out reaching
+    its floor within a run."""
+    from synth.kernels.bend import TO_FLOOR, _bend_chunk, _bend_line
+    from synth.kernels.layout import S_BD, S_BW, S_TM, S_TMD, S_TO
+
+    rng = np.random.default_rng(11)
+    nst = max(S_BD, S_BW, S_TM, S_TMD, S_TO) + 1
+    crossing = steady = floored = 0
+    for _ in range(1500):
+        blen = int(rng.integers(16, 200))
+        bdt = float(rng.uniform(1.5, blen - 8))
+        n = int(rng.integers(1, max(2, int(blen - bdt - 8))))
+        tor = float(rng.choice([0.999, 0.9]))
+        tog = float(rng.uniform(-1.0, 1.0))
+        st = np.zeros(nst)
+        st[S_BD] = bdt
+        st[S_BW] = int(rng.integers(0, blen))
+        st[S_TM] = 0.0 if rng.random() < 0.2 else float(rng.uniform(-3.0, 0.0))
+        st[S_TMD] = float(rng.choice([0.0, rng.uniform(-1e-3, 1e-3), rng.uniform(-0.02, 0.02)]))
+        st[S_TO] = 0.0 if rng.random() < 0.3 else rng.uniform(-0.5, 0.5)
+        if rng.random() < 0.2:
+            st[S_TO] = TO_FLOOR * rng.choice([-1.0, 1.0]) * rng.uniform(1.0, 3.0)   # near its floor
+        U = rng.standard_normal(blen + 60)
+        y = rng.standard_normal(n + 2)
+        a, sa, Ua = y.copy(), st.copy(), U.copy()
+        _bend_chunk(a, 1, n, sa, Ua, 50, blen, bdt, 0.01, tor, tog, np.zeros(blen + 2 * n + 16))
+        b, sb, Ub = y.copy(), st.copy(), U.copy()
+        ds = []
+        for i in range(n):
+            to, tm = sb[S_TO], sb[S_TM]
+            ds.append(bdt + tog * to + tm)
+            b[1 + i] = _bend_line(b[1 + i], sb, Ub, 50, blen, bdt, 0.01, tor, tog)
+        assert np.array_equal(a, b) and np.array_equal(sa, sb) and np.array_equal(Ua, Ub)
+        if st[S_TO] != 0.0 or st[S_TMD] != 0.0:
+            ks = {int(max(d, 1.0)) for d in ds}
+            crossing += len(ks) > 1
+            steady += len(ks) == 1
+            floored += st[S_TO] != 0.0 and sb[S_TO] == 0.0
+    assert crossing > 20 and steady > 200 and floored > 5, (crossing, steady, floored)
