@@ -49,6 +49,30 @@ def _g_at(kind, e, dt, A, t0, alpha):
 
 
 @njit(inline="always", **SERIAL_OPTS)
+def _steady_end(st, fp, x, w1, y, e, g0, h1, h2, y0, phi0, zc, dz, p, c2, c3):
+    """The end of :func:`_hammer_steady` at the increment ``x`` (``w1`` the
+    compression there, ``y`` = w^p at the last iterate, ``e`` the last
+    correction's relative change of w): w^p at ``x`` by its third-order
+    step, the felt's force and memory, and the hammer's state.  Returns
+    (g1, F1, w1, True)."""
+    y1 = y * (1.0 + e * (p + e * (c2 + e * c3)))
+    st[S_HDG3] = h2
+    st[S_HDG2] = h1
+    st[S_HDG] = x
+    g1 = g0 + x
+    phi1 = fp[F_HPE] * phi0 + fp[F_HP1] * y1 + fp[F_HP0] * y0
+    F1 = fp[F_HFA] * y1 + fp[F_HFB] * y0 + fp[F_HFPHI] * phi1
+    if F1 < 0.0:
+        F1 = 0.0
+    st[S_HPHI] = phi1
+    st[S_HZ] = zc - dz * g1
+    st[S_HY] = y1
+    st[S_HW] = w1
+    st[S_HIW] = 1.0 / w1
+    return g1, F1, w1, True
+
+
+@njit(inline="always", **SERIAL_OPTS)
 def _hammer_steady(I1, g0, fp, st):
     """The hammer step (:func:`_hammer_general`) in steady contact, short
     and branch-free, or nothing.
@@ -120,22 +144,7 @@ def _hammer_steady(I1, g0, fp, st):
         # converged by the general step's own test (the correction just made
         # changed w by less than F_HTOL; Halley's next would be ~e1^3):
         # w^p at the final point by its third-order step, as it takes
-        y1 = y * (1.0 + e1 * (p + e1 * (c2 + e1 * c3)))
-        st[S_HDG3] = h2
-        st[S_HDG2] = h1
-        st[S_HDG] = x1
-        g1 = g0 + x1
-        w1 = w
-        phi1 = fp[F_HPE] * phi0 + fp[F_HP1] * y1 + fp[F_HP0] * y0
-        F1 = fp[F_HFA] * y1 + fp[F_HFB] * y0 + fp[F_HFPHI] * phi1
-        if F1 < 0.0:
-            F1 = 0.0
-        st[S_HPHI] = phi1
-        st[S_HZ] = zc - dz * g1
-        st[S_HY] = y1
-        st[S_HW] = w1
-        st[S_HIW] = 1.0 / w1
-        return g1, F1, w1, True
+        return _steady_end(st, fp, x1, w, y, e1, g0, h1, h2, y0, phi0, zc, dz, p, c2, c3)
     y = y * (1.0 + e1 * (p + e1 * (c2 + e1 * (c3 + e1 * (fp[F_HB4] + e1 * fp[F_HB4 + 1])))))
     imp2 = Kca * y + Kcb
     r = x1 - imp2
@@ -145,22 +154,8 @@ def _hammer_steady(I1, g0, fp, st):
     e2 = 2.0 * D * r * Aw * inv
     if (-0.05 < e0 < 0.05 and -1e-3 < e1 < 1e-3 and -etol < e2 < etol
             and imp > 0.0 and imp2 > 0.0 and w > 0.0 and x2 > 0.0):
-        y1 = y * (1.0 + e2 * (p + e2 * (c2 + e2 * c3)))
-        st[S_HDG3] = h2
-        st[S_HDG2] = h1
-        st[S_HDG] = x2
-        g1 = g0 + x2
-        w1 = W0 - D * x2
-        phi1 = fp[F_HPE] * phi0 + fp[F_HP1] * y1 + fp[F_HP0] * y0
-        F1 = fp[F_HFA] * y1 + fp[F_HFB] * y0 + fp[F_HFPHI] * phi1
-        if F1 < 0.0:
-            F1 = 0.0
-        st[S_HPHI] = phi1
-        st[S_HZ] = zc - dz * g1
-        st[S_HY] = y1
-        st[S_HW] = w1
-        st[S_HIW] = 1.0 / w1
-        return g1, F1, w1, True
+        return _steady_end(st, fp, x2, W0 - D * x2, y, e2, g0, h1, h2, y0, phi0, zc, dz, p, c2,
+                           c3)
     return g0, 0.0, 0.0, False
 
 
