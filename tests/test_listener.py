@@ -292,3 +292,37 @@ def test_a_named_rooms_calibration_is_kept_and_gives_the_same_stage():
     c.reset()
     a.reset()
     assert np.array_equal(a.process(x.copy()), c.process(x.copy()))
+
+
+def test_a_calibration_is_kept_on_disk_for_the_next_process(tmp_path, monkeypatch):
+    """With a store (the engine gives the design store), a stage's scales
+    are saved, and a later process (the per-process memo emptied) applies
+    them without measuring its impulse responses again: the same stage to
+    the bit.  A store holding something else is ignored."""
+    from synth.dsp import listener as LM
+    from synth.voices import design_store
+
+    monkeypatch.setenv(design_store.ENV, str(tmp_path))
+    monkeypatch.setattr(LM, "_CALIBRATIONS", {})
+    a = Listener.design(48_000, 2, "player", store=design_store)
+    assert list(tmp_path.glob("listener-*.pkl"))
+    monkeypatch.setattr(LM, "_CALIBRATIONS", {})
+
+    def no_ir(*args, **kwargs):
+        raise AssertionError("measured again")
+
+    monkeypatch.setattr(Listener, "_ir", no_ir)
+    b = Listener.design(48_000, 2, "player", store=design_store)
+    assert (b.late_scale, b.level_scale) == (a.late_scale, a.level_scale)
+    x = np.random.default_rng(3).standard_normal((2, 4801))[:, :4800]
+    ya, yb = np.zeros((2, 4801))[:, :4800], np.zeros((2, 4801))[:, :4800]
+    a.reset()
+    a.process(x, out=ya)
+    b.process(x, out=yb)
+    assert np.array_equal(ya, yb)
+    # something else under that name (another program's pickle): measured anew
+    monkeypatch.setattr(LM, "_CALIBRATIONS", {})
+    design_store.save("listener", (48000.0, 2, "player", None, None, None, 20.0, 50.0,
+                                   "matched"), "not scales")
+    with pytest.raises(AssertionError, match="measured again"):
+        Listener.design(48_000, 2, "player", store=design_store)

@@ -25,6 +25,7 @@ from ..dsp.knock import Knocks
 from ..dsp.listener import Listener
 from ..kernels import strings as K
 from ..physics.soundboard import knock_pulse
+from ..voices import design_store
 from ..voices.base import SympatheticDesign, TarafDesign
 from .channels import (  # noqa: F401  (re-exported: the engine's controller numbers)
     CC_ALL_NOTES_OFF, CC_ALL_SOUND_OFF, CC_DATA_LSB, CC_DATA_MSB, CC_EXPRESSION, CC_MODE,
@@ -192,7 +193,8 @@ class Engine(ChannelControls):
         #: directivity, air, the room's reflections and reverberation), a
         #: stage after the body, before the output stage; None: the body's
         #: output as it is
-        self.listener = Listener.from_preset(instrument.preset, self.fs_out, self.channels)
+        self.listener = Listener.from_preset(instrument.preset, self.fs_out, self.channels,
+                                             store=design_store)
         self.mix = np.zeros((self.buses, max_in))
         self.probe = probe
         self._probe: list[np.ndarray] = []
