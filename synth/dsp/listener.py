@@ -60,6 +60,12 @@ def _band_mean(power: np.ndarray, fs: float, fc: float) -> float:
 _CALIBRATIONS: dict = {}
 _MAX_CALIBRATIONS = 64
 
+
+def _scales_ok(value) -> bool:
+    """Whether a stored value is a calibration (two floats or None)."""
+    return (isinstance(value, tuple) and len(value) == 2
+            and all(v is None or isinstance(v, float) for v in value))
+
 class Listener:
     """The listening stage, streaming block by block.
 
@@ -202,21 +208,26 @@ class Listener:
         2-vCPU Zen 5).  With ``key`` (the design's arguments), the scales found
         are kept for the process and applied again, the same operations in
         the same order, to a stage built with the same key; with ``store``
-        too (an object with ``load(kind, key)`` and ``save(kind, key,
-        value)``: the engine gives :mod:`synth.voices.design_store`, whose
-        files are named by the code as well), they are kept on disk for the
-        next process."""
-        kept = _CALIBRATIONS.get(key) if key is not None else None
-        if kept is None and key is not None and store is not None:
-            kept = store.load("listener", key)
-            if not (isinstance(kept, tuple) and len(kept) == 2
-                    and all(v is None or isinstance(v, float) for v in kept)):
-                kept = None
-            elif len(_CALIBRATIONS) < _MAX_CALIBRATIONS:
-                _CALIBRATIONS[key] = kept
-        if kept is not None:
-            self._apply_scales(*kept)
-            return
+        too (an object with ``kept(memo, kind, key, make, valid)``: the
+        engine gives :mod:`synth.voices.design_store`, whose files are named
+        by the code as well), they are kept on disk for the next process."""
+        if key is None:
+            scales = self._measure_scales()
+        else:
+            if key not in _CALIBRATIONS and len(_CALIBRATIONS) >= _MAX_CALIBRATIONS:
+                _CALIBRATIONS.clear()
+            if store is not None:
+                scales = store.kept(_CALIBRATIONS, "listener", key, self._measure_scales,
+                                    _scales_ok)
+            else:
+                if key not in _CALIBRATIONS:
+                    _CALIBRATIONS[key] = self._measure_scales()
+                scales = _CALIBRATIONS[key]
+        self._apply_scales(*scales)
+
+    def _measure_scales(self) -> tuple:
+        """(late scale, level scale) from the unscaled stage's impulse
+        responses (None where not scaled): :meth:`_calibrate`'s measure."""
         d = self.design
         fs = d.fs
         n_short = self._hist.shape[1] + 2 * self._hd.shape[0]
@@ -236,13 +247,7 @@ class Listener:
             pw = (np.abs(np.fft.rfft(de, nfft)) ** 2).sum(axis=1).mean(axis=0)
             m = float(np.mean([_band_mean(pw, fs, fc) for fc in LEVEL_BANDS_HZ]))
             level_scale = 1.0 / math.sqrt(m)
-        self._apply_scales(late_scale, level_scale)
-        if key is not None:
-            if len(_CALIBRATIONS) >= _MAX_CALIBRATIONS:
-                _CALIBRATIONS.clear()
-            _CALIBRATIONS[key] = (late_scale, level_scale)
-            if store is not None:
-                store.save("listener", key, (late_scale, level_scale))
+        return late_scale, level_scale
 
     def _apply_scales(self, late_scale, level_scale) -> None:
         """The late reverberation times ``late_scale`` (None: not scaled),
