@@ -90,12 +90,96 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     note the server kept time for (no xrun reported during its capture)
     correlates with the same note rendered offline (at least 0.9 once
     aligned, median 0.99), the latency is the same to the sample for all of
-    them; the report names the client's ports and counts the xruns."""
+    them; the report names the client's ports and counts the xruns.
+
+    A capture where the server lost so many cycles that fewer than 12
+    notes are clear of an xrun cannot be judged: it is taken once more.
+    The VM's noise comes in bursts (one capture in five CI runs saw some
+    430 xruns, 2026-12-02, and an idle client right after it none), so the
+    second capture is judged alone; a synth that tears its own capture
+    fails both times.  Torn twice, the test skips only if an idle client
+    sees the server xrun too, as before."""
+    from synth.io.factory import build_engine
+
+    n = int(0.1 * FS)
+    for attempt in (1, 2):
+        cap = _notes_capture(server, tmp_path / f"live{attempt}.wav", alone)
+        torn = [any(at - 2 * 128 <= f <= at + 1024 + n for _, f, _ in cap["xruns"])
+                for at in cap["onsets"]]
+        if sum(not t for t in torn) >= 12:
+            break
+    out, rec, t0, xruns, onsets = cap["out"], cap["rec"], cap["t0"], cap["xruns"], cap["onsets"]
+    assert cap["returncode"] == 0, cap["err"]
+    assert "JACK client 'synthtest'" in out and "synthtest:out_2" in out
+    assert " 0 late events, 0 errors" in out, out
+    # every message reaches the synth, but one sent in a cycle the server
+    # lost may not (the VM's xruns: 47 of 48 messages, with 5 xruns and no
+    # block of the synth's over its budget, twice in the full suite on a
+    # 2-vCPU Xeon, 2026-12-01); each message missing must have been sent
+    # near an xrun the tester saw (the window of a torn note, below)
+    got = int(re.search(r"(\d+) MIDI messages", out).group(1))
+    sent = [f for at in onsets for f in (at, at + cap["hold"])]
+    near = sum(any(f - 2 * 128 <= x <= f + 1024 + int(0.1 * FS) for _, x, _ in xruns)
+               for f in sent)
+    assert got == len(sent) or len(sent) - got <= near, (out, xruns)
+    assert got < len(sent) or "24 notes" in out, out
+    # each note against the same note offline (the live engine's output, latency included)
+    lags, corr = [], []
+    for at, k in zip(onsets, cap["keys"]):
+        ref = _offline_note(k)
+        seg = rec[at - t0:at - t0 + int(0.2 * FS)].mean(axis=1)
+        best = max(range(0, 1024), key=lambda L: float(np.dot(seg[L:L + n], ref[:n])))
+        a, b = seg[best:best + n], ref[:n]
+        lags.append(best)
+        corr.append(float(np.dot(a, b) / np.sqrt(np.dot(a, a) * np.dot(b, b))))
+    # a note whose capture an xrun the tester saw fell into is torn (its
+    # periods may come shifted by part of one, or be dropped: CI on a busy
+    # VM, 2026-11-30; ci31 saw an xrun near most of the 24) and is not
+    # judged; every other note sounds as offline and lands to the sample.
+    # (The window the lag is read from: a period before the note, the
+    # search's 1024 samples and the 0.1 s compared.)  Fewer than 12 notes
+    # clear of an xrun cannot tell: the test skips if the server xruns with
+    # only an idle client on it (the machine, not the synth), else fails.
+    shown = f"attempt {attempt}: correlations {corr}, lags {lags}, torn {torn}, tester xruns {xruns}"
+    untorn = [c for c, t in zip(corr, torn) if not t]
+    if len(untorn) < 12:
+        _skip_if_the_server_alone_xruns(server, shown)
+    assert len(untorn) >= 12 and min(untorn) >= 0.9 and np.median(untorn) >= 0.99, shown
+    checked = [lag for lag, c, t in zip(lags, corr, torn) if c >= 0.9 and not t]
+    # the loop through the tester adds one period; the rest is the engine's
+    # own delay (the decimator and the grand's limiter, which an offline
+    # render removes).  Every note lands at it to the sample, but for a note
+    # the server moved by whole periods in an xrun it reported (the dummy
+    # backend skips a cycle when the VM loses time; seen once in CI, 2026-11-29)
+    expected = 128 + build_engine("grand-piano", ()).latency_samples
+    _assert_constant_lag(checked, expected, xruns, _xruns_reported(out), shown)
+    # --record holds what the client sent: the captured audio, one period earlier
+    import soundfile
+
+    y, fs = soundfile.read(str(cap["record"]), dtype="float32")
+    assert fs == FS and y.shape[1] == 2 and "recorded " in out
+    peak = np.max(np.abs(rec))
+    assert np.max(np.abs(y)) == pytest.approx(peak, rel=1e-6)
+
+
+@functools.lru_cache(maxsize=None)
+def _offline_note(key):
+    """Key ``key`` at velocity 100 on the grand, rendered offline (0.2 s, mono)."""
     from synth.engine.engine import Event
     from synth.io.factory import build_engine
 
+    return build_engine("grand-piano", ()).render([Event(0.0, "note_on", key, 100 / 127)],
+                                                  duration_s=0.2).mean(axis=1)
+
+
+def _notes_capture(server, record, alone):
+    """One run of ``synth play --jack --preset grand-piano --record
+    RECORD``: 24 notes (keys 48-83) sent 0.4 s apart at every offset in the
+    period, held 0.2 s, its outputs captured.  Returns the synth's stdout,
+    stderr and exit code, the capture and its first frame, the tester's
+    xruns, the notes' frames and keys, the hold (frames) and ``record``."""
     proc = _synth_play(server, "--preset", "grand-piano", "--jack-name", "synthtest",
-                       "--record", str(tmp_path / "live.wav"))
+                       "--record", str(record))
     tester = None
     try:
         probe = jack.Client("waiter", no_start_server=True, servername=server)
@@ -118,63 +202,11 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
                 tester.events += [(at, bytes([0x90, k, 100])), (at + hold, bytes([0x80, k, 64]))]
             time.sleep(24 * 0.4 + 1.0)
             tester.client.deactivate()
-            rec, t0 = tester.rec, tester.t0
+            rec, t0, xruns = tester.rec, tester.t0, list(tester.xruns)
     finally:
         out, err = _stop(proc, tester)
-    assert proc.returncode == 0, err
-    assert "JACK client 'synthtest'" in out and "synthtest:out_2" in out
-    assert " 0 late events, 0 errors" in out, out
-    # every message reaches the synth, but one sent in a cycle the server
-    # lost may not (the VM's xruns: 47 of 48 messages, with 5 xruns and no
-    # block of the synth's over its budget, twice in the full suite on a
-    # 2-vCPU Xeon, 2026-12-01); each message missing must have been sent
-    # near an xrun the tester saw (the window of a torn note, below)
-    got = int(re.search(r"(\d+) MIDI messages", out).group(1))
-    sent = [f for at in onsets for f in (at, at + hold)]
-    near = sum(any(f - 2 * 128 <= x <= f + 1024 + int(0.1 * FS) for _, x, _ in tester.xruns)
-               for f in sent)
-    assert got == len(sent) or len(sent) - got <= near, (out, tester.xruns)
-    assert got < len(sent) or "24 notes" in out, out
-    # each note against the same note offline (the live engine's output, latency included)
-    lags, corr = [], []
-    n = int(0.1 * FS)
-    for at, k in zip(onsets, keys):
-        ref = build_engine("grand-piano", ()).render([Event(0.0, "note_on", k, 100 / 127)],
-                                                     duration_s=0.2).mean(axis=1)
-        seg = rec[at - t0:at - t0 + int(0.2 * FS)].mean(axis=1)
-        best = max(range(0, 1024), key=lambda L: float(np.dot(seg[L:L + n], ref[:n])))
-        a, b = seg[best:best + n], ref[:n]
-        lags.append(best)
-        corr.append(float(np.dot(a, b) / np.sqrt(np.dot(a, a) * np.dot(b, b))))
-    # a note whose capture an xrun the tester saw fell into is torn (its
-    # periods may come shifted by part of one, or be dropped: CI on a busy
-    # VM, 2026-11-30; ci31 saw an xrun near most of the 24) and is not
-    # judged; every other note sounds as offline and lands to the sample.
-    # (The window the lag is read from: a period before the note, the
-    # search's 1024 samples and the 0.1 s compared.)  Fewer than 12 notes
-    # clear of an xrun cannot tell: the test skips if the server xruns with
-    # only an idle client on it (the machine, not the synth), else fails.
-    torn = [any(at - 2 * 128 <= f <= at + 1024 + n for _, f, _ in tester.xruns) for at in onsets]
-    shown = f"correlations {corr}, lags {lags}, torn {torn}, tester xruns {tester.xruns}"
-    untorn = [c for c, t in zip(corr, torn) if not t]
-    if len(untorn) < 12:
-        _skip_if_the_server_alone_xruns(server, shown)
-    assert len(untorn) >= 12 and min(untorn) >= 0.9 and np.median(untorn) >= 0.99, shown
-    checked = [lag for lag, c, t in zip(lags, corr, torn) if c >= 0.9 and not t]
-    # the loop through the tester adds one period; the rest is the engine's
-    # own delay (the decimator and the grand's limiter, which an offline
-    # render removes).  Every note lands at it to the sample, but for a note
-    # the server moved by whole periods in an xrun it reported (the dummy
-    # backend skips a cycle when the VM loses time; seen once in CI, 2026-11-29)
-    expected = 128 + build_engine("grand-piano", ()).latency_samples
-    _assert_constant_lag(checked, expected, tester.xruns, _xruns_reported(out), shown)
-    # --record holds what the client sent: the captured audio, one period earlier
-    import soundfile
-
-    y, fs = soundfile.read(str(tmp_path / "live.wav"), dtype="float32")
-    assert fs == FS and y.shape[1] == 2 and "recorded " in out
-    peak = np.max(np.abs(rec))
-    assert np.max(np.abs(y)) == pytest.approx(peak, rel=1e-6)
+    return {"out": out, "err": err, "returncode": proc.returncode, "rec": rec, "t0": t0,
+            "xruns": xruns, "onsets": onsets, "keys": keys, "hold": hold, "record": record}
 
 
 def _xruns_reported(out: str) -> int:
