@@ -172,3 +172,39 @@ def test_synth_threads_and_the_command_line(tmp_path, monkeypatch):
                                 f"(1 <= value <= {MAX}, this machine's threads"
                                 + ("; NUMBA_NUM_THREADS limits it)" if MAX == 1 else ")"))
     assert not (tmp_path / "x.wav").exists()
+
+
+def test_the_next_chunk_is_known_before_this_one_runs():
+    """The fused launch (:func:`synth.kernels.render._task_ca`) steps the
+    next chunk's first halves before this chunk's tension readings: the
+    size :func:`~synth.kernels.render._next_free_chunk` gives before a
+    chunk is the size :func:`~synth.kernels.render._coupled_next` gives
+    after it, chunk by chunk over a held sitar chord's bridge (45 strings,
+    their tension read every F_TMM samples, readings inside the span)."""
+    eng = build_engine("sitar", (), threads=1)
+    eng.render([Event(0.0, "note_on", k, 0.8) for k in (50, 57, 62)], duration_s=0.05,
+               tail_s=0.0, max_tail_s=0.0)
+    b = eng.bank
+    act = b.active[:b.n_active]
+    lead = int(next(s for s in act if b.ipar[s, K.I_CPL] == s and b.ipar[s, K.I_CPLN] > KR.BLOCK))
+    G = int(b.ipar[lead, K.I_CPLN])
+    members = [lead]
+    for _ in range(G - 1):
+        members.append(int(b.ipar[members[-1], K.I_CPLNX]))
+    assert all(b.ipar[s, K.I_EXC] == K.EXC_NONE for s in members)
+    tm = [s for s in members if b.fpar[s, K.F_TMK] > 0]
+    assert tm, "no member's tension is read"
+    mix = np.zeros((b.mix_rows, 4096))
+    readings = 0
+    avail = 4096
+    for _ in range(60):
+        C, slow = KR._coupled_next(lead, G, b.ipar, b.fpar, b.fst, avail, False)
+        assert not slow
+        ahead = KR._next_free_chunk(lead, G, b.ipar, b.fpar, b.fst, avail - C, C)
+        before = b.fst[tm, K.S_TMC].copy()
+        b.render(mix, 0, C)
+        readings += int(np.sum(b.fst[tm, K.S_TMC] > before))
+        assert ahead == KR._coupled_next(lead, G, b.ipar, b.fpar, b.fst, avail - C, False)[0]
+    assert readings >= len(tm)
+    # none left, or an excited member: no next chunk to fuse
+    assert KR._next_free_chunk(lead, G, b.ipar, b.fpar, b.fst, 0, 64) == 0

@@ -71,9 +71,9 @@ from .coupled import _bridge_steps, _far_lanes, _force_row
 from .excite import _excite_group
 from .far_end import _far_filter, _far_prep, _far_write
 from .layout import (
-    CPL_NONE, EXC_FELT, EXC_HAMMER3, F_CURV, GROUP, GROUP_CHUNK, ROWS, I_BUS, I_CHUNK,
-    I_CHUNK_FREE, I_CPL, I_CPLN, I_CPLNX, I_EXC, I_NDISP, I_NSOS, I_PROBE, I_REG_N, I_ROW, I_SUB,
-    I_TELEM, S_PEAK, S_UBM, S_UBP, _CW, _GROW,
+    CPL_NONE, EXC_FELT, EXC_HAMMER3, EXC_NONE, F_CURV, F_TMK, F_TMM, GROUP, GROUP_CHUNK, ROWS,
+    I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL, I_CPLN, I_CPLNX, I_EXC, I_NDISP, I_NSOS, I_PROBE,
+    I_REG_N, I_ROW, I_SUB, I_TELEM, S_PEAK, S_TMC, S_UBM, S_UBP, _CW, _GROW,
 )
 from .strings import _chunk_end, _render_group, _render_string, _work_windows
 from .tension import tension_after
@@ -303,6 +303,71 @@ def _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, p
         _task_c(np.int64(t), nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
 
 
+@njit(inline="always", **JIT_OPTS)
+def _task_ca(t, nb, ib, G, ring, ipar, fpar, fst, U, C, C2, cw, lock, iw, row, scratch, pb, rows,
+             tw, ubm2, addrs):
+    """Task t of a fused launch: for each of its blocks (ib[nb + b] = t),
+    the second half of this chunk (C samples, :func:`_block_c`) and then
+    the first half of the next (C2 samples, :func:`_block_a`, with
+    ``ubm2`` the bridge's u_b after this chunk).  A block's members read
+    and write only their own strings and far-end windows (and its own
+    mix ``pb[b]``, whose force row the first half writes and whose other
+    rows the second half), so the next chunk's first half may follow the
+    block's second half at once, on the same thread."""
+    F = pb.shape[1] - 1
+    block_a = blocka_at(addrs[A_BLOCKA])
+    for b in range(nb):
+        if ib[nb + b] == t:
+            pm = pb[b]
+            _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pm[0:rows], tw[t])
+            block_a(b, ib, G, ring, ipar, fpar, fst, U, C2, cw, lock, tw[t], ubm2, pm[F])
+
+
+@njit(**PAR_OPTS)
+def _tasks_ca_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, C2, cw, lock, iw, row, scratch, pb,
+                  rows, tw, ubm2, addrs):
+    for t in prange(T):
+        _task_ca(np.int64(t), nb, ib, G, ring, ipar, fpar, fst, U, C, C2, cw, lock, iw, row,
+                 scratch, pb, rows, tw, ubm2, addrs)
+
+
+@njit(inline="always", **JIT_OPTS)
+def _next_free_chunk(lead, G, ipar, fpar, fst, avail, C):
+    """The size of the chunk after this one (of C samples), as
+    :func:`_coupled_next` will give it once this chunk has run, for a
+    group none of whose members is excited (none can be before the render
+    call ends: excitations start at events, between calls); 0 when there
+    is none (``avail`` <= 0 samples left) or it would take the per-sample
+    path.  Each member's tension countdown is taken as
+    :func:`synth.kernels.tension.tension_after` leaves it after C samples
+    (read when it reaches 0, then ``F_TMM`` again)."""
+    C2 = avail
+    if C2 > GROUP_CHUNK:
+        C2 = GROUP_CHUNK
+    if C2 <= 0:
+        return 0
+    s = lead
+    for m in range(G):
+        if ipar[s, I_EXC] != EXC_NONE:
+            return 0
+        c = ipar[s, I_CHUNK_FREE]
+        if fpar[s, F_TMK] > 0.0:
+            cc = fst[s, S_TMC] - C
+            if cc <= 0.0:
+                cc = fpar[s, F_TMM]
+            ci = int(cc)
+            if ci < 1:
+                ci = 1
+            if ci < c:
+                c = ci
+        if c <= 0:
+            return 0
+        if c < C2:
+            C2 = c
+        s = ipar[s, I_CPLNX]
+    return C2
+
+
 @njit(**JIT_OPTS)
 def _bridge_blocks(lead, nb, fpar, fst, C, row, pb):
     """:func:`coupled._bridge` for a group in blocks: the strings' force
@@ -329,7 +394,7 @@ def _bridge_blocks(lead, nb, fpar, fst, C, row, pb):
 
 @njit(inline="always", **JIT_OPTS)
 def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
-                    pb, tw, ib, nt, addrs):
+                    pb, tw, ib, nt, addrs, ahead, C2):
     """Steps 3 and 4 of :func:`_coupled_chunk` for a group of more than
     BLOCK members: the blocks' first halves (:func:`_block_a`), the
     bridge, the blocks' second halves (:func:`_block_c`) each into its
@@ -337,7 +402,11 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
     order.  On min(nt, blocks) threads; the same samples for any.  With
     ``nt`` None (a compile-time choice: numba prunes the branch on the
     argument's type), every block on the calling thread, and the parallel
-    loops are not compiled (a single note's scene: issue 39's cold start)."""
+    loops are not compiled (a single note's scene: issue 39's cold start).
+    On threads, ``ahead``: the first halves already ran (fused into the
+    previous chunk's launch); ``C2`` > 0: the next chunk's size, whose
+    first halves run in this chunk's launch of second halves
+    (:func:`_blocks_threads`; ``nt`` None ignores both: neither is set)."""
     nb = (G + BLOCK - 1) // BLOCK
     ubm = fst[lead, S_UBM]
     s = lead
@@ -354,7 +423,7 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
         _task_c(ZERO, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
     else:
         _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb, tw, ib, nt,
-                        nb, ubm, rows, scratch, addrs)
+                        nb, ubm, rows, scratch, addrs, ahead, C2)
     for b in range(nb):
         pm = pb[b]
         for r in range(rows):
@@ -366,10 +435,15 @@ def _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, 
 
 @njit(inline="always", **JIT_OPTS)
 def _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb, tw, ib, nt, nb,
-                    ubm, rows, scratch, addrs):
+                    ubm, rows, scratch, addrs, ahead, C2):
     """:func:`_coupled_blocks`' halves and bridge on min(nt, blocks)
     threads, balanced by cost (one thread when the chunk's work is below
-    :data:`PAR_MIN_WORK`)."""
+    :data:`PAR_MIN_WORK`): the first halves (unless ``ahead``: the
+    previous launch ran them), the bridge, then the second halves, with
+    the next chunk's first halves (``C2`` samples) in the same launch when
+    ``C2`` > 0 (:func:`_task_ca`: one launch and one wait a chunk instead
+    of two; the same operations on each string in the same order, so the
+    same samples)."""
     T = nt if nt < nb else nb
     if T > 1:
         # the blocks to the threads by cost (ib[nb:2 nb]; which thread steps
@@ -388,13 +462,24 @@ def _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb,
             T = 1
     if T > 1:
         _balance(cost, nb, T, ib[nb:2 * nb], ib[3 * nb:3 * nb + T], ib[4 * nb:5 * nb])
-        _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs)
     else:
         for b in range(nb):
             ib[nb + b] = 0
-        _task_a(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs)
+    if not ahead:
+        if T > 1:
+            _tasks_a_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs)
+        else:
+            _task_a(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, cw, lock, tw, ubm, pb, addrs)
     _bridge_blocks(lead, nb, fpar, fst, C, cw[2 * G * _CW:2 * G * _CW + C + 1], pb)
-    if T > 1:
+    if C2 > 0:
+        ubm2 = fst[lead, S_UBM]
+        if T > 1:
+            _tasks_ca_par(T, nb, ib, G, ring, ipar, fpar, fst, U, C, C2, cw, lock, iw, row,
+                          scratch, pb, rows, tw, ubm2, addrs)
+        else:
+            _task_ca(ZERO, nb, ib, G, ring, ipar, fpar, fst, U, C, C2, cw, lock, iw, row, scratch,
+                     pb, rows, tw, ubm2, addrs)
+    elif T > 1:
         _tasks_c_par(T, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
     else:
         _task_c(ZERO, nb, ib, G, ring, ipar, fpar, fst, C, cw, iw, row, scratch, pb, rows, tw)
@@ -404,13 +489,22 @@ def _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb,
 
 @njit(inline="always", **JIT_OPTS)
 def _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist, pb, tw,
-                       ib, nt, addrs):
+                       ib, nt, addrs, ahead, avail):
     """:func:`_coupled_chunk` of a group of more than BLOCK members (a
-    sitar's bridge): its blocks (:func:`_coupled_blocks`)."""
+    sitar's bridge): its blocks (:func:`_coupled_blocks`).  On threads
+    (``nt`` not None), with no member excited and ``avail`` samples left
+    after this chunk, the next chunk's first halves run in this chunk's
+    last launch: returns that chunk's size (0: none ran; ``ahead``: this
+    chunk's first halves already ran so)."""
     row, work, cw, lock = _coupled_head(lead, G, ring, ipar, fpar, fst, U, C, scratch, iw, ist,
                                         addrs)
+    C2 = 0
+    if nt is not None:
+        if row == 0:
+            C2 = _next_free_chunk(lead, G, ipar, fpar, fst, avail, C)
     _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
-                    pb, tw, ib, nt, addrs)
+                    pb, tw, ib, nt, addrs, ahead, C2)
+    return C2
 
 
 @njit(**JIT_OPTS)
@@ -427,16 +521,22 @@ def render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratc
     diag = _coupled_diag(lead, G, ipar)
     one = scratch[scratch.shape[0] - 2:]
     done = 0
+    ahead = 0                  # the size of a chunk whose first halves ran (0: none)
     while done < n:
-        C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
+        if ahead > 0:
+            C = ahead
+            slow = False
+        else:
+            C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
             per = per_at(loaded(addrs, A_PER))
             per(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe, one,
                 po0 + (done // psub), psub)
         else:
             # (each member's tension reading, if due, in its block: _block_c)
-            _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch,
-                               iw, ist, pb, tw, ib, nt, addrs)
+            ahead = _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix,
+                                       scratch, iw, ist, pb, tw, ib, nt, addrs, ahead > 0,
+                                       n - done - C)
         done += C
 
 
@@ -508,15 +608,21 @@ def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scrat
     diag = _coupled_diag(lead, G, ipar)
     one = scratch[scratch.shape[0] - 2:]
     done = 0
+    ahead = 0                  # the size of a chunk whose first halves ran (0: none)
     while done < n:
-        C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
+        if ahead > 0:
+            C = ahead
+            slow = False
+        else:
+            C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
         if slow:
             per = per_at(loaded(addrs, A_PER))
             per(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe, one, o0 + done, ONE)
         else:
             # (each member's tension reading, if due, in its block: _block_c)
-            _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, scratch, iw,
-                               ist, pb, tw, ib, nt, addrs)
+            ahead = _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix,
+                                       scratch, iw, ist, pb, tw, ib, nt, addrs, ahead > 0,
+                                       n - done - C)
         done += C
 
 
