@@ -442,32 +442,41 @@ def test_other_rates_through_jack(private_server, rate, period, tmp_path, alone)
     at the loop's period plus the engine's latency at that rate), and the
     recording is at that rate.  At 96 kHz the period is 256 frames, the
     same 2.7 ms as 128 at 48 kHz (at 128 frames, 1.3 ms, a grand note-on's
-    block overran it on this VM and the server skipped cycles)."""
+    block overran it on this VM and the server skipped cycles).  A capture
+    in which a note missed while the server reported xruns is taken once
+    more (the VM's noise comes in bursts: the full suite, 2026-12-02; the
+    test passed alone and with the other JACK tests right after); a synth
+    that misses a note with no xrun, or twice, fails."""
     import soundfile
 
     srv = private_server(f"rate{rate}", rate=rate, period=period)
-    proc = _synth_play(srv.name, "--preset", "grand-piano", "--jack-name", "rated",
-                       "--record", str(tmp_path / "r.wav"))
-    tester = None
-    try:
-        probe = jack.Client("waiter", no_start_server=True, servername=srv.name)
-        wait_ports(probe, "rated", 3, proc)
-        probe.close()
-        keys = (50, 57, 62, 69)
-        lag = _lag("grand-piano", rate, period)
-        for k in keys:
-            _reference("grand-piano", k, rate)
-        with alone():   # the capture judges the server's clock (conftest)
-            tester = _Tester(srv.name, "rated", 2, 12.0, rate=rate)
-            time.sleep(0.2)
-            heard = [tester.sound(k, "grand-piano", lag) for k in keys]
-    finally:
-        out, err = _stop(proc, tester)
+    keys = (50, 57, 62, 69)
+    lag = _lag("grand-piano", rate, period)
+    for k in keys:
+        _reference("grand-piano", k, rate)
+    for attempt in (1, 2):
+        rec = tmp_path / f"r{attempt}.wav"
+        proc = _synth_play(srv.name, "--preset", "grand-piano", "--jack-name", "rated",
+                           "--record", str(rec))
+        tester = None
+        try:
+            probe = jack.Client("waiter", no_start_server=True, servername=srv.name)
+            wait_ports(probe, "rated", 3, proc)
+            probe.close()
+            with alone():   # the capture judges the server's clock (conftest)
+                tester = _Tester(srv.name, "rated", 2, 12.0, rate=rate)
+                time.sleep(0.2)
+                heard = [tester.sound(k, "grand-piano", lag) for k in keys]
+                xruns = list(tester.lb.xruns)
+        finally:
+            out, err = _stop(proc, tester)
+        good = all(c >= 0.9 for c, _ in heard) and all(L == lag for _, L in heard)
+        if good or not xruns:
+            break
     assert proc.returncode == 0, err
     assert f"{rate} Hz, period {period}" in out, out
-    assert all(c >= 0.9 for c, _ in heard) and all(L == lag for _, L in heard), \
-        (heard, lag, tester.lb.xruns)
-    info = soundfile.info(str(tmp_path / "r.wav"))
+    assert good, (attempt, heard, lag, xruns)
+    info = soundfile.info(str(rec))
     assert info.samplerate == rate and info.frames > rate
 
 

@@ -220,9 +220,11 @@ def test_voices_describe_their_body_and_the_engine_builds_it():
     d = g.body()
     b = g.preset.body
     assert d == BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
-                           seed=b.seed, inputs=b.inputs, outputs=b.outputs, spread_ms=b.spread_ms)
+                           seed=b.seed, inputs=b.inputs, outputs=b.outputs, spread_ms=b.spread_ms,
+                           peaks=tuple(tuple(p) for p in b.peaks))
+    assert d.peaks                              # the board's lowest modes (issue 41)
     e = build_engine("grand-piano", voice=g)
-    assert e.body is not None and e.body.n_modes == b.modes and e.body.wet == b.wet
+    assert e.body is not None and e.body.n_modes == b.modes + len(b.peaks) and e.body.wet == b.wet
     assert e.body.spread is not None and e.body.spread.spread_ms == b.spread_ms == 3.4
     # a one-string voice carries its preset's [body] (the sitar's gourd), or none
     s = build_voice("sitar")
