@@ -143,6 +143,7 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     shown = f"attempt {attempt}: correlations {corr}, lags {lags}, torn {torn}, tester xruns {xruns}"
     untorn = [c for c, t in zip(corr, torn) if not t]
     if len(untorn) < 12:
+        _skip_if_the_machine_stalled(out, xruns, 128 / FS, shown)
         _skip_if_the_server_alone_xruns(server, shown)
     assert len(untorn) >= 12 and min(untorn) >= 0.9 and np.median(untorn) >= 0.99, shown
     checked = [lag for lag, c, t in zip(lags, corr, torn) if c >= 0.9 and not t]
@@ -493,6 +494,7 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
                        "--record", str(tmp_path / "f.wav"), seconds=60)
     lines = _Lines(proc)
     t1 = t2 = None
+    xr = []
     try:
         probe = jack.Client("waiter", no_start_server=True, servername=srv.name)
         wait_ports(probe, "faulty", 3, proc)
@@ -507,6 +509,7 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
         t1.client.blocksize = 256
         lines.wait_for("the JACK period is now 256")
         first.append(t1.sound(62, "grand-piano", _lag("grand-piano", period=256)))
+        xr += t1.lb.xruns
         t1.client.deactivate()
         t1.client.close()
         t1 = None
@@ -514,6 +517,7 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
         t2 = _Tester(srv.name, "faulty", 2, 6.0, name="second")
         time.sleep(0.3)
         second = t2.sound(69, "grand-piano", _lag("grand-piano", period=256))
+        xr += t2.lb.xruns
         t2.client.deactivate()
     finally:
         for t in (t1, t2):
@@ -522,6 +526,8 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
         proc.send_signal(signal.SIGINT)
         out, err = lines.rest()
     assert proc.returncode == 0, err
+    if not all(cor >= 0.9 for cor, _ in first + [second]):
+        _skip_if_the_machine_stalled(out, xr, 128 / FS, str((first, second, xr)))
     assert all(cor >= 0.9 for cor, _ in first + [second]), (first, second)
     # the loop's delay grows by the one period it gained, nothing else
     assert [lag for _, lag in first + [second]] == [
@@ -778,6 +784,26 @@ def _skip_if_the_server_alone_xruns(server, shown, seconds=3.0):
     _skip_if_idle_xruns(idle_xruns(server, seconds), seconds, shown)
 
 
+def _skip_if_the_machine_stalled(out, xruns, period_s, shown):
+    """Skip, saying why, when the server woke a whole period late or more
+    (an xrun the tester saw delayed by more than ``period_s``: the dummy
+    backend's clock thread was not run) while the synth's audio thread
+    never used more CPU time than a period in any block (its report's
+    "N in the audio thread's CPU time" is 0): the machine stopped, not the
+    synth (CI on this VM, 2026-12-02: 21 of 24 notes torn twice, xruns
+    delayed 2.8-4.6 ms, every block within budget in CPU time).  A synth
+    that computes too long shows its blocks over budget there and fails;
+    this rule would not tell a callback that waits long on a lock from a
+    stalled machine (the callback, ``synth.io.live.jack``'s ``_process``,
+    takes no lock of its own; the interpreter's is the one it may wait on)."""
+    m = re.search(r"blocks over it \((\d+) in the audio thread's CPU time", out)
+    late = [x for x in xruns if x[2] > 1e6 * period_s]
+    if m and int(m.group(1)) == 0 and late:
+        pytest.skip(f"the machine stalled: {len(late)} xruns delayed by more than a period "
+                    f"(up to {max(x[2] for x in late):.0f} us), no block of the synth over "
+                    f"budget in its CPU time ({shown[:300]})")
+
+
 def _skip_if_idle_xruns(n, seconds, shown):
     """Skip, saying why, when an idle client saw ``n`` xruns in ``seconds``
     (an xrun every half second or more often): the rule of
@@ -870,3 +896,18 @@ def test_close_while_the_callback_and_another_thread_want_the_lock(server, tmp_p
         raise AssertionError(f"a close hung: {out!r}") from None
     assert proc.returncode == 0 and "Exception" not in err, err[-2000:]
     assert [f"closed {i}" in out for i in range(4)] == [True] * 4, out
+
+
+def test_a_stalled_machine_is_told_from_a_slow_synth():
+    """The rule of :func:`_skip_if_the_machine_stalled`: it skips only
+    when the server woke more than a period late and the synth's audio
+    thread never ran over its budget in CPU time."""
+    report = ("100 blocks of 128 at 48000 Hz; block time worst 300.0%, 99th percentile 90.0%, "
+              "mean 40.0% of the budget, 3 blocks over it ({} in the audio thread's CPU time, "
+              "whose worst is 80.0%); 0 underruns")
+    late, early = [("play", 1000, 3000.0)], [("play", 1000, 40.0)]
+    with pytest.raises(pytest.skip.Exception):
+        _skip_if_the_machine_stalled(report.format(0), late, 128 / FS, "")
+    _skip_if_the_machine_stalled(report.format(2), late, 128 / FS, "")      # the synth's own
+    _skip_if_the_machine_stalled(report.format(0), early, 128 / FS, "")     # no stall
+    _skip_if_the_machine_stalled("no report", late, 128 / FS, "")           # nothing to tell by
