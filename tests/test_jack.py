@@ -92,22 +92,38 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     aligned, median 0.99), the latency is the same to the sample for all of
     them; the report names the client's ports and counts the xruns.
 
-    A capture where the server lost so many cycles that fewer than 12
-    notes are clear of an xrun cannot be judged: it is taken once more.
-    The VM's noise comes in bursts (one capture in five CI runs saw some
-    430 xruns, 2026-12-02, and an idle client right after it none), so the
-    second capture is judged alone; a synth that tears its own capture
-    fails both times.  Torn twice, the test skips only if an idle client
-    sees the server xrun too, as before."""
+    At least 12 notes clear of an xrun are judged.  The VM's noise comes in
+    bursts (one capture in five CI runs saw some 430 xruns, 2026-12-02, and
+    an idle client right after it none; another, 130 xruns, left 10 notes
+    clear, each as offline to 1e-3 and on its sample), so a capture with
+    fewer is taken once more and the clear notes of both are judged
+    together.  Fewer than 12 in both: the test skips if the machine
+    stalled or an idle client sees the server xrun (the machine, not the
+    synth), else fails."""
     from synth.io.factory import build_engine
 
-    n = int(0.1 * FS)
+    expected = 128 + build_engine("grand-piano", ()).latency_samples
+    untorn, shown = [], []
     for attempt in (1, 2):
         cap = _notes_capture(server, tmp_path / f"live{attempt}.wav", alone)
-        torn = [any(at - 2 * 128 <= f <= at + 1024 + n for _, f, _ in cap["xruns"])
-                for at in cap["onsets"]]
-        if sum(not t for t in torn) >= 12:
+        clear, text = _judge_notes_capture(cap, expected)
+        untorn += clear
+        shown.append(f"attempt {attempt}: {text}")
+        if len(untorn) >= 12:
             break
+    shown = "; ".join(shown)
+    if len(untorn) < 12:
+        _skip_if_the_machine_stalled(cap["out"], cap["xruns"], 128 / FS, shown)
+        _skip_if_the_server_alone_xruns(server, shown)
+    assert len(untorn) >= 12 and min(untorn) >= 0.9 and np.median(untorn) >= 0.99, shown
+
+
+def _judge_notes_capture(cap, expected):
+    """One capture of :func:`_notes_capture` judged: the report, the
+    messages, every note clear of an xrun at the expected lag (or whole
+    periods later, :func:`_assert_constant_lag`), ``--record``'s file;
+    returns the clear notes' correlations and a description."""
+    n = int(0.1 * FS)
     out, rec, t0, xruns, onsets = cap["out"], cap["rec"], cap["t0"], cap["xruns"], cap["onsets"]
     assert cap["returncode"] == 0, cap["err"]
     assert "JACK client 'synthtest'" in out and "synthtest:out_2" in out
@@ -119,8 +135,7 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     # near an xrun the tester saw (the window of a torn note, below)
     got = int(re.search(r"(\d+) MIDI messages", out).group(1))
     sent = [f for at in onsets for f in (at, at + cap["hold"])]
-    near = sum(any(f - 2 * 128 <= x <= f + 1024 + int(0.1 * FS) for _, x, _ in xruns)
-               for f in sent)
+    near = sum(any(f - 2 * 128 <= x <= f + 1024 + n for _, x, _ in xruns) for f in sent)
     assert got == len(sent) or len(sent) - got <= near, (out, xruns)
     assert got < len(sent) or "24 notes" in out, out
     # each note against the same note offline (the live engine's output, latency included)
@@ -137,22 +152,15 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     # VM, 2026-11-30; ci31 saw an xrun near most of the 24) and is not
     # judged; every other note sounds as offline and lands to the sample.
     # (The window the lag is read from: a period before the note, the
-    # search's 1024 samples and the 0.1 s compared.)  Fewer than 12 notes
-    # clear of an xrun cannot tell: the test skips if the server xruns with
-    # only an idle client on it (the machine, not the synth), else fails.
-    shown = f"attempt {attempt}: correlations {corr}, lags {lags}, torn {torn}, tester xruns {xruns}"
-    untorn = [c for c, t in zip(corr, torn) if not t]
-    if len(untorn) < 12:
-        _skip_if_the_machine_stalled(out, xruns, 128 / FS, shown)
-        _skip_if_the_server_alone_xruns(server, shown)
-    assert len(untorn) >= 12 and min(untorn) >= 0.9 and np.median(untorn) >= 0.99, shown
+    # search's 1024 samples and the 0.1 s compared.)
+    torn = [any(at - 2 * 128 <= f <= at + 1024 + n for _, f, _ in xruns) for at in onsets]
+    shown = f"correlations {corr}, lags {lags}, torn {torn}, tester xruns {xruns}"
     checked = [lag for lag, c, t in zip(lags, corr, torn) if c >= 0.9 and not t]
     # the loop through the tester adds one period; the rest is the engine's
     # own delay (the decimator and the grand's limiter, which an offline
     # render removes).  Every note lands at it to the sample, but for a note
     # the server moved by whole periods in an xrun it reported (the dummy
     # backend skips a cycle when the VM loses time; seen once in CI, 2026-11-29)
-    expected = 128 + build_engine("grand-piano", ()).latency_samples
     _assert_constant_lag(checked, expected, xruns, _xruns_reported(out), shown)
     # --record holds what the client sent: the captured audio, one period earlier
     import soundfile
@@ -161,6 +169,7 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     assert fs == FS and y.shape[1] == 2 and "recorded " in out
     peak = np.max(np.abs(rec))
     assert np.max(np.abs(y)) == pytest.approx(peak, rel=1e-6)
+    return [c for c, t in zip(corr, torn) if not t], shown
 
 
 @functools.lru_cache(maxsize=None)
