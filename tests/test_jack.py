@@ -141,7 +141,7 @@ def _judge_notes_capture(cap, expected):
     # each note against the same note offline (the live engine's output, latency included)
     lags, corr = [], []
     for at, k in zip(onsets, cap["keys"]):
-        ref = _offline_note(k)
+        ref = _reference("grand-piano", k, FS)
         seg = rec[at - t0:at - t0 + int(0.2 * FS)].mean(axis=1)
         best = max(range(0, 1024), key=lambda L: float(np.dot(seg[L:L + n], ref[:n])))
         a, b = seg[best:best + n], ref[:n]
@@ -170,16 +170,6 @@ def _judge_notes_capture(cap, expected):
     peak = np.max(np.abs(rec))
     assert np.max(np.abs(y)) == pytest.approx(peak, rel=1e-6)
     return [c for c, t in zip(corr, torn) if not t], shown
-
-
-@functools.lru_cache(maxsize=None)
-def _offline_note(key):
-    """Key ``key`` at velocity 100 on the grand, rendered offline (0.2 s, mono)."""
-    from synth.engine.engine import Event
-    from synth.io.factory import build_engine
-
-    return build_engine("grand-piano", ()).render([Event(0.0, "note_on", key, 100 / 127)],
-                                                  duration_s=0.2).mean(axis=1)
 
 
 def _notes_capture(server, record, alone):

@@ -71,12 +71,12 @@ from .coupled import _bridge_steps, _far_lanes, _force_row
 from .excite import _excite_group
 from .far_end import _far_filter, _far_prep, _far_write
 from .layout import (
-    CPL_NONE, EXC_FELT, EXC_HAMMER3, EXC_NONE, F_CURV, F_TMK, F_TMM, GROUP, GROUP_CHUNK, ROWS,
-    I_BUS, I_CHUNK, I_CHUNK_FREE, I_CPL, I_CPLN, I_CPLNX, I_EXC, I_NDISP, I_NSOS, I_PROBE,
-    I_REG_N, I_ROW, I_SUB, I_TELEM, S_PEAK, S_TMC, S_UBM, S_UBP, _CW, _GROW,
+    CPL_NONE, EXC_FELT, EXC_HAMMER3, EXC_NONE, F_CURV, GROUP, GROUP_CHUNK, ROWS, I_BUS,
+    I_CHUNK, I_CHUNK_FREE, I_CPL, I_CPLN, I_CPLNX, I_EXC, I_NDISP, I_NSOS, I_PROBE, I_REG_N,
+    I_ROW, I_SUB, I_TELEM, S_PEAK, S_UBM, S_UBP, _CW, _GROW,
 )
 from .strings import _chunk_end, _render_group, _render_string, _work_windows
-from .tension import tension_after
+from .tension import tension_after, tension_limit_after
 # (a small coupled group's chunks, split from here; ZERO, ONE and BLOCK are
 # defined there and re-exported)
 from .unison import (  # noqa: F401  (BLOCK, ONE, ZERO: re-exported)
@@ -338,9 +338,8 @@ def _next_free_chunk(lead, G, ipar, fpar, fst, avail, C):
     group none of whose members is excited (none can be before the render
     call ends: excitations start at events, between calls); 0 when there
     is none (``avail`` <= 0 samples left) or it would take the per-sample
-    path.  Each member's tension countdown is taken as
-    :func:`synth.kernels.tension.tension_after` leaves it after C samples
-    (read when it reaches 0, then ``F_TMM`` again)."""
+    path.  Each member's tension limit is taken as it will be after C
+    samples (:func:`synth.kernels.tension.tension_limit_after`)."""
     C2 = avail
     if C2 > GROUP_CHUNK:
         C2 = GROUP_CHUNK
@@ -350,16 +349,7 @@ def _next_free_chunk(lead, G, ipar, fpar, fst, avail, C):
     for m in range(G):
         if ipar[s, I_EXC] != EXC_NONE:
             return 0
-        c = ipar[s, I_CHUNK_FREE]
-        if fpar[s, F_TMK] > 0.0:
-            cc = fst[s, S_TMC] - C
-            if cc <= 0.0:
-                cc = fpar[s, F_TMM]
-            ci = int(cc)
-            if ci < 1:
-                ci = 1
-            if ci < c:
-                c = ci
+        c = tension_limit_after(s, fpar, fst, ipar[s, I_CHUNK_FREE], C)
         if c <= 0:
             return 0
         if c < C2:
@@ -488,6 +478,16 @@ def _blocks_threads(lead, G, ring, ipar, fpar, fst, U, C, cw, lock, iw, row, pb,
 # ---- coupled groups, and a list of strings into one mix ------------------------------
 
 @njit(inline="always", **JIT_OPTS)
+def _big_next(lead, G, ipar, fpar, fst, avail, diag, ahead):
+    """:func:`_coupled_next` for a big group's render loop: the chunk
+    ``ahead`` (> 0) whose first halves the last launch ran, else the next
+    as :func:`_coupled_next` gives it."""
+    if ahead > 0:
+        return ahead, False
+    return _coupled_next(lead, G, ipar, fpar, fst, avail, diag)
+
+
+@njit(inline="always", **JIT_OPTS)
 def _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, iw, ist, pb, tw,
                        ib, nt, addrs, ahead, avail):
     """:func:`_coupled_chunk` of a group of more than BLOCK members (a
@@ -500,8 +500,7 @@ def _coupled_chunk_big(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, i
                                         addrs)
     C2 = 0
     if nt is not None:
-        if row == 0:
-            C2 = _next_free_chunk(lead, G, ipar, fpar, fst, avail, C)
+        C2 = _next_free_chunk(lead, G, ipar, fpar, fst, avail, C)
     _coupled_blocks(lead, G, ring, ipar, fpar, fst, U, C, o0, mix, scratch, cw, lock, iw, row,
                     pb, tw, ib, nt, addrs, ahead, C2)
     return C2
@@ -523,11 +522,7 @@ def render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scratc
     done = 0
     ahead = 0                  # the size of a chunk whose first halves ran (0: none)
     while done < n:
-        if ahead > 0:
-            C = ahead
-            slow = False
-        else:
-            C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
+        C, slow = _big_next(lead, G, ipar, fpar, fst, n - done, diag, ahead)
         if slow:
             per = per_at(loaded(addrs, A_PER))
             per(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe, one,
@@ -610,11 +605,7 @@ def _render_coupled_big(lead, ring, ipar, fpar, fst, U, n, o0, mix, probe, scrat
     done = 0
     ahead = 0                  # the size of a chunk whose first halves ran (0: none)
     while done < n:
-        if ahead > 0:
-            C = ahead
-            slow = False
-        else:
-            C, slow = _coupled_next(lead, G, ipar, fpar, fst, n - done, diag)
+        C, slow = _big_next(lead, G, ipar, fpar, fst, n - done, diag, ahead)
         if slow:
             per = per_at(loaded(addrs, A_PER))
             per(lead, G, ring, ipar, fpar, fst, U, C, o0 + done, mix, probe, one, o0 + done, ONE)

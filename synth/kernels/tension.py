@@ -153,12 +153,31 @@ def tension_limit(s, fpar, fst, C):
     """The longest chunk (at most C) that ends no later than string s's
     next reading (C when it has no tension modulation)."""
     if fpar[s, F_TMK] > 0.0:
-        c = int(fst[s, S_TMC])
-        if c < 1:
-            c = 1                 # (a countdown the bank has not set: read after one sample)
-        if c < C:
-            return c
+        return _countdown_limit(fst[s, S_TMC], C)
     return C
+
+
+@njit(inline="always", **JIT_OPTS)
+def tension_limit_after(s, fpar, fst, C, done):
+    """:func:`tension_limit` as it will be once ``done`` more samples of
+    string s have run through :func:`tension_after` (the countdown less
+    ``done``, or ``F_TMM`` again if the reading fell due): the next
+    chunk's limit, known before this chunk runs."""
+    if fpar[s, F_TMK] > 0.0:
+        c = fst[s, S_TMC] - done
+        if c <= 0.0:
+            c = fpar[s, F_TMM]    # (as tension_read restarts it)
+        return _countdown_limit(c, C)
+    return C
+
+
+@njit(inline="always", **JIT_OPTS)
+def _countdown_limit(countdown, C):
+    """min(C, the countdown's whole samples), at least 1."""
+    c = int(countdown)
+    if c < 1:
+        c = 1                     # (a countdown the bank has not set: read after one sample)
+    return c if c < C else C
 
 
 @njit(inline="always", **JIT_OPTS)
