@@ -253,3 +253,29 @@ def test_the_package_cites_no_lab_note():
         if path.suffix in (".py", ".toml", ".md") and "docs/lab" in path.read_text("utf-8"):
             hits.append(str(path.relative_to(ROOT)))
     assert not hits, hits
+
+
+#: a calendar date as the lab notes write them (2026-11-30)
+_DATE = re.compile(r"(?<![\d-])20\d\d-[01]\d-[0-3]\d(?![\d-])")
+
+
+def _dated_lines(text: str) -> list[str]:
+    return [line.strip() for line in text.splitlines() if _DATE.search(line)]
+
+
+def test_the_package_keeps_no_dated_log():
+    """A comment in the library or a shipped preset says why, with the
+    command that measures it, not when: "as until 2026-11-30" is the lab's
+    history, which git and docs/lab/ keep (issue 38, "library code ... has
+    14 dated comments")."""
+    hits = []
+    for path in sorted((ROOT / "synth").rglob("*")):
+        if path.suffix in (".py", ".toml", ".md"):
+            hits += [f"{path.relative_to(ROOT)}: {line}"
+                     for line in _dated_lines(path.read_text("utf-8"))]
+    assert not hits, hits
+
+
+def test_the_dated_log_check_can_fail():
+    text = "x = 1  # 0.41 s without it (2026-12-01, Xeon)\nkeys 21-108, 1-127, 2.0-2.5\n"
+    assert _dated_lines(text) == ["x = 1  # 0.41 s without it (2026-12-01, Xeon)"]

@@ -191,8 +191,8 @@ def _best_knee(t, db, m):
     """The knee of :func:`two_stage_decay`: the frame count k (m .. n - m)
     whose lines through frames ``[0, k)`` and ``[k - 1, n)`` leave the
     smallest summed squared error, and the two slopes (dB/s).  All knees at
-    once from running sums (was two polyfits per knee, 0.11 s of a 2 s
-    note's analysis, 2026-12-02)."""
+    once from running sums (two polyfits per knee took 0.11 s of a 2 s
+    note's analysis)."""
     n = len(t)
     s_head, e_head = _line_fits(t, db)                  # lines through [0, j)
     s_tail, e_tail = _line_fits(t[::-1], db[::-1])      # lines through [n - j, n)

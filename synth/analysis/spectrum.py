@@ -170,7 +170,7 @@ class _Dtft:
     def derivs(self, f):
         # in real arithmetic: e = xw exp(-i ph) = xc - i xs, and the sums
         # x_m = sum e (-2 pi i t)^m from real dot products (2.3x faster than
-        # complex arrays on 96000 samples, 2026-12-02)
+        # complex arrays on 96000 samples)
         ph = (2.0 * np.pi * f) * self.t
         xc = self.xw * np.cos(ph)
         xs = self.xw * np.sin(ph)
@@ -216,7 +216,7 @@ def _refine_peak(dt, f_lo, f_hi, grid_f, grid_p):
     # evaluations a peak on average, up to 34, each O(len(segment))); at
     # 1e-11, 3.8 and at most 25, `synth analyze`'s measures of four 1 s
     # notes 2.14 -> 1.00 s, and the partials' frequencies move by at most
-    # 1.0e-11 of themselves (2026-12-02)
+    # 1.0e-11 of themselves
     tol = 1e-11 * max(abs(f_hi), 1.0)
     for _ in range(100):
         _, g, h = dt.derivs(f)

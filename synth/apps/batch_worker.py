@@ -212,7 +212,7 @@ def _warm_analysis() -> None:
     """Run the manifest's analysis once in this process on a made-up 1 s
     note (a 220 Hz tone with four partials, decaying): its first call
     imports SciPy's filters, pyloudnorm and the measures (0.87 s on a Zen 5
-    VM, against 0.10 s for each call after it, 2026-12-02), which would
+    VM, against 0.10 s for each call after it), which would
     otherwise fall on a worker's first job."""
     global _ANALYSIS_WARM
     if _ANALYSIS_WARM:

@@ -13,7 +13,7 @@ the process and loads the unit from the cache
 (the same machine code, loaded instead of compiled).
 
 What the second process takes, by the bank's kind (measured on a cold
-cache, 2-vCPU Xeon, 2026-12-01, ``tools/bench.py compile``):
+cache, 2-vCPU Xeon, ``tools/bench.py compile``):
 
 * a bank with a bridge of more than BLOCK strings (the sitar, the
   tanpura): the bridge's blocks' first half, ``_block_a`` (16 of a note's

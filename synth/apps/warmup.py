@@ -22,11 +22,11 @@ two rounds: first one worker compiles that renderer while the others play
 one note on each preset (the narrower renderers a single note runs: a
 bridge of many strings, a piano key's unison, a lone string); then each
 preset loads every renderer and plays its whole phrase, finding nearly
-everything compiled.  Before render_sharded called render_bank by address,
-that one renderer was the longest path whatever the cores (160-190 s
-here), which bounded the gain at about 1.5x: every musical preset on a
-fresh cache, 2-vCPU Xeon, 2026-11-29, 253 s on one process and 207 s on
-two (``synth warmup --jobs 1`` / ``--jobs 2``; docs/benchmarks.md,
+everything compiled.  Were render_sharded to compile render_bank's tree
+into itself rather than call it by address, that one renderer would be the
+longest path whatever the cores (160-190 s on a 2-vCPU Xeon), which
+bounded the gain at about 1.5x: every musical preset on a fresh cache,
+253 s on one process and 207 s on two (``synth warmup --jobs 1`` / ``--jobs 2``; docs/benchmarks.md,
 "Start-up").
 """
 

@@ -589,7 +589,7 @@ class StringBank(Excitations, Bridges, Groups, HandOver, Telemetry):
         damper down (:func:`damper_down_factor`) is kept beside it: a key
         let go without the pedal, the usual note-off, then costs a gather,
         not a numpy expression (32 keys let go in one block took 0.4-1.1 ms
-        of a 2.67 ms period, 2026-11-30)."""
+        of a 2.67 ms period that way)."""
         self.damper[s, :4] = row[:4]
         self.damper[s, 4] = damper_down_factor(row)
 

@@ -43,9 +43,9 @@ PROBE_INDEX = "render.render_bank-*.nbi"
 #: --seconds 1`` compiled for 29-49 s (model 167) and 52 s (model 207); ``synth demo``,
 #: whose phrases of overlapping notes also compile the shards of several strings
 #: (``render_sharded``), 104-133 s and 194-219 s, and 50 s (model 207) with its
-#: phrases on two processes and the renderers called by address (2026-11-30);
+#: phrases on two processes and the renderers called by address;
 #: a note with half its kernels compiled by a second process, model 167: the
-#: sitar 19-20 s, the grand 39 s, the biwa 24 s (2026-12-01); docs/benchmarks.md,
+#: sitar 19-20 s, the grand 39 s, the biwa 24 s; docs/benchmarks.md,
 #: "Start-up")
 MESSAGE = ("synth: compiling the string kernels for this CPU, once (on 2 cores 20-40 s "
            "for a note, a minute or more for a phrase; `synth warmup` does it ahead of "

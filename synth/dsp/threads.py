@@ -204,7 +204,7 @@ class Governor:
     #: thread when the machine's other cores are busy.  (With a half, the
     #: grand's 64-voice chords probed one thread, and on a quiet machine
     #: their live blocks went from 27 % / 102 % to 34 % / 120 % of the
-    #: budget, mean / 99th percentile: tools/bench.py live, 2026-11-29.)
+    #: budget, mean / 99th percentile: tools/bench.py live.)
     realtime_dt_s = None
     #: the share of a call's real-time budget that one thread must surely fit
     realtime_share = 0.2
@@ -243,7 +243,7 @@ class Governor:
         325 samples, ran faster on one thread, and with one set of timings
         the governor then kept the 4096-sample calls after them on one
         thread too, where the threads were 1.5x faster (a second of a 2 s
-        render, 2026-12-02).  Each class is timed and decided apart."""
+        render).  Each class is timed and decided apart."""
         return max(0, int(samples)).bit_length()
 
     def _class(self, c: int) -> "_Class":
@@ -346,7 +346,7 @@ class _Class:
     finds its memory cold (a pedalled grand chord's first 2837-sample call
     on the threads took 7.0 ns per unit against 2.8 after, 4.8 on one
     thread; kept, it moved that class to one thread for the rest of a 4 s
-    render, whose wall time never reached the next probe: 2026-12-02)."""
+    render, whose wall time never reached the next probe)."""
 
     def __init__(self, probe_calls: int, probe_s: float):
         #: whether the next call of each mode is the class's first: [one, threads]

@@ -117,7 +117,7 @@ def interruptible(signals=HANDLED_SIGNALS) -> Iterator[None]:
             # or a callback of LLVM's into llvmlite (its object cache, as a
             # kernel loads) would swallow it and print "Exception ignored
             # ... Traceback" on stderr (the callback's then left LLVM
-            # half-way: a segmentation fault, 2026-12-01): the next
+            # half-way: a segmentation fault): the next
             # raise_if_interrupted raises it instead
             return
         raise Interrupted(signum)

@@ -432,9 +432,10 @@ def install_light_load(root: str | os.PathLike) -> bool:
     thing refresh does) and runs the parallel loops' re-initialisers.  A
     compile still refreshes the contexts itself (``CompilerBase``), so a
     cache miss later in the process is unaffected.  A warm ``synth note
-    sitar`` spent 0.24 s of its 0.63 s after start-up in that refresh
-    (2026-12-01, 2-vCPU Xeon: 0.41 s without it, the same bytes).  Entries of other folders (other
-    libraries' numba functions) keep numba's own load."""
+    sitar`` spent 0.24 s of its 0.63 s after start-up in that refresh (a
+    2-vCPU Xeon: 0.41 s without it, the same bytes; ``tools/bench.py
+    startup``).  Entries of other folders (other libraries' numba
+    functions) keep numba's own load."""
     try:
         from numba.core import caching
         from numba.core.runtime import rtsys

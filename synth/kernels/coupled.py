@@ -103,8 +103,8 @@ def _bridge(lead, G, ipar, fpar, fst, C, cw):
     difference); then every member's outgoing wave y = z - u_b.  A string
     of impedance Z on it is reflected by (R_b - Z) / (R_b + Z) at every
     frequency, the dashpot's own: passive for any R_b.  (The step one
-    sample behind the force, u_b(i+1) = a u_b(i) + b F(i), used until
-    2026-11-25, reflects by (1 - r z^-1) / (1 + r z^-1): more than 1 above
+    sample behind the force, u_b(i+1) = a u_b(i) + b F(i), would reflect
+    by (1 - r z^-1) / (1 + r z^-1): more than 1 above
     fs/4, and a sitar's taraf on a soft bridge blew up.)
 
     With a mass (``F_BRMU`` = mu = M / (R_b dt) > 0; the grand's bridge

@@ -753,9 +753,8 @@ def _force_out(yo, yp, un, up, has_ub, m0, m1, two, g0, g1, C):
     kernels' fast-math flags (no re-association) whatever the caller's:
     the vector loops' is the lanes' (``synth.kernels.lanes``), which carry
     them, and the C % 4 samples after the last full vector go through
-    :func:`_force_one`, a ``SERIAL_OPTS`` function (this was one
-    ``SERIAL_OPTS`` function, not inlined, before 2026-11-27: the same
-    samples)."""
+    :func:`_force_one`, a ``SERIAL_OPTS`` function (the same samples as
+    one ``SERIAL_OPTS`` function, not inlined, for the whole block)."""
     two4 = splat4(2.0)
     g04 = splat4(g0)
     g14 = splat4(g1)
@@ -800,10 +799,10 @@ def _force_one(yo, yp, un, up, has_ub, m0, m1, g0, g1):
     the buses' m0 + g0 v, m1 + g1 v, in the serial kernels' fast-math flags
     (a function of its own, not inlined by numba: inlined, its arithmetic
     would take the caller's flags; LLVM may still inline it, keeping each
-    instruction's own).  The same samples as the scalar loop of the
-    ``SERIAL_OPTS`` function :func:`_force_out` was before 2026-11-27 (not
-    always those of the vector loop's lanes: written in lane 0 of vectors,
-    the last bit of some samples differed)."""
+    instruction's own).  The same samples as a scalar loop of
+    ``SERIAL_OPTS`` arithmetic (not always those of the vector loop's
+    lanes: written in lane 0 of vectors, the last bit of some samples
+    differed)."""
     if has_ub:
         v = 2.0 * (yo - yp) + (un - up)
     else:

@@ -14,8 +14,8 @@ The sum starts at +0.0 and adds the products in the list's order, each
 product rounded first (IEEE, no contraction): the samples a buffer gave
 that every note-on added its whole scaled pulse to, and that each block
 then read and shifted, bit for bit -- without a note-on writing 2 x 7777
-samples (22 us) or every block moving the buffer's tail (60 us,
-2026-11-30, a 2-vCPU Xeon).
+samples (22 us on a 2-vCPU Xeon) or every block moving the buffer's
+tail (60 us).
 
 The public wrapper is :class:`synth.dsp.knock.Knocks`; the reference in
 ``tests/test_knock.py`` is that buffer.

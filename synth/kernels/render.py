@@ -34,9 +34,9 @@ Which thread runs which piece never changes an operation:
   members' outputs into its own mix (``pb``), and the blocks' mixes are
   added in block order.
 
-Against the single-mix bank of before (to 2026-11-28) only the order of
-some additions changes: a bank of several units, or a group of more than
-BLOCK members, differs from it by round-off (under 1e-12 of full scale,
+Against one mix for the whole bank only the order of some additions
+changes: a bank of several units, or a group of more than BLOCK members,
+differs from it by round-off (under 1e-12 of full scale,
 ``tests/test_threads.py``); a bank of one small unit is bit-identical.
 
 Threads
@@ -90,16 +90,17 @@ from .unison import (  # noqa: F401  (BLOCK, ONE, ZERO: re-exported)
 #: between a renderer and a group's blocks (``_render_coupled_big`` and
 #: ``_small``, ``_coupled_chunk_big``, ``_coupled_blocks``, ``_task_a`` and
 #: ``_c``) are therefore ``inline="always"``: a cold sitar note compiled
-#: 45.4 CPU s before, 34.7 after, with the serial ``nt`` None variant of
-#: :func:`_coupled_blocks` (alternated, loaded 2-vCPU Xeon, 2026-11-29,
-#: tools/bench.py compile).  The blocks' bodies (``_block_a``, ``_c``)
+#: 45.4 CPU s called, 34.7 inlined, with the serial ``nt`` None variant of
+#: :func:`_coupled_blocks` (alternated on a 2-vCPU Xeon, ``tools/bench.py
+#: compile``).  The blocks' bodies (``_block_a``, ``_c``)
 #: are not: inlined, numba's typing of the nest took 113 CPU s and 1.7 GB.
 #: the least work (string_cost units x samples, about 0.5 ns each) worth a
 #: parallel loop, which then runs on the calling thread (that never changes
 #: a sample).  A launch costs about 2 us (OpenMP threads still spinning from
 #: the last loop); a sitar group's chunk on 2 threads ran at 0.9x (one note,
 #: 41 000 units a chunk), 1.0x (four notes, 75 000), 1.2x (eight), 1.4x
-#: (sixteen) and 1.55x (32) of one thread's speed (2-vCPU Xeon, 2026-11-28)
+#: (sixteen) and 1.55x (32) of one thread's speed (2-vCPU Xeon,
+#: ``tools/bench.py render``)
 PAR_MIN_WORK = 80_000
 #: most shards of a bank's small units (the same for any thread count: a
 #: machine with more threads than this renders the small units on this many)
@@ -262,8 +263,8 @@ def _block_c(b, ib, G, ring, ipar, fpar, fst, C, cw, iw, nrow, scratch, pm, tw):
         # its tension's reading, if due (unison._coupled_tension's, for a
         # small group after its chunk): it reads and writes only this
         # string, whose chunk is complete here, so on the blocks' threads
-        # (the sitar's 45 strings on the calling thread took a 32-voice
-        # render on 2 threads from 1.6x to 1.44x, 2026-12-01)
+        # (on the calling thread, the sitar's 45 strings took a 32-voice
+        # render on 2 threads from 1.6x to 1.44x: tools/bench.py render)
         tension_after(s, ring, ipar, fpar, fst, C)
         s = ipar[s, I_CPLNX]
 
@@ -1149,7 +1150,7 @@ def render_sharded(bank_addr, addrs, ring, ipar, fpar, fst, U, active, n_active,
         # (the shards' loop is here, not in a function of its own: that was
         # one more level that linked and optimised the whole tree below
         # render_bank; a cold synth demo compiled 164.7 CPU s instead of
-        # 170.7, the two trees at once, 2026-11-30, tools/bench.py compile)
+        # 170.7, the two trees at once: tools/bench.py compile)
         for t in prange(T):
             _shard_task(bank_addr, addrs, np.int64(t), T, S, lists, so, ring, ipar, fpar, fst,
                         U, n, o0, mix, probe, scratch2, iwork2, ubx, sub3, smix, pb, tw, ib)

@@ -64,8 +64,8 @@ line's delay (:mod:`synth.kernels.bend`), goes: D0 (1 / sqrt(1 + kappa S)
 there in equal steps (``S_TMD``) over the samples to the next reading, per
 sample and in fast-path chunks alike (the drivers end a chunk at a
 reading, so that a string renders the same samples whatever its blocks).
-A reading that set ``S_TM`` at once (as until 2026-11-30) stepped the
-delay every ``F_TMM`` samples: each step cut into the wave arriving at the
+A reading that set ``S_TM`` at once would step the delay every ``F_TMM``
+samples: each step cut into the wave arriving at the
 bend line, a comb of clicks at fs / ``F_TMM`` (1.27 kHz) and its multiples.
 That was the modulation's "5 kHz residue": on the tanpura's key 37 at
 velocity 127 with the contact off, 2-8 kHz over 0.5-4 s +12.0 dB and 8-16

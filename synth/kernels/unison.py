@@ -69,7 +69,7 @@ BLOCK = 4
 #: bodies (the hammers, the loop filters, the bridge, each member's output)
 #: once in each chunk function that uses them (three and two), and a cold
 #: ``synth demo`` compiled 250.7 CPU s; called, 219.9 with ``render._shard_task``
-#: inlined too (both trees at once on a 2-vCPU Xeon, fresh caches, 2026-11-30:
+#: inlined too (both trees at once on a 2-vCPU Xeon, fresh caches:
 #: ``NUMBA_CACHE_DIR=$(mktemp -d) python tools/bench.py compile demo -o d.wav``).
 #: The samples are the same to the bit (tests/test_golden.py), and a render's
 #: time did not move beyond the machine's noise (a call per chunk).

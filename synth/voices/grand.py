@@ -204,8 +204,8 @@ class GrandVoice(KeyboardDampers, Voice):
         fewer) and its strings packed for a fresh strike (with their dampers'
         loss factors, :meth:`_group_of`) are made too: without them a
         key's first strike in a live stream cost 160-180 us of the audio
-        thread against 25-35 us for the next (2026-11-30; a chord of eight
-        keys not yet played, about 1 ms of a 2.67 ms period)."""
+        thread against 25-35 us for the next on a 2-vCPU Xeon (a chord of
+        eight keys not yet played, about 1 ms of a 2.67 ms period)."""
         store = self._store_key()
         if not self._keys:
             kept = design_store.load("grand-keys", store)
@@ -707,7 +707,7 @@ class GrandVoice(KeyboardDampers, Voice):
     #: (every third key, velocities 0.1-1, 20 ms); keys 48-108 (every third,
     #: velocities 0.05-1) render the same samples as with the 4 ms rule to
     #: 1.3e-12 of their peak with one period, and still with a quarter
-    #: (tests/test_hammer.py).  Two periods, as before 2026-12-01, cost a
+    #: (tests/test_hammer.py).  Two periods would cost a
     #: treble strike's first block 15-19 % more CPU (keys 96 and 105:
     #: 418 -> 353 and 433 -> 350 us on one thread).
     RELEASE_PERIODS = 1.0

@@ -214,7 +214,7 @@ class OneStringVoice(Voice):
             design_store.save("setups", store, dict(self._setups))
         # each setup's slot template at the full buzz, as a note-on makes it:
         # a key's first note-on in a live stream made it in the audio thread
-        # (56-76 us of the sitar's, 2026-11-30)
+        # (56-76 us of the sitar's on a 2-vCPU Xeon)
         for su in list(self._setups.values()):
             try:
                 self._own_template(su)

@@ -57,8 +57,8 @@ KEYS = (21, 33, 45, 57, 60, 69, 81, 93, 105, 108)
 OVERRIDES: tuple = ()
 #: the clock every measure reads (``--clock``): the wall clock, or this
 #: process's CPU time, which time-slicing on a loaded machine does not
-#: inflate (2026-11-26, at a load of 6-7 on 2 vCPUs, the wall clock read a
-#: chord of 33 % at 72-224 %, CPU time at 35-44 %)
+#: inflate (at a load of 6-7 on 2 vCPUs, the wall clock read a chord of
+#: 33 % at 72-224 %, CPU time at 35-44 %)
 clock = time.perf_counter
 
 

@@ -10,7 +10,7 @@ grand's string with one dispersion section), ns per sample of
 * the lockstep form (``_lanes_head`` + ``_lanes_biquads``, four strings as
   the lanes of a vector: ns per four-lane sample) and the scalar form
   (``_head_sos`` + ``_biquads``);
-* split as before 2026-11-27 (the head takes up to four biquads, the rest
+* split the plain way (the head takes up to four biquads, the rest
   in passes of four), and as the kernels split them now (the head takes
   them all up to ``_LANES_HEAD_SOS`` / ``_HEAD_SOS``, else one, or with
   32 vector registers what passes of four leave; the rest

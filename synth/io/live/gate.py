@@ -9,7 +9,7 @@ when another thread of ours holds it) or a wait inside the callback.  The
 thread then dies holding that lock, and every other thread of the process
 waits for it for ever: ``synth play --jack`` hung at Ctrl-C/SIGTERM.
 
-Measured on 2026-12-01 with a JACK-Client client whose callback runs about
+Measured with a JACK-Client client whose callback runs about
 1 ms of Python while another thread spins (``jackd -d dummy -r 48000 -p
 128``): deactivating it hung 16 runs of 20; with the gate closed first and
 the spinning thread stopped, 0 of 20.  The full-suite run that found it
