@@ -724,3 +724,38 @@ def test_a_dry_body_runs_no_modes_and_gives_the_direct_part(inputs, outputs):
         xx = (x[0] if inputs == 1 else x).copy()
         b.process(xx, out=xx)
         assert np.max(np.abs(np.atleast_2d(xx) - ys[1])) < 1e-14
+
+
+def test_a_board_is_kept_on_disk_for_the_next_process(tmp_path, monkeypatch):
+    """With a store (the engine gives the design store), the board's modes
+    and their white-noise energies are saved, and a later process (the
+    per-process memo emptied) loads them without drawing the modes again:
+    the same body to the bit, as without a store.  A store holding
+    something else under that key is ignored."""
+    from synth.dsp import body as BM
+    from synth.voices import design_store
+
+    kw = dict(n_modes=120, seed=5, inputs=2, outputs=2, peaks=[[80.0, 8.0, 10.0]])
+    monkeypatch.setenv(design_store.ENV, str(tmp_path))
+    monkeypatch.setattr(BM, "_BOARDS", {})
+    plain = Body(FS, **kw)
+    a = Body(FS, store=design_store, **kw)
+    assert list(tmp_path.glob("body-*.pkl"))
+    monkeypatch.setattr(BM, "_BOARDS", {})
+
+    def no_modes(*args, **kwargs):
+        raise AssertionError("drawn again")
+
+    monkeypatch.setattr(BM, "soundboard_modes", no_modes)
+    b = Body(FS, store=design_store, **kw)
+    x = np.random.default_rng(4).standard_normal((2, 3000))
+    outs = []
+    for body in (plain, a, b):
+        assert np.array_equal(body._gram_modal, plain._gram_modal)
+        outs.append(body.process(x))
+    assert np.array_equal(outs[0], outs[1]) and np.array_equal(outs[0], outs[2])
+    monkeypatch.setattr(BM, "_BOARDS", {})
+    key = (float(FS), 120, 5, 1.0, 0.0, 2, 2, ((80.0, 8.0, 10.0),))
+    design_store.save("body", key, "not a board")
+    with pytest.raises(AssertionError, match="drawn again"):
+        Body(FS, store=design_store, **kw)

@@ -398,15 +398,33 @@ LIGHT_RUN = """
     ctx = numba.core.registry.cpu_target.target_context
     plain_refresh = type(ctx).refresh
     type(ctx).refresh = lambda self: (refreshes.append(1), plain_refresh(self))[1]
+    import llvmlite.binding as ll
+    parses = []
+    plain_parse = ll.parse_bitcode
+    ll.parse_bitcode = lambda b, *a: (parses.append(1), plain_parse(b, *a))[1]
+    import synth.kernels.cache as K
+    objs = []
+    plain_elf = K.elf_defined_symbols
+    K.elf_defined_symbols = lambda o: (objs.append(o), plain_elf(o))[1]
     import {pkg}.caller as c
     v = c.f()
-    print(v, sum(c.f.stats.cache_hits.values()), len(refreshes), "numba.np.linalg" in sys.modules)
+    print(v, sum(c.f.stats.cache_hits.values()), len(refreshes), "numba.np.linalg" in sys.modules,
+          len(parses))
+    ll.parse_bitcode = plain_parse
 
     @numba.njit
     def g(x):                       # not cached: a compile after the load
         return x * 2.0
 
-    print(g(c.f()), "numba.np.linalg" in sys.modules)
+    @numba.njit
+    def h():                        # links the loaded library into its own
+        return c.f() + 1.0
+
+    print(g(c.f()), "numba.np.linalg" in sys.modules, h())
+    mod = c.f.overloads[c.f.signatures[0]].library._get_module_for_linking()
+    names = {{v.name for vs in (mod.functions, mod.global_variables) for v in vs
+              if not v.is_declaration and v.linkage.name not in ("private", "internal")}}
+    print([plain_elf(o) == names for o in objs])     # the entries loaded lazily
 """
 
 
@@ -414,10 +432,13 @@ LIGHT_RUN = """
 def test_a_warm_load_skips_numbas_refresh_and_a_later_compile_still_works(tmp_path):
     """Loading the keyed folder's compiled code does not refresh numba's
     target context (the lowering registries, 0.24 s of a warm ``synth
-    note``): the second run of the toy ``keyed`` package loads its caller
-    with no refresh and without importing numba's linalg lowering; a
-    function compiled afterwards in the same process (numba's compiler
-    refreshes the contexts itself) still compiles and runs.  The control
+    note``) nor parse the library's bitcode for linking (0.13 s of a warm
+    grand note): the second run of the toy ``keyed`` package loads its
+    caller with no refresh, no bitcode parsed and without importing numba's
+    linalg lowering; a function compiled afterwards in the same process
+    (numba's compiler refreshes the contexts itself) still compiles and
+    runs, and one that calls the loaded function links it in; the symbols
+    read from the object code are the names the bitcode defines.  The control
     ``plain``, another library's cached functions, keeps numba's load,
     which refreshes."""
     env = _env(tmp_path, tmp_path / "nc")
@@ -425,9 +446,11 @@ def test_a_warm_load_skips_numbas_refresh_and_a_later_compile_still_works(tmp_pa
         _toy(tmp_path, pkg, init, "1.0")
     _run(LIGHT_RUN.format(pkg="keyed"), env, tmp_path)          # compiles
     _run(LIGHT_RUN.format(pkg="plain"), env, tmp_path)
-    first, second = _run(LIGHT_RUN.format(pkg="keyed"), env, tmp_path)
-    assert first.split() == ["1.5", "1", "0", "False"], first
-    assert second.split() == ["3.0", "True"], second
-    first, _ = _run("import keyed\n" + textwrap.dedent(LIGHT_RUN.format(pkg="plain")), env, tmp_path)
-    value, hits, refreshes, _ = first.split()
-    assert (value, hits) == ("1.5", "1") and int(refreshes) >= 1, first
+    first, second, names = _run(LIGHT_RUN.format(pkg="keyed"), env, tmp_path)
+    assert first.split() == ["1.5", "1", "0", "False", "0"], first     # no bitcode parsed
+    assert second.split() == ["3.0", "True", "2.5"], second
+    assert names == "[True]"    # the object's symbols: the bitcode's names (less the internal .const. strings)
+    first, _, _ = _run("import keyed\n" + textwrap.dedent(LIGHT_RUN.format(pkg="plain")), env,
+                       tmp_path)
+    value, hits, refreshes, _, parses = first.split()
+    assert (value, hits) == ("1.5", "1") and int(refreshes) >= 1 and int(parses) >= 1, first

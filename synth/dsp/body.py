@@ -71,6 +71,32 @@ MAX_IR_SAMPLES = 1 << 26
 _RESPONSE_CHUNK = 2048
 
 
+#: mode sets and their modal Gram matrices, by the board's arguments (:class:`Body`)
+_BOARDS: dict = {}
+
+
+def _modal_energy(m) -> np.ndarray:
+    """The modal part's white-noise Gram matrix (B, B), summed over the
+    outputs, at the reference rate, of the mode set ``m`` (a
+    :class:`~synth.physics.soundboard.BoardModes`)."""
+    K, B, C = m.n_modes, m.inputs, m.outputs
+    ref = resonator_coefs(REFERENCE_FS, m.freqs_hz, m.t60_s, np.ones(K))
+    banks = []
+    for c in range(C):
+        row = []
+        for b in range(B):
+            k = ref.copy()
+            k[0] *= m.pickup[c] * m.drive[b]
+            row.append(k)
+        banks.append(row)
+    gram = np.zeros((B, B))
+    for c in range(C):
+        for b in range(B):
+            for b2 in range(B):
+                gram[b, b2] += white_noise_cross_energy(banks[c][b], banks[c][b2])
+    return gram
+
+
 class Body:
     """Soundboard modal bank with a direct part, streaming block by block.
 
@@ -122,10 +148,24 @@ class Body:
     """
 
     def __init__(self, fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, wet=DEFAULT_WET,
-                 size=1.0, brightness=0.0, inputs=1, outputs=1, peaks=(), spread_ms=0.0):
-        self.modes = soundboard_modes(fs, n_modes=n_modes, seed=seed, size=size,
-                                      brightness=brightness, inputs=inputs, outputs=outputs,
-                                      peaks=peaks)
+                 size=1.0, brightness=0.0, inputs=1, outputs=1, peaks=(), spread_ms=0.0,
+                 store=None):
+        def board():
+            modes = soundboard_modes(fs, n_modes=n_modes, seed=seed, size=size,
+                                     brightness=brightness, inputs=inputs, outputs=outputs,
+                                     peaks=peaks)
+            return modes, _modal_energy(modes)
+
+        if store is None:
+            self.modes, gram = board()
+        else:
+            # (the modes and their energies: 20-25 ms for the grand's 2 x 2
+            # board, kept on disk by ``store``, the engine's
+            # synth.voices.design_store, as the listener's calibration)
+            key = (float(fs), n_modes, seed, size, brightness, inputs, outputs,
+                   tuple(tuple(p) for p in peaks))
+            self.modes, gram = store.kept(_BOARDS, "body", key, board,
+                                          lambda v: isinstance(v, tuple) and len(v) == 2)
         m = self.modes
         self.fs = float(fs)
         self.n_modes = m.n_modes  # the diffuse modes and the named peaks
@@ -156,14 +196,10 @@ class Body:
         #: summed over outputs, and X = mean_b sum_c dry_cb m_cb[0]
         #: both at the reference rate (the board's level and balance do not
         #: depend on the rate it runs at: soundboard.REFERENCE_FS)
-        self._gram_modal = np.zeros((B, B))
+        self._gram_modal = gram.copy()
         ref = self.coefs if self.fs == REFERENCE_FS else resonator_coefs(
             REFERENCE_FS, m.freqs_hz, m.t60_s, np.ones(self.n_modes))
         banks = [[self._bank(c, b, ref) for b in range(B)] for c in range(C)]
-        for c in range(C):
-            for b in range(B):
-                for b2 in range(B):
-                    self._gram_modal[b, b2] += white_noise_cross_energy(banks[c][b], banks[c][b2])
         self.ir_first = np.array([[banks[c][b][0].sum() for b in range(B)] for c in range(C)])
         self._cross = float((m.dry * self.ir_first).sum() / B)
         self.wet = wet
@@ -171,13 +207,15 @@ class Body:
         self.spread = None if float(spread_ms) == 0.0 else Spread(self.fs, spread_ms, C)
 
     @classmethod
-    def from_design(cls, fs, design):
+    def from_design(cls, fs, design, store=None):
         """The body an instrument describes (a
-        :class:`synth.physics.soundboard.BodyDesign`) at the rate ``fs`` (Hz)."""
+        :class:`synth.physics.soundboard.BodyDesign`) at the rate ``fs`` (Hz);
+        ``store``: where its modes are kept between runs (an object with
+        ``kept(memo, kind, key, make, valid)``, as :class:`Body`)."""
         return cls(fs, n_modes=design.n_modes, seed=design.seed, wet=design.wet,
                    size=design.size, brightness=design.brightness,
                    inputs=design.inputs, outputs=design.outputs, peaks=design.peaks,
-                   spread_ms=design.spread_ms)
+                   spread_ms=design.spread_ms, store=store)
 
     def _bank(self, c, b, coefs=None):
         """Coefficients (3, K) of the modal path from input b to output c

@@ -177,7 +177,8 @@ class Engine(ChannelControls):
         self.drone = Drone.from_preset(instrument.preset, self.fs_in_exact) if drone else None
         #: the body (soundboard) stage after decimation, if the instrument has one
         design = instrument.body()
-        self.body = None if design is None else Body.from_design(fs_out, design)
+        self.body = None if design is None else Body.from_design(fs_out, design,
+                                                                 store=design_store)
         #: decimated channels: the body's inputs (buses beyond them are summed
         #: into the first before decimation), or one per bus without a body
         self.n_dec = min(self.buses, self.body.inputs) if self.body is not None else self.buses
