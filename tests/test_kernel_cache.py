@@ -9,6 +9,7 @@ import shutil
 import subprocess
 import sys
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
@@ -454,3 +455,62 @@ def test_a_warm_load_skips_numbas_refresh_and_a_later_compile_still_works(tmp_pa
                        tmp_path)
     value, hits, refreshes, _, parses = first.split()
     assert (value, hits) == ("1.5", "1") and int(refreshes) >= 1 and int(parses) >= 1, first
+
+
+# ---- two processes, one compile ------------------------------------------------------------
+BIG = """
+    from numba import njit
+
+
+    @njit(cache=True)
+    def big(x):
+        y = x
+{body}
+        return y
+"""
+RACE = """
+    import os, sys, time
+    import {pkg}.big as b
+    start = {start!r}
+    while not os.path.exists(start):      # both processes call at once
+        time.sleep(0.001)
+    v = b.big(1.0)
+    print(v, sum(b.big.stats.cache_misses.values()), sum(b.big.stats.cache_hits.values()))
+"""
+
+
+@pytest.mark.slow  # two races of two processes compiling a long function: ~15 s of CPU
+def test_two_processes_that_need_one_kernel_compile_it_once(tmp_path):
+    """Two processes call one cached function of a keyed folder at the same
+    moment on a cold cache: one compiles it, the other waits for that
+    compile and loads its code (``install_compile_lock``).  The function is
+    long enough (300 statements: seconds to compile) that without
+    the lock both would compile it."""
+    body = "\n".join(f"        y = y * 1.0000001 + {i % 7}.0 / (y + {i + 1}.0)" for i in range(300))
+    env = _env(tmp_path, tmp_path / "nc")
+    for pkg, init in (("raced", KEYED_INIT), ("plain", "")):
+        d = tmp_path / pkg
+        d.mkdir()
+        (d / "__init__.py").write_text(textwrap.dedent(init))
+        (d / "big.py").write_text(textwrap.dedent(BIG.format(body=body)))
+
+    def race(pkg):
+        start = tmp_path / f"go-{pkg}"
+        code = textwrap.dedent(RACE.format(pkg=pkg, start=str(start)))
+        procs = [subprocess.Popen([sys.executable, "-c", code], env=env, cwd=str(tmp_path),
+                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                 for _ in range(2)]
+        time.sleep(3.0)                   # both have imported numba and the package
+        start.write_text("")
+        outs = []
+        for p in procs:
+            out, err = p.communicate(timeout=300)
+            assert p.returncode == 0, err
+            outs.append(out.split())
+        assert len({o[0] for o in outs}) == 1, outs
+        return sorted((int(o[1]), int(o[2])) for o in outs)
+
+    assert race("plain") == [(1, 0), (1, 0)]          # numba alone: compiled twice
+    assert race("raced") == [(0, 1), (1, 0)]          # once, and loaded by the other
+    locks = list((tmp_path / "nc").rglob(".compile/*.lock"))
+    assert [q.name for q in locks] == ["raced.big.big.lock"], locks

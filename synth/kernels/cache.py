@@ -62,8 +62,15 @@ beyond ``strings``, which every user of the kernels imports anyway).
 
 Loading: a kernel loaded from the keyed folder skips numba's refresh of
 its target context, which imports every lowering registry numba has and
-cost a warm note a third of its time (:func:`install_light_load`); a
+cost a warm note a third of its time (:func:`install_light_load`), and
+reads the symbols it defines from its object code, parsing its linking
+bitcode only if a compile links it in (:func:`_install_lazy_linking`); a
 compile still refreshes.
+
+Saving and compiling between processes: a save takes a lock on the folder
+and writes the data before the index (:func:`install_save_lock`), and two
+processes that need one kernel compile it once, the second waiting for
+the first (:func:`install_compile_lock`).
 
 Old folders: each load marks its folder as used (its modification time) and
 deletes the siblings of the same name pattern beyond the :data:`KEEP` most
@@ -276,6 +283,7 @@ def load_keyed(package: str, folder: str | os.PathLike, name: str = NAME,
         prune(path, name, keep)
         install_save_lock(path)
         install_light_load(path)
+        install_compile_lock(path)
     return path
 
 
@@ -373,6 +381,75 @@ def install_save_lock(root: str | os.PathLike) -> bool:
                   _LOCKED_ROOTS, root, make)
 
 
+#: the folder, in a keyed folder, of the kernels' compile locks (:func:`install_compile_lock`)
+COMPILE_LOCKS = ".compile"
+#: the longest a process waits for another's compile of a kernel before it
+#: compiles the kernel itself (s): a compile that is stuck or very slow only
+#: costs the waiter what the lock would have saved
+COMPILE_WAIT_S = 900.0
+_COMPILE_ROOTS: set[str] = set()
+
+
+def install_compile_lock(root: str | os.PathLike) -> bool:
+    """Make two processes that need one kernel of ``root`` compile it once:
+    returns whether the guard is in place.
+
+    numba compiles a function that its cache lacks in every process that
+    calls it, each on its own, and saves it from each.  Two processes
+    started together on a cold cache (``synth demo``'s phrases, ``synth
+    warmup --jobs 2``, two test workers, Dask workers) therefore compile
+    the kernels they share twice: ``synth warmup --jobs 2`` spent 378 CPU
+    s compiling against 248 on one process (``docs/benchmarks.md``,
+    "Start-up").  Here ``Dispatcher.compile`` of a function cached under
+    ``root`` takes an exclusive lock named after the function
+    (``root/.compile/<module>.<name>.lock``, ``fcntl.flock``) around
+    numba's own load-or-compile: a second process waits for the first and
+    then loads what it saved.  Locks are per function and taken from caller
+    to callee (numba compiles a callee while typing its caller), and the
+    kernels call each other without cycles, so two processes never wait
+    for each other (within a process, numba's compiler lock is taken
+    first, so one thread at a time holds any); a wait longer than :data:`COMPILE_WAIT_S` gives up and
+    compiles.  A function already in this process takes no lock.  Without
+    ``fcntl`` (Windows) nothing changes."""
+    try:
+        import fcntl
+        from numba.core import dispatcher, sigutils
+        from numba.core.compiler_lock import global_compiler_lock
+    except ImportError:                      # pragma: no cover - Windows, another numba
+        return False
+    del fcntl                                # (only whether there is one: _flocked takes it)
+    cls = getattr(dispatcher, "Dispatcher", None)
+    if cls is None or not hasattr(cls, "compile"):
+        return False                         # pragma: no cover - another numba
+    _COMPILE_ROOTS.add(os.path.abspath(os.fspath(root)))
+    plain = cls.compile
+    if hasattr(plain, "__wrapped_plain__"):
+        return True
+
+    def compile(self, sig):
+        root = _root_of(getattr(self, "_cache", None), _COMPILE_ROOTS)
+        if root is None or not hasattr(self, "overloads") or not hasattr(self, "py_func"):
+            return plain(self, sig)
+        try:
+            args, _ = sigutils.normalize_signature(sig)
+            if tuple(args) in self.overloads:
+                return plain(self, sig)
+        except Exception:                    # (numba's compile says what is wrong)
+            return plain(self, sig)
+        f = self.py_func
+        name = re.sub(r"[^A-Za-z0-9_.-]", "_", f"{f.__module__}.{f.__qualname__}")
+        # numba's own lock first (re-entrant: numba's compile takes it
+        # again): one thread of a process at a time holds compile locks, so
+        # two threads never hold one each and wait for the other's
+        with global_compiler_lock, _flocked(os.path.join(root, COMPILE_LOCKS, name + ".lock"),
+                                            COMPILE_WAIT_S):
+            return plain(self, sig)
+
+    compile.__wrapped_plain__ = plain
+    cls.compile = compile
+    return True
+
+
 def _save_in_order(cache_file, key, data) -> None:
     """numba's ``IndexDataCacheFile.save`` of ``cache_file`` with the data
     written before the index (:func:`install_save_lock`)."""
@@ -409,7 +486,10 @@ def _patch(cls, name: str, need, roots: set, root, make) -> bool:
 def _root_of(cache, roots) -> str | None:
     """The folder of ``roots`` that holds the entries of ``cache`` (a numba
     cache object: its ``_cache_path``), or None."""
-    path = os.path.abspath(getattr(cache, "_cache_path", ""))
+    path = getattr(cache, "_cache_path", None)
+    if not path:                             # (a function without a cache: numba's NullCache)
+        return None
+    path = os.path.abspath(path)
     for r in roots:
         if path == r or path.startswith(r + os.sep):
             return r
@@ -556,11 +636,14 @@ def elf_defined_symbols(obj: bytes) -> set[str] | None:
 
 
 class _flocked:
-    """An exclusive ``fcntl.flock`` on ``path`` (created) for a ``with``
-    block; nothing where ``fcntl`` or the file is not available."""
+    """An exclusive ``fcntl.flock`` on ``path`` (created, and its folder) for
+    a ``with`` block; nothing where ``fcntl`` or the file is not available.
+    ``wait_s``: the longest to wait for it (None: as long as it takes); then
+    the block runs without it."""
 
-    def __init__(self, path: str):
+    def __init__(self, path: str, wait_s: float | None = None):
         self.path = path
+        self.wait_s = wait_s
         self.fd = None
 
     def __enter__(self):
@@ -569,8 +652,25 @@ class _flocked:
         except ImportError:                  # pragma: no cover (Windows)
             return self
         try:
-            self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
-            fcntl.flock(self.fd, fcntl.LOCK_EX)
+            try:
+                self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            except FileNotFoundError:
+                os.makedirs(os.path.dirname(self.path), exist_ok=True)
+                self.fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            if self.wait_s is None:
+                fcntl.flock(self.fd, fcntl.LOCK_EX)
+            else:
+                import time
+
+                end = time.monotonic() + self.wait_s
+                while True:
+                    try:
+                        fcntl.flock(self.fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+                        break
+                    except BlockingIOError:
+                        if time.monotonic() >= end:
+                            raise
+                        time.sleep(0.05)
         except OSError:
             if self.fd is not None:
                 os.close(self.fd)
