@@ -139,6 +139,39 @@ def test_the_grand_keeps_its_keys_and_its_sympathetic_strings(store):
             assert np.array_equal(x, y) if isinstance(x, np.ndarray) else x == y, name
 
 
+def test_a_grand_key_designed_for_one_note_is_kept_for_the_next_process(store, monkeypatch):
+    """A key that a single note designs (no :meth:`warm`) is saved at once,
+    in the one file :meth:`warm` fills: the next process (its designs
+    emptied) loads it and designs nothing for it, the same strings; a key
+    not designed before is designed and joins the file."""
+    from synth.voices import grand
+    from synth.voices.grand import GrandVoice
+
+    monkeypatch.setattr(grand, "_DESIGNS", {})
+    v = build_voice("grand-piano", [])
+    a = v.setup(60)
+    assert [n for n in _files(store) if n.startswith("grand-keys-")]
+    kept = design_store.load("grand-keys", v._store_key())
+    assert 60 in kept and 61 not in kept
+
+    designed = []
+    plain = GrandVoice._design
+    monkeypatch.setattr(GrandVoice, "_design",
+                        lambda self, key, M: (designed.append(key), plain(self, key, M))[1])
+    monkeypatch.setattr(grand, "_DESIGNS", {})              # a new process
+    w = build_voice("grand-piano", [])
+    b = w.setup(60)
+    assert designed == [] and b is not a
+    assert len(a) == len(b) == 3
+    for x, y in zip(a, b):
+        assert (x.f1_hz, x.sub, x.cells, x.b0, x.a1, x.n_disp) == (y.f1_hz, y.sub, y.cells, y.b0,
+                                                                   y.a1, y.n_disp)
+        assert np.array_equal(x.sos, y.sos)
+    w.setup(61)
+    assert designed == [61]
+    assert 61 in design_store.load("grand-keys", w._store_key())
+
+
 def test_the_sitar_keeps_its_taraf_and_chikari(store):
     """The sitar's free strings (13 strings designed at every engine's
     build: 0.1 s) are saved by the first voice and loaded by the next,

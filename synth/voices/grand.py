@@ -84,6 +84,7 @@ bridge inputs, one or two outputs) and the engine builds it
 from __future__ import annotations
 
 import math
+import pickle
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -103,8 +104,12 @@ from .dampers import KeyboardDampers
 from .quality import quality_level
 from .registry import register_voice
 
-#: per-key string designs, by (preset, internal rate)
+#: per-key string designs, by (preset, internal rate, dispersion tolerance)
 _DESIGNS: dict = {}
+#: the mark of a ``_DESIGNS`` entry filled from the design store
+#: (:meth:`GrandVoice._load_kept`): in the dict itself, so that a dict made
+#: anew (a test's fresh process) loads again
+_FROM_STORE = ("filled from the design store",)
 #: sympathetic-string designs, by (preset, output rate): designing the 72
 #: strings took 0.41 s, paid by every engine built (a batch worker builds
 #: one per job; a 4-s grand note renders in 0.09 s)
@@ -207,23 +212,73 @@ class GrandVoice(KeyboardDampers, Voice):
         thread against 25-35 us for the next on a 2-vCPU Xeon (a chord of
         eight keys not yet played, about 1 ms of a 2.67 ms period)."""
         store = self._store_key()
-        if not self._keys:
+        packed = self._kept(store)
+        n = len(packed)
+        self._warming = True                # (one save at the end: _designed)
+        try:
+            for key in range(self.KEY_LOW, self.KEY_HIGH + 1):
+                pol = self.polar_setup(key)
+                for sus in (self.setup(key), self.coarse_setup(key)):
+                    m = len(sus)
+                    self._hammer_set_of(key, sus, m, pol)
+                    self._group_of(key, sus, pol)
+                    if pol is not None:
+                        self._group_of(key, sus, None)      # (its polarization still sounding)
+                    if m >= 2:
+                        self._hammer_set_of(key, sus, m - 1, pol)
+        finally:
+            self._warming = False
+        if len(packed) > n:
+            design_store.save("grand-keys", store, dict(packed))
+
+    #: set while :meth:`warm` designs every key (it saves them once, at the end)
+    _warming = False
+
+    def _kept(self, store) -> dict:
+        """The designs the design store keeps under ``store`` (this voice's
+        preset, rate and tolerance), each still pickled (design key ->
+        bytes): read once per process, kept beside the process's designs
+        (shared by every voice of the preset, rate and tolerance).  Each
+        design is unpickled when a note first needs it: the whole file of
+        a warmed grand (0.66 MB) unpickled took 25-40 ms, as long as
+        designing one key."""
+        packed = self._keys.get(_FROM_STORE)
+        if packed is None:
             kept = design_store.load("grand-keys", store)
-            if isinstance(kept, dict):
-                self._keys.update(kept)
-        n = len(self._keys)
-        for key in range(self.KEY_LOW, self.KEY_HIGH + 1):
-            pol = self.polar_setup(key)
-            for sus in (self.setup(key), self.coarse_setup(key)):
-                m = len(sus)
-                self._hammer_set_of(key, sus, m, pol)
-                self._group_of(key, sus, pol)
-                if pol is not None:
-                    self._group_of(key, sus, None)      # (its polarization still sounding)
-                if m >= 2:
-                    self._hammer_set_of(key, sus, m - 1, pol)
-        if len(self._keys) > n:
-            design_store.save("grand-keys", store, dict(self._keys))
+            packed = self._keys[_FROM_STORE] = (
+                dict(kept) if isinstance(kept, dict)
+                and all(isinstance(v, bytes) for v in kept.values()) else {})
+        return packed
+
+    def _designed(self, dk, make):
+        """``self._keys[dk]`` (a key's strings on a grid, or its second
+        polarization): this process's, else the design store's
+        (:meth:`_kept`), else made by ``make()``.  A design made outside
+        :meth:`warm` is saved at once with the others (one file per preset,
+        rate and tolerance, which :meth:`warm` fills, not one per key: the
+        store keeps its 128 newest files): a key took 35-40 ms to design
+        (its strings' dispersion cascades) and about 1 ms to load, so a
+        note or a piece played again, in another process, designs
+        nothing."""
+        keys = self._keys
+        if dk not in keys:
+            store = self._store_key()
+            packed = self._kept(store)
+            value = None
+            if dk in packed:
+                try:
+                    value = pickle.loads(packed[dk])
+                except Exception:               # (a bad entry: designed anew)
+                    value = None
+                if not (isinstance(value, tuple) or isinstance(value, GrandSetup)):
+                    value = None
+            if value is None:
+                value = make()
+                packed[dk] = pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL)
+                if not self._warming:
+                    design_store.save("grand-keys", store, dict(packed))
+            keys[dk] = value
+        return keys[dk]
 
     def _hammer_set_of(self, key: int, sus, struck: int, polar=None):
         """The hammer set striking ``struck`` of the strings ``sus`` of
@@ -373,7 +428,7 @@ class GrandVoice(KeyboardDampers, Voice):
         if key not in self._keys:
             gs = P.grand_string(key)
             M = self.capo_grid if (gs.has_capo and key >= self.fine_grid_key) else 1
-            self._keys[key] = self._design(key, M)
+            return self._designed(key, lambda: self._design(key, M))
         return self._keys[key]
 
     def coarse_setup(self, key: int) -> tuple[GrandSetup, ...]:
@@ -384,10 +439,7 @@ class GrandVoice(KeyboardDampers, Voice):
         fine = self.setup(key)
         if fine[0].sub == 1:
             return fine
-        ck = ("coarse", key)
-        if ck not in self._keys:
-            self._keys[ck] = self._design(key, 1)
-        return self._keys[ck]
+        return self._designed(("coarse", key), lambda: self._design(key, 1))
 
     @property
     def polarization(self) -> float:
@@ -417,10 +469,7 @@ class GrandVoice(KeyboardDampers, Voice):
         key = int(key)
         if share <= 0.0 or not (int(sp.polarization_from_key) <= key <= int(sp.polarization_to_key)):
             return None
-        pk = ("polar", key)
-        if pk not in self._keys:
-            self._keys[pk] = self._design_polar(key, share)
-        return self._keys[pk]
+        return self._designed(("polar", key), lambda: self._design_polar(key, share))
 
     def _design_polar(self, key: int, share: float) -> GrandSetup:
         """:meth:`polar_setup`'s string, designed on the engine's grid."""
