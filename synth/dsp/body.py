@@ -75,20 +75,22 @@ _RESPONSE_CHUNK = 2048
 _BOARDS: dict = {}
 
 
+def _path_coefs(m, c, b, coefs) -> np.ndarray:
+    """Coefficients (3, K) of the modal path from input b to output c of the
+    mode set ``m``: the unit sections ``coefs`` scaled by the pickup and
+    the drive."""
+    k = coefs.copy()
+    k[0] *= m.pickup[c] * m.drive[b]
+    return k
+
+
 def _modal_energy(m) -> np.ndarray:
     """The modal part's white-noise Gram matrix (B, B), summed over the
     outputs, at the reference rate, of the mode set ``m`` (a
     :class:`~synth.physics.soundboard.BoardModes`)."""
-    K, B, C = m.n_modes, m.inputs, m.outputs
-    ref = resonator_coefs(REFERENCE_FS, m.freqs_hz, m.t60_s, np.ones(K))
-    banks = []
-    for c in range(C):
-        row = []
-        for b in range(B):
-            k = ref.copy()
-            k[0] *= m.pickup[c] * m.drive[b]
-            row.append(k)
-        banks.append(row)
+    B, C = m.inputs, m.outputs
+    ref = resonator_coefs(REFERENCE_FS, m.freqs_hz, m.t60_s, np.ones(m.n_modes))
+    banks = [[_path_coefs(m, c, b, ref) for b in range(B)] for c in range(C)]
     gram = np.zeros((B, B))
     for c in range(C):
         for b in range(B):
@@ -220,9 +222,7 @@ class Body:
     def _bank(self, c, b, coefs=None):
         """Coefficients (3, K) of the modal path from input b to output c
         (``coefs``: the unit sections, by default the body's own)."""
-        k = (self.coefs if coefs is None else coefs).copy()
-        k[0] *= self.modes.pickup[c] * self.modes.drive[b]
-        return k
+        return _path_coefs(self.modes, c, b, self.coefs if coefs is None else coefs)
 
     # -- parameters -------------------------------------------------------------
 

@@ -408,8 +408,8 @@ def install_compile_lock(root: str | os.PathLike) -> bool:
     to callee (numba compiles a callee while typing its caller), and the
     kernels call each other without cycles, so two processes never wait
     for each other (within a process, numba's compiler lock is taken
-    first, so one thread at a time holds any); a wait longer than :data:`COMPILE_WAIT_S` gives up and
-    compiles.  A function already in this process takes no lock.  Without
+    first, so one thread at a time holds any); a wait longer than
+    :data:`COMPILE_WAIT_S` gives up and compiles.  A function already in this process takes no lock.  Without
     ``fcntl`` (Windows) nothing changes."""
     try:
         import fcntl
@@ -564,7 +564,8 @@ def _install_lazy_linking() -> bool:
     walks it through ctypes to list the symbols the library defines: 0.16
     of the grand note's 0.24 s of loads (a 2-vCPU Zen 3).  Here
     the names come from the object code's ELF symbol table (the same
-    names, less private ``.const.`` strings) and the bitcode is parsed
+    names, less the internal ``.const.`` strings, which numba never looks
+    up by name) and the bitcode is parsed
     only when a compile links the library in.  The machine code is
     numba's own: the same samples.  Non-ELF objects keep numba's path."""
     try:

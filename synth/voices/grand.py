@@ -107,7 +107,7 @@ from .registry import register_voice
 #: per-key string designs, by (preset, internal rate, dispersion tolerance)
 _DESIGNS: dict = {}
 #: the mark of a ``_DESIGNS`` entry filled from the design store
-#: (:meth:`GrandVoice._load_kept`): in the dict itself, so that a dict made
+#: (:meth:`GrandVoice._kept`): in the dict itself, so that a dict made
 #: anew (a test's fresh process) loads again
 _FROM_STORE = ("filled from the design store",)
 #: sympathetic-string designs, by (preset, output rate): designing the 72
@@ -257,7 +257,7 @@ class GrandVoice(KeyboardDampers, Voice):
         :meth:`warm` is saved at once with the others (one file per preset,
         rate and tolerance, which :meth:`warm` fills, not one per key: the
         store keeps its 128 newest files): a key took 35-40 ms to design
-        (its strings' dispersion cascades) and about 1 ms to load, so a
+        (its strings' dispersion cascades) and 5-8 ms to load, so a
         note or a piece played again, in another process, designs
         nothing."""
         keys = self._keys
@@ -270,7 +270,7 @@ class GrandVoice(KeyboardDampers, Voice):
                     value = pickle.loads(packed[dk])
                 except Exception:               # (a bad entry: designed anew)
                     value = None
-                if not (isinstance(value, tuple) or isinstance(value, GrandSetup)):
+                if not isinstance(value, (tuple, GrandSetup)):
                     value = None
             if value is None:
                 value = make()
