@@ -112,11 +112,14 @@ def test_the_folder_keeps_the_newest(store, monkeypatch):
 
 
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine (1.5-2.1 s, 2026-11-30): the grand designed twice
-def test_the_grand_keeps_its_keys_and_its_sympathetic_strings(store):
+def test_the_grand_keeps_its_keys_and_its_sympathetic_strings(store, monkeypatch):
     from synth.voices import grand
 
     # a fresh process's caches: another test of this process (any grand
-    # engine) may have designed the sympathetic strings already
+    # engine) may have designed the keys (and read another store's file:
+    # then warm() designs nothing new and saves nothing here) and the
+    # sympathetic strings already
+    monkeypatch.setattr(grand, "_DESIGNS", {})
     grand._SYMPATHETIC.clear()
     v = build_voice("grand-piano", [])
     v.warm()
