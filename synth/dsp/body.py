@@ -47,6 +47,7 @@ import numbers
 import numpy as np
 
 from .signal import as_mono_block, output_block
+from .board_mass import BoardMass
 from .spread import Spread
 
 from synth.kernels.body import body_process as _kernel_mono
@@ -135,6 +136,10 @@ class Body:
         The radiation's spread, ms (0 .. 20; 0, the default: none): an
         allpass cascade on the outputs
         (:func:`synth.physics.soundboard.spread_allpasses`).
+    mass_hz : float, optional
+        The board's mass corner, Hz (0 .. 20000, under fs / 2; 0, the
+        default: none): above it the outputs fall 6 dB per octave
+        (:func:`synth.physics.soundboard.mass_pole`).
 
     Attributes
     ----------
@@ -151,7 +156,7 @@ class Body:
 
     def __init__(self, fs, n_modes=DEFAULT_N_MODES, seed=DEFAULT_SEED, wet=DEFAULT_WET,
                  size=1.0, brightness=0.0, inputs=1, outputs=1, peaks=(), spread_ms=0.0,
-                 store=None):
+                 store=None, mass_hz=0.0):
         def board():
             modes = soundboard_modes(fs, n_modes=n_modes, seed=seed, size=size,
                                      brightness=brightness, inputs=inputs, outputs=outputs,
@@ -207,6 +212,8 @@ class Body:
         self.wet = wet
         #: the radiation's spread on the outputs (:class:`synth.dsp.spread.Spread`), or None
         self.spread = None if float(spread_ms) == 0.0 else Spread(self.fs, spread_ms, C)
+        #: the board's mass law on the outputs (:class:`synth.dsp.board_mass.BoardMass`), or None
+        self.mass = None if float(mass_hz) == 0.0 else BoardMass(self.fs, mass_hz, C)
 
     @classmethod
     def from_design(cls, fs, design, store=None):
@@ -217,7 +224,7 @@ class Body:
         return cls(fs, n_modes=design.n_modes, seed=design.seed, wet=design.wet,
                    size=design.size, brightness=design.brightness,
                    inputs=design.inputs, outputs=design.outputs, peaks=design.peaks,
-                   spread_ms=design.spread_ms, store=store)
+                   spread_ms=design.spread_ms, store=store, mass_hz=design.mass_hz)
 
     def _bank(self, c, b, coefs=None):
         """Coefficients (3, K) of the modal path from input b to output c
@@ -304,6 +311,8 @@ class Body:
         b._state = np.zeros_like(self._state)
         if self.spread is not None:
             b.spread = self.spread.fresh_copy()
+        if self.mass is not None:
+            b.mass = self.mass.fresh_copy()
         if not self._mono:
             b._dry2 = self._dry2.copy()       # the wet setter writes it in place
         return b
@@ -313,6 +322,8 @@ class Body:
         self._state[:] = 0.0
         if self.spread is not None:
             self.spread.reset()
+        if self.mass is not None:
+            self.mass.reset()
 
     def _inputs(self, x):
         """x as a (B, n) float64 array with contiguous rows (a view when it can be)."""
@@ -368,12 +379,15 @@ class Body:
         -------
         ndarray of float64
             ``out[:n]`` for one output, ``out[:, :n]`` for two: the direct
-            part plus the modes, through the radiation's spread if the body
-            has one (:attr:`spread`).
+            part plus the modes, through the radiation's spread and the
+            board's mass law if the body has them (:attr:`spread`,
+            :attr:`mass`).
         """
         y = self._modes(x, out)
         if self.spread is not None:
             self.spread.process(y)
+        if self.mass is not None:
+            self.mass.process(y)
         return y
 
     def _modes(self, x, out):
@@ -444,6 +458,7 @@ class Body:
         n = int(n)
         saved = self._state.copy()
         saved_spread = None if self.spread is None else self.spread.state()
+        saved_mass = None if self.mass is None else self.mass.state()
         try:
             if self._mono:
                 self.reset()
@@ -465,6 +480,8 @@ class Body:
             self._state[:] = saved
             if saved_spread is not None:
                 self.spread.restore(saved_spread)
+            if saved_mass is not None:
+                self.mass.restore(saved_mass)
 
     def response(self, f_hz, weights=None):
         """Complex frequency response of the body (current ``wet``).
@@ -482,7 +499,8 @@ class Body:
         ndarray of complex128
             Shape (C, B, F), or (C, F) with ``weights``: ``dry_gain dry_cb +
             wet_gain sum_k pickup_ck drive_bk H_k(f)``, times the spread's
-            response (of magnitude 1) if the body has one.
+            response (of magnitude 1) and the mass law's if the body has
+            them.
         """
         f = np.atleast_1d(np.asarray(f_hz, dtype=np.float64))
         m = self.modes
@@ -496,6 +514,8 @@ class Body:
                                                       + self.dry_gain * m.dry[c, b])
         if self.spread is not None:
             H *= self.spread.response(f)
+        if self.mass is not None:
+            H *= self.mass.response(f)
         if weights is None:
             return H
         w = np.asarray(weights, dtype=np.float64)

@@ -211,6 +211,29 @@ every output, so the channels' sum (a mono mix) stays flat.  ``spread_ms
 = 0`` (the default): none.  The grand's 3.4 ms is fitted to the
 recording's time to the RMS peak (``tools/real_grand.py --octaves``).
 
+The board's mass
+----------------
+The modal bank's response is flat on average at every frequency (a tilt
+aside, ``brightness``), and its direct part is flat.  A board is not: from
+some frequency up its bridge and ribs move as a mass under the strings'
+force, so the velocity per unit force, and the sound, fall 6 dB per
+octave.  ``mass_hz`` sets that corner, a one-pole low-pass of unit gain at
+0 Hz on every output (:func:`mass_pole`),
+
+    H(z) = (1 - a) / (1 - a z^-1),   a = exp(-2 pi mass_hz / fs),
+
+the matched-z form of a mass's 1 / (1 + j f / mass_hz) (within 0.4 dB of
+it up to 8 kHz at 48 kHz with a 2 kHz corner; the digital pole falls
+less, -17.7 dB at 24 kHz against -21.6).  ``mass_hz = 0`` (the default):
+none.  The grand's 3 kHz is fitted to the recorded Yamaha C5, not
+measured on a board: without it the grand's partials over 3 kHz stood
+7-16 dB over the recording's re partial 1 on every octave from C2 (0.05-0.5
+s, medians by octave and band) and its attack centroid 1.33-1.46x the
+recording's; a 2 kHz corner brought the centroids to 0.97-1.11x but took
+C4's partial 7 under the recording's (-26.8 dB over its first second
+against -26.0) and the knee of key 96; 3 kHz keeps both (the grand's
+section of ``docs/voicing.md``).
+
 The knock
 ---------
 :func:`knock_pulse` and :func:`knock_impulse_ns`: when the key hits the
@@ -252,6 +275,7 @@ __all__ = [
     "knock_pulse",
     "knock_impulse_ns",
     "spread_allpasses",
+    "mass_pole",
 ]
 
 #: Default number of modes.
@@ -330,6 +354,8 @@ KNOCK_RATIO_MAX = 10.0
 SPREAD_RATIOS = (0.382, 0.618, 1.0)
 SPREAD_GAIN = 0.5
 SPREAD_RANGE_MS = (0.0, 20.0)
+#: the board's mass corner's allowed range (Hz; 0: none)
+MASS_RANGE_HZ = (0.0, 20000.0)
 
 
 @dataclass(frozen=True)
@@ -347,6 +373,7 @@ class BodyDesign:
     peaks : tuple       named resonances ((f_hz, q, level_db), ...) on top of the
                         diffuse modes (:func:`soundboard_modes`); () = none
     spread_ms : float   the radiation's spread (:func:`spread_allpasses`), ms; 0 = none
+    mass_hz : float     the board's mass corner (:func:`mass_pole`), Hz; 0 = none
     """
 
     wet: float
@@ -358,6 +385,7 @@ class BodyDesign:
     outputs: int = 1
     peaks: tuple = ()
     spread_ms: float = 0.0
+    mass_hz: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -1010,3 +1038,29 @@ def spread_allpasses(fs, spread_ms):
         delays.append(d)
         last = d
     return np.array(delays, dtype=np.int64), np.full(len(delays), SPREAD_GAIN)
+
+
+def mass_pole(fs, mass_hz):
+    """The pole of the board's mass law (see the module docstring): the
+    one-pole low-pass (1 - a) / (1 - a z^-1) with a = exp(-2 pi mass_hz /
+    fs), unit gain at 0 Hz.
+
+    Parameters
+    ----------
+    fs : float
+        Rate, Hz (>= 8000).
+    mass_hz : float
+        The corner, Hz, within :data:`MASS_RANGE_HZ` and under fs / 2;
+        0: no mass law.
+
+    Returns
+    -------
+    float
+        ``a``, 0 < a < 1; 0.0 when ``mass_hz`` is 0 (the filter passes
+        its input unchanged).
+    """
+    fs = _fs_param(fs)
+    v = _float_param("mass_hz", mass_hz, *MASS_RANGE_HZ, " Hz")
+    if v >= 0.5 * fs:
+        raise ValueError(f"mass_hz = {mass_hz!r} Hz is out of range (0 <= value < fs / 2 = {0.5 * fs:g})")
+    return 0.0 if v == 0.0 else math.exp(-2.0 * math.pi * v / fs)

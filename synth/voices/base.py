@@ -206,7 +206,8 @@ class Voice:
             return None
         return BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
                           seed=b.seed, inputs=b.inputs or 1, outputs=b.outputs or 1,
-                          peaks=tuple(b.peaks or ()), spread_ms=b.spread_ms)
+                          peaks=tuple(b.peaks or ()), spread_ms=b.spread_ms,
+                          mass_hz=b.mass_hz)
 
     def warm(self) -> None:
         """Derive every note's physics now, so that no note-on in the audio

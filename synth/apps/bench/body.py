@@ -6,8 +6,9 @@ Usage:  python tools/bench.py body [--block 128] [--runs 7] [--fs 48000]
 The default bank (:class:`synth.dsp.body.Body`) at ``--fs`` filters one
 second of noise in ``--block``-sample blocks through ``Body.process``, for
 one input and one output, for two of each (the grand's two bridge
-ends), and for two of each with the grand's radiation spread
-(``spread_ms`` 3.4, :class:`synth.dsp.spread.Spread`); printed: the median over ``--runs`` runs of the thread's CPU time
+ends), and for two of each with the grand's radiation spread and mass law
+(``spread_ms`` 3.4, :class:`synth.dsp.spread.Spread`; ``mass_hz`` 3000,
+:class:`synth.dsp.board_mass.BoardMass`); printed: the median over ``--runs`` runs of the thread's CPU time
 (``time.thread_time``, so a busy neighbour's time is not counted) per
 output sample, and that as a percentage of one core at ``--fs``.
 """
@@ -22,12 +23,14 @@ from synth.apps.bench import harness
 from synth.dsp.body import Body
 
 
-#: the grand preset's [body] spread_ms, the third row's
+#: the grand preset's [body] spread_ms and mass_hz, the third row's
 GRAND_SPREAD_MS = 3.4
+GRAND_MASS_HZ = 3000.0
 
 
-def bench(fs: int, inputs: int, outputs: int, block: int, runs: int, spread_ms: float = 0.0) -> dict:
-    body = Body(fs, inputs=inputs, outputs=outputs, spread_ms=spread_ms)
+def bench(fs: int, inputs: int, outputs: int, block: int, runs: int, spread_ms: float = 0.0,
+          mass_hz: float = 0.0) -> dict:
+    body = Body(fs, inputs=inputs, outputs=outputs, spread_ms=spread_ms, mass_hz=mass_hz)
     x = np.random.default_rng(0).standard_normal((inputs, fs))
     xi = x if inputs == 2 else x[0]
     out = np.empty((outputs, block)) if outputs == 2 else np.empty(block)
@@ -41,7 +44,7 @@ def bench(fs: int, inputs: int, outputs: int, block: int, runs: int, spread_ms: 
         per.append((time.thread_time() - t0) / n)
     ns = float(np.median(per)) * 1e9
     return {"inputs": inputs, "outputs": outputs, "modes": body.n_modes, "spread_ms": spread_ms,
-            "ns_per_sample": ns,
+            "mass_hz": mass_hz, "ns_per_sample": ns,
             "core_percent": ns * 1e-9 * fs * 100.0}
 
 
@@ -57,9 +60,10 @@ def main(argv=None):
         return rc
     print(f"# command: {' '.join(['python'] + sys.argv)}")
     print(harness.header())
-    for io, spread in (((1, 1), 0.0), ((2, 2), 0.0), ((2, 2), GRAND_SPREAD_MS)):
-        r = bench(a.fs, *io, a.block, a.runs, spread)
-        what = f", spread {spread:g} ms" if spread else ""
+    for io, spread, mass in (((1, 1), 0.0, 0.0), ((2, 2), 0.0, 0.0), ((2, 2), GRAND_SPREAD_MS, 0.0),
+                             ((2, 2), GRAND_SPREAD_MS, GRAND_MASS_HZ)):
+        r = bench(a.fs, *io, a.block, a.runs, spread, mass)
+        what = (f", spread {spread:g} ms" if spread else "") + (f", mass {mass:g} Hz" if mass else "")
         print(f"{r['inputs']} in, {r['outputs']} out{what}: {r['ns_per_sample']:7.1f} ns per output "
               f"sample (thread CPU, median of {a.runs}) = {r['core_percent']:.2f} % of a core at "
               f"{a.fs} Hz, block {a.block}, {r['modes']} modes")

@@ -170,7 +170,8 @@ class BodySpec:
     """Body: modal bank on the 48 kHz bridge signal(s) (synth.physics.soundboard);
     ``peaks``: named resonances ((f_hz, q, level_db), ...);
     ``inputs``/``outputs`` (grand only, else None): bridge inputs and outputs, 1 or 2;
-    ``spread_ms``: the radiation's spread (0: none)."""
+    ``spread_ms``: the radiation's spread (0: none); ``mass_hz``: the
+    board's mass corner (0: none)."""
 
     wet: float
     modes: int
@@ -181,6 +182,7 @@ class BodySpec:
     inputs: int | None = None
     outputs: int | None = None
     spread_ms: float = 0.0
+    mass_hz: float = 0.0
 
 
 @dataclass(frozen=True)

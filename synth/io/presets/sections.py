@@ -45,7 +45,7 @@ from .model import (
 from synth.physics.listener import (
     DIRECTIVITY_RANGE_DB, DISTANCE_RANGE_M, HUMIDITY_RANGE_PERCENT, LEVELS, POSITIONS, ROOM_NAMES,
     TEMPERATURE_RANGE_C)
-from synth.physics.soundboard import PEAK_HZ_RANGE, SPREAD_RANGE_MS
+from synth.physics.soundboard import MASS_RANGE_HZ, PEAK_HZ_RANGE, SPREAD_RANGE_MS
 
 #: the drone player's cycle length range (s); synth.engine.drone.CYCLE_RANGE_S
 #: (the range its tempo controller sweeps) is the same, checked by
@@ -425,6 +425,8 @@ SECTIONS: tuple[Section, ...] = (
               "board arrives at its own time, so a note builds up over a few ms (an allpass "
               "cascade: no change to a partial's steady level; 0: none)", *SPREAD_RANGE_MS,
               default=0.0),
+        Field("mass_hz", "float", "the board's mass corner, Hz: above it the board moves as a "
+              "mass and its sound falls 6 dB per octave (0: none)", *MASS_RANGE_HZ, default=0.0),
     ), when=When("kind", ("musical",)), optional=True),
     Section("output", "what is written to the WAV", OutputSpec, (
         Field("signal", "str", "displacement u(l,t) at the pluck point (m) or bridge force at x=L (N)",
