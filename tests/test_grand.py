@@ -174,7 +174,7 @@ def _bar_episodes_after_the_hammer(key, sets=(), vel=98, seconds=0.5):
 #: docs/lab/2026-11-benchmarks-notebook.md, "Issue 11's cost, second pass")
 THESIS_CAPO = ("strings.capo_grid=4", "strings.capo_grid_from_key=73", "strings.capo_window_s=0")
 #: MIDI velocity of the thesis's study speed, V = 5 m/s (the grand
-#: preset's velocity curve: 0.17 + 7.33 ((98 - 1) / 126)^1.6 = 4.98 m/s)
+#: preset's velocity curve: 0.165 + 7.335 ((98 - 1) / 126)^1.6 = 4.99 m/s)
 THESIS_VELOCITY = 98
 
 

@@ -221,11 +221,13 @@ def test_voices_describe_their_body_and_the_engine_builds_it():
     b = g.preset.body
     assert d == BodyDesign(wet=b.wet, n_modes=b.modes, size=b.size, brightness=b.brightness,
                            seed=b.seed, inputs=b.inputs, outputs=b.outputs, spread_ms=b.spread_ms,
-                           peaks=tuple(tuple(p) for p in b.peaks))
+                           peaks=tuple(tuple(p) for p in b.peaks), mass_hz=b.mass_hz)
     assert d.peaks                              # the board's lowest modes (issue 41)
+    assert d.mass_hz == 3000.0                  # and its mass law (issue 41)
     e = build_engine("grand-piano", voice=g)
     assert e.body is not None and e.body.n_modes == b.modes + len(b.peaks) and e.body.wet == b.wet
     assert e.body.spread is not None and e.body.spread.spread_ms == b.spread_ms == 3.4
+    assert e.body.mass is not None and e.body.mass.mass_hz == b.mass_hz
     # a one-string voice carries its preset's [body] (the sitar's gourd), or none
     s = build_voice("sitar")
     assert s.body().peaks == s.preset.body.peaks and s.body().inputs == 1
