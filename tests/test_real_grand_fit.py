@@ -118,7 +118,7 @@ def test_the_fitted_targets_hold_against_the_stored_recording():
     together; +30 before); partials 2-10 within 6 dB over C3-B3, C4-B4 and
     C6-B6 (C6-B6 -5.4 dB with the board's mass law, ``body.mass_hz``: -6.5
     at 2 kHz); the first 50 ms's centroid within 1.5x on every octave
-    (1.07-1.18x with the board's mass law, docs/lab/2026-12-03-board-mass.md;
+    (1.06-1.18x with the board's mass law, docs/lab/2026-12-03-board-mass.md;
     1.27-1.39x with the softer felt, docs/lab/2026-11-30-felt41.md; 1.49-2.27x
     at velocity 105 with the felt before; 1.33-1.46x with the board's
     spread); the time
@@ -169,7 +169,7 @@ def test_the_knock_sets_the_time_to_the_rms_peak():
     peaks C3-B3 and C4-B4 within a factor of 2 of the recording's v10 (30 /
     28 ms against 35 / 26), and its first 50 ms are darker: C7-C8's
     centroid within 1.5x of the recording's (1.20x; 1.65x with the pulse),
-    every octave's lower than with the pulse.
+    no octave's higher than with the pulse and on average lower.
     docs/lab/2026-11-29-jack-xruns-and-ci.md, "The knock built up".
     Both measures read the first 0.5 s after the onset: notes of 0.6 s give
     the figures of 1 s notes to the last digit (2026-11-30)."""
@@ -187,8 +187,11 @@ def test_the_knock_sets_the_time_to_the_rms_peak():
         r = built[o]
         assert r["peak_ms_real"] / 2 <= r["peak_ms_model"] <= 2 * r["peak_ms_real"], (o, r)
     assert built["C7-C8"]["centroid_ratio"] <= 1.5
+    # (C2-B2 alike within 0.02 % since the board's mass law, body.mass_hz,
+    # takes the treble off both knocks)
     for rp in rows_p:
-        assert built[rp["octave"]]["centroid_ratio"] < rp["centroid_ratio"], rp["octave"]
+        assert built[rp["octave"]]["centroid_ratio"] < 1.002 * rp["centroid_ratio"], rp["octave"]
+    assert np.mean([built[rp["octave"]]["centroid_ratio"] / rp["centroid_ratio"] for rp in rows_p]) < 0.99
 
 
 def _run(*argv):

@@ -139,7 +139,7 @@ class Body:
     mass_hz : float, optional
         The board's mass corner, Hz (0 .. 20000, under fs / 2; 0, the
         default: none): above it the outputs fall 6 dB per octave
-        (:func:`synth.physics.soundboard.mass_pole`).
+        (:func:`synth.physics.soundboard.mass_section`).
 
     Attributes
     ----------

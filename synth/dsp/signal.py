@@ -55,3 +55,25 @@ def channel_blocks(x, out, channels: int):
     if out.shape != x.shape or out.dtype != np.float64:
         raise ValueError(f"out has shape {out.shape}; must be {x.shape} (float64)")
     return x2, out, (out.reshape(1, -1) if out.ndim == 1 else out)
+
+
+def in_place_rows(y, channels: int, run):
+    """Run an in-place kernel on ``y``: shape (n,) for one channel or
+    (``channels``, n), float64, writeable (else a one-line ValueError).
+    ``run(t, n)`` gets a (``channels``, n) array whose rows are contiguous:
+    ``y`` itself, or for rows with a stride one temporary block, copied
+    back.  Returns ``y``.  (The board's spread and mass law filter their
+    outputs this way.)"""
+    if not isinstance(y, np.ndarray) or y.dtype != np.float64 or not y.flags.writeable:
+        raise ValueError("y must be a writeable float64 ndarray")
+    y2 = y[None, :] if y.ndim == 1 else y
+    if y2.ndim != 2 or y2.shape[0] != channels:
+        raise ValueError(f"y has shape {y.shape}; must be ({channels}, n)"
+                         + (" or (n,)" if channels == 1 else ""))
+    n = y2.shape[1]
+    if n:
+        t = y2 if n == 1 or y2.strides[1] == 8 else np.ascontiguousarray(y2)
+        run(t, n)
+        if t is not y2:
+            y2[:] = t
+    return y

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from synth.dsp.signal import in_place_rows
 from synth.kernels.spread import allpass_cascade as _kernel
 from synth.physics.soundboard import spread_allpasses
 
@@ -80,20 +81,10 @@ class Spread:
     def process(self, y):
         """Filter ``y`` in place: shape (n,) for one channel or (channels, n),
         float64 (rows with a stride cost one temporary block); returns ``y``."""
-        if not isinstance(y, np.ndarray) or y.dtype != np.float64 or not y.flags.writeable:
-            raise ValueError("y must be a writeable float64 ndarray")
-        y2 = y[None, :] if y.ndim == 1 else y
-        if y2.ndim != 2 or y2.shape[0] != self.channels:
-            raise ValueError(f"y has shape {y.shape}; must be ({self.channels}, n)"
-                             + (" or (n,)" if self.channels == 1 else ""))
-        n = y2.shape[1]
-        if n:
-            # rows with a stride (a strided view of ``out``): one temporary block
-            t = y2 if n == 1 or y2.strides[1] == 8 else np.ascontiguousarray(y2)
-            _kernel(t, n, self.delays, self.gains, self._offsets, self._lines, self._pos)
-            if t is not y2:
-                y2[:] = t
-        return y
+        return in_place_rows(y, self.channels, self._filter)
+
+    def _filter(self, t, n):
+        _kernel(t, n, self.delays, self.gains, self._offsets, self._lines, self._pos)
 
     def response(self, f_hz):
         """The cascade's complex response at ``f_hz`` (Hz), shape (F,): of

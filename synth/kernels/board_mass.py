@@ -1,14 +1,14 @@
-"""The board's mass law: a one-pole low-pass on C channels, in place (numba kernel; no validation).
+"""The board's mass law: a first-order section on C channels, in place (numba kernel; no validation).
 
-:func:`one_pole_lowpass` runs each row of ``y`` through
+:func:`mass_section` runs each row of ``y`` through
 
-    s[n] = (1 - a) x[n] + a s[n - 1],   y[n] = s[n]
+    y[n] = g (x[n] + b x[n - 1]) + a y[n - 1]
 
-(the design is :func:`synth.physics.soundboard.mass_pole`).  The state
-``state[c]`` is channel c's last output; a state under ``TINY`` (1e-30,
--600 dB) is written as 0 at the end of a block, so a silent output ends
-in exact zeros and never in subnormal arithmetic.  Blocks of any length
-give the one-shot result.  The wrapper is
+(the design is :func:`synth.physics.soundboard.mass_section`).  The state
+``state[c]`` is channel c's last input and last output; a state under
+``TINY`` (1e-30, -600 dB) is written as 0 at the end of a block, so a
+silent output ends in exact zeros and never in subnormal arithmetic.
+Blocks of any length give the one-shot result.  The wrapper is
 :class:`synth.dsp.board_mass.BoardMass`; the slow reference
 (scipy.signal.lfilter) is in ``tests/test_board_mass.py``.
 """
@@ -22,7 +22,7 @@ TINY = 1e-30
 
 
 @njit(**JIT_OPTS)
-def one_pole_lowpass(y, n, a, state):
+def mass_section(y, n, g, b, a, state):
     """Filter ``y[:, :n]`` in place.
 
     Parameters
@@ -31,16 +31,19 @@ def one_pole_lowpass(y, n, a, state):
         (C, >= n): the channels, each row contiguous; overwritten.
     n : int
         Samples to process.
-    a : float
-        The pole, 0 <= a < 1 (0: the input passes unchanged).
-    state : float64[:]
-        (C,): each channel's last output; updated.
+    g, b, a : float
+        The section's gain, zero and pole (|b| < 1, 0 <= a < 1).
+    state : float64[:, :]
+        (C, 2): each channel's last input and last output; updated.
     """
-    b = 1.0 - a
     for c in range(y.shape[0]):
         row = y[c]
-        s = state[c]
+        x1 = state[c, 0]
+        s = state[c, 1]
         for i in range(n):
-            s = b * row[i] + a * s
+            x = row[i]
+            s = g * (x + b * x1) + a * s
+            x1 = x
             row[i] = s
-        state[c] = s if abs(s) > TINY else 0.0
+        state[c, 0] = x1 if abs(x1) > TINY else 0.0
+        state[c, 1] = s if abs(s) > TINY else 0.0

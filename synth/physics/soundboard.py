@@ -217,22 +217,27 @@ The modal bank's response is flat on average at every frequency (a tilt
 aside, ``brightness``), and its direct part is flat.  A board is not: from
 some frequency up its bridge and ribs move as a mass under the strings'
 force, so the velocity per unit force, and the sound, fall 6 dB per
-octave.  ``mass_hz`` sets that corner, a one-pole low-pass of unit gain at
-0 Hz on every output (:func:`mass_pole`),
+octave: |1 / (1 + j f / mass_hz)|.  ``mass_hz`` sets that corner, one
+first-order section of unit gain at 0 Hz on every output
+(:func:`mass_section`),
 
-    H(z) = (1 - a) / (1 - a z^-1),   a = exp(-2 pi mass_hz / fs),
+    H(z) = g (1 + b z^-1) / (1 - a z^-1),   g = (1 - a) / (1 + b),
 
-the matched-z form of a mass's 1 / (1 + j f / mass_hz) (within 0.4 dB of
-it up to 8 kHz at 48 kHz with a 2 kHz corner; the digital pole falls
-less, -17.7 dB at 24 kHz against -21.6).  ``mass_hz = 0`` (the default):
-none.  The grand's 3 kHz is fitted to the recorded Yamaha C5, not
-measured on a board: without it the grand's partials over 3 kHz stood
-7-16 dB over the recording's re partial 1 on every octave from C2 (0.05-0.5
-s, medians by octave and band) and its attack centroid 1.33-1.46x the
-recording's; a 2 kHz corner brought the centroids to 0.97-1.11x but took
-C4's partial 7 under the recording's (-26.8 dB over its first second
-against -26.0) and the knee of key 96; 3 kHz keeps both (the grand's
-section of ``docs/voicing.md``).
+whose a and b are fitted at the rate to the mass's magnitude (least
+squares in dB on 64 frequencies from 20 Hz to 20 kHz or 0.45 fs, ten times
+the weight below 5 kHz): with a 3 kHz corner it is within 0.022 dB of
+it below 5 kHz and 0.31 dB up to 19 kHz at 44.1 kHz, 0.015 and 0.18 at 48
+kHz, 0.001 and 0.011 at 88.2 kHz, so the board sounds the same at every
+card rate (the matched-z pole alone, b = 0, fell 0.2 dB below 5 kHz and
+2.8 dB by 19 kHz at 44.1 kHz).  ``mass_hz = 0`` (the default): none.  The
+grand's 3 kHz is fitted to the recorded Yamaha C5, not measured on a
+board: without it the grand's partials over 3 kHz stood 7-16 dB over the
+recording's re partial 1 on every octave from C2 (0.05-0.5 s, medians by
+octave and band) and its attack centroid 1.33-1.46x the recording's; a 2
+kHz corner brought the centroids to 0.97-1.11x but took C4's partial 7
+under the recording's (-26.8 dB over its first second against -26.0) and
+the knee of key 96; 3 kHz keeps both (the grand's section of
+``docs/voicing.md``).
 
 The knock
 ---------
@@ -275,7 +280,7 @@ __all__ = [
     "knock_pulse",
     "knock_impulse_ns",
     "spread_allpasses",
-    "mass_pole",
+    "mass_section",
 ]
 
 #: Default number of modes.
@@ -373,7 +378,7 @@ class BodyDesign:
     peaks : tuple       named resonances ((f_hz, q, level_db), ...) on top of the
                         diffuse modes (:func:`soundboard_modes`); () = none
     spread_ms : float   the radiation's spread (:func:`spread_allpasses`), ms; 0 = none
-    mass_hz : float     the board's mass corner (:func:`mass_pole`), Hz; 0 = none
+    mass_hz : float     the board's mass corner (:func:`mass_section`), Hz; 0 = none
     """
 
     wet: float
@@ -1040,10 +1045,19 @@ def spread_allpasses(fs, spread_ms):
     return np.array(delays, dtype=np.int64), np.full(len(delays), SPREAD_GAIN)
 
 
-def mass_pole(fs, mass_hz):
-    """The pole of the board's mass law (see the module docstring): the
-    one-pole low-pass (1 - a) / (1 - a z^-1) with a = exp(-2 pi mass_hz /
-    fs), unit gain at 0 Hz.
+#: the mass law's fitted sections, by (fs, mass_hz)
+_MASS_SECTIONS: dict = {}
+#: its fit: frequencies, the top one's limit as a fraction of fs, the weight below MASS_FIT_SPLIT_HZ
+MASS_FIT_POINTS = 64
+MASS_FIT_TOP = 0.45
+MASS_FIT_SPLIT_HZ = 5000.0
+MASS_FIT_WEIGHT = 10.0
+
+
+def mass_section(fs, mass_hz):
+    """The board's mass law at the rate ``fs`` (see the module docstring):
+    the first-order section g (1 + b z^-1) / (1 - a z^-1), g = (1 - a) /
+    (1 + b), of unit gain at 0 Hz, fitted to |1 / (1 + j f / mass_hz)|.
 
     Parameters
     ----------
@@ -1055,12 +1069,34 @@ def mass_pole(fs, mass_hz):
 
     Returns
     -------
-    float
-        ``a``, 0 < a < 1; 0.0 when ``mass_hz`` is 0 (the filter passes
-        its input unchanged).
+    tuple of float
+        ``(g, b, a)``, 0 < a < 1, |b| < 1; ``(1.0, 0.0, 0.0)`` when
+        ``mass_hz`` is 0 (the section passes its input unchanged).
     """
     fs = _fs_param(fs)
     v = _float_param("mass_hz", mass_hz, *MASS_RANGE_HZ, " Hz")
     if v >= 0.5 * fs:
         raise ValueError(f"mass_hz = {mass_hz!r} Hz is out of range (0 <= value < fs / 2 = {0.5 * fs:g})")
-    return 0.0 if v == 0.0 else math.exp(-2.0 * math.pi * v / fs)
+    if v == 0.0:
+        return (1.0, 0.0, 0.0)
+    key = (fs, v)
+    got = _MASS_SECTIONS.get(key)
+    if got is None:
+        from scipy.optimize import least_squares
+
+        f = np.geomspace(20.0, min(20000.0, MASS_FIT_TOP * fs), MASS_FIT_POINTS)
+        w = np.where(f < MASS_FIT_SPLIT_HZ, MASS_FIT_WEIGHT, 1.0)
+        want = -10.0 * np.log10(1.0 + (f / v) ** 2)
+        z1 = np.exp(-2j * np.pi * f / fs)
+
+        def residual(p):
+            a, b = p
+            return w * (20.0 * np.log10(np.abs((1.0 - a) / (1.0 + b) * (1.0 + b * z1) / (1.0 - a * z1)))
+                        - want)
+
+        a0 = math.exp(-2.0 * math.pi * v / fs)
+        r = least_squares(residual, [a0, 0.0], bounds=([0.0, -0.99], [0.9999, 0.99]),
+                          xtol=1e-14, ftol=1e-14)
+        a, b = (float(x) for x in r.x)
+        got = _MASS_SECTIONS[key] = ((1.0 - a) / (1.0 + b), b, a)
+    return got
