@@ -536,6 +536,43 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
     assert fs == FS and len(y) > 2 * FS and np.max(np.abs(y)) > 0.01
 
 
+def test_a_midi_source_gone_is_said_once_even_if_the_server_did_not():
+    """The once-a-second look at the connections says a MIDI source gone
+    that the server's notification did not report (on a stalled machine its
+    port may be gone before the notification reads its name: CI, 38 xruns,
+    no warning), and not one the notification said; the outputs' links are
+    not MIDI sources.  (No server: the player's attributes are set by hand.)"""
+    from synth.io.live.jack import JackPlayer
+
+    class Port:
+        def __init__(self, name):
+            self.name, self.shortname = name, name.split(":")[1]
+
+    class Client:
+        links = {}
+
+        def get_all_connections(self, port):
+            return [Port(n) for n in self.links.get(port.shortname, ())]
+
+    p = object.__new__(JackPlayer)
+    p.client, p.midi_in, p.outs = Client(), Port("faulty:midi_in"), [Port("faulty:out_1")]
+    p._notes, p._said_gone = [], set()
+    Client.links = {"midi_in": ["first:midi_out", "kbd:out"], "out_1": ["system:playback_1"]}
+    p._links = set()
+    p._note_links()
+    assert p._notes == []
+    Client.links = {"midi_in": ["kbd:out"]}                     # first gone, unreported; the output unplugged
+    p._note_links()
+    assert p._notes == ["warning: MIDI source 'first:midi_out' disconnected from faulty:midi_in; "
+                        "play goes on"]
+    p._notes.clear()
+    p._connected(Port("kbd:out"), p.midi_in, False)             # the server said this one
+    Client.links = {"midi_in": []}
+    p._note_links()
+    assert p._notes == ["warning: MIDI source 'kbd:out' disconnected from faulty:midi_in; play goes on"]
+    assert p._said_gone == set()
+
+
 @pytest.mark.slow  # over 2 s on a quiet 2-core machine (2026-11-29: 2.0-6.1 s)
 def test_reconnect_waits_for_the_server_and_plays_on(private_server, tmp_path):
     """--reconnect: the server stops, synth says it waits; the server

@@ -103,6 +103,7 @@ class JackPlayer(Player):
         self.reconnects = 0             # times the server came back (--reconnect)
         self.period_changes = 0         # buffer-size callbacks after the first cycle
         self._links: set = set()        # (own port's short name, other port's name)
+        self._said_gone: set = set()    # MIDI sources the server's notification reported gone
         self._notes: list = []          # messages from the server's threads, said by run()
         self._shutdown = None           # why the server closed us, from its thread
         self._gate = ProcessGate()      # the callback out of Python before deactivate
@@ -195,14 +196,26 @@ class JackPlayer(Player):
         return {p.shortname: p for p in [self.midi_in, *self.outs]}
 
     def _note_links(self) -> None:
-        """Remember the connections of our ports (restored after a reconnect)."""
+        """Remember the connections of our ports (restored after a reconnect),
+        and say a MIDI source gone since the last look that the server's
+        notification did not report (a source's client closing on a stalled
+        machine: its port may be gone before the notification reads its
+        name)."""
         links = set()
         try:
             for short, port in self._own_ports().items():
                 for other in self.client.get_all_connections(port):
                     links.add((short, other.name))
+            midi = self.midi_in.shortname
         except Exception:
             return
+        for short, other in sorted(self._links - links):
+            if short != midi:
+                continue
+            if other in self._said_gone:
+                self._said_gone.discard(other)      # the notification said it
+            else:
+                self._notes.append(self._gone_text(other))
         self._links = links
 
     def _restore_links(self) -> None:
@@ -246,11 +259,11 @@ class JackPlayer(Player):
     def _watch_port(self) -> None:
         """About once a second: say what the server's threads noted (a MIDI
         source gone, the period changed), and remember the connections."""
+        if self.client is not None and self._shutdown is None:
+            self._note_links()
         notes, self._notes = self._notes, []
         for text in notes:
             self._say(f"\n{text}")
-        if self.client is not None and self._shutdown is None:
-            self._note_links()
 
     def _stopped(self) -> str | None:
         if self._shutdown is None:
@@ -405,10 +418,13 @@ class JackPlayer(Player):
         a MIDI source leaving ``midi_in`` is reported, play goes on."""
         try:
             if not connect and b.name == self.midi_in.name:
-                self._notes.append(f"warning: MIDI source {a.name!r} disconnected from "
-                                   f"{self.midi_in.name}; play goes on")
+                self._said_gone.add(a.name)
+                self._notes.append(self._gone_text(a.name))
         except Exception:
             pass
+
+    def _gone_text(self, source: str) -> str:
+        return f"warning: MIDI source {source!r} disconnected from {self.midi_in.name}; play goes on"
 
 
 _MIDO = None
