@@ -43,11 +43,11 @@ class BoardMass:
         if isinstance(channels, bool) or channels not in (1, 2):
             raise ValueError(f"channels = {channels!r} is out of range (1 or 2)")
         self.fs = float(fs)
-        self.g, self.b, self.a = mass_section(fs, mass_hz)
-        if (self.g, self.b, self.a) == (1.0, 0.0, 0.0):
+        self.g, self.b, self.a = mass_section(fs, mass_hz)     # (validates mass_hz)
+        self.mass_hz = float(mass_hz)
+        if self.mass_hz == 0.0:
             raise ValueError(f"mass_hz = {mass_hz!r} Hz is out of range (0 < value < fs / 2; "
                              "0: no BoardMass)")
-        self.mass_hz = float(mass_hz)
         self.channels = int(channels)
         self._state = np.zeros((self.channels, 2))
 

@@ -214,6 +214,7 @@ class Body:
         self.spread = None if float(spread_ms) == 0.0 else Spread(self.fs, spread_ms, C)
         #: the board's mass law on the outputs (:class:`synth.dsp.board_mass.BoardMass`), or None
         self.mass = None if float(mass_hz) == 0.0 else BoardMass(self.fs, mass_hz, C)
+        self._post = self._stages()
 
     @classmethod
     def from_design(cls, fs, design, store=None):
@@ -309,10 +310,8 @@ class Body:
 
         b = copy.copy(self)
         b._state = np.zeros_like(self._state)
-        if self.spread is not None:
-            b.spread = self.spread.fresh_copy()
-        if self.mass is not None:
-            b.mass = self.mass.fresh_copy()
+        b.spread, b.mass = (None if s is None else s.fresh_copy() for s in (self.spread, self.mass))
+        b._post = b._stages()
         if not self._mono:
             b._dry2 = self._dry2.copy()       # the wet setter writes it in place
         return b
@@ -320,10 +319,12 @@ class Body:
     def reset(self):
         """Forget all history (silence before the next sample)."""
         self._state[:] = 0.0
-        if self.spread is not None:
-            self.spread.reset()
-        if self.mass is not None:
-            self.mass.reset()
+        for stage in self._post:
+            stage.reset()
+
+    def _stages(self) -> tuple:
+        """The stages on the outputs, in order: the spread, then the mass law."""
+        return tuple(s for s in (self.spread, self.mass) if s is not None)
 
     def _inputs(self, x):
         """x as a (B, n) float64 array with contiguous rows (a view when it can be)."""
@@ -384,10 +385,8 @@ class Body:
             :attr:`mass`).
         """
         y = self._modes(x, out)
-        if self.spread is not None:
-            self.spread.process(y)
-        if self.mass is not None:
-            self.mass.process(y)
+        for stage in self._post:
+            stage.process(y)
         return y
 
     def _modes(self, x, out):
@@ -457,8 +456,7 @@ class Body:
             raise ValueError(f"n = {n!r} is out of range (integer, 0 <= value <= {MAX_IR_SAMPLES})")
         n = int(n)
         saved = self._state.copy()
-        saved_spread = None if self.spread is None else self.spread.state()
-        saved_mass = None if self.mass is None else self.mass.state()
+        saved_post = [stage.state() for stage in self._post]
         try:
             if self._mono:
                 self.reset()
@@ -478,10 +476,8 @@ class Body:
             return h
         finally:
             self._state[:] = saved
-            if saved_spread is not None:
-                self.spread.restore(saved_spread)
-            if saved_mass is not None:
-                self.mass.restore(saved_mass)
+            for stage, st in zip(self._post, saved_post):
+                stage.restore(st)
 
     def response(self, f_hz, weights=None):
         """Complex frequency response of the body (current ``wet``).
@@ -512,10 +508,8 @@ class Body:
                 for b in range(B):
                     H[c, b, s:s + _RESPONSE_CHUNK] = (self.wet_gain * (m.pickup[c] * m.drive[b]) @ R
                                                       + self.dry_gain * m.dry[c, b])
-        if self.spread is not None:
-            H *= self.spread.response(f)
-        if self.mass is not None:
-            H *= self.mass.response(f)
+        for stage in self._post:
+            H *= stage.response(f)
         if weights is None:
             return H
         w = np.asarray(weights, dtype=np.float64)
