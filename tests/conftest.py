@@ -41,7 +41,8 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
 #   module fixtures): one at a time, so they do not take each other's ports
 #   and time.
 # * a module whose module-scoped fixture is dear (a LocalCluster of two
-#   processes, bisected partials, study renders): its tests stay together so
+#   processes, bisected partials, study renders, the grand's notes against
+#   the recording): its tests stay together so
 #   the fixture is built once, not once per worker.
 #
 # Everything else is process-local (tmp_path, port 0, the numba cache's
@@ -56,6 +57,7 @@ XDIST_GROUPS = {
     "test_dispersion_sos.py": "dispersion_sos",
     "test_reproduction.py": "reproduction",
     "test_decimator.py": "decimator",
+    "test_real_grand_fit.py": "real_grand_fit",
 }
 
 
