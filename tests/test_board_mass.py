@@ -168,3 +168,40 @@ def test_the_grand_has_the_mass_and_a_preset_may_set_it():
     assert build_voice("sitar", ["body.mass_hz=3000"]).body().mass_hz == 3000.0
     with pytest.raises(PresetError, match=r"mass_hz.*20000"):
         build_voice("grand-piano", ["body.mass_hz=25000"])
+
+
+KEPT_SCRIPT = r"""
+import sys
+from synth.dsp.body import Body
+from synth.voices import design_store
+b = Body(48000.0, n_modes=8, inputs=2, outputs=2, store=design_store, mass_hz=3000.0)
+print(repr((b.mass.g, b.mass.b, b.mass.a)), "scipy.optimize" in sys.modules)
+"""
+
+
+@pytest.mark.slow  # two subprocesses
+def test_a_warm_start_loads_the_section_and_imports_no_fit(tmp_path):
+    """A body built with the design store fits its mass section once: the
+    next process loads the same (g, b, a) and does not import
+    scipy.optimize (0.3-0.5 s of a warm grand note on a 2-vCPU Zen 3)."""
+    import os
+    import subprocess
+    import sys
+
+    env = dict(os.environ, SYNTH_DESIGN_CACHE=str(tmp_path / "designs"))
+    runs = [subprocess.run([sys.executable, "-c", KEPT_SCRIPT], env=env, capture_output=True,
+                           text=True, timeout=300) for _ in range(2)]
+    for p in runs:
+        assert p.returncode == 0, p.stderr
+    (s1, fit1), (s2, fit2) = (p.stdout.rsplit(" ", 1) for p in runs)
+    assert s1 == s2 == repr(sb.mass_section(48000.0, 3000.0))
+    assert (fit1.strip(), fit2.strip()) == ("True", "False")
+
+
+def test_a_given_section_is_checked():
+    good = sb.mass_section(48000.0, 3000.0)
+    assert BoardMass(48000.0, 3000.0, 2, good).a == good[2]
+    with pytest.raises(ValueError, match="section"):
+        BoardMass(48000.0, 3000.0, 1, (1.0, 0.0, 1.5))
+    with pytest.raises(ValueError, match="mass_hz"):
+        BoardMass(48000.0, 30000.0, 1, good)

@@ -14,7 +14,7 @@ import numpy as np
 
 from synth.dsp.signal import in_place_rows
 from synth.kernels.board_mass import mass_section as _kernel
-from synth.physics.soundboard import mass_section
+from synth.physics.soundboard import mass_section, mass_section_check
 
 __all__ = ["BoardMass"]
 
@@ -31,6 +31,11 @@ class BoardMass:
         :data:`synth.physics.soundboard.MASS_RANGE_HZ`).
     channels : int
         1 or 2.
+    section : tuple of float, optional
+        ``(g, b, a)`` as :func:`~synth.physics.soundboard.mass_section`
+        returns it for ``fs`` and ``mass_hz`` (a design kept on disk, so a
+        warm start neither fits it again nor imports the fit's
+        ``scipy.optimize``, 0.3-0.5 s); None: fitted here.
 
     Attributes
     ----------
@@ -39,11 +44,17 @@ class BoardMass:
         (:func:`synth.physics.soundboard.mass_section`).
     """
 
-    def __init__(self, fs, mass_hz, channels=1):
+    def __init__(self, fs, mass_hz, channels=1, section=None):
         if isinstance(channels, bool) or channels not in (1, 2):
             raise ValueError(f"channels = {channels!r} is out of range (1 or 2)")
         self.fs = float(fs)
-        self.g, self.b, self.a = mass_section(fs, mass_hz)     # (validates mass_hz)
+        if section is None:
+            section = mass_section(fs, mass_hz)     # (validates mass_hz)
+        else:
+            mass_section_check(fs, mass_hz)
+            if not (len(section) == 3 and 0.0 < section[2] < 1.0 and abs(section[1]) < 1.0):
+                raise ValueError(f"section = {section!r} is out of range ((g, b, a), 0 < a < 1, |b| < 1)")
+        self.g, self.b, self.a = (float(x) for x in section)
         self.mass_hz = float(mass_hz)
         if self.mass_hz == 0.0:
             raise ValueError(f"mass_hz = {mass_hz!r} Hz is out of range (0 < value < fs / 2; "

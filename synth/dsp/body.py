@@ -56,6 +56,7 @@ from synth.physics.soundboard import (
     DEFAULT_N_MODES,
     DEFAULT_SEED,
     REFERENCE_FS,
+    mass_section,
     resonator_coefs,
     section_response,
     soundboard_modes,
@@ -74,6 +75,8 @@ _RESPONSE_CHUNK = 2048
 
 #: mode sets and their modal Gram matrices, by the board's arguments (:class:`Body`)
 _BOARDS: dict = {}
+#: the board's mass-law sections by (fs, mass_hz), kept as the modes are (:class:`Body`)
+_MASS_SECTIONS: dict = {}
 
 
 def _path_coefs(m, c, b, coefs) -> np.ndarray:
@@ -213,7 +216,16 @@ class Body:
         #: the radiation's spread on the outputs (:class:`synth.dsp.spread.Spread`), or None
         self.spread = None if float(spread_ms) == 0.0 else Spread(self.fs, spread_ms, C)
         #: the board's mass law on the outputs (:class:`synth.dsp.board_mass.BoardMass`), or None
-        self.mass = None if float(mass_hz) == 0.0 else BoardMass(self.fs, mass_hz, C)
+        self.mass = None
+        if float(mass_hz) != 0.0:
+            section = None
+            if store is not None:
+                # (the fit, 3-7 ms and the import of scipy.optimize, 0.3-0.5 s
+                # of a warm start, kept on disk with the modes)
+                section = store.kept(_MASS_SECTIONS, "board-mass", (self.fs, float(mass_hz)),
+                                     lambda: mass_section(self.fs, mass_hz),
+                                     lambda v: isinstance(v, tuple) and len(v) == 3)
+            self.mass = BoardMass(self.fs, mass_hz, C, section)
         self._post = self._stages()
 
     @classmethod

@@ -281,6 +281,7 @@ __all__ = [
     "knock_impulse_ns",
     "spread_allpasses",
     "mass_section",
+    "mass_section_check",
 ]
 
 #: Default number of modes.
@@ -1054,6 +1055,16 @@ MASS_FIT_SPLIT_HZ = 5000.0
 MASS_FIT_WEIGHT = 10.0
 
 
+def mass_section_check(fs, mass_hz):
+    """``(fs, mass_hz)`` as floats, checked as :func:`mass_section` checks
+    them (a ValueError naming the one out of range)."""
+    fs = _fs_param(fs)
+    v = _float_param("mass_hz", mass_hz, *MASS_RANGE_HZ, " Hz")
+    if v >= 0.5 * fs:
+        raise ValueError(f"mass_hz = {mass_hz!r} Hz is out of range (0 <= value < fs / 2 = {0.5 * fs:g})")
+    return fs, v
+
+
 def mass_section(fs, mass_hz):
     """The board's mass law at the rate ``fs`` (see the module docstring):
     the first-order section g (1 + b z^-1) / (1 - a z^-1), g = (1 - a) /
@@ -1073,10 +1084,7 @@ def mass_section(fs, mass_hz):
         ``(g, b, a)``, 0 < a < 1, |b| < 1; ``(1.0, 0.0, 0.0)`` when
         ``mass_hz`` is 0 (the section passes its input unchanged).
     """
-    fs = _fs_param(fs)
-    v = _float_param("mass_hz", mass_hz, *MASS_RANGE_HZ, " Hz")
-    if v >= 0.5 * fs:
-        raise ValueError(f"mass_hz = {mass_hz!r} Hz is out of range (0 <= value < fs / 2 = {0.5 * fs:g})")
+    fs, v = mass_section_check(fs, mass_hz)
     if v == 0.0:
         return (1.0, 0.0, 0.0)
     key = (fs, v)
