@@ -444,6 +444,7 @@ def _set_env(key, value):
         os.environ[key] = value
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_the_local_cluster_s_workers_have_one_malloc_arena_others_get_a_note(tmp_path, cluster):
     """MALLOC_ARENA_MAX=1 is in the workers' environment from their start (the
     task thread's own arena made A0 23 % slower); a worker without it gets a

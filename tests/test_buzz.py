@@ -237,6 +237,7 @@ def test_the_buzz_controller_is_configurable():
     assert _contacts(e, 0.201, 0.5) == 0
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_the_sitar_string_is_stiff_steel():
     """Without the jawari (and the tension's glide), partial n of key 67 lies
     at n f1 sqrt((1 + B n^2) / (1 + B)), B = 1.5e-5 (392/200)^2 (the fretted wire), within 2 cents

@@ -258,6 +258,7 @@ def test_dampers_pedal_and_undamped_top():
 _REGER = shared_dir() / "midi" / "kw569bw0899_exp.mid"
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 @pytest.mark.skipif(not _REGER.is_file(), reason="shared MIDI files not available")
 def test_a_pedal_let_up_is_not_a_click():
     """The Reger roll's pedal-up at 84.73 s (a step from 1 to 0 under the
@@ -456,6 +457,7 @@ def test_a_board_with_two_bridges_and_one_output_renders_mono():
         assert np.any(np.concatenate(blk) != 0.0)
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_hardness_voices_the_hammers_brighter_and_shorter():
     """action.hardness scales every key's felt stiffness: a harder hammer
     (lacquered) leaves the string sooner and brightens the attack; 1 is the

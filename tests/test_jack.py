@@ -612,6 +612,7 @@ def test_reconnect_waits_for_the_server_and_plays_on(private_server, tmp_path):
     assert info.samplerate == FS and info.frames > FS
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_sigterm_stops_the_play_as_ctrl_c_does(server, tmp_path):
     """SIGTERM (a service manager, ``kill``; the one a job started in the
     background with ``&`` still takes, its SIGINT being ignored) stops

@@ -401,7 +401,8 @@ SCENES = {
 }
 
 
-@pytest.mark.parametrize("scene", sorted(SCENES))
+@pytest.mark.parametrize("scene", [pytest.param(s, marks=pytest.mark.slow) if s == "triad on a full pool" else s
+                                   for s in sorted(SCENES)])  # (the full pool: over 2 s)
 def test_live_play_gives_the_offline_samples(tmp_path, scene):
     """Each scene above played live (the player's message conversion, stamped
     on arrival, pulled in 128-sample blocks) gives the samples of the file

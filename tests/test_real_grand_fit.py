@@ -232,6 +232,7 @@ def test_held_out_v4_is_reported_at_its_matched_velocity(tmp_path):
     assert data["layer"] == 4 and data["velocity"] == 52 and list(data["body"]["model"]) == ["60"]
 
 
+@pytest.mark.slow  # three subprocesses
 def test_a_bad_velocity_or_change_is_a_one_line_error(tmp_path):
     _c4(tmp_path, 10)
     for argv, words in ((["--velocity", "0"], "--velocity = 0 is out of range (1 <= value <= 127)"),
