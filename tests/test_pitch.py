@@ -1,33 +1,53 @@
-"""Musical presets: every key within 1 cent of equal temperament."""
+"""Musical presets: every key within 1 cent of equal temperament (the shipped specs play
+them; the loss filter and the tuning laws here)."""
 
 import numpy as np
+import tomllib
+from pathlib import Path
+
 import pytest
 
-from helpers import engine, note
+import synth
+from helpers import engine
 from synth.analysis import cents, estimate_f0
 from synth.io.presets import load_preset
 from synth.physics.string import midi_key_to_hz
 
 
-#: where the note has settled (s): the sitar's strong pluck glides down from
-#: up to 43 cents sharp as its swing decays (string.tension_modulation; key
-#: 43 at velocity 102: +3.2 cents over 0.8-1.6 s, +0.4 over 2-3 s)
-SETTLED_S = {"sitar": (2.0, 3.0)}
+#: where a plucked preset's settled note is judged (s): the sitar's strong
+#: pluck glides down from up to 43 cents sharp as its swing decays
+#: (string.tension_modulation; key 43 at velocity 102: +3.2 cents over
+#: 0.8-1.6 s, +0.4 over 2-3 s)
+SETTLED_FROM_S = {"sitar": 2.0}
+SHIPPED_CHECKS = Path(synth.__file__).resolve().parent / "presets" / "checks"
 
 
 @pytest.mark.parametrize("name", ["sitar", "biwa", "hammered-sitar"])
-@pytest.mark.slow  # over 2 s on a quiet 2-core machine
-def test_every_key_within_one_cent(name):
+def test_every_key_is_tuned_by_the_shipped_spec(name):
+    """Every key of the preset within 1 cent of its tuning, at a soft and a
+    hard pluck: the shipped spec's "range" render (``synth check
+    --shipped``, run by CI beside the suite) plays each of its keys at two
+    velocities and checks partial 1 of the settled note with the same
+    estimator (synth.analysis.estimate_f0, 60 cents of search).  This
+    suite rendered them again at one velocity (30 s of a CI run) until
+    2026-12-03; it now checks that the spec still covers them."""
     play = load_preset(name).play
-    t0, t1 = SETTLED_S.get(name, (0.8, 1.6))
-    worst = 0.0
-    for key in range(play.key_low, play.key_high + 1):
-        y = engine(name).render(note(key, 0.0, 0.8), duration_s=t1)
-        f_ref = midi_key_to_hz(key)
-        f = estimate_f0(y[int(t0 * 48000):], 48000, f_ref, search_cents=60)
-        worst = max(worst, abs(cents(f, f_ref)))
-        assert abs(cents(f, f_ref)) < 1.0, f"{name} key {key}: {cents(f, f_ref):+.3f} cent"
-    print(f"{name}: worst {worst:.4f} cent")
+    spec = tomllib.loads((SHIPPED_CHECKS / f"{name}.toml").read_text())
+    renders = {r["name"]: r for r in spec["render"]}
+    f0s = [e for e in spec["expect"] if e["check"] == "f0" and e["render"] in renders]
+    covered = set()
+    for e in f0s:
+        r = renders[e["render"]]
+        if r.get("set") or r.get("preset", name) != name or e["cents"] > 1.0:
+            continue
+        if e.get("start_s", 0.05) < SETTLED_FROM_S.get(name, 0.0):
+            continue
+        lo, rest = r["keys"].split("..")
+        hi, step = (rest.split("/") + ["1"])[:2]
+        if len(r.get("velocities", [])) >= 2:
+            covered |= set(range(int(lo), int(hi) + 1, int(step)))
+    assert covered >= set(range(play.key_low, play.key_high + 1)), sorted(
+        set(range(play.key_low, play.key_high + 1)) - covered)
 
 
 @pytest.mark.parametrize("f0", [98.0, 200.0, 587.33])
