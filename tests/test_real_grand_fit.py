@@ -167,7 +167,7 @@ def test_each_layer_is_matched_by_its_step_in_loudness_from_fortissimo():
     assert 73 <= LAYER_VELOCITY[10] <= 80 and 105 <= LAYER_VELOCITY[14] <= 112
 
 
-@pytest.mark.slow  # 50 grand notes of 0.6 s: about 9 s of CPU
+@pytest.mark.slow  # 25 grand notes of 0.6 s (and the targets' 25 of 4 s)
 def test_the_knock_sets_the_time_to_the_rms_peak(grand_v10):
     """The time to the RMS peak follows the knock (``action.knock``).  One
     5 ms pulse (the preset's knock before, 3.9, and without the board's

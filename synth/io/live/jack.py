@@ -216,6 +216,10 @@ class JackPlayer(Player):
                 self._said_gone.discard(other)      # the notification said it
             else:
                 self._notes.append(self._gone_text(other))
+        # (a source the notification said gone that this look never saw
+        # linked, or saw gone already, is done with: a later unreported
+        # leaving of the same name must still be said)
+        self._said_gone &= {other for short, other in links if short == midi}
         self._links = links
 
     def _restore_links(self) -> None:
