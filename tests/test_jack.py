@@ -702,12 +702,18 @@ def test_bench_live_jack_quick_measures_the_loop(server, alone):
     from pathlib import Path
 
     root = Path(__file__).resolve().parents[1]
-    with alone():   # the tool judges the server's clock (conftest)
-        p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "live", "--jack",
-                            "--quick", "--server", server], capture_output=True, text=True,
-                           timeout=600)
-    assert p.returncode == 0, p.stderr
-    out = p.stdout
+
+    def run():
+        with alone():   # the tool judges the server's clock (conftest)
+            p = subprocess.run([sys.executable, str(root / "tools" / "bench.py"), "live", "--jack",
+                                "--quick", "--server", server], capture_output=True, text=True,
+                               timeout=600)
+        assert p.returncode == 0, p.stderr
+        out = p.stdout
+        found = int(re.search(r"notes found: (\d+) of 8", out).group(1))
+        xruns = int(re.search(r"(\d+) during play;", out).group(1))
+        return out, found, xruns
+
     # an xrun of the dummy server can tear a note's capture (this VM's own:
     # 9 xruns in 8 s with the synth's worst block at 64 %, CI 2026-11-29;
     # 57 during play with an idle client alone seeing 21 in 4 s, and two
@@ -716,8 +722,15 @@ def test_bench_live_jack_quick_measures_the_loop(server, alone):
     # (more misses skip, as the drone's and the notes' captures do, when the
     # tool's own idle client saw an xrun every half second: CI here,
     # 2026-11-30, 3 of 8 found with 171 xruns during play and 11 in 4 s idle)
-    found = int(re.search(r"notes found: (\d+) of 8", out).group(1))
-    xruns = int(re.search(r"(\d+) during play;", out).group(1))
+    out, found, xruns = run()
+    if not (found == 8 or (found >= 6 and xruns > 0)) and _preempted(out):
+        # the synth's thread was kept from the cores, not slow: its blocks
+        # fit the period in CPU time (at most the first note-on's two over)
+        # and overran it in wall time many times (a local CI run, 12-03:
+        # 5 of 8 found, 182 xruns, 38 blocks over in wall time and 2 in CPU
+        # time, with no other test running; the tool alone after it passed
+        # three times of three).  Measured once more; the second must pass.
+        out, found, xruns = run()
     if not (found == 8 or (found >= 6 and xruns > 0)):
         idle = re.search(r"a client that does nothing saw (\d+) xruns in ([0-9.]+) s", out)
         if idle:
@@ -819,6 +832,15 @@ def _skip_if_the_server_alone_xruns(server, shown, seconds=3.0):
     from synth.apps.bench.live import idle_xruns
 
     _skip_if_idle_xruns(idle_xruns(server, seconds), seconds, shown)
+
+
+def _preempted(out):
+    """Whether ``tools/bench.py live``'s report says the synth's audio
+    thread was kept from the cores rather than slow: at most two blocks over
+    the period in its own CPU time (a first note-on's block may overrun)
+    and at least ten in wall time."""
+    m = re.search(r"([0-9.]+) blocks over budget \(([0-9.]+) in its CPU time", out)
+    return bool(m) and float(m.group(2)) <= 2.0 and float(m.group(1)) >= 10.0
 
 
 def _skip_if_the_machine_stalled(out, xruns, period_s, shown):
