@@ -471,6 +471,7 @@ BIG = """
 RACE = """
     import os, sys, time
     import {pkg}.big as b
+    open({ready!r}, "w").close()          # imported: numba and the package
     start = {start!r}
     while not os.path.exists(start):      # both processes call at once
         time.sleep(0.001)
@@ -479,14 +480,14 @@ RACE = """
 """
 
 
-@pytest.mark.slow  # two races of two processes compiling a long function: ~15 s of CPU
+@pytest.mark.slow  # two races of two processes compiling a long function
 def test_two_processes_that_need_one_kernel_compile_it_once(tmp_path):
     """Two processes call one cached function of a keyed folder at the same
     moment on a cold cache: one compiles it, the other waits for that
     compile and loads its code (``install_compile_lock``).  The function is
-    long enough (300 statements: seconds to compile) that without
+    long enough (150 statements: about a second to compile) that without
     the lock both would compile it."""
-    body = "\n".join(f"        y = y * 1.0000001 + {i % 7}.0 / (y + {i + 1}.0)" for i in range(300))
+    body = "\n".join(f"        y = y * 1.0000001 + {i % 7}.0 / (y + {i + 1}.0)" for i in range(150))
     env = _env(tmp_path, tmp_path / "nc")
     for pkg, init in (("raced", KEYED_INIT), ("plain", "")):
         d = tmp_path / pkg
@@ -496,11 +497,15 @@ def test_two_processes_that_need_one_kernel_compile_it_once(tmp_path):
 
     def race(pkg):
         start = tmp_path / f"go-{pkg}"
-        code = textwrap.dedent(RACE.format(pkg=pkg, start=str(start)))
-        procs = [subprocess.Popen([sys.executable, "-c", code], env=env, cwd=str(tmp_path),
-                                  stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-                 for _ in range(2)]
-        time.sleep(3.0)                   # both have imported numba and the package
+        ready = [tmp_path / f"ready-{pkg}-{i}" for i in range(2)]
+        procs = [subprocess.Popen([sys.executable, "-c", textwrap.dedent(RACE.format(
+                     pkg=pkg, start=str(start), ready=str(r)))], env=env, cwd=str(tmp_path),
+                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True) for r in ready]
+        t_end = time.time() + 120
+        while not all(r.exists() for r in ready):     # both have imported numba and the package
+            assert time.time() < t_end and all(p.poll() is None for p in procs), \
+                [p.communicate() for p in procs if p.poll() is not None]
+            time.sleep(0.01)
         start.write_text("")
         outs = []
         for p in procs:
