@@ -325,10 +325,31 @@ class _Tester:
     """A :class:`~synth.io.live.loopback.Loopback` attached to a synth
     client, which also tells how a note it played sounded."""
 
+    #: the longest wait for the server to settle (s, :meth:`settle`)
+    SETTLE_S = 6.0
+
     def __init__(self, server, synth_name, n_in, seconds, rate=FS, name="tester"):
-        self.lb = Loopback(server, n_in, seconds, rate=rate, name=name).attach(synth_name)
+        # ``seconds`` of capture after the settling (:meth:`settle`, at most SETTLE_S)
+        self.lb = Loopback(server, n_in, seconds + self.SETTLE_S, rate=rate,
+                           name=name).attach(synth_name)
         self.client, self.rate = self.lb.client, rate
-        time.sleep(1.0)         # the graph settles after the connections (as the bench's)
+        self.settle()
+
+    def settle(self, least_s=0.5, quiet_s=0.5):
+        """Wait for the graph to settle after the connections (as the
+        bench's): at least ``least_s``, then until the server has run
+        ``quiet_s`` with no xrun (at most :attr:`SETTLE_S` in all).  On a busy VM
+        the server's xruns come in bursts, often right after a client
+        connects: a 44.1 kHz capture's first note was torn in both of its
+        attempts (three plays each) and the next three clean, in a CI run
+        (2026-12-03) that had waited a flat second."""
+        t0 = time.monotonic()
+        time.sleep(least_s)
+        seen, since = len(self.lb.xruns), time.monotonic()
+        while time.monotonic() - t0 < self.SETTLE_S and time.monotonic() - since < quiet_s:
+            time.sleep(0.02)
+            if len(self.lb.xruns) != seen:
+                seen, since = len(self.lb.xruns), time.monotonic()
 
     def note(self, key, at_s, hold_s=0.2, velocity=100):
         return self.lb.note(key, at_s, hold_s, velocity)
