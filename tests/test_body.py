@@ -252,7 +252,8 @@ def test_deterministic_for_fixed_seed_and_same_board_in_every_configuration():
 # --- stability, decay, spectrum -----------------------------------------------
 
 
-@pytest.mark.parametrize("kw", [{}, dict(n_modes=1024), dict(n_modes=1), dict(n_modes=2),
+@pytest.mark.parametrize("kw", [{}, pytest.param(dict(n_modes=1024), marks=pytest.mark.slow),  # 4.9 s
+                                dict(n_modes=1), dict(n_modes=2),
                                 dict(n_modes=40), dict(n_modes=75), dict(n_modes=300),
                                 dict(size=0.5, brightness=12.0),
                                 dict(size=2.0, brightness=-12.0, n_modes=300)])

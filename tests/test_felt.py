@@ -344,6 +344,7 @@ def test_the_lumped_laws_converge():
         assert a.peak_force_n == pytest.approx(b.peak_force_n, rel=1e-4)
 
 
+@pytest.mark.slow  # over 2 s on a 2-core machine (2026-12-03: 2.8 s in the fast tier)
 def test_the_layer_agrees_with_the_lumped_law_when_the_felt_is_light():
     """Quasi-static regime: key 60 at 0.5 m/s with a 1 mm felt (the felt's
     mass 2.3 % of the hammer's, its wave transit ~1/10 of the contact time).

@@ -266,6 +266,7 @@ def test_the_server_going_away_is_one_line_and_non_zero(server, tmp_path):
     assert f"recorded {info.frames / FS:.1f} s to" in out
 
 
+@pytest.mark.slow  # over 2 s on a 2-core machine (2026-12-03: 2.8 s in the fast tier)
 def test_connect_needs_jack_and_jack_needs_no_device_options():
     p = subprocess.run([sys.executable, "-m", "synth.cli", "play", "--preset", "sitar",
                         "--connect"], capture_output=True, text=True, timeout=120)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import io
 import struct
 from collections import Counter
-from pathlib import Path
 
 import mido
 import numpy as np
@@ -175,6 +174,7 @@ def test_missing_note_offs_are_kept():
     assert abs(midi_file_duration_s(ev) - 2.0) <= 0.1
 
 
+@pytest.mark.slow  # over 2 s on a 2-core machine (2026-12-03: 2.7 s in the fast tier)
 @needs_corpus
 def test_rmid_wrapper_is_stripped():
     ev = read_midi_file(MALFORMED / "Beethoven.rmi")

@@ -329,6 +329,7 @@ def test_the_pluck_point_mapping():
 
 
 # -- offline and live ----------------------------------------------------------------
+@pytest.mark.slow  # over 2 s on a 2-core machine (2026-12-03: 6.8 s in the fast tier)
 def test_render_and_live_play_give_the_same_bent_phrase(tmp_path):
     """An MPE phrase on the sitar (the configuration message, two member
     notes, a slide of one, the manager's bend, pressure, CC74, a note-off)

@@ -127,6 +127,7 @@ def test_check_rate_names_the_option_and_the_range():
             check_rate(bad)
 
 
+@pytest.mark.slow  # over 2 s on a 2-core machine (2026-12-03: 2.6 s in the fast tier)
 def test_cli_rate_writes_the_wav_at_that_rate(tmp_path):
     import soundfile
 

@@ -85,6 +85,7 @@ def test_the_measures_of_known_notes(tmp_path):
     assert "C4: centroid of the first 100 ms v10 / v4" in text
 
 
+@pytest.mark.slow  # over 2 s on a 2-core machine (2026-12-03: 3.2 s in the fast tier)
 def test_an_empty_folder_is_a_one_line_error(tmp_path):
     p = _run(str(tmp_path))
     assert p.returncode == 2

@@ -104,6 +104,7 @@ def test_a_new_profile_is_one_registration():
         profiles.termination_from_spec(Spec)
 
 
+@pytest.mark.slow  # over 2 s on a 2-core machine (2026-12-03: 3.4 s in the fast tier)
 def test_excitation_kinds_are_named_once():
     """No module but the kernel defines an excitation kind: every kind is a
     distinct ``K.EXC_*`` value (all of them, read from the kernel, so a new

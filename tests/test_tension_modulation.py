@@ -260,6 +260,7 @@ def test_the_sitar_glides_on_a_strong_pluck_and_not_on_a_soft_one():
     assert abs(soft) <= 1.0, f"velocity 20: {soft:+.2f} cents"
 
 
+@pytest.mark.slow  # over 2 s on a 2-core machine (2026-12-03: 2.6 s in the fast tier)
 def test_every_string_reads_its_tension_at_the_same_samples_whatever_the_blocks():
     """The strings on a bridge read at the same samples (a string joining
     it takes a reading member's phase): the group renders in chunks that
