@@ -188,12 +188,12 @@ def _notes_capture(server, record, alone):
         keys = [48 + (5 * i) % 36 for i in range(24)]
         spacing, hold = int(0.4 * FS), int(0.2 * FS)
         with alone():   # the capture judges the server's clock (conftest)
-            tester = Loopback(server, 2, 24 * 0.4 + 1.5)
+            tester = Loopback(server, 2, 24 * 0.4 + 1.5 + SETTLE_S)
             tester.client.activate()
             connect(tester.client, [(tester.midi_out, "synthtest:midi_in"),
                                      ("synthtest:out_1", tester.ins[0]),
                                      ("synthtest:out_2", tester.ins[1])])
-            time.sleep(0.2)
+            _settle(tester, least_s=0.2)
             start = tester.client.last_frame_time + FS // 2
             onsets = []
             for i, k in enumerate(keys):
@@ -322,35 +322,42 @@ def private_server():
         s.stop()
 
 
+#: the longest wait for the server to settle (s, :func:`_settle`)
+SETTLE_S = 6.0
+
+
+def _settle(lb, least_s=0.5, quiet_s=0.5):
+    """Wait for the graph to settle after a loopback's connections (as the
+    bench's): at least ``least_s``, then until the server has run
+    ``quiet_s`` with no xrun (at most :data:`SETTLE_S` in all; give the
+    loopback that much more capture).  On a busy VM the server's xruns
+    come in bursts, often right after a client connects: a 44.1 kHz
+    capture's first note was torn in both of its attempts (three plays
+    each) and the next three clean, in a CI run (2026-12-03) that had
+    waited a flat second."""
+    t0 = time.monotonic()
+    time.sleep(least_s)
+    seen, since = len(lb.xruns), time.monotonic()
+    while time.monotonic() - t0 < SETTLE_S and time.monotonic() - since < quiet_s:
+        time.sleep(0.02)
+        if len(lb.xruns) != seen:
+            seen, since = len(lb.xruns), time.monotonic()
+
+
 class _Tester:
     """A :class:`~synth.io.live.loopback.Loopback` attached to a synth
     client, which also tells how a note it played sounded."""
 
-    #: the longest wait for the server to settle (s, :meth:`settle`)
-    SETTLE_S = 6.0
-
     def __init__(self, server, synth_name, n_in, seconds, rate=FS, name="tester"):
         # ``seconds`` of capture after the settling (:meth:`settle`, at most SETTLE_S)
-        self.lb = Loopback(server, n_in, seconds + self.SETTLE_S, rate=rate,
+        self.lb = Loopback(server, n_in, seconds + SETTLE_S, rate=rate,
                            name=name).attach(synth_name)
         self.client, self.rate = self.lb.client, rate
         self.settle()
 
     def settle(self, least_s=0.5, quiet_s=0.5):
-        """Wait for the graph to settle after the connections (as the
-        bench's): at least ``least_s``, then until the server has run
-        ``quiet_s`` with no xrun (at most :attr:`SETTLE_S` in all).  On a busy VM
-        the server's xruns come in bursts, often right after a client
-        connects: a 44.1 kHz capture's first note was torn in both of its
-        attempts (three plays each) and the next three clean, in a CI run
-        (2026-12-03) that had waited a flat second."""
-        t0 = time.monotonic()
-        time.sleep(least_s)
-        seen, since = len(self.lb.xruns), time.monotonic()
-        while time.monotonic() - t0 < self.SETTLE_S and time.monotonic() - since < quiet_s:
-            time.sleep(0.02)
-            if len(self.lb.xruns) != seen:
-                seen, since = len(self.lb.xruns), time.monotonic()
+        """:func:`_settle` on this tester's loopback."""
+        _settle(self.lb, least_s, quiet_s)
 
     def note(self, key, at_s, hold_s=0.2, velocity=100):
         return self.lb.note(key, at_s, hold_s, velocity)
