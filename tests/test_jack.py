@@ -349,15 +349,11 @@ class _Tester:
     client, which also tells how a note it played sounded."""
 
     def __init__(self, server, synth_name, n_in, seconds, rate=FS, name="tester"):
-        # ``seconds`` of capture after the settling (:meth:`settle`, at most SETTLE_S)
+        # ``seconds`` of capture after the settling (:func:`_settle`, at most SETTLE_S)
         self.lb = Loopback(server, n_in, seconds + SETTLE_S, rate=rate,
                            name=name).attach(synth_name)
         self.client, self.rate = self.lb.client, rate
-        self.settle()
-
-    def settle(self, least_s=0.5, quiet_s=0.5):
-        """:func:`_settle` on this tester's loopback."""
-        _settle(self.lb, least_s, quiet_s)
+        _settle(self.lb)
 
     def note(self, key, at_s, hold_s=0.2, velocity=100):
         return self.lb.note(key, at_s, hold_s, velocity)
