@@ -437,6 +437,7 @@ def test_pedal_damps_every_released_voice_at_once_and_spares_the_fading():
             assert np.array_equal(now, b0_dying)      # still fading
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_a_board_with_two_bridges_and_one_output_renders_mono():
     """body.outputs = 1 with the default two inputs: both buses drive the
     board, the block loop and the render give one channel, as loud as the

@@ -584,6 +584,7 @@ def test_the_audio_threads_buffers_are_mapped_before_play():
     assert mapped.shape == (6 << 20, 2) and mapped.dtype == np.float32 and not mapped.any()
 
 
+@pytest.mark.slow  # over 2 s on a quiet 2-core machine
 def test_a_live_engine_has_its_buffers_mapped_and_unchanged(monkeypatch):
     """``ready_engine`` maps every page of the engine's large arrays
     (:func:`synth.engine.warm.fault_in`), so that none waits for its first
