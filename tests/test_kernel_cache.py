@@ -163,6 +163,36 @@ def test_folder_stable_across_processes_and_under_numba_cache_dir(tmp_path):
     assert Path(c[0]) == base / "haswell" / folder.name
 
 
+COUNT_CHECKS = """
+    import tempfile
+    made = []
+    real = tempfile.TemporaryFile
+    def counting(*a, **k):
+        made.append(k.get("dir"))
+        return real(*a, **k)
+    tempfile.TemporaryFile = counting
+    import synth.kernels as K
+    from synth.kernels import strings
+    numba_checks = lambda: [str(d) for d in made if str(d) != str(K.cache_dir())]
+    print(len(numba_checks()), len(set(numba_checks())), numba_checks()[0])
+    strings.felt_layer_step._cache._impl.locator.ensure_cache_path()   # as before a save
+    print(len(numba_checks()))
+"""
+
+
+def test_the_keyed_folder_is_checked_once_while_the_kernels_are_decorated(tmp_path):
+    """numba checks that a function's cache folder is writable (a temporary
+    file made and removed) for each function it decorates: the kernels'
+    folder in the keyed folder is checked once for the whole package, not
+    once for each of its 136 functions (12 ms of every start), and numba's
+    check before a save still runs.  (The keyed folder's own check, by
+    :func:`synth.kernels.cache.choose_dir`, is not counted.)"""
+    out = _run(COUNT_CHECKS, _env(tmp_path, tmp_path / "nc"), tmp_path)
+    n, distinct, where = out[0].split()
+    assert (int(n), int(distinct)) == (1, 1)
+    assert Path(where).name == "kernels" and KEYED.fullmatch(Path(where).parent.name)
+    assert int(out[1]) == 2
+
 def test_default_folder_chain(tmp_path, monkeypatch):
     """Without NUMBA_CACHE_DIR: the package's ``__pycache__``, else numba's
     user-wide folder; NUMBA_CACHE_DIR first when set; None when nothing is
