@@ -279,3 +279,34 @@ def test_the_package_keeps_no_dated_log():
 def test_the_dated_log_check_can_fail():
     text = "x = 1  # 0.41 s without it (2026-12-01, Xeon)\nkeys 21-108, 1-127, 2.0-2.5\n"
     assert _dated_lines(text) == ["x = 1  # 0.41 s without it (2026-12-01, Xeon)"]
+
+
+CALLGRIND_SYMBOLS = """
+import sys
+from synth.apps.bench.callgrind import keep_object_code, write_symbols
+objs = keep_object_code()
+from synth.io.factory import build_engine
+e = build_engine("grand-piano", (), polyphony=4)
+e.render_block(256)
+print(write_symbols(objs, sys.argv[1]))
+"""
+
+
+@pytest.mark.slow  # two processes of the grand (5 s)
+@pytest.mark.skipif(not __import__("shutil").which("nm"), reason="needs binutils' nm")
+def test_callgrind_names_the_kernels_it_loaded(tmp_path):
+    """``bench.py callgrind`` maps callgrind's addresses to the kernels' names
+    through the object code numba loaded: with :mod:`synth.kernels`' own
+    load in place the map was empty (every kernel ``???:0x...``) until the
+    hook wrapped that load.  The engine's stages are named (the cache is
+    warmed by a first process)."""
+    env = dict(os.environ, NUMBA_NUM_THREADS="1")
+    syms = tmp_path / "k.syms"
+    for _ in range(2):                     # the first may compile (nothing loaded then)
+        r = subprocess.run([sys.executable, "-c", CALLGRIND_SYMBOLS, str(syms)], env=env,
+                           capture_output=True, text=True, timeout=600)
+        assert r.returncode == 0, r.stderr
+    names = [ln.split()[2] for ln in syms.read_text().splitlines()]
+    assert int(r.stdout.split()[-1]) == len(names) > 10
+    for kernel in ("listener_process", "decimate", "limiter_process"):
+        assert any(kernel in n for n in names), kernel

@@ -14,7 +14,8 @@ and inclusive instructions and call counts.
 
 Numba's JIT code has no symbols in callgrind (``???:0x...``): the child
 keeps the object code numba loads from its cache
-(``CPUCodeLibrary._unserialize``), lists its symbols with ``nm -S`` and
+(``CPUCodeLibrary._unserialize``, wrapped after :mod:`synth.kernels` has
+installed its own load, which never calls an earlier wrapper), lists its symbols with ``nm -S`` and
 writes each function's load address (that of a global symbol less its
 offset) to ``DIR/kKEY.out.syms``; the report maps callgrind's addresses
 through it.  (So the cache must be warm: the warm-up run does that.)
@@ -37,9 +38,16 @@ from synth.apps.bench import harness
 from synth.apps.bench.reach import callgrind_window
 
 
-def child(key: int, wait: bool, syms: str) -> None:
+def keep_object_code() -> dict:
+    """From now on, the object code of every library numba loads from its
+    cache, by the library's id (``CPUCodeLibrary._unserialize`` wrapped
+    after :mod:`synth.kernels` has installed its own load, which never calls
+    a wrapper installed before it)."""
+    import importlib
+
     from numba.core import codegen as cg
 
+    importlib.import_module("synth.kernels")
     objs = {}
     orig = cg.CPUCodeLibrary._unserialize.__func__
 
@@ -50,26 +58,17 @@ def child(key: int, wait: bool, syms: str) -> None:
         return lib
 
     cg.CPUCodeLibrary._unserialize = classmethod(unser)
-    from synth.engine.engine import Event
-    from synth.io.factory import build_engine
+    return objs
 
-    e = build_engine("grand-piano", (), polyphony=4)
-    if key:
-        e.schedule([Event(0.0, "note_on", key, 0.8)])
-    for _ in range(int(0.06 * e.fs_out / 256)):
-        e.render_block(256)
-    if wait:
-        print("ready", flush=True)
-        sys.stdin.readline()
-    for _ in range(int(0.1 * e.fs_out / 256)):
-        e.render_block(256)
-    if not wait:
-        return
-    print("done", flush=True)
-    sys.stdin.readline()
+
+def write_symbols(objs: dict, syms: str) -> int:
+    """Each loaded synth kernel's functions as ``address size name`` lines
+    into ``syms`` (``nm -S`` of its object code, moved to where it was
+    loaded); returns the lines written."""
     from numba.core.registry import CPUDispatcher
 
     seen = set()
+    n = 0
     with open(syms, "w") as f:
         for mn, m in list(sys.modules.items()):
             if not mn.startswith("synth"):
@@ -101,6 +100,30 @@ def child(key: int, wait: bool, syms: str) -> None:
                         continue
                     for p in rows:
                         f.write(f"{base + int(p[0], 16):x} {int(p[1], 16)} {p[3]}\n")
+                        n += 1
+    return n
+
+
+def child(key: int, wait: bool, syms: str) -> None:
+    objs = keep_object_code()
+    from synth.engine.engine import Event
+    from synth.io.factory import build_engine
+
+    e = build_engine("grand-piano", (), polyphony=4)
+    if key:
+        e.schedule([Event(0.0, "note_on", key, 0.8)])
+    for _ in range(int(0.06 * e.fs_out / 256)):
+        e.render_block(256)
+    if wait:
+        print("ready", flush=True)
+        sys.stdin.readline()
+    for _ in range(int(0.1 * e.fs_out / 256)):
+        e.render_block(256)
+    if not wait:
+        return
+    print("done", flush=True)
+    sys.stdin.readline()
+    write_symbols(objs, syms)
 
 
 def run(key: int, out: Path, env: dict) -> int:
