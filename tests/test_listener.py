@@ -58,6 +58,29 @@ def test_the_kernel_is_its_equations():
     assert np.max(np.abs(y[:, 1500:])) > 1e-3 * np.max(np.abs(y))   # the reverberation is in it
 
 
+
+def test_lines_shorter_than_a_segment_keep_the_equations():
+    """The kernel takes a block in segments of up to SEGMENT samples and
+    the shortest line's length (a line is never read after its write within
+    a segment): lines of 37-67 samples, under SEGMENT, in blocks of 1000,
+    against the slow reference."""
+    from synth.kernels.listener import SEGMENT
+
+    L = Listener.design(FS, 2, "player", room="room")
+    lens = np.array([37, 41, 43, 47, 53, 59, 61, 67], dtype=np.int64)
+    assert len(lens) == len(L._lens) and lens.max() < SEGMENT
+    L._lens = lens
+    L._off = np.concatenate([[0], np.cumsum(lens)[:-1]]).astype(np.int64)
+    L._lines = np.zeros(int(lens.sum()))
+    L.reset()
+    x = np.zeros((2, 3000))
+    x[:, :200] = np.random.default_rng(5).standard_normal((2, 200))
+    ref = _reference(L, x)
+    y = np.concatenate([L.process(np.ascontiguousarray(x[:, i:i + 1000])) for i in (0, 1000, 2000)],
+                       axis=1)
+    assert np.max(np.abs(y - ref)) < 1e-12 * np.max(np.abs(ref))
+    assert np.max(np.abs(y[:, 2000:])) > 1e-6 * np.max(np.abs(y))
+
 @pytest.mark.parametrize("position", ["close", "hall"])
 def test_blocks_of_any_size_give_the_same_samples(position):
     L = Listener.design(FS, 2, position)

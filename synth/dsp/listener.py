@@ -9,8 +9,9 @@ in a room (designed, a measured impulse response's, or none).
 How: :func:`synth.physics.listener.design_listener` designs the path (the
 direct sound's distance, directivity and air absorption as one FIR, the
 early reflections as taps through one FIR, the late reverberation as a
-feedback delay network); :mod:`synth.kernels.listener` runs it, sample by
-sample, the same samples for any block sizes, with no allocation.  This
+feedback delay network); :mod:`synth.kernels.listener` runs it (its sums as
+vector loops over segments of up to ``SEGMENT`` samples, the network sample
+by sample), the same samples for any block sizes, with no allocation.  This
 wrapper owns the state, sets the levels and validates.
 
 Levels.  The late reverberation is scaled so that its mean power in the
@@ -32,7 +33,7 @@ import math
 
 import numpy as np
 
-from synth.kernels.listener import listener_process as _kernel
+from synth.kernels.listener import SEGMENT, listener_process as _kernel
 from synth.physics.listener import (
     DIRECTIVITY_RANGE_DB, DISTANCE_RANGE_M, HUMIDITY_RANGE_PERCENT, LEVELS, POSITIONS, ROOM_NAMES,
     TEMPERATURE_RANGE_C, ListenerDesign, design_listener)
@@ -103,9 +104,13 @@ class Listener:
         self._fin = np.ascontiguousarray(d.fdn_in, dtype=np.float64)
         self._fout = np.ascontiguousarray(d.fdn_out, dtype=np.float64).reshape(C, -1).copy()
         lag_max = int(self._le.max()) if self._le.size else 0
-        H = max(L, lag_max + 1, self._pre + 1, 2)
+        # the histories hold a segment more than the longest lag (the kernel
+        # writes a segment's samples before its sums read them)
+        self._span = max(L, lag_max + 1, self._pre + 1, 2)
+        H = self._span + SEGMENT
         self._hist = np.zeros((C, 2 * H))
-        self._ehist = np.zeros((C, 2 * L))
+        self._ehist = np.zeros((C, 2 * (L + SEGMENT)))
+        self._sc = np.zeros((len(self._lens) + 2, SEGMENT))
         self._lines = np.zeros(int(self._lens.sum()))
         self._lpos = np.zeros(len(self._lens), dtype=np.int64)
         self._z = np.zeros(len(self._lens))
@@ -230,7 +235,7 @@ class Listener:
         responses (None where not scaled): :meth:`_calibrate`'s measure."""
         d = self.design
         fs = d.fs
-        n_short = self._hist.shape[1] + 2 * self._hd.shape[0]
+        n_short = 2 * self._span + 2 * self._hd.shape[0]
         n = n_short
         if len(self._lens):
             n = int(min(MAX_IR_S, self.tail_s * 1.1) * fs) + self._pre + int(self._lens.max()) + n_short
@@ -284,5 +289,5 @@ class Listener:
         x2, out, o2 = channel_blocks(x, out, self.channels)
         _kernel(x2, x2.shape[1], self._hd, self._le, self._ge, self._he, self._pre, self._lens,
                 self._off, self._fa, self._fb, self._fin, self._fout, self._hist, self._ehist,
-                self._lines, self._lpos, self._z, self._w, self._i, o2)
+                self._lines, self._lpos, self._z, self._w, self._i, self._sc, o2)
         return out
