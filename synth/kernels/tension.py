@@ -95,15 +95,19 @@ def slope_sum(ring, off, P, jn):
     over its P neighbour pairs (circular), less the pair (jn, jn + 1) (m^2
     for displacement waves)."""
     acc = 0.0
-    # pairs jn + 1 .. P - 2, then the wrap (P - 1, 0), then 0 .. jn - 1
-    for j in range(off + jn + 1, off + P - 1):
-        d = ring[j + 1] - ring[j]
+    # pairs jn + 1 .. P - 2, then the wrap (P - 1, 0), then 0 .. jn - 1;
+    # over slices (views), whose indices LLVM sees non-negative: indexing
+    # ring[j + 1] kept numba's negative-index wraparound (2.7x slower)
+    a = ring[off + jn + 1:off + P]
+    for j in range(a.shape[0] - 1):
+        d = a[j + 1] - a[j]
         acc += d * d
     if jn != P - 1:
         d = ring[off] - ring[off + P - 1]
         acc += d * d
-    for j in range(off, off + jn):
-        d = ring[j + 1] - ring[j]
+    b = ring[off:off + jn + 1]
+    for j in range(b.shape[0] - 1):
+        d = b[j + 1] - b[j]
         acc += d * d
     return acc
 
