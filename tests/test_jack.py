@@ -168,7 +168,12 @@ def _judge_notes_capture(cap, expected):
     y, fs = soundfile.read(str(cap["record"]), dtype="float32")
     assert fs == FS and y.shape[1] == 2 and "recorded " in out
     peak = np.max(np.abs(rec))
-    assert np.max(np.abs(y)) == pytest.approx(peak, rel=1e-6)
+    if not xruns and not _xruns_reported(out):
+        assert np.max(np.abs(y)) == pytest.approx(peak, rel=1e-6)
+    else:
+        # a cycle the server lost is in the file but not in the capture (a
+        # noisy hour: the file's peak 0.520, the capture's 0.473, 2026-12-03)
+        assert np.max(np.abs(y)) >= peak * (1.0 - 1e-6), (np.max(np.abs(y)), peak, shown)
     return [c for c, t in zip(corr, torn) if not t], shown
 
 
@@ -182,9 +187,7 @@ def _notes_capture(server, record, alone):
                        "--record", str(record))
     tester = None
     try:
-        probe = jack.Client("waiter", no_start_server=True, servername=server)
-        wait_ports(probe, "synthtest", 3, proc)
-        probe.close()
+        _ports_up(server, "synthtest", 3, proc)
         keys = [48 + (5 * i) % 36 for i in range(24)]
         spacing, hold = int(0.4 * FS), int(0.2 * FS)
         with alone():   # the capture judges the server's clock (conftest)
@@ -251,9 +254,7 @@ def test_the_server_going_away_is_one_line_and_non_zero(server, tmp_path):
     try:
         proc = _synth_play(name, "--preset", "biwa", "--jack-name", "gone", "--record",
                            str(rec), seconds=60)
-        probe = jack.Client("waiter", no_start_server=True, servername=name)
-        wait_ports(probe, "gone", 2, proc)
-        probe.close()
+        _ports_up(name, "gone", 2, proc)
         time.sleep(0.5)
     finally:
         srv.terminate()
@@ -280,6 +281,17 @@ def test_connect_needs_jack_and_jack_needs_no_device_options():
 # --------------------------------------------------------------------------
 # Other rates, and faults survived (issue 36, items 3 and 4)
 # --------------------------------------------------------------------------
+
+
+def _ports_up(server, name, n, proc):
+    """Wait for client ``name``'s ``n`` ports on ``server`` (a probe client,
+    closed whatever happens: one left to the garbage collector closes itself
+    later, perhaps after its server has stopped, which crashes libjack)."""
+    probe = jack.Client("waiter", no_start_server=True, servername=server)
+    try:
+        wait_ports(probe, name, n, proc)
+    finally:
+        probe.close()
 
 
 class _Server:
@@ -485,9 +497,7 @@ def test_other_rates_through_jack(private_server, rate, period, tmp_path, alone)
                            "--record", str(rec))
         tester = None
         try:
-            probe = jack.Client("waiter", no_start_server=True, servername=srv.name)
-            wait_ports(probe, "rated", 3, proc)
-            probe.close()
+            _ports_up(srv.name, "rated", 3, proc)
             with alone():   # the capture judges the server's clock (conftest)
                 tester = _Tester(srv.name, "rated", 2, 12.0, rate=rate)
                 time.sleep(0.2)
@@ -520,9 +530,7 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
     t1 = t2 = None
     xr = []
     try:
-        probe = jack.Client("waiter", no_start_server=True, servername=srv.name)
-        wait_ports(probe, "faulty", 3, proc)
-        probe.close()
+        _ports_up(srv.name, "faulty", 3, proc)
         lines.wait_for("ready in")
         for k in (57, 62, 69):
             _reference("grand-piano", k, FS)
@@ -538,7 +546,15 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
         t1.client.close()
         t1 = None
         lines.wait_for("warning: MIDI source 'first:midi_out' disconnected")
-        t2 = _Tester(srv.name, "faulty", 2, 6.0, name="second")
+        try:
+            t2 = _Tester(srv.name, "faulty", 2, 6.0, name="second")
+        except jack.JackError as e:
+            # (a CI run's second source could not connect for 30 s; say
+            # whether the server was still there)
+            p = srv.proc
+            state = "running" if p is not None and p.poll() is None else \
+                f"exited with {None if p is None else p.returncode}"
+            raise AssertionError(f"{e}; the private server: {state}") from e
         time.sleep(0.3)
         second = t2.sound(69, "grand-piano", _lag("grand-piano", period=256))
         xr += t2.lb.xruns
@@ -559,6 +575,18 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
     assert "the period changed 1 times" in out, out
     y, fs = soundfile.read(str(tmp_path / "f.wav"))
     assert fs == FS and len(y) > 2 * FS and np.max(np.abs(y)) > 0.01
+
+
+def test_a_loopback_that_cannot_attach_closes_its_client(private_server):
+    """A loopback whose connections fail closes its client before the error
+    goes on: a client left to the garbage collector closed itself after the
+    test had stopped its server, and libjack crashed the test's worker (a
+    CI run: the next test of that worker, a segmentation fault)."""
+    srv = private_server("attach")
+    lb = Loopback(srv.name, 1, 1.0, name="lonely")
+    with pytest.raises(jack.JackError):
+        lb.attach("nosuch", timeout=0.3)
+    assert not lb.client._ptr            # jack.Client.close's mark: closed
 
 
 def test_a_midi_source_gone_is_said_once_even_if_the_server_did_not():
@@ -611,9 +639,7 @@ def test_reconnect_waits_for_the_server_and_plays_on(private_server, tmp_path):
     lines = _Lines(proc)
     tester = None
     try:
-        probe = jack.Client("waiter", no_start_server=True, servername=srv.name)
-        wait_ports(probe, "again", 2, proc)
-        probe.close()
+        _ports_up(srv.name, "again", 2, proc)
         lines.wait_for("ready in")
         time.sleep(0.5)
         srv.stop()
@@ -907,9 +933,7 @@ def _drone_capture(server, name, stop_s, seconds, alone):
                        "synthdrone")
     tester = None
     try:
-        probe = jack.Client("waiter", no_start_server=True, servername=server)
-        wait_ports(probe, "synthdrone", 2, proc)
-        probe.close()
+        _ports_up(server, "synthdrone", 2, proc)
         with alone():   # the capture judges the server's clock (conftest)
             tester = Loopback(server, 1, seconds + 1.0).attach("synthdrone")
             time.sleep(0.2)

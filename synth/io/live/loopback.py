@@ -144,13 +144,25 @@ class Loopback:
         self.client.set_process_callback(self._process)
         self.client.set_xrun_callback(self._xrun)
 
-    def attach(self, synth: str, n_out: int | None = None) -> "Loopback":
+    def attach(self, synth: str, n_out: int | None = None, timeout: float = 30.0) -> "Loopback":
         """Activate, and connect to client ``synth``: our MIDI out to its
-        ``midi_in``, its ``out_1`` .. to our inputs."""
+        ``midi_in``, its ``out_1`` .. to our inputs (retried for at most
+        ``timeout`` seconds, :func:`connect`).  If that fails, the
+        client is closed before the error goes on: a client left to the
+        garbage collector closed itself after its server had stopped and
+        crashed the process (libjack; a test worker in a CI run)."""
         n = len(self.ins) if n_out is None else n_out
-        self.client.activate()
-        connect(self.client, [(self.midi_out, f"{synth}:midi_in")]
-                + [(f"{synth}:out_{i + 1}", self.ins[i]) for i in range(n)])
+        try:
+            self.client.activate()
+            connect(self.client, [(self.midi_out, f"{synth}:midi_in")]
+                    + [(f"{synth}:out_{i + 1}", self.ins[i]) for i in range(n)], timeout)
+        except BaseException:
+            try:
+                self.client.deactivate()
+            except Exception:
+                pass
+            self.client.close()
+            raise
         return self
 
     def note(self, key: int, at_s: float, hold_s: float = 0.2, velocity: int = 100,
