@@ -269,10 +269,13 @@ class Realtime:
             self.stats.errors += 1
             out[:frames] = 0.0
         self.n_out += frames
+        # the CPU time's span inside the wall time's (read after its start,
+        # before its end): a block's CPU time never reads above its wall time
+        c_span = time.thread_time() - c_start
         dt = time.perf_counter() - t_start
         span = frames / self.fs                # the time the block plays for
         frac = dt / span
-        cfrac = (time.thread_time() - c_start) / span
+        cfrac = c_span / span
         st = self.stats
         st.blocks += 1
         st.sum_fraction += frac
