@@ -568,7 +568,9 @@ def test_period_change_and_a_midi_source_leaving(private_server, tmp_path):
     assert proc.returncode == 0, err
     if not all(cor >= 0.9 for cor, _ in first + [second]):
         _skip_if_the_machine_stalled(out, xr, 128 / FS, str((first, second, xr)))
-    assert all(cor >= 0.9 for cor, _ in first + [second]), (first, second)
+    # (with the synth's report: a CI run in a slow hour tore the first note,
+    # 0.74, with no xrun the tester saw)
+    assert all(cor >= 0.9 for cor, _ in first + [second]), (first, second, xr, out[-800:])
     # the loop's delay grows by the one period it gained, nothing else
     assert [lag for _, lag in first + [second]] == [
         _lag("grand-piano"), _lag("grand-piano", period=256), _lag("grand-piano", period=256)]
