@@ -95,16 +95,17 @@ def test_notes_through_jack_sound_as_offline_at_a_constant_latency(server, tmp_p
     At least 12 notes clear of an xrun are judged.  The VM's noise comes in
     bursts (one capture in five CI runs saw some 430 xruns, 2026-12-02, and
     an idle client right after it none; another, 130 xruns, left 10 notes
-    clear, each as offline to 1e-3 and on its sample), so a capture with
-    fewer is taken once more and the clear notes of both are judged
-    together.  Fewer than 12 in both: the test skips if the machine
-    stalled or an idle client sees the server xrun (the machine, not the
-    synth), else fails."""
+    clear, each as offline to 1e-3 and on its sample; a CI run in a slow
+    hour, 2026-12-03, some 200 and 190 xruns in two captures, left 1 and 7),
+    so captures with fewer are taken again, up to three, and the clear
+    notes of all are judged together.  Fewer than 12 in all: the test skips
+    if the machine stalled or an idle client sees the server xrun (the
+    machine, not the synth), else fails."""
     from synth.io.factory import build_engine
 
     expected = 128 + build_engine("grand-piano", ()).latency_samples
     untorn, shown = [], []
-    for attempt in (1, 2):
+    for attempt in (1, 2, 3):
         cap = _notes_capture(server, tmp_path / f"live{attempt}.wav", alone)
         clear, text = _judge_notes_capture(cap, expected)
         untorn += clear
