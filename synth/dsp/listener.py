@@ -10,8 +10,8 @@ How: :func:`synth.physics.listener.design_listener` designs the path (the
 direct sound's distance, directivity and air absorption as one FIR, the
 early reflections as taps through one FIR, the late reverberation as a
 feedback delay network); :mod:`synth.kernels.listener` runs it (its sums as
-vector loops over segments of up to ``SEGMENT`` samples, the network sample
-by sample), the same samples for any block sizes, with no allocation.  This
+vector loops over segments of up to ``SEGMENT`` samples, the network's
+lines side by side), the same samples for any block sizes, with no allocation.  This
 wrapper owns the state, sets the levels and validates.
 
 Levels.  The late reverberation is scaled so that its mean power in the
@@ -114,7 +114,6 @@ class Listener:
         self._lines = np.zeros(int(self._lens.sum()))
         self._lpos = np.zeros(len(self._lens), dtype=np.int64)
         self._z = np.zeros(len(self._lens))
-        self._w = np.zeros(len(self._lens))
         self._i = np.zeros(2, dtype=np.int64)
         g_dc = self._fa / (1.0 - self._fb) if len(self._lens) else np.zeros(0)
         t60 = [-3.0 * m / (d.fs * math.log10(g)) for m, g in zip(self._lens, g_dc) if 0 < g < 1]
@@ -289,5 +288,5 @@ class Listener:
         x2, out, o2 = channel_blocks(x, out, self.channels)
         _kernel(x2, x2.shape[1], self._hd, self._le, self._ge, self._he, self._pre, self._lens,
                 self._off, self._fa, self._fb, self._fin, self._fout, self._hist, self._ehist,
-                self._lines, self._lpos, self._z, self._w, self._i, self._sc, o2)
+                self._lines, self._lpos, self._z, self._i, self._sc, o2)
         return out

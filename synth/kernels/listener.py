@@ -32,9 +32,9 @@ zeros after the sound and never in subnormal arithmetic.
 
 State (persistent between calls; blocks of any length give the one-shot
 result): ``hist`` (C, 2H) the input history, ``ehist`` (C, 2E) the early
-taps' sum's history (E = len(he)), ``lines`` (sum m_i) the delay lines one
+taps' sum's history (E = len(he) + S), ``lines`` (sum m_i) the delay lines one
 after another from ``off``, ``lpos`` (N,) int64 their positions, ``z``
-(N,) the filters' states, ``w`` (N,) scratch, ``istate`` [pos, epos].
+(N,) the filters' states, ``istate`` [pos, epos].
 The public wrapper is :class:`synth.dsp.listener.Listener`; the slow
 reference is in ``tests/test_listener.py``.
 """
@@ -53,7 +53,7 @@ SEGMENT = 256
 
 @njit(**JIT_OPTS)
 def listener_process(x, n, hd, le, ge, he, pre, lens, off, fa, fb, fin, fout, hist, ehist, lines,
-                     lpos, z, w, istate, sc, out):
+                     lpos, z, istate, sc, out):
     """Process ``n`` samples of ``x`` (C, >= n) into ``out`` (C, >= n) (may be ``x``).
 
     Parameters
@@ -76,7 +76,7 @@ def listener_process(x, n, hd, le, ge, he, pre, lens, off, fa, fb, fin, fout, hi
         (N,): the input vector.
     fout : float64[:, :]
         (C, N): the output vectors (the late level folded in).
-    hist, ehist, lines, lpos, z, w, istate : arrays
+    hist, ehist, lines, lpos, z, istate : arrays
         The state, see the module docstring; updated in place.  ``hist``
         holds H >= max(lags, pre, L) + S samples a channel, ``ehist`` E >=
         L + S (S = ``sc``'s length): a segment's samples are written before
