@@ -134,11 +134,18 @@ def _judge_notes_capture(cap, expected):
     # block of the synth's over its budget, twice in the full suite on a
     # 2-vCPU Xeon, 2026-12-01); each message missing must have been sent
     # near an xrun the tester saw (the window of a torn note, below)
+    # ... and a message sent just before a cycle the tester lost may reach it
+    # twice: the tester's MIDI buffer, not cleared in a cycle it missed, is
+    # read again by the synth (an xrun storm, 1124 xruns: "25 notes" for 24
+    # sent, 2026-12-03); so the count may differ by one per message near an
+    # xrun either way, and never without one
     got = int(re.search(r"(\d+) MIDI messages", out).group(1))
+    notes = int(re.search(r"MIDI messages, (\d+) notes", out).group(1))
     sent = [f for at in onsets for f in (at, at + cap["hold"])]
+    near_on = sum(any(at - 2 * 128 <= x <= at + 1024 + n for _, x, _ in xruns) for at in onsets)
     near = sum(any(f - 2 * 128 <= x <= f + 1024 + n for _, x, _ in xruns) for f in sent)
-    assert got == len(sent) or len(sent) - got <= near, (out, xruns)
-    assert got < len(sent) or "24 notes" in out, out
+    assert abs(got - len(sent)) <= near, (out, xruns)
+    assert abs(notes - len(onsets)) <= near_on, (out, xruns)
     # each note against the same note offline (the live engine's output, latency included)
     lags, corr = [], []
     for at, k in zip(onsets, cap["keys"]):
