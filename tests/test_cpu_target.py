@@ -108,6 +108,7 @@ ASM_CHECK = textwrap.dedent("""
 
 
 @pytest.mark.parametrize("target", ["haswell", "generic"])
+@pytest.mark.slow  # a compile in a subprocess: 2.1-2.5 s each alone, 2.9-3.5 in the suite
 def test_compiled_code_of_target(tmp_path, target):
     """A small float loop compiled for the target (fresh cache directory):
     no zmm registers in the haswell code, no ymm in the generic code."""

@@ -16,6 +16,8 @@ import pytest
 
 from synth.kernels import cache as C
 
+import source_trees  # (tests/: the sources parsed once a process)
+
 ROOT = Path(__file__).resolve().parents[1]
 KERNELS = ROOT / "synth" / "kernels"
 KEYED = re.compile(r"synth-kernels-[0-9a-f]{16}")
@@ -84,7 +86,7 @@ def _numba_sites(path):
         return node.attr if isinstance(node, ast.Attribute) else getattr(node, "id", None)
 
     sites = []
-    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+    for node in ast.walk(source_trees.parse(path.read_text(), str(path))):
         if isinstance(node, ast.Call) and name(node.func) in COMPILERS or (
                 isinstance(node, (ast.FunctionDef, ast.ClassDef))
                 and any(name(d.func if isinstance(d, ast.Call) else d) in COMPILERS

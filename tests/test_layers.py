@@ -35,6 +35,8 @@ import ast
 from dataclasses import dataclass
 from pathlib import Path
 
+import source_trees  # (tests/: the sources parsed once a process)
+
 SYNTH_DIR = Path(__file__).resolve().parents[1] / "synth"
 
 _LOW = {"voices", "dsp", "physics", "kernels"}
@@ -138,7 +140,7 @@ def imports_of(source: str, module: str, is_package: bool, known_modules: set[st
                 found.append(Import(child.args[0].value, child.lineno, lazy))
             visit(child, lazy or isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)))
 
-    visit(ast.parse(source), False)
+    visit(source_trees.parse(source), False)
     return found
 
 

@@ -19,6 +19,8 @@ from synth.physics.soundboard import BodyDesign
 from synth.voices import BankSizes, Voice, voice_class, voice_names
 from synth.voices.registry import exciter_sections
 
+import source_trees  # (tests/: the sources parsed once a process)
+
 SYNTH = Path(synth.__file__).parent
 
 
@@ -119,7 +121,7 @@ def test_excitation_kinds_are_named_once():
         rel = path.relative_to(SYNTH).as_posix()
         if rel.startswith("kernels/"):
             continue
-        for node in ast.walk(ast.parse(path.read_text())):
+        for node in ast.walk(source_trees.parse(path.read_text())):
             if isinstance(node, ast.Assign):
                 for t in node.targets:
                     if isinstance(t, ast.Name) and t.id.startswith("EXC_"):
@@ -128,7 +130,7 @@ def test_excitation_kinds_are_named_once():
                  *sorted((SYNTH / "voices").glob("*.py"))]:
         if not path.is_file():
             continue
-        tree = ast.parse(path.read_text())
+        tree = source_trees.parse(path.read_text())
         for node in ast.walk(tree):
             # ip[K.I_EXC] = 3, law=4, ip[K.I_EXC] == 4 ... : a literal next to I_EXC or law
             if isinstance(node, ast.Assign) and isinstance(node.value, ast.Constant) \
@@ -160,11 +162,11 @@ def test_the_engine_uses_no_hasattr_and_indexes_no_kernel_table():
         # the code, not its text: any use of a kernel table as an attribute
         # (``bank.ipar[...]``, or ``t = bank.ipar`` then ``t[...]``), and not
         # a comment or docstring that names one
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        for node in ast.walk(source_trees.parse(path.read_text(), str(path))):
             if isinstance(node, ast.Attribute) and node.attr in tables:
                 pytest.fail(f"{rel}:{node.lineno}: uses the kernel table {node.attr}")
     for name in ("engine.py", "channels.py"):
-        for node in ast.walk(ast.parse((SYNTH / "engine" / name).read_text())):
+        for node in ast.walk(source_trees.parse((SYNTH / "engine" / name).read_text())):
             if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) \
                     and node.func.id in ("hasattr", "getattr"):
                 pytest.fail(f"engine/{name}:{node.lineno}: probes its instrument with {node.func.id}")
