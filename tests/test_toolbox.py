@@ -310,3 +310,26 @@ def test_callgrind_names_the_kernels_it_loaded(tmp_path):
     assert int(r.stdout.split()[-1]) == len(names) > 10
     for kernel in ("listener_process", "decimate", "limiter_process"):
         assert any(kernel in n for n in names), kernel
+
+
+@pytest.mark.slow  # a 32-voice sitar engine and a block of it: 2.3 s
+def test_callgrind_scene_holds_the_render_benchmarks_voices():
+    """``bench.py callgrind --preset sitar --voices 32`` profiles the scene
+    ``bench.py render`` times: 32 distinct keys of the preset's range, its
+    overrides (no voice stolen, the strings ringing), every note-on sounding
+    after a block; a KEY alone is one note on a polyphony-4 engine, key 0
+    none."""
+    from synth.apps.bench.callgrind import scene
+
+    e, events = scene("sitar", 0, 32)
+    play = e.inst.preset.play
+    notes = {(ev.channel, ev.key) for ev in events}
+    assert len(events) == len(notes) == 32
+    assert all(ev.kind == "note_on" and play.key_low <= ev.key <= play.key_high for ev in events)
+    assert play.polyphony == 32 and e.inst.preset.loss.t60_low_s == 120
+    e.schedule(events)
+    e.render_block(1024)
+    assert e.n_voices == e.n_live == 32
+    _, ev1 = scene("grand-piano", 60, 0)
+    assert [(ev.kind, ev.key) for ev in ev1] == [("note_on", 60)]
+    assert scene("grand-piano", 0, 0)[1] == []

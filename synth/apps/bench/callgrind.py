@@ -1,23 +1,31 @@
-"""Instructions of one grand note's sustain, per numba function (callgrind).
+"""Instructions of a note's or a scene's sustain, per numba function (callgrind).
 
     NUMBA_NUM_THREADS=1 python tools/bench.py callgrind KEY [KEY ...] [--out DIR] [--top 40]
+    NUMBA_NUM_THREADS=1 python tools/bench.py callgrind --preset sitar --voices 32 --block 1024
 
 For each key (0: the engine with no note), in the AVX2 ("haswell") build
 of :mod:`synth.apps.cpu_target` (``--cpu-name generic``: the SSE2 build;
 valgrind cannot run the host's AVX-512 one): a warm-up run outside valgrind (compiles or
 loads the kernels), then a child under ``valgrind --tool=callgrind
---instr-atstart=no``: a grand engine of polyphony 4 plays the key
-(velocity 0.8), renders 11 blocks of 256 output samples, and the
-instrumentation is on (``callgrind_control -i on/off``) for the next 18
-blocks (31,200 engine samples).  Prints the total and the functions' self
-and inclusive instructions and call counts.
+--instr-atstart=no``: an engine of the preset (``--preset``, default the
+grand, polyphony 4) plays the key (velocity 0.8), renders 0.06 s of
+blocks of ``--block`` output samples (default 256: 11 blocks), and the
+instrumentation is on (``callgrind_control -i on/off``) for the next 0.1 s
+of blocks (18 of 256, 31,200 engine samples; 4 of 1024).  Prints the total
+and the functions' self and inclusive instructions and call counts.
+
+``--voices N`` instead plays the scene of ``tools/bench.py render``: N
+distinct keys spread over the preset's range, held, on an engine of
+polyphony N with the render benchmark's overrides (the sitar's and biwa's
+strings ring for 120 s, the grand's t60 x 5), so that none is stolen and
+each sounds throughout (the sitar's one-thread cost by function, issue 37).
 
 Numba's JIT code has no symbols in callgrind (``???:0x...``): the child
 keeps the object code numba loads from its cache
 (``CPUCodeLibrary._unserialize``, wrapped after :mod:`synth.kernels` has
 installed its own load, which never calls an earlier wrapper), lists its symbols with ``nm -S`` and
 writes each function's load address (that of a global symbol less its
-offset) to ``DIR/kKEY.out.syms``; the report maps callgrind's addresses
+offset) to ``DIR/NAME.out.syms``; the report maps callgrind's addresses
 through it.  (So the cache must be warm: the warm-up run does that.)
 """
 
@@ -104,21 +112,38 @@ def write_symbols(objs: dict, syms: str) -> int:
     return n
 
 
-def child(key: int, wait: bool, syms: str) -> None:
-    objs = keep_object_code()
+def scene(preset: str, key: int, voices: int):
+    """The engine and its note-ons: ``key`` on a polyphony-4 engine of
+    ``preset`` (none for key 0), or ``voices`` > 0 held keys spread over
+    the preset's range, as ``tools/bench.py render`` holds them
+    (:func:`synth.apps.bench.render.spread_keys`, ``overrides_for``)."""
     from synth.engine.engine import Event
     from synth.io.factory import build_engine
 
-    e = build_engine("grand-piano", (), polyphony=4)
-    if key:
-        e.schedule([Event(0.0, "note_on", key, 0.8)])
-    for _ in range(int(0.06 * e.fs_out / 256)):
-        e.render_block(256)
+    if voices <= 0:
+        e = build_engine(preset, (), polyphony=4)
+        return e, [Event(0.0, "note_on", key, 0.8)] if key else []
+    from synth.apps.bench.render import overrides_for, spread_keys
+
+    e = build_engine(preset, overrides_for(preset, voices))
+    play = e.inst.preset.play
+    notes = spread_keys(play.key_low, play.key_high, voices)
+    return e, [Event(0.0, "note_on", k, 0.8, channel=c) for c, k in notes]
+
+
+def child(key: int, wait: bool, syms: str, preset: str = "grand-piano", voices: int = 0,
+          block: int = 256) -> None:
+    objs = keep_object_code()
+    e, events = scene(preset, key, voices)
+    if events:
+        e.schedule(events)
+    for _ in range(max(1, int(0.06 * e.fs_out / block))):
+        e.render_block(block)
     if wait:
         print("ready", flush=True)
         sys.stdin.readline()
-    for _ in range(int(0.1 * e.fs_out / 256)):
-        e.render_block(256)
+    for _ in range(max(1, int(0.1 * e.fs_out / block))):
+        e.render_block(block)
     if not wait:
         return
     print("done", flush=True)
@@ -126,14 +151,17 @@ def child(key: int, wait: bool, syms: str) -> None:
     write_symbols(objs, syms)
 
 
-def run(key: int, out: Path, env: dict) -> int:
-    cmd = harness.child_command("callgrind", ["--child", str(key)])
+def run(key: int, out: Path, env: dict, preset: str = "grand-piano", voices: int = 0,
+        block: int = 256) -> int:
+    what = f"{voices} voices of {preset}" if voices > 0 else f"key {key}"
+    cmd = harness.child_command("callgrind", ["--child", str(key), "--preset", preset,
+                                              "--voices", str(voices), "--block", str(block)])
     env = harness.child_environ(env)
     subprocess.run(cmd, env=env, check=True)
     env = dict(env, SYMS=str(out) + ".syms")
-    reply = callgrind_window(cmd, out, env, f"key {key}", stderr=subprocess.DEVNULL)
+    reply = callgrind_window(cmd, out, env, what, stderr=subprocess.DEVNULL)
     if reply != "done":
-        raise SystemExit(f"the callgrind child of key {key} said {reply!r}, not 'done'")
+        raise SystemExit(f"the callgrind child of {what} said {reply!r}, not 'done'")
     for line in out.read_text(errors="replace").splitlines():
         if line.startswith("totals:"):
             return int(line.split()[1])
@@ -193,20 +221,47 @@ def main(argv=None) -> int:
     ap.add_argument("--top", type=int, default=40)
     ap.add_argument("--cpu-name", default="haswell", choices=("haswell", "generic"),
                     help="numba code target (synth.apps.cpu_target; default haswell)")
+    ap.add_argument("--preset", default="grand-piano",
+                    help="the engine's preset (default grand-piano)")
+    ap.add_argument("--voices", type=int, default=0,
+                    help="N > 0: N held keys spread over the preset's range, as tools/bench.py "
+                         "render holds them (instead of KEY)")
+    ap.add_argument("--block", type=int, default=256,
+                    help="output samples per engine block (default 256; 1-8192)")
     ap.add_argument("--child", type=int, default=None, help=argparse.SUPPRESS)
     ap.add_argument("--wait", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
+    if not 1 <= a.block <= 8192:
+        ap.error(f"--block {a.block} is out of range (1-8192 samples)")
+    if not 0 <= a.voices <= 512:
+        ap.error(f"--voices {a.voices} is out of range (0-512)")
     if a.child is not None:
-        child(a.child, a.wait, os.environ.get("SYMS", os.devnull))
+        child(a.child, a.wait, os.environ.get("SYMS", os.devnull), a.preset, a.voices, a.block)
         return 0
+    if a.voices <= 0 and not a.keys:
+        ap.error("give a KEY (0: the engine with no note) or --voices N")
+    from synth.io.presets import load_preset
+
+    try:
+        load_preset(a.preset)
+    except Exception as e:
+        ap.error(f"--preset {a.preset!r}: {e}")
     env = cpu_target.environ_for(a.cpu_name)
     env.update(NUMBA_NUM_THREADS="1", PYTHONHASHSEED="0")
     if os.environ.get("NUMBA_CACHE_DIR"):           # one's own cache, if given
         env["NUMBA_CACHE_DIR"] = os.environ["NUMBA_CACHE_DIR"]
     out = Path(a.out or tempfile.mkdtemp(prefix="callgrind-note-"))
     out.mkdir(parents=True, exist_ok=True)
+    if a.voices > 0:
+        f = out / f"{a.preset.replace('/', '-')}-v{a.voices}.out"
+        n = run(0, f, env, a.preset, a.voices, a.block)
+        print(f"{a.voices} voices of {a.preset}, blocks of {a.block}: {n:,} instructions ({f})",
+              flush=True)
+        report(f, a.top)
+        return 0
     for k in a.keys:
         f = out / f"k{k}.out"
-        print(f"key {k}: {run(k, f, env):,} instructions ({f})", flush=True)
+        n = run(k, f, env, a.preset, 0, a.block)
+        print(f"key {k}: {n:,} instructions ({f})", flush=True)
         report(f, a.top)
     return 0
