@@ -62,3 +62,74 @@ def test_the_biwa_touches_its_sawari_and_a_grand_note_logs_every_string(tmp_path
     assert strings == {"0", "1", "2", "3"}           # C4: three strings, the second polarization
     peak = [float(r["hammer_force_max_n"]) for r in rows]
     assert max(peak) > 1.0 and "termination 0.00 ms" in out   # no capo bar below C#5
+
+
+# ---- the region's one pass against its definition ------------------------------------
+def _region_ref(acc, vw, C, R, U, side):
+    """Each element i of the window, slowly: the running minimum ``x if x <
+    m else m``, starting from the entry value, over the points n = 1 .. R
+    whose windows hold it (R - n <= i < R - n + C), in order, of x = side
+    U(n) + vw[i + 2n - R - 1]; a point where side U(n) is +inf (no
+    contact) is left out, as the per-sample step leaves it out."""
+    out = acc.copy()
+    with np.errstate(invalid="ignore"):    # inf - inf: a NaN, which never wins
+        _region_ref_into(out, vw, C, R, U, side)
+    return out
+
+
+def _region_ref_into(out, vw, C, R, U, side):
+    for i in range(C + R - 1):
+        m = out[i]
+        for n in range(1, R + 1):
+            if not (R - n <= i < R - n + C):
+                continue
+            u = side * U[n - 1]
+            if u == np.inf:
+                continue
+            x = u + vw[i + 2 * n - R - 1]
+            m = x if x < m else m
+        out[i] = m
+
+
+@pytest.mark.parametrize("side", [1, -1])
+def test_the_region_step_is_its_definition_bit_for_bit(side):
+    """The fast path's region step (``contact._region_chunk``, no sub-cell
+    contact: the points four a pass, between two buffers, and their edges)
+    against :func:`_region_ref` on a ring of random values: chunks shorter
+    and longer than the region, 1-33 points, windows across the ring's
+    wrap, profiles with points out of contact (+-inf), values with NaN,
+    infinities and signed zeros among them.  The characteristics' slots
+    hold the reference's values to the bit (a NaN where it has one), and
+    no other slot of the ring changes."""
+    from synth.kernels import contact as KC
+
+    rng = np.random.default_rng(7)
+    for case in range(300):
+        R = int(rng.integers(1, 34))
+        C = int(rng.integers(1, 3 * R + 9))
+        W = C + R - 1
+        P = int(rng.integers(W + R + 4, 2 * W + 64))
+        off = int(rng.integers(0, 9))
+        ring = rng.normal(0, 1e-5, off + P + 9)
+        if case % 5 == 0:
+            k = rng.integers(off, off + P, 6)
+            ring[k] = rng.choice([np.nan, np.inf, -np.inf, 0.0, -0.0], 6)
+        roff = int(rng.integers(0, 4))
+        U = np.concatenate([rng.normal(0, 1, roff),
+                            np.cumsum(rng.uniform(0, 2e-5, R)) - rng.uniform(0, 2e-5)])
+        U[roff:][rng.random(R) < 0.15] = np.inf * rng.choice([1, -1])
+        m0 = int(rng.integers(0, P))
+        b = (m0 + 1 - R) % P
+        slots = off + (b + np.arange(W)) % P
+        vslots = off + (m0 + 2 + np.arange(W)) % P
+        ref = side * _region_ref(side * ring[slots], side * ring[vslots], C, R, U[roff:], side)
+        before = ring.copy()
+        acc, tmp, vw = np.zeros(W + 8), np.zeros(W + 8), np.zeros(W + 8)
+        KC._region_chunk(ring, off, P, m0, C, U, roff, R, side, acc, tmp, vw, 0.0, np.zeros(32))
+        got = ring[slots]
+        nan = np.isnan(ref)
+        assert np.array_equal(np.isnan(got), nan), (case, C, R)
+        assert np.array_equal(got[~nan].view(np.int64), ref[~nan].view(np.int64)), (case, C, R)
+        rest = np.ones(ring.shape, bool)
+        rest[slots] = False
+        assert np.array_equal(ring[rest], before[rest], equal_nan=True), (case, "outside")
