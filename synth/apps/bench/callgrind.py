@@ -227,12 +227,15 @@ def main(argv=None) -> int:
                     help="N > 0: N held keys spread over the preset's range, as tools/bench.py "
                          "render holds them (instead of KEY)")
     ap.add_argument("--block", type=int, default=256,
-                    help="output samples per engine block (default 256; 1-8192)")
+                    help="output samples per engine block (default 256; 1-4096, the engine's "
+                         "largest block)")
     ap.add_argument("--child", type=int, default=None, help=argparse.SUPPRESS)
     ap.add_argument("--wait", action="store_true", help=argparse.SUPPRESS)
     a = ap.parse_args(argv)
-    if not 1 <= a.block <= 8192:
-        ap.error(f"--block {a.block} is out of range (1-8192 samples)")
+    from synth.engine.engine import Engine
+
+    if not 1 <= a.block <= Engine.MAX_BLOCK_OUT:
+        ap.error(f"--block {a.block} is out of range (1-{Engine.MAX_BLOCK_OUT} samples)")
     if not 0 <= a.voices <= 512:
         ap.error(f"--voices {a.voices} is out of range (0-512)")
     if a.child is not None:
