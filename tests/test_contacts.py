@@ -64,7 +64,7 @@ def test_the_biwa_touches_its_sawari_and_a_grand_note_logs_every_string(tmp_path
     assert max(peak) > 1.0 and "termination 0.00 ms" in out   # no capo bar below C#5
 
 
-# ---- the region's one pass against its definition ------------------------------------
+# ---- the fast path's region step against its definition ------------------------------
 def _region_ref(acc, vw, C, R, U, side):
     """Each element i of the window, slowly: the running minimum ``x if x <
     m else m``, starting from the entry value, over the points n = 1 .. R
@@ -73,22 +73,16 @@ def _region_ref(acc, vw, C, R, U, side):
     contact) is left out, as the per-sample step leaves it out."""
     out = acc.copy()
     with np.errstate(invalid="ignore"):    # inf - inf: a NaN, which never wins
-        _region_ref_into(out, vw, C, R, U, side)
+        for i in range(C + R - 1):
+            m = out[i]
+            for n in range(1, R + 1):
+                u = side * U[n - 1]
+                if not (R - n <= i < R - n + C) or u == np.inf:
+                    continue
+                x = u + vw[i + 2 * n - R - 1]
+                m = x if x < m else m
+            out[i] = m
     return out
-
-
-def _region_ref_into(out, vw, C, R, U, side):
-    for i in range(C + R - 1):
-        m = out[i]
-        for n in range(1, R + 1):
-            if not (R - n <= i < R - n + C):
-                continue
-            u = side * U[n - 1]
-            if u == np.inf:
-                continue
-            x = u + vw[i + 2 * n - R - 1]
-            m = x if x < m else m
-        out[i] = m
 
 
 @pytest.mark.parametrize("side", [1, -1])
